@@ -1,0 +1,414 @@
+"""Run configuration: a pydantic schema loaded from TOML, with the paper's values as defaults.
+
+Everything a run depends on is in :class:`RunConfig`; a run is a pure function of the resolved
+config (including ``seed``). SI units and radians throughout; the only degree-valued inputs are
+fields whose name ends in ``_deg``.
+
+Loading goes through :func:`load_config`, which accepts a built-in scenario name (``scenario1`` …
+``scenario4``) or a TOML path, applies ``--set dotted.key=value`` overrides, validates, and raises
+:class:`~ftc_mj.errors.BadInput` with a one-line message naming the offending field.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from .errors import BadInput
+
+PACKAGE_ROOT = Path(__file__).resolve().parent
+REPO_ROOT = PACKAGE_ROOT.parent
+SCENARIO_DIR = REPO_ROOT / "runs" / "scenarios"
+MODELS_DIR = REPO_ROOT / "models"
+DEFAULT_MODEL_FILE = MODELS_DIR / "diffdrive.xml"
+
+OMEGA_MAX = math.radians(1000.0)  # rad/s, the paper's wheel-rate limit (±1000 deg/s)
+
+PosFloat = Annotated[float, Field(gt=0)]
+NonNegFloat = Annotated[float, Field(ge=0)]
+
+
+class _Strict(BaseModel):
+    """Base: unknown keys are errors, assignments are validated."""
+
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+class RobotConfig(_Strict):
+    """Nominal design shared by plant and model unless overridden there."""
+
+    wheel_radius: PosFloat = 2.0
+    """Nominal wheel radius R0 (m)."""
+    half_track: PosFloat = 1.0
+    """Half track b (m): wheel centre to axle midpoint; track width is 2b (DESIGN §1)."""
+    omega_max: PosFloat = OMEGA_MAX
+    """Wheel-rate limit (rad/s), symmetric."""
+
+
+class PlantConfig(_Strict):
+    """Truth plant (MuJoCo). ``None`` means: take the value from ``robot``."""
+
+    model_file: Path = DEFAULT_MODEL_FILE
+    variant: Literal["suspended", "rigid"] = "suspended"
+    timestep: PosFloat = 0.001
+    """Physics step (s)."""
+    wheel_radius: PosFloat | None = None
+    half_track: PosFloat | None = None
+    chassis_mass: PosFloat | None = None
+    """Chassis mass (kg); ``None`` keeps the MJCF value."""
+    wheel_mass: PosFloat | None = None
+    """Mass of one wheel (kg); ``None`` keeps the MJCF value."""
+    tyre_friction: PosFloat | None = None
+    """Sliding friction coefficient of the tyres; ``None`` keeps the MJCF value."""
+    caster_friction: NonNegFloat = 0.0
+    """Sliding friction of the caster(s); 0 = frictionless (the kinematic model's assumption)."""
+    actuator_gain: PosFloat | None = None
+    """Velocity-actuator gain kv (N m s/rad); ``None`` keeps the MJCF value."""
+    initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Initial (x, y, psi) of the axle midpoint (m, m, rad)."""
+    reseat_hub: bool = True
+    """Move the hub with an instantaneous puncture so the tyre stays on the ground."""
+
+    @field_validator("model_file")
+    @classmethod
+    def _model_exists(cls, v: Path) -> Path:
+        p = Path(v)
+        if not p.is_absolute() and not p.exists():
+            p = REPO_ROOT / p
+        if not p.is_file():
+            raise ValueError(f"model file not found: {v}")
+        return p
+
+
+class ModelConfig(_Strict):
+    """What the filters and controllers assume. ``None`` means: take the value from ``robot``."""
+
+    half_track: PosFloat | None = None
+    wheel_radius: PosFloat | None = None
+
+
+Breakpoints = list[tuple[float, float]]
+
+
+def _check_schedule(v: Breakpoints) -> Breakpoints:
+    last = -math.inf
+    for t, r in v:
+        if not (math.isfinite(t) and math.isfinite(r)):
+            raise ValueError("breakpoints must be finite")
+        if t < 0:
+            raise ValueError(f"breakpoint time {t} is negative")
+        if r <= 0:
+            raise ValueError(f"radius {r} must be > 0")
+        if t < last:
+            raise ValueError(f"breakpoint times must be non-decreasing ({t} after {last})")
+        last = t
+    times = [t for t, _ in v]
+    for i in range(len(times) - 2):
+        if times[i] == times[i + 1] == times[i + 2]:
+            raise ValueError(f"more than two breakpoints at t={times[i]}")
+    return v
+
+
+class FaultConfig(_Strict):
+    """Piecewise-linear wheel-radius schedules (DESIGN §2): lists of ``[t, radius]`` breakpoints.
+
+    Before the first breakpoint the radius is the nominal one; after the last it is held. A step is
+    two breakpoints at the same time. Empty = no fault on that wheel.
+    """
+
+    right: Breakpoints = Field(default_factory=list)
+    left: Breakpoints = Field(default_factory=list)
+
+    @field_validator("right", "left")
+    @classmethod
+    def _valid_schedule(cls, v: Breakpoints) -> Breakpoints:
+        return _check_schedule(v)
+
+
+class SensorConfig(_Strict):
+    """Sensors with seeded Gaussian noise. ``None`` sigma = that sensor is absent."""
+
+    speed_sigma: PosFloat = 0.5
+    """Speed sensor noise (m/s), the paper's value."""
+    yaw_rate_sigma: PosFloat | None = None
+    """Yaw-rate gyro noise (rad/s); unset = no gyro."""
+    position_sigma: PosFloat | None = None
+    """Position fix noise (m) on x and y; unset = no position fix."""
+    position_rate: PosFloat = 1.0
+    """Rate of position fixes (Hz)."""
+    encoder_sigma: NonNegFloat = 0.0
+    """Wheel-encoder rate noise (rad/s) on the measured wheel rates fed to the filters."""
+    pose_sigma: NonNegFloat = 0.0
+    """Noise (m, and rad for heading) on the pose handed to the controller; 0 = true pose."""
+
+
+class DecisionConfig(_Strict):
+    """Fault-decision rule on top of the estimator."""
+
+    rule: Literal["sigma", "mode", "auto"] = "auto"
+    """``sigma``: a radius departs from nominal by ``k_sigma`` standard deviations and by at least
+    ``min_drop`` for ``dwell`` seconds; ``mode``: an IMM fault-mode probability above
+    ``mode_threshold`` for ``dwell`` seconds; ``auto``: ``mode`` for IMMs, else ``sigma``."""
+    k_sigma: PosFloat = 3.0
+    min_drop: NonNegFloat = 0.1
+    """Minimum radius departure (m) for the sigma rule (guards against tiny-σ false alarms)."""
+    dwell: NonNegFloat = 0.5
+    """Time (s) the condition must hold before a fault is declared."""
+    mode_threshold: Annotated[float, Field(gt=0, lt=1)] = 0.9
+
+
+class EstimatorConfig(_Strict):
+    """The FDI filter (paper §3). Defaults are exactly the paper's values."""
+
+    kind: Literal["ekf", "ukf", "imm-ekf", "imm-ukf", "none"] = "ukf"
+    rate: PosFloat = 100.0
+    """Filter rate (Hz); dt = 1/rate."""
+    imm_models: Literal[4, 5] = 4
+    imm_variant: Literal["hypothesis", "paper"] = "hypothesis"
+    kappa: float = 0.001
+    """Julier sigma-point parameter."""
+    p0_sigma: tuple[float, float, float, float, float] = (0.5, 0.5, math.radians(1.0), 0.5, 0.5)
+    """Initial standard deviations of [x, y, psi, R_R, R_L] (m, m, rad, m, m)."""
+    q_rate: tuple[float, float, float, float, float] = (5.0, 5.0, 0.1, 2.0, 2.0)
+    """Process noise: Q = diag((q_rate * dt)^2) (the paper's Q)."""
+    initial_radii: tuple[PosFloat, PosFloat] | None = None
+    """Initial radius estimates (m); ``None`` = the model's nominal radius."""
+    p_stay_4: Annotated[float, Field(gt=0, lt=1)] = 0.97
+    p_stay_5: Annotated[float, Field(gt=0, lt=1)] = 0.96
+    ramp_rate: PosFloat = 0.1
+    """Deflation rate (m/s) hypothesised by the 5th (linear puncture) IMM model."""
+    min_radius: PosFloat = 0.05
+    """Floor (m) for radius estimates handed on (and for the ramp hypothesis)."""
+    nis_gate: PosFloat = 1.0e4
+    """An innovation with NIS above this is rejected as an outlier (not used to update)."""
+    divergence_nis: PosFloat = 50.0
+    """NIS above this for ``divergence_dwell`` seconds counts as divergence (reset)."""
+    divergence_dwell: PosFloat = 1.0
+    reset_inflation: PosFloat = 10.0
+    """Covariance inflation factor on a divergence reset."""
+    decision: DecisionConfig = Field(default_factory=DecisionConfig)
+
+
+class ControllerConfig(_Strict):
+    """Trajectory-tracking controller (paper §3, DESIGN §5)."""
+
+    kind: Literal["nmpc", "lmpc", "open-loop"] = "nmpc"
+    rate: PosFloat = 10.0
+    """Control rate (Hz); commands are held (zero-order hold) between solves."""
+    nodes: Annotated[int, Field(ge=4, le=200)] = 50
+    """LGL nodes N."""
+    horizon: PosFloat = 5.0
+    """Prediction horizon (s)."""
+    q_pose: NonNegFloat = 10.0
+    q_speed: NonNegFloat = 1.0
+    q_yaw_rate: NonNegFloat = 1.0
+    rate_penalty: NonNegFloat = 0.0
+    """Weight on the squared wheel acceleration (rad/s^2)^2 in the cost; 0 = the paper's cost."""
+    omega_rate_max: PosFloat = 20.0
+    """Input-rate bound |d omega / dt| (rad/s^2)."""
+    solver: Literal["ipopt", "rti-osqp"] = "rti-osqp"
+    max_iter: Annotated[int, Field(ge=0)] = 100
+    """Iteration limit of the NLP solver (IPOPT); 0 forces a failure (used in tests)."""
+    time_budget: PosFloat = 0.1
+    """Wall-time budget of one solve (s); an over-budget solve is counted and falls back."""
+    open_loop_omega: tuple[float, float] = (5.0, 5.0)
+    """Constant wheel rates (rad/s) of the open-loop controller."""
+    open_loop_schedule: list[tuple[float, float, float]] = Field(default_factory=list)
+    """Optional ``[t, omega_R, omega_L]`` breakpoints (piecewise-linear) for the open-loop controller."""
+
+
+class ReconfigConfig(_Strict):
+    """How estimated radii reach the controller when ``feedback`` is on (DESIGN §9)."""
+
+    policy: Literal["direct", "safe"] = "direct"
+    """``direct``: the paper's, the latest estimate at every solve. ``safe``: feed back only after
+    the decision layer isolated a fault and the estimate's σ is below ``max_sigma``; clamp to
+    [min_radius, nominal]; rate-limit; fall back to nominal on filter divergence."""
+    max_sigma: PosFloat = 0.1
+    min_radius: PosFloat = 0.1
+    max_rate: PosFloat = 1.0
+    """Largest change of a fed-back radius (m/s)."""
+
+
+class ReferenceConfig(_Strict):
+    """Reference path and its time law."""
+
+    kind: Literal["circle", "line", "figure8"] = "circle"
+    radius: PosFloat = 50.0
+    """Circle radius (m) (figure-eight: lobe radius)."""
+    speed: PosFloat = 10.0
+    """Speed along the path (m/s)."""
+    direction: Literal["ccw", "cw"] = "ccw"
+
+
+class OutputConfig(_Strict):
+    dir: Path = Path("runs/out")
+    rrd: bool = True
+    progress: bool = True
+
+
+class RunConfig(_Strict):
+    """A complete run. Keys that scripts rely on: DESIGN §6."""
+
+    name: str = "run"
+    description: str = ""
+    duration: PosFloat = 40.0
+    """Simulated time (s)."""
+    seed: Annotated[int, Field(ge=0)] = 0
+    feedback: bool = True
+    """Controller model uses the estimated radii (True) or the nominal ones (False)."""
+    robot: RobotConfig = Field(default_factory=RobotConfig)
+    plant: PlantConfig = Field(default_factory=PlantConfig)
+    model: ModelConfig = Field(default_factory=ModelConfig)
+    faults: FaultConfig = Field(default_factory=FaultConfig)
+    sensors: SensorConfig = Field(default_factory=SensorConfig)
+    estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
+    controller: ControllerConfig = Field(default_factory=ControllerConfig)
+    reconfig: ReconfigConfig = Field(default_factory=ReconfigConfig)
+    reference: ReferenceConfig = Field(default_factory=ReferenceConfig)
+    output: OutputConfig = Field(default_factory=OutputConfig)
+
+    @model_validator(mode="after")
+    def _rates(self) -> RunConfig:
+        dt = self.plant.timestep
+        for label, rate in (("estimator.rate", self.estimator.rate), ("controller.rate", self.controller.rate)):
+            ratio = 1.0 / (rate * dt)
+            if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+                raise ValueError(f"{label}: 1/rate must be a whole multiple of plant.timestep ({dt} s)")
+        r_est = 1.0 / (self.estimator.rate * dt)
+        r_ctl = 1.0 / (self.controller.rate * dt)
+        if abs(r_ctl / r_est - round(r_ctl / r_est)) > 1e-9:
+            raise ValueError("controller.rate: the control period must be a multiple of the estimator period")
+        return self
+
+    # ---------------------------------------------------------------- resolved values
+    @property
+    def plant_wheel_radius(self) -> float:
+        return self.plant.wheel_radius or self.robot.wheel_radius
+
+    @property
+    def plant_half_track(self) -> float:
+        return self.plant.half_track or self.robot.half_track
+
+    @property
+    def model_wheel_radius(self) -> float:
+        return self.model.wheel_radius or self.robot.wheel_radius
+
+    @property
+    def model_half_track(self) -> float:
+        return self.model.half_track or self.robot.half_track
+
+    @property
+    def physics_per_estimator(self) -> int:
+        return round(1.0 / (self.estimator.rate * self.plant.timestep))
+
+    @property
+    def estimator_per_controller(self) -> int:
+        return round(self.estimator.rate / self.controller.rate)
+
+    @property
+    def n_estimator_steps(self) -> int:
+        return int(round(self.duration * self.estimator.rate))
+
+
+# ---------------------------------------------------------------------------- loading
+BUILTIN_SCENARIOS = ("scenario1", "scenario2", "scenario3", "scenario4")
+
+
+def _fmt_loc(loc: tuple[Any, ...]) -> str:
+    return ".".join(str(p) for p in loc if not isinstance(p, int)) or "<root>"
+
+
+def _one_line(err: ValidationError) -> str:
+    e = err.errors()[0]
+    loc = _fmt_loc(tuple(e["loc"]))
+    msg = e["msg"]
+    if e["type"] == "extra_forbidden":
+        msg = "unknown key"
+    msg = msg.removeprefix("Value error, ")
+    extra = f" (and {err.error_count() - 1} more)" if err.error_count() > 1 else ""
+    return f"{loc}: {msg}{extra}"
+
+
+def validate_config(data: dict[str, Any]) -> RunConfig:
+    """Validate a raw dict into a :class:`RunConfig`; :class:`BadInput` names the field."""
+    try:
+        return RunConfig.model_validate(data)
+    except ValidationError as err:
+        raise BadInput(_one_line(err)) from None
+
+
+def scenario_path(name_or_path: str | Path) -> Path:
+    """Resolve a built-in scenario name or a TOML path."""
+    s = str(name_or_path)
+    if s in BUILTIN_SCENARIOS:
+        return SCENARIO_DIR / f"{s}.toml"
+    p = Path(s)
+    if not p.is_file():
+        raise BadInput(f"scenario: no such built-in scenario or file: {s}")
+    return p
+
+
+def read_toml(path: Path, what: str = "config") -> dict[str, Any]:
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as err:
+        raise BadInput(f"{what} {path}: invalid TOML: {err}") from None
+    except OSError as err:
+        raise BadInput(f"{what} {path}: cannot read: {err.strerror}") from None
+
+
+def parse_override(item: str) -> tuple[str, Any]:
+    """Parse ``dotted.key=value``; the value is read as a TOML value, else taken as a string."""
+    if "=" not in item:
+        raise BadInput(f"--set {item}: expected dotted.key=value")
+    key, raw = item.split("=", 1)
+    key = key.strip()
+    if not key or any(not part for part in key.split(".")):
+        raise BadInput(f"--set {item}: empty key")
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw
+    return key, value
+
+
+def set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
+    """Set ``data[a][b][c] = value`` for ``key = "a.b.c"``, creating tables as needed."""
+    parts = key.split(".")
+    node = data
+    for part in parts[:-1]:
+        nxt = node.setdefault(part, {})
+        if not isinstance(nxt, dict):
+            raise BadInput(f"{key}: {part} is not a table")
+        node = nxt
+    node[parts[-1]] = value
+
+
+def load_config(scenario: str | Path, overrides: dict[str, Any] | None = None) -> RunConfig:
+    """Load a scenario (built-in name or TOML path), apply dotted overrides, validate."""
+    path = scenario_path(scenario)
+    data = read_toml(path, "scenario")
+    data.setdefault("name", path.stem)
+    for key, value in (overrides or {}).items():
+        set_dotted(data, key, value)
+    return validate_config(data)
+
+
+def config_to_toml_dict(cfg: RunConfig) -> dict[str, Any]:
+    """The fully resolved config as plain TOML-serialisable data (None values dropped)."""
+    def clean(v: Any) -> Any:
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items() if x is not None}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if isinstance(v, Path):
+            return str(v)
+        return v
+
+    return clean(cfg.model_dump(mode="python"))

@@ -1,0 +1,39 @@
+"""What every controller returns at each solve, and the interface the simulation loop relies on."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+
+@dataclass
+class ControlOutput:
+    """One controller sample. ``omega`` is applied under zero-order hold until the next sample."""
+
+    omega: np.ndarray
+    """Wheel-rate command [omega_R, omega_L] (rad/s), always within the input bounds."""
+    success: bool = True
+    """The solver reported success (or the controller needs no solver)."""
+    status: str = "ok"
+    iterations: int = 0
+    solve_time: float = 0.0
+    """Wall time of the solve (s)."""
+    fallback: bool = False
+    """The shifted previous plan was used because the solve failed or overran its budget."""
+    predicted: np.ndarray | None = None
+    """Predicted trajectory (K, 3) of [x, y, psi] over the horizon, if the controller has one."""
+    predicted_t: np.ndarray | None = field(default=None)
+    """Times (s, absolute) of the rows of ``predicted``."""
+
+
+class Controller(Protocol):
+    """A sampled controller."""
+
+    failures: int
+
+    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray) -> ControlOutput:
+        """Compute the command at time ``t`` (s) from the pose [x, y, psi] and the model radii
+        [R_R, R_L] (m) the controller should assume."""
+        ...

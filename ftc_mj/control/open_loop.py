@@ -1,0 +1,38 @@
+"""Open-loop wheel-rate commands: constant or a piecewise-linear schedule (plant checks, studies)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import ControlOutput
+
+
+class OpenLoopController:
+    """Commands constant rates, or interpolates ``[t, omega_R, omega_L]`` breakpoints (rad/s).
+
+    Commands are clipped to ``±omega_max`` (rad/s) like every controller's.
+    """
+
+    def __init__(
+        self,
+        omega: tuple[float, float] = (5.0, 5.0),
+        schedule: list[tuple[float, float, float]] | None = None,
+        omega_max: float = np.inf,
+    ) -> None:
+        self.failures = 0
+        self._omega = np.asarray(omega, dtype=float)
+        self._omega_max = float(omega_max)
+        sched = np.asarray(schedule or [], dtype=float).reshape(-1, 3)
+        self._sched = sched if len(sched) else None
+
+    def command(self, t: float) -> np.ndarray:
+        """Wheel-rate command (rad/s) at time ``t`` (s)."""
+        if self._sched is None:
+            w = self._omega
+        else:
+            ts = self._sched[:, 0]
+            w = np.array([np.interp(t, ts, self._sched[:, 1]), np.interp(t, ts, self._sched[:, 2])])
+        return np.clip(w, -self._omega_max, self._omega_max)
+
+    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray) -> ControlOutput:
+        return ControlOutput(omega=self.command(t))

@@ -1,0 +1,221 @@
+"""The multi-rate closed loop: the one place that wires plant, sensors, estimator, fault decision,
+controller and telemetry together.
+
+Clocks (all integer step counts, so there is no floating-point drift): physics at
+``plant.timestep`` (1 kHz), estimator every ``physics_per_estimator`` physics steps (100 Hz),
+controller every ``estimator_per_controller`` estimator steps (10 Hz). Commands are held (zero-order
+hold) between controller samples. At estimator step ``k`` (time ``t_k``):
+
+1. read the truth and the sensors at ``t_k``;
+2. the filter predicts over ``[t_{k-1}, t_k]`` with the wheel rates measured at ``t_{k-1}`` and
+   updates with the measurement at ``t_k``; the fault decision runs on its output;
+3. on a controller sample, the controller solves from the pose at ``t_k`` with the radii chosen by
+   the feedback policy, and its command is applied from ``t_k``;
+4. one trace row is stored; the plant advances to ``t_{k+1}``.
+
+Telemetry is buffered in preallocated arrays; nothing is logged call by call.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..config import RunConfig
+from ..control import build_controller, build_reference
+from ..control.base import ControlOutput
+from ..estimation import FaultDecision, build_estimator
+from ..estimation.base import FilterOutput, Measurement
+from ..plant import Sensors, build_plant
+from ..recorder import Event, Solve
+from .reconfig import RadiusFeedback
+
+BASE_COLUMNS: tuple[str, ...] = (
+    "t", "x", "y", "psi", "v", "yaw_rate", "v_meas", "yaw_rate_meas", "R_R", "R_L",
+    "R_R_hat", "R_L_hat", "R_R_std", "R_L_std", "x_hat", "y_hat", "psi_hat",
+    "innovation", "innovation_std", "nis",
+    "omega_R", "omega_L", "omega_R_meas", "omega_L_meas", "omega_R_cmd", "omega_L_cmd",
+    "R_R_model", "R_L_model", "cross_track_error", "roll", "pitch", "z", "slip_R", "slip_L",
+    "plant_flags", "fault_detected", "solve_time_ms", "solver_iterations", "solver_ok",
+)
+
+
+@dataclass
+class SimResult:
+    """Everything a run produced, in memory."""
+
+    trace: dict[str, np.ndarray]
+    solves: list[Solve] = field(default_factory=list)
+    events: list[Event] = field(default_factory=list)
+    counters: dict[str, float] = field(default_factory=dict)
+    decision: object | None = None
+    """The last :class:`~ftc_mj.estimation.DecisionState` (None without an estimator)."""
+    n_modes: int = 0
+    reference_path: np.ndarray | None = None
+    wall_time: float = 0.0
+    error: str | None = None
+
+
+def fault_onsets(cfg: RunConfig) -> dict[str, float | None]:
+    """First time (s) each wheel's scheduled radius departs from nominal; None = no fault.
+
+    Before its first breakpoint a schedule is at the nominal radius, so a departure at breakpoint
+    ``i`` starts at breakpoint ``i-1`` (the start of a ramp, or the same time for a step).
+    """
+    R0 = cfg.plant_wheel_radius
+    onsets: dict[str, float | None] = {}
+    for wheel, bps in (("right", cfg.faults.right), ("left", cfg.faults.left)):
+        onsets[wheel] = None
+        for i, (t, r) in enumerate(bps):
+            if abs(r - R0) > 1e-9:
+                onsets[wheel] = bps[i - 1][0] if i > 0 else t
+                break
+    return onsets
+
+
+def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) -> SimResult:
+    """Run one closed-loop simulation for ``cfg`` and return its buffered telemetry.
+
+    ``progress`` (optional) is called with the fraction done, a few hundred times per run.
+    Never raises for physics, filter or solver trouble: those are recorded as events/counters;
+    an unexpected exception ends the run early with ``error`` set.
+    """
+    wall0 = time.perf_counter()
+    plant = build_plant(cfg)
+    sensors = Sensors(cfg.sensors, cfg.seed)
+    reference = build_reference(cfg)
+    controller = build_controller(cfg, reference)
+    estimator = build_estimator(cfg) if cfg.estimator.kind != "none" else None
+    decision = FaultDecision(cfg) if estimator is not None else None
+    feedback = RadiusFeedback(cfg)
+    pose_rng = np.random.default_rng([cfg.seed, 7])
+
+    n = cfg.n_estimator_steps
+    dt = 1.0 / cfg.estimator.rate
+    phys_per_est = cfg.physics_per_estimator
+    est_per_ctl = cfg.estimator_per_controller
+    n_modes = 0
+    if cfg.estimator.kind.startswith("imm"):
+        n_modes = cfg.estimator.imm_models
+    cols = {c: np.full(n, np.nan) for c in BASE_COLUMNS}
+    for j in range(n_modes):
+        cols[f"mode_prob_{j + 1}"] = np.full(n, np.nan)
+
+    solves: list[Solve] = []
+    events: list[Event] = []
+    onsets = fault_onsets(cfg)
+    for wheel, t_on in onsets.items():
+        if t_on is not None:
+            events.append(Event(t_on, "warn", f"fault injected: {wheel} tyre radius schedule starts"))
+
+    R0 = cfg.model_wheel_radius
+    u_prev: np.ndarray | None = None
+    out: FilterOutput | None = None
+    cmd = ControlOutput(omega=np.zeros(2))
+    model_radii = np.full(2, R0)
+    last_resets = 0
+    last_ds = None
+    detected_before = False
+    flags_seen = 0
+    error: str | None = None
+    report_every = max(1, n // 200)
+    rows = 0
+    try:
+        for k in range(n):
+            t = k * dt
+            tr = plant.truth()
+            rd = sensors.read(tr, t)
+            u_meas = np.array([rd.omega_R, rd.omega_L])
+            c = cols
+            c["t"][k] = t
+            c["x"][k], c["y"][k], c["psi"][k] = tr.x, tr.y, tr.psi
+            c["v"][k], c["yaw_rate"][k] = tr.v, tr.yaw_rate
+            c["R_R"][k], c["R_L"][k] = tr.R_R, tr.R_L
+            c["omega_R"][k], c["omega_L"][k] = tr.omega_R, tr.omega_L
+            c["omega_R_meas"][k], c["omega_L_meas"][k] = u_meas
+            c["v_meas"][k] = rd.speed
+            if rd.yaw_rate is not None:
+                c["yaw_rate_meas"][k] = rd.yaw_rate
+            c["roll"][k], c["pitch"][k], c["z"][k] = tr.roll, tr.pitch, tr.z_chassis
+            c["slip_R"][k], c["slip_L"][k] = tr.slip_R, tr.slip_L
+            c["plant_flags"][k] = tr.flags
+            if tr.flags and not (tr.flags & flags_seen) == tr.flags:
+                new = tr.flags & ~flags_seen
+                flags_seen |= tr.flags
+                events.append(Event(t, "warn", f"plant left the kinematic model's domain: {plant.describe_flags(new)}"))
+            c["cross_track_error"][k] = float(reference.cross_track(tr.x, tr.y))
+
+            # ---- estimator (100 Hz)
+            if estimator is not None:
+                z = Measurement(speed=rd.speed, yaw_rate=rd.yaw_rate, position=rd.position)
+                out = estimator.step(u_prev if u_prev is not None else u_meas, z)
+                assert decision is not None
+                ds = decision.update(t, out)
+                last_ds = ds
+                c["x_hat"][k], c["y_hat"][k], c["psi_hat"][k] = out.x[0], out.x[1], out.x[2]
+                c["R_R_hat"][k], c["R_L_hat"][k] = out.x[3], out.x[4]
+                c["R_R_std"][k] = np.sqrt(max(out.P[3, 3], 0.0))
+                c["R_L_std"][k] = np.sqrt(max(out.P[4, 4], 0.0))
+                c["innovation"][k] = out.speed_innovation
+                c["innovation_std"][k] = out.speed_innovation_std
+                c["nis"][k] = out.nis
+                c["fault_detected"][k] = float(ds.detected)
+                if out.mode_probs is not None:
+                    for j in range(n_modes):
+                        c[f"mode_prob_{j + 1}"][k] = out.mode_probs[j]
+                if ds.detected and not detected_before:
+                    events.append(Event(t, "warn", f"fault declared: {ds.wheel} wheel, severity "
+                                                   f"R {ds.severity_R:.0%} / L {ds.severity_L:.0%}"))
+                detected_before = ds.detected
+                resets = estimator.resets
+                if resets != last_resets:
+                    events.append(Event(t, "error", f"filter divergence: reset #{resets}"))
+            u_prev = u_meas
+
+            # ---- controller (10 Hz)
+            if k % est_per_ctl == 0:
+                healthy = estimator is None or estimator.resets == last_resets
+                isolated = bool(decision is not None and detected_before)
+                model_radii = feedback.radii(out, isolated, healthy)
+                pose = np.array([tr.x, tr.y, tr.psi])
+                if cfg.sensors.pose_sigma > 0:
+                    pose = pose + pose_rng.normal(0.0, cfg.sensors.pose_sigma, 3)
+                cmd = controller.solve(t, pose, model_radii)
+                plant.set_command(float(cmd.omega[0]), float(cmd.omega[1]))
+                c["solve_time_ms"][k] = cmd.solve_time * 1e3
+                c["solver_iterations"][k] = cmd.iterations
+                c["solver_ok"][k] = float(cmd.success and not cmd.fallback)
+                if cfg.controller.kind != "open-loop":
+                    solves.append(Solve(t=t, predicted=cmd.predicted, solve_time_ms=cmd.solve_time * 1e3,
+                                        iterations=cmd.iterations, status=cmd.status, fallback=cmd.fallback))
+                    if cmd.fallback:
+                        events.append(Event(t, "error", f"solver fallback: {cmd.status}"))
+            if estimator is not None:
+                last_resets = estimator.resets
+            c["omega_R_cmd"][k], c["omega_L_cmd"][k] = cmd.omega[0], cmd.omega[1]
+            c["R_R_model"][k], c["R_L_model"][k] = model_radii
+            rows = k + 1
+
+            plant.advance(phys_per_est)
+            if progress is not None and k % report_every == 0:
+                progress(k / n)
+    except Exception as exc:  # noqa: BLE001 - a run records its failure instead of crashing the caller
+        error = f"{type(exc).__name__}: {exc}"
+        events.append(Event(rows * dt, "error", f"run failed: {error}"))
+        cols = {k2: v[:rows] for k2, v in cols.items()}
+    if progress is not None:
+        progress(1.0)
+
+    counters = {
+        "filter_resets": float(getattr(estimator, "resets", 0)),
+        "filter_rejections": float(getattr(estimator, "rejections", 0)),
+        "solver_failures": float(getattr(controller, "failures", 0)),
+        "plant_flags": float(flags_seen),
+    }
+    ref_path = reference.path_points(720)
+    return SimResult(trace=cols, solves=solves, events=sorted(events, key=lambda e: e.t), counters=counters,
+                     decision=last_ds, n_modes=n_modes, reference_path=ref_path,
+                     wall_time=time.perf_counter() - wall0, error=error)

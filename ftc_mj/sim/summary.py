@@ -1,0 +1,44 @@
+"""The short summary table printed after a run."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
+
+from .run import RunOutcome
+
+
+def _fmt(v: Any) -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, dict):
+        return " / ".join(f"{k} {_fmt(x)}" for k, x in v.items())
+    return str(v)
+
+
+SUMMARY_KEYS = (
+    "status", "radius_final_error_R", "radius_final_error_L", "radius_rmse_R", "radius_rmse_L",
+    "innovation_in_2sigma", "detection_time", "detection_delay", "isolated_wheel", "false_alarm",
+    "cross_track_rms", "cross_track_max", "cross_track_final", "omega_at_limit_fraction",
+    "solve_time_ms", "solver_failures", "filter_resets", "plant_out_of_domain_fraction",
+    "wall_time_s", "realtime_factor",
+)
+
+
+def print_run_summary(outcome: RunOutcome) -> None:
+    """Print the key metrics of a run and where its files are."""
+    m = outcome.metrics
+    table = Table(title=f"run {outcome.run_id}", show_header=True)
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    for k in SUMMARY_KEYS:
+        if k in m:
+            table.add_row(k, _fmt(m[k]))
+    console = Console()
+    console.print(table)
+    if outcome.run_dir is not None:
+        console.print(f"written: {outcome.run_dir}")

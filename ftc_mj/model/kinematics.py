@@ -29,9 +29,14 @@ NX = 5
 NU = 2
 
 
+def forward_speed(R_R: Any, R_L: Any, omega_R: Any, omega_L: Any) -> Any:
+    """Forward speed ``V = (R_R omega_R + R_L omega_L)/2`` (m/s) of the axle midpoint."""
+    return 0.5 * (R_R * omega_R + R_L * omega_L)
+
+
 def body_rates(R_R: Any, R_L: Any, omega_R: Any, omega_L: Any, b: Any) -> tuple[Any, Any]:
     """Forward speed ``V`` (m/s) of the axle midpoint and yaw rate (rad/s) from wheel rates."""
-    V = 0.5 * (R_R * omega_R + R_L * omega_L)
+    V = forward_speed(R_R, R_L, omega_R, omega_L)
     psidot = (R_R * omega_R - R_L * omega_L) / (2.0 * b)
     return V, psidot
 
@@ -74,6 +79,19 @@ class KinematicModel:
     def step(self, x: np.ndarray, u: np.ndarray, dt: float | None = None) -> np.ndarray:
         """Euler step ``x + dt f(x, u)`` (the paper's filter prediction)."""
         return np.asarray(x, dtype=float) + (self.dt if dt is None else dt) * self.derivative(x, u)
+
+    def step_batch(self, x: np.ndarray, u: np.ndarray, dt: float | None = None) -> np.ndarray:
+        """Fast :meth:`step` for a float array ``x`` (..., 5) whose batch shape already contains ``u``'s.
+
+        Same equations (:func:`pose_rates`) and the same floating-point operations as :meth:`step`
+        (``x + dt f``; the radius rates are zero), without the generic conversions and stacking, so
+        the filters' hot path stays cheap. Returns a new array.
+        """
+        h = self.dt if dt is None else dt
+        wR, wL = (u[0], u[1]) if u.ndim == 1 else (u[..., 0], u[..., 1])
+        d = np.zeros_like(x)
+        d[..., 0], d[..., 1], d[..., 2] = pose_rates(x[..., 2], x[..., 3], x[..., 4], wR, wL, self.b, np)
+        return x + h * d
 
     def speed(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Measurement function of the speed sensor: ``V`` (m/s) for states (..., 5)."""
@@ -142,3 +160,97 @@ class KinematicModel:
                 "H", [x, u], [ca.jacobian(self.casadi_rates()(x, u), x)], ["x", "u"], ["H"]
             )
         return self._cache["H"]
+
+
+# ---------------------------------------------------------------------------- numpy code from CasADi
+_NP_UNARY = {
+    ca.OP_NEG: "(-{0})", ca.OP_SIN: "np.sin({0})", ca.OP_COS: "np.cos({0})", ca.OP_TAN: "np.tan({0})",
+    ca.OP_SQRT: "np.sqrt({0})", ca.OP_SQ: "({0}*{0})", ca.OP_TWICE: "(2.0*{0})", ca.OP_INV: "(1.0/{0})",
+    ca.OP_EXP: "np.exp({0})", ca.OP_LOG: "np.log({0})", ca.OP_FABS: "np.abs({0})", ca.OP_ASSIGN: "{0}",
+    ca.OP_ATAN: "np.arctan({0})", ca.OP_TANH: "np.tanh({0})",
+}
+_NP_BINARY = {
+    ca.OP_ADD: "({0}+{1})", ca.OP_SUB: "({0}-{1})", ca.OP_MUL: "({0}*{1})", ca.OP_DIV: "({0}/{1})",
+    ca.OP_POW: "({0}**{1})", ca.OP_CONSTPOW: "({0}**{1})", ca.OP_FMIN: "np.minimum({0},{1})",
+    ca.OP_FMAX: "np.maximum({0},{1})", ca.OP_ATAN2: "np.arctan2({0},{1})",
+}
+
+
+def casadi_to_numpy(fn: ca.Function) -> Any:
+    """Translate an SX CasADi Function into a vectorised numpy function (generated once).
+
+    The returned callable takes one argument per CasADi input: a vector input of length ``n > 1`` as an
+    array of shape ``(..., n)``, a scalar input as a float or an array of shape ``(...)``; it returns
+    one array per output (a tuple if there are several): a column output ``(rows, 1)`` as ``(..., rows)``,
+    a matrix output as ``(..., rows, cols)``, dense, with structural zeros filled in. The code is a
+    straight transcription of the SX instruction list, so it is exactly the CasADi expression (the same
+    derivative CasADi's AD produced), without the several-µs call overhead of ``Function.__call__``.
+    """
+    if not fn.is_a("SXFunction"):
+        fn = fn.expand()
+    n_in, n_out = fn.n_in(), fn.n_out()
+    lines = [f"def _generated({', '.join(f'a{i}' for i in range(n_in))}):"]
+    scalar_in = [fn.sparsity_in(i).numel() == 1 for i in range(n_in)]
+    for i in range(n_in):
+        if not scalar_in[i]:
+            lines.append(f"    a{i} = np.asarray(a{i}, dtype=float)")
+    shape_terms = [f"np.shape(a{i})" if scalar_in[i] else f"a{i}.shape[:-1]" for i in range(n_in)]
+    lines.append(f"    _bs = np.broadcast_shapes({', '.join(shape_terms)})")
+    # components: Python floats for a single point (fast scalar arithmetic), else arrays over the batch
+    for i in range(n_in):
+        if not scalar_in[i]:
+            lines.append(f"    c{i} = a{i}.tolist() if a{i}.ndim == 1 else np.moveaxis(a{i}, -1, 0)")
+    outs: list[tuple[int, int, str]] = []
+    for k in range(fn.n_instructions()):
+        op = fn.instruction_id(k)
+        ins = fn.instruction_input(k)
+        outk = fn.instruction_output(k)
+        if op == ca.OP_CONST:
+            lines.append(f"    w{outk[0]} = {float(fn.instruction_constant(k))!r}")
+        elif op == ca.OP_INPUT:
+            src = f"a{ins[0]}" if scalar_in[ins[0]] else f"c{ins[0]}[{ins[1]}]"
+            lines.append(f"    w{outk[0]} = {src}")
+        elif op == ca.OP_OUTPUT:
+            outs.append((outk[0], outk[1], f"w{ins[0]}"))
+            lines.append(f"    o{outk[0]}_{outk[1]} = w{ins[0]}")
+        elif op in _NP_UNARY:
+            lines.append(f"    w{outk[0]} = " + _NP_UNARY[op].format(f"w{ins[0]}"))
+        elif op in _NP_BINARY:
+            lines.append(f"    w{outk[0]} = " + _NP_BINARY[op].format(f"w{ins[0]}", f"w{ins[1]}"))
+        else:
+            raise ValueError(f"casadi_to_numpy: unsupported operation id {op}")
+    results = []
+    for j in range(n_out):
+        sp = fn.sparsity_out(j)
+        rows, cols = sp.size1(), sp.size2()
+        r_idx, c_idx = sp.get_triplet()
+        shape = f"_bs + ({rows},)" if cols == 1 else f"_bs + ({rows}, {cols})"
+        lines.append(f"    r{j} = np.zeros({shape})")
+        for nz, (r, c) in enumerate(zip(r_idx, c_idx, strict=True)):
+            idx = f"..., {r}" if cols == 1 else f"..., {r}, {c}"
+            lines.append(f"    r{j}[{idx}] = o{j}_{nz}")
+        results.append(f"r{j}")
+    lines.append(f"    return {results[0] if n_out == 1 else '(' + ', '.join(results) + ',)'}")
+    namespace: dict[str, Any] = {"np": np}
+    exec("\n".join(lines), namespace)  # noqa: S102 - code generated from a trusted CasADi graph
+    gen = namespace["_generated"]
+    gen.__doc__ = f"numpy transcription of CasADi Function {fn.name()!r}"
+    return gen
+
+
+def _numpy_jacobians(model: KinematicModel) -> tuple[Any, Any]:
+    """Cached numpy transcriptions of the AD Jacobians ``F(x, u, dt)`` (..., 5, 5), ``H(x, u)`` (..., 2, 5)."""
+    if "np_F" not in model._cache:
+        model._cache["np_F"] = casadi_to_numpy(model.casadi_step_jacobian())
+        model._cache["np_H"] = casadi_to_numpy(model.casadi_rates_jacobian())
+    return model._cache["np_F"], model._cache["np_H"]
+
+
+def numpy_step_jacobian(model: KinematicModel, x: np.ndarray, u: np.ndarray, dt: float | None = None) -> np.ndarray:
+    """Vectorised ``d step / d x`` (..., 5, 5) for states (..., 5): CasADi's AD Jacobian, evaluated in numpy."""
+    return _numpy_jacobians(model)[0](x, u, model.dt if dt is None else dt)
+
+
+def numpy_rates_jacobian(model: KinematicModel, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Vectorised ``d [V, psidot] / d x`` (..., 2, 5): CasADi's AD Jacobian, evaluated in numpy."""
+    return _numpy_jacobians(model)[1](x, u)

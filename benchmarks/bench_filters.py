@@ -1,0 +1,147 @@
+"""Per-step cost (predict + update) of the project's filters next to filterpy's, in one run.
+
+Plain script: ``.venv/bin/python benchmarks/bench_filters.py [--steps N] [--repeats R]``.
+Scenario as BASELINES §1: excited wheel rates (wR = 5.1 + 0.8 sin 0.7t, wL = 4.9 + 0.8 cos 0.5t),
+R_L drops linearly 2 → 1 m over t = 10–12 s, z = V + N(0, 0.5²), dt = 0.01 s. Each implementation
+runs ``repeats`` times over ``steps`` steps, the implementations interleaved (round robin) so that a
+load change on the machine affects all of them alike; every step is timed with perf_counter_ns.
+Prints median and p95 µs/step and the ratio to filterpy's UKF.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable
+
+import numpy as np
+from filterpy.kalman import IMMEstimator, JulierSigmaPoints, UnscentedKalmanFilter
+
+from ftc_mj.config import RunConfig
+from ftc_mj.estimation import EKF, IMM, UKF, Measurement
+from ftc_mj.estimation._core import FilterSetup
+from ftc_mj.model.kinematics import KinematicModel
+
+
+def scenario(steps: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Wheel rates (steps, 2) (rad/s) and noisy speeds (steps,) (m/s) from the kinematic model."""
+    rng = np.random.default_rng(seed)
+    model = KinematicModel(b=1.0, dt=0.01)
+    t = np.arange(steps) * 0.01
+    u = np.stack([5.1 + 0.8 * np.sin(0.7 * t), 4.9 + 0.8 * np.cos(0.5 * t)], axis=1)
+    RL = np.interp(t, [10.0, 12.0], [2.0, 1.0])
+    x = np.array([0.0, 0.0, 0.0, 2.0, 2.0])
+    z = np.empty(steps)
+    for k in range(steps):
+        x = model.step(x, u[k])
+        x[4] = RL[k]
+        z[k] = float(model.speed(x, u[k])) + 0.5 * rng.normal()
+    return u, z
+
+
+def filterpy_ukf(setup: FilterSetup, inputs: np.ndarray) -> UnscentedKalmanFilter:
+    """filterpy's UKF with our model functions; wheel rates read from ``inputs`` (closure)."""
+    m = setup.model
+    f = UnscentedKalmanFilter(
+        5, 1, setup.dt,
+        hx=lambda x: np.atleast_1d(m.speed(x, inputs)),
+        fx=lambda x, dt: m.step(x, inputs, dt),
+        points=JulierSigmaPoints(5, kappa=setup.kappa),
+    )
+    f.x = setup.x0.copy()
+    f.P = setup.P0.copy()
+    f.Q = setup.Q.copy()
+    f.R = np.eye(1) * setup.speed_sigma**2
+    return f
+
+
+def runner_ours(make: Callable[[], object]) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    def run(u: np.ndarray, z: np.ndarray) -> np.ndarray:
+        f = make()
+        out = np.empty(len(z))
+        clock = time.perf_counter_ns
+        for k in range(len(z)):
+            meas = Measurement(float(z[k]))
+            t0 = clock()
+            f.step(u[k], meas)  # type: ignore[attr-defined]
+            out[k] = clock() - t0
+        return out
+    return run
+
+
+def runner_filterpy_ukf(setup: FilterSetup) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    def run(u: np.ndarray, z: np.ndarray) -> np.ndarray:
+        inputs = np.zeros(2)
+        f = filterpy_ukf(setup, inputs)
+        out = np.empty(len(z))
+        clock = time.perf_counter_ns
+        for k in range(len(z)):
+            zk = np.array([z[k]])
+            t0 = clock()
+            inputs[:] = u[k]
+            f.predict()
+            f.update(zk)
+            out[k] = clock() - t0
+        return out
+    return run
+
+
+def runner_filterpy_imm(setup: FilterSetup) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    def run(u: np.ndarray, z: np.ndarray) -> np.ndarray:
+        inputs = np.zeros(2)
+        filters = []
+        for fr, fl in ((1.0, 1.0), (0.5, 1.0), (1.0, 0.5), (0.5, 0.5)):
+            f = filterpy_ukf(setup, inputs)
+            f.x[3:5] = (fr * setup.nominal_radius, fl * setup.nominal_radius)
+            filters.append(f)
+        Pi = np.full((4, 4), 0.01) + np.eye(4) * 0.96
+        imm = IMMEstimator(filters, np.full(4, 0.25), Pi)
+        out = np.empty(len(z))
+        clock = time.perf_counter_ns
+        for k in range(len(z)):
+            zk = np.array([z[k]])
+            t0 = clock()
+            inputs[:] = u[k]
+            imm.predict()
+            imm.update(zk)
+            out[k] = clock() - t0
+        return out
+    return run
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--steps", type=int, default=1500)
+    ap.add_argument("--repeats", type=int, default=3)
+    args = ap.parse_args()
+    cfg4 = RunConfig()
+    cfg5 = RunConfig.model_validate({"estimator": {"imm_models": 5}})
+    setup = FilterSetup.from_config(cfg4)
+    u, z = scenario(args.steps)
+    runs: dict[str, Callable[[np.ndarray, np.ndarray], np.ndarray]] = {
+        "ftc_mj EKF": runner_ours(lambda: EKF(cfg4)),
+        "ftc_mj UKF": runner_ours(lambda: UKF(cfg4)),
+        "ftc_mj IMM-EKF 4": runner_ours(lambda: IMM(cfg4, "ekf")),
+        "ftc_mj IMM-EKF 5": runner_ours(lambda: IMM(cfg5, "ekf")),
+        "ftc_mj IMM-UKF 4": runner_ours(lambda: IMM(cfg4, "ukf")),
+        "ftc_mj IMM-UKF 5": runner_ours(lambda: IMM(cfg5, "ukf")),
+        "filterpy UKF": runner_filterpy_ukf(setup),
+        "filterpy IMMEstimator 4 UKF": runner_filterpy_imm(setup),
+    }
+    samples: dict[str, list[np.ndarray]] = {k: [] for k in runs}
+    for run in runs.values():  # warm-up (code generation, caches)
+        run(u[:50], z[:50])
+    for _ in range(args.repeats):
+        for name, run in runs.items():
+            samples[name].append(run(u, z))
+    ref = float(np.median(np.concatenate(samples["filterpy UKF"]))) / 1e3
+    print(f"{args.steps} steps x {args.repeats} repeats, per-step wall time (predict + update)")
+    print(f"{'implementation':30s} {'median µs':>10s} {'p95 µs':>10s} {'steps/s':>10s} {'÷ filterpy UKF':>15s}")
+    for name, parts in samples.items():
+        us = np.concatenate(parts) / 1e3
+        med = float(np.median(us))
+        print(f"{name:30s} {med:10.1f} {float(np.percentile(us, 95)):10.1f} {1e6 / med:10.0f} {med / ref:15.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,389 @@
+"""Shared machinery of the FDI filters: configuration, measurement assembly, batched EKF/UKF maths.
+
+``predict``/``update`` work on a *batch* of ``M`` filters at once (state ``X`` of shape ``(M, 5)``,
+covariance ``P`` of shape ``(M, 5, 5)``): an IMM is a batch of its member filters (all their sigma
+points go through the kinematic model in one numpy call), a Monte-Carlo study a batch of runs.
+``predict1``/``update1`` are the same formulas for one filter on 2-D arrays (fewer and cheaper numpy
+calls; the single EKF/UKF use them). Both paths are checked against filterpy in the tests.
+
+The maths is filterpy 2.0.0's, operation for operation, so that the tests can compare to round-off:
+
+* UKF (``UnscentedKalmanFilter`` + ``JulierSigmaPoints``): sigma points ``x ± rows of U`` with
+  ``UᵀU = (n+κ)P``; predict = unscented transform of the Euler step plus ``Q``; the update
+  *regenerates* the sigma points from the prior ``(x⁻, P⁻)`` (filterpy 2.0 behaviour, TECHNOTES §3.1);
+  ``S = Σ W (h-ẑ)(h-ẑ)ᵀ + R``, ``K = Pxz S⁻¹``, ``P⁺ = P⁻ - K S Kᵀ``.
+* EKF (``ExtendedKalmanFilter`` with ``predict_x`` = Euler step and ``F`` = AD Jacobian at the
+  posterior): ``P⁻ = F P Fᵀ + Q``; Joseph-form update ``P⁺ = (I-KH)P⁻(I-KH)ᵀ + K R Kᵀ``.
+
+Jacobians come from CasADi's automatic differentiation of the single model definition, transcribed
+once to numpy (:func:`ftc_mj.model.kinematics.casadi_to_numpy`), so no equation is typed twice.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.linalg import _umath_linalg
+
+from ..config import RunConfig
+from ..model.kinematics import (
+    KinematicModel,
+    body_rates,
+    forward_speed,
+    numpy_rates_jacobian,
+    numpy_step_jacobian,
+)
+from .base import Measurement
+
+LOG_2PI = math.log(2.0 * math.pi)
+EIG_FLOOR = 1e-12
+"""Smallest eigenvalue (in units of the state, squared) kept when repairing a covariance."""
+
+
+@dataclass(frozen=True)
+class FilterSetup:
+    """Resolved filter parameters (SI units) taken from a :class:`RunConfig`."""
+
+    model: KinematicModel
+    dt: float
+    """Filter step (s)."""
+    x0: np.ndarray
+    """Initial state [x, y, psi, R_R, R_L] (m, m, rad, m, m)."""
+    P0: np.ndarray
+    Q: np.ndarray
+    nominal_radius: float
+    """Model's nominal wheel radius R0 (m)."""
+    speed_sigma: float
+    yaw_rate_sigma: float | None
+    position_sigma: float | None
+    kappa: float
+    nis_gate: float
+    divergence_nis: float
+    divergence_steps: int
+    reset_inflation: float
+    min_radius: float
+
+    @classmethod
+    def from_config(cls, cfg: RunConfig) -> FilterSetup:
+        """Resolve the paper's defaults (DESIGN §4) and the sensor set of ``cfg``."""
+        est = cfg.estimator
+        dt = 1.0 / est.rate
+        R0 = cfg.model_wheel_radius
+        radii = est.initial_radii if est.initial_radii is not None else (R0, R0)
+        x0 = np.array([*cfg.plant.initial_pose, radii[0], radii[1]], dtype=float)
+        return cls(
+            model=KinematicModel(b=cfg.model_half_track, dt=dt),
+            dt=dt,
+            x0=x0,
+            P0=np.diag(np.square(np.asarray(est.p0_sigma, float))),
+            Q=np.diag(np.square(np.asarray(est.q_rate, float) * dt)),
+            nominal_radius=R0,
+            speed_sigma=cfg.sensors.speed_sigma,
+            yaw_rate_sigma=cfg.sensors.yaw_rate_sigma,
+            position_sigma=cfg.sensors.position_sigma,
+            kappa=est.kappa,
+            nis_gate=est.nis_gate,
+            divergence_nis=est.divergence_nis,
+            divergence_steps=max(1, int(round(est.divergence_dwell * est.rate))),
+            reset_inflation=est.reset_inflation,
+            min_radius=est.min_radius,
+        )
+
+
+# ---------------------------------------------------------------------------- measurements
+SPEED, YAW, POS_X, POS_Y = 0, 1, 2, 3
+
+
+@dataclass
+class Assembled:
+    """The usable measurement channels of one step."""
+
+    z: np.ndarray
+    """Measured values (m,) in the order speed, yaw rate, x, y (those present and finite)."""
+    r: np.ndarray
+    """Noise variances (m,)."""
+    kinds: tuple[int, ...]
+    """Channel codes (SPEED, YAW, POS_X, POS_Y) of the entries of ``z``."""
+    dropped: bool
+    """A channel that should have been there was non-finite and was dropped."""
+    R: np.ndarray | None = None
+    """``diag(r)`` (m, m)."""
+
+
+def assemble(setup: FilterSetup, meas: Measurement) -> Assembled:
+    """Collect the finite channels of ``meas`` that the configured sensor set provides."""
+    z: list[float] = []
+    r: list[float] = []
+    kinds: list[int] = []
+    dropped = False
+
+    def add(value: float | None, sigma: float, kind: int) -> None:
+        nonlocal dropped
+        if value is None:
+            return
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            dropped = True
+            return
+        if not math.isfinite(v):
+            dropped = True
+            return
+        z.append(v)
+        r.append(sigma * sigma)
+        kinds.append(kind)
+
+    add(meas.speed, setup.speed_sigma, SPEED)
+    if setup.yaw_rate_sigma is not None:
+        add(meas.yaw_rate, setup.yaw_rate_sigma, YAW)
+    if setup.position_sigma is not None and meas.position is not None:
+        pos = np.asarray(meas.position, dtype=float).ravel()
+        if pos.size != 2 or not np.all(np.isfinite(pos)):
+            dropped = True
+        else:
+            add(pos[0], setup.position_sigma, POS_X)
+            add(pos[1], setup.position_sigma, POS_Y)
+    ra = np.asarray(r, float)
+    return Assembled(np.asarray(z, float), ra, tuple(kinds), dropped, np.diag(ra))
+
+
+def measure(model: KinematicModel, X: np.ndarray, u: np.ndarray, kinds: tuple[int, ...]) -> np.ndarray:
+    """Predicted measurements (..., m) of states ``X`` (..., 5) for the channels ``kinds``."""
+    if kinds == (SPEED,):
+        return forward_speed(X[..., 3:4], X[..., 4:5], u[0], u[1])
+    V, psidot = body_rates(X[..., 3], X[..., 4], u[0], u[1], model.b)
+    cols = {SPEED: V, YAW: psidot, POS_X: X[..., 0], POS_Y: X[..., 1]}
+    return np.stack([cols[k] for k in kinds], axis=-1)
+
+
+def measure_jacobian(model: KinematicModel, X: np.ndarray, u: np.ndarray, kinds: tuple[int, ...]) -> np.ndarray:
+    """Measurement Jacobian (M, m, 5) at states ``X`` (M, 5), from the AD rates Jacobian."""
+    Hr = numpy_rates_jacobian(model, X, u)  # (M, 2, 5): rows d V/dx, d psidot/dx
+    M = X.shape[0]
+    H = np.zeros((M, len(kinds), 5))
+    for row, k in enumerate(kinds):
+        if k in (SPEED, YAW):
+            H[:, row, :] = Hr[:, k, :]
+        else:
+            H[:, row, k - POS_X] = 1.0
+    return H
+
+
+# ---------------------------------------------------------------------------- numerics
+def symmetrise(P: np.ndarray) -> np.ndarray:
+    """``(P + Pᵀ)/2`` over the last two axes."""
+    return 0.5 * (P + np.swapaxes(P, -1, -2))
+
+
+def eig_floor(P: np.ndarray, floor: float = EIG_FLOOR) -> np.ndarray:
+    """Nearest symmetric matrix with eigenvalues ≥ ``floor`` (non-finite entries → identity·floor)."""
+    P = np.where(np.isfinite(P), P, 0.0)
+    w, V = np.linalg.eigh(symmetrise(P))
+    w = np.maximum(w, floor)
+    return symmetrise((V * w[..., None, :]) @ np.swapaxes(V, -1, -2))
+
+
+def gaussian_terms(y: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For innovations ``y`` (M, m) and covariances ``S`` (M, m, m): ``(S⁻¹, NIS, log-likelihood)``."""
+    m = y.shape[-1]
+    if m == 1:
+        s = S[:, 0, 0]
+        SI = (1.0 / s)[:, None, None]
+        nis = y[:, 0] * y[:, 0] / s
+        logdet = np.log(s)
+    else:
+        SI = np.linalg.inv(S)
+        nis = np.einsum("mi,mij,mj->m", y, SI, y)
+        logdet = np.linalg.slogdet(S)[1]
+    ll = -0.5 * (nis + logdet + m * LOG_2PI)
+    return SI, nis, ll
+
+
+def chol(A: np.ndarray) -> np.ndarray:
+    """Batched lower Cholesky factor without ``np.linalg.cholesky``'s per-call overhead.
+
+    Calls numpy's LAPACK gufunc directly; a matrix that is not positive definite gives NaNs (checked
+    by the caller, with a RuntimeWarning) instead of an exception. Same LAPACK routine, same numbers.
+    """
+    return _umath_linalg.cholesky_lo(A, signature="d->d")
+
+
+# ---------------------------------------------------------------------------- batched filter maths
+@dataclass
+class UpdateResult:
+    """A computed (not yet accepted) measurement update of a batch of filters."""
+
+    X: np.ndarray
+    P: np.ndarray
+    y: np.ndarray
+    """Innovations (M, m)."""
+    zp: np.ndarray
+    """Predicted measurements (M, m)."""
+    S: np.ndarray
+    nis: np.ndarray
+    loglik: np.ndarray
+
+
+class UKFCore:
+    """Batched unscented Kalman filter maths with Julier sigma points (filterpy 2.0.0 semantics)."""
+
+    def __init__(self, setup: FilterSetup) -> None:
+        self.setup = setup
+        self.model = setup.model
+        n = 5
+        self.n = n
+        self.c = n + setup.kappa
+        W = np.full(2 * n + 1, 0.5 / self.c)
+        W[0] = setup.kappa / self.c
+        self.W = W
+
+    def sigma_points(self, X: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Sigma points (M, 11, 5) of ``(X, P)`` and the (possibly repaired) ``P``."""
+        L = chol(self.c * P)
+        if not math.isfinite(L[..., -1, -1].sum()) and math.isfinite(float(P.sum())):
+            P = eig_floor(P)  # finite but not PD: repair; non-finite: NaNs propagate → reset
+            L = chol(self.c * P)
+        U = np.swapaxes(L, -1, -2)  # rows of U (UᵀU = (n+κ)P), as filterpy's scipy upper Cholesky
+        Xc = X[:, None, :]
+        return np.concatenate((Xc, Xc + U, Xc - U), axis=1), P
+
+    def predict(self, X: np.ndarray, P: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Unscented transform of the Euler step plus ``Q``."""
+        sig, _ = self.sigma_points(X, P)
+        sf = self.model.step_batch(sig, u)
+        Xp = self.W @ sf
+        d = sf - Xp[:, None, :]
+        Pp = (np.swapaxes(d, 1, 2) * self.W) @ d + self.setup.Q
+        return Xp, Pp
+
+    def update(self, X: np.ndarray, P: np.ndarray, u: np.ndarray, a: Assembled) -> UpdateResult:
+        """Measurement update from sigma points regenerated at the prior (filterpy 2.0)."""
+        sig, P = self.sigma_points(X, P)
+        sh = measure(self.model, sig, u, a.kinds)  # (M, 11, m)
+        zp = self.W @ sh
+        dz = sh - zp[:, None, :]
+        dzT_W = np.swapaxes(dz, 1, 2) * self.W
+        S = dzT_W @ dz + a.R
+        Pxz = (np.swapaxes(sig - X[:, None, :], 1, 2) * self.W) @ dz
+        y = a.z - zp
+        SI, nis, ll = gaussian_terms(y, S)
+        K = Pxz @ SI
+        Xn = X + (K @ y[:, :, None])[:, :, 0]
+        Pn = P - K @ (S @ np.swapaxes(K, 1, 2))
+        return UpdateResult(Xn, Pn, y, zp, S, nis, ll)
+
+
+    # ---------------------------------------------------------------- one filter (2-D arrays)
+    def predict1(self, x: np.ndarray, P: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`predict` for one filter, ``x`` (5,), ``P`` (5, 5): same maths, fewer numpy calls."""
+        sig, _ = self.sigma_points1(x, P)
+        sf = self.model.step_batch(sig, u)
+        W = self.W
+        xp = W.dot(sf)
+        d = sf - xp
+        return xp, (d.T * W).dot(d) + self.setup.Q
+
+    def sigma_points1(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Sigma points (11, 5) of one filter and the (possibly repaired) ``P``."""
+        L = chol(self.c * P)
+        if not math.isfinite(L[-1, -1]) and math.isfinite(float(P.sum())):
+            P = eig_floor(P)
+            L = chol(self.c * P)
+        U = L.T
+        return np.concatenate((x[None, :], x + U, x - U)), P
+
+    def update1(
+        self, x: np.ndarray, P: np.ndarray, u: np.ndarray, a: Assembled
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+        """:meth:`update` for one filter: ``(x⁺, P⁺, y, S, NIS)``."""
+        sig, P = self.sigma_points1(x, P)
+        sh = measure(self.model, sig, u, a.kinds)  # (11, m)
+        W = self.W
+        zp = W.dot(sh)
+        dz = sh - zp
+        S = (dz.T * W).dot(dz) + a.R
+        Pxz = ((sig - x).T * W).dot(dz)
+        y = a.z - zp
+        if y.shape[0] == 1:
+            s = S[0, 0]
+            K = Pxz / s
+            nis = float(y[0] * y[0] / s)
+        else:
+            SI = np.linalg.inv(S)
+            K = Pxz.dot(SI)
+            nis = float(y.dot(SI).dot(y))
+        return x + K.dot(y), P - K.dot(S).dot(K.T), y, S, nis
+
+
+class EKFCore:
+    """Batched extended Kalman filter maths (filterpy 2.0.0 semantics, Joseph-form update)."""
+
+    def __init__(self, setup: FilterSetup) -> None:
+        self.setup = setup
+        self.model = setup.model
+        self.eye = np.eye(5)
+
+    def predict(self, X: np.ndarray, P: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``F`` (AD Jacobian at the posterior), Euler step, ``P⁻ = F P Fᵀ + Q``."""
+        F = numpy_step_jacobian(self.model, X, u, self.setup.dt)
+        Xp = self.model.step_batch(X, u)
+        Pp = F @ P @ np.swapaxes(F, 1, 2) + self.setup.Q
+        return Xp, Pp
+
+    def update(self, X: np.ndarray, P: np.ndarray, u: np.ndarray, a: Assembled) -> UpdateResult:
+        """Linearised update at the prior, Joseph form."""
+        H = measure_jacobian(self.model, X, u, a.kinds)
+        HT = np.swapaxes(H, 1, 2)
+        PHT = P @ HT
+        R = a.R
+        S = H @ PHT + R
+        zp = measure(self.model, X, u, a.kinds)
+        y = a.z - zp
+        SI, nis, ll = gaussian_terms(y, S)
+        K = PHT @ SI
+        Xn = X + (K @ y[:, :, None])[:, :, 0]
+        I_KH = self.eye - K @ H
+        Pn = I_KH @ P @ np.swapaxes(I_KH, 1, 2) + K @ R @ np.swapaxes(K, 1, 2)
+        return UpdateResult(Xn, Pn, y, zp, S, nis, ll)
+
+
+    # ---------------------------------------------------------------- one filter (2-D arrays)
+    def predict1(self, x: np.ndarray, P: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`predict` for one filter, ``x`` (5,), ``P`` (5, 5)."""
+        F = numpy_step_jacobian(self.model, x, u, self.setup.dt)
+        return self.model.step_batch(x, u), F.dot(P).dot(F.T) + self.setup.Q
+
+    def update1(
+        self, x: np.ndarray, P: np.ndarray, u: np.ndarray, a: Assembled
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+        """:meth:`update` for one filter: ``(x⁺, P⁺, y, S, NIS)``."""
+        kinds = a.kinds
+        if kinds == (SPEED,) or kinds == (SPEED, YAW):
+            H = numpy_rates_jacobian(self.model, x, u)[: len(kinds)]
+        else:
+            H = measure_jacobian(self.model, x[None, :], u, kinds)[0]
+        PHT = P.dot(H.T)
+        R = a.R
+        S = H.dot(PHT) + R
+        y = a.z - measure(self.model, x, u, kinds)
+        SI = 1.0 / S if len(kinds) == 1 else np.linalg.inv(S)
+        K = PHT.dot(SI)
+        I_KH = self.eye - K.dot(H)
+        Pn = I_KH.dot(P).dot(I_KH.T) + K.dot(R).dot(K.T)
+        return x + K.dot(y), Pn, y, S, float(y.dot(SI).dot(y))
+
+
+def make_core(setup: FilterSetup, member: str) -> UKFCore | EKFCore:
+    """``member`` is ``"ukf"`` or ``"ekf"``."""
+    if member == "ukf":
+        return UKFCore(setup)
+    if member == "ekf":
+        return EKFCore(setup)
+    raise ValueError(f"unknown filter member kind {member!r}")
+
+
+def healthy(X: np.ndarray, P: np.ndarray) -> bool:
+    """Finite state and covariance with a positive diagonal (cheap test, every step)."""
+    return math.isfinite(float(X.sum()) + float(P.sum())) and float(np.diagonal(P, 0, -2, -1).min()) > 0.0

@@ -1,0 +1,130 @@
+"""A single EKF or UKF with the numerical-health layer (common to :mod:`.ekf` and :mod:`.ukf`).
+
+One step = predict with the measured wheel rates, then update with the finite measurement channels.
+Health rules (a run never dies of a filter):
+
+* non-finite channels are dropped; a step with a dropped channel, or whose NIS exceeds
+  ``estimator.nis_gate``, counts as a *rejection* (the gated update is not applied);
+* ``P`` is symmetrised after every step and eigen-floored if it stops being positive definite;
+* *divergence* (non-finite state/covariance, or NIS above ``divergence_nis`` for
+  ``divergence_dwell`` seconds) triggers a *reset*: the last finite estimate (radii clipped to
+  ``[min_radius, 10 R0]``) with covariance ``reset_inflation · P0``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..config import RunConfig
+from ._core import SPEED, EKFCore, FilterSetup, UKFCore, assemble, chol, eig_floor, healthy
+from .base import FilterOutput, Measurement
+
+_EMPTY_Y = np.zeros(0)
+_EMPTY_S = np.zeros((0, 0))
+
+
+class SingleFilter:
+    """Base of :class:`~ftc_mj.estimation.EKF` and :class:`~ftc_mj.estimation.UKF`."""
+
+    member = "ukf"
+
+    def __init__(self, cfg: RunConfig, setup: FilterSetup | None = None) -> None:
+        self.cfg = cfg
+        self.setup = setup if setup is not None else FilterSetup.from_config(cfg)
+        self.core: UKFCore | EKFCore = UKFCore(self.setup) if self.member == "ukf" else EKFCore(self.setup)
+        self._x = self.setup.x0.copy()
+        self._P = self.setup.P0.copy()
+        self.resets = 0
+        self.rejections = 0
+        self._bad_nis_steps = 0
+        self._u_last = np.zeros(2)
+        self.t_steps = 0
+        # the UKF's next Cholesky repairs a non-PD covariance itself; the EKF checks every step
+        self._check_pd = isinstance(self.core, EKFCore)
+
+    # ---------------------------------------------------------------- state access
+    @property
+    def x(self) -> np.ndarray:
+        """Current estimate [x, y, psi, R_R, R_L] (m, m, rad, m, m)."""
+        return self._x
+
+    @x.setter
+    def x(self, value: np.ndarray) -> None:
+        self._x = np.asarray(value, float).reshape(5).copy()
+
+    @property
+    def P(self) -> np.ndarray:
+        """Current 5x5 covariance."""
+        return self._P
+
+    @P.setter
+    def P(self, value: np.ndarray) -> None:
+        self._P = np.asarray(value, float).reshape(5, 5).copy()
+
+    def set_state(self, x: np.ndarray, P: np.ndarray) -> None:
+        """Overwrite the estimate (m, m, rad, m, m) and its 5x5 covariance."""
+        self.x = x
+        self.P = P
+
+    # ---------------------------------------------------------------- step
+    def _inputs(self, u: np.ndarray) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        if u.shape != (2,):
+            u = u.reshape(2)
+        if math.isfinite(u[0] + u[1]):
+            self._u_last = u
+            return u
+        return self._u_last
+
+    def step(self, u: np.ndarray, z: Measurement) -> FilterOutput:
+        """Predict with wheel rates ``u`` = [omega_R, omega_L] (rad/s), update with ``z``."""
+        u = self._inputs(u)
+        x_prev = self._x
+        core = self.core
+        x, P = core.predict1(x_prev, self._P, u)
+        a = assemble(self.setup, z)
+        rejected = a.dropped
+        nis = sp_innov = sp_std = math.nan
+        if a.z.size:
+            xn, Pn, y, S, nis = core.update1(x, P, u, a)
+            if a.kinds[0] == SPEED:
+                sp_innov, sp_std = float(y[0]), math.sqrt(max(float(S[0, 0]), 0.0))
+            if nis <= self.setup.nis_gate:  # False for NaN
+                x, P = xn, Pn
+            else:
+                rejected = True
+        else:
+            y, S = _EMPTY_Y, _EMPTY_S
+        P = 0.5 * (P + P.T)
+        reset = self._check_divergence(x, P, nis)
+        if reset:
+            x, P = self._reset_state(x_prev)
+        elif self._check_pd and math.isnan(chol(P)[-1, -1]):
+            P = eig_floor(P)
+        self._x, self._P = x, P
+        if rejected:
+            self.rejections += 1
+        self.t_steps += 1
+        return FilterOutput(
+            x=x.copy(), P=P.copy(), innovation=y, S=S, nis=nis,
+            speed_innovation=sp_innov, speed_innovation_std=sp_std, rejected=rejected, reset=reset,
+        )
+
+    def _check_divergence(self, X: np.ndarray, P: np.ndarray, nis: float) -> bool:
+        if not healthy(X, P):
+            return True
+        if math.isfinite(nis) and nis > self.setup.divergence_nis:
+            self._bad_nis_steps += 1
+        elif math.isfinite(nis):
+            self._bad_nis_steps = 0
+        return self._bad_nis_steps >= self.setup.divergence_steps
+
+    def _reset_state(self, x_prev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        self.resets += 1
+        self._bad_nis_steps = 0
+        x = x_prev.copy() if np.all(np.isfinite(x_prev)) else self.setup.x0.copy()
+        R0 = self.setup.nominal_radius
+        x[3:5] = np.clip(x[3:5], self.setup.min_radius, 10.0 * R0)
+        return x, self.setup.reset_inflation * self.setup.P0.copy()

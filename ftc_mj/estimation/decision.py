@@ -1,0 +1,147 @@
+"""Fault decision on top of an estimator: declare a fault (time), isolate the wheel, give its severity.
+
+Rules (``estimator.decision.rule``):
+
+``sigma``
+    A wheel is *suspect* when its radius estimate departs from nominal ``R0`` by more than
+    ``k_sigma`` of its standard deviation **and** by more than ``min_drop`` (m). A fault is declared
+    when some wheel has been suspect for ``dwell`` seconds; the isolated wheel is the set of suspect
+    wheels (``'both'`` if both).
+``mode``
+    For an IMM: the probability of a fault *class* — the sum of the mode probabilities of the
+    members hypothesising that wheel (``right``; ``left`` = 50 % left + left ramp; ``both``) —
+    above ``mode_threshold`` for ``dwell`` seconds, **and** the combined radius estimate of the
+    implicated wheel(s) below nominal by more than ``min_drop``. With the 4-model bank every class
+    has exactly one member, i.e. this is "a fault-mode probability above the threshold" (the radius
+    condition then holds by construction: the member pins a 50 % radius). The radius condition
+    matters for the ramp member, which can also explain a small constant offset of the left radius.
+``auto``
+    ``mode`` when the output carries IMM mode probabilities, else ``sigma``.
+
+A declared fault is cleared when the condition has been false for ``dwell`` seconds. Every
+declaration, change of isolated wheel and clear is appended to :attr:`FaultDecision.events` as
+``(t, text)`` so the loop can count false alarms. Severity is the fractional radius loss
+``clip(1 - R̂/R0, 0, 1)`` of each wheel from the (combined) estimate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from ..config import RunConfig
+from .base import FilterOutput
+from .imm import BANK_4, BANK_5
+
+Wheel = Literal["right", "left", "both"]
+_CLASSES: tuple[Wheel, ...] = ("right", "left", "both")
+
+
+@dataclass
+class DecisionState:
+    """The decision after one estimator step."""
+
+    detected: bool
+    """A fault is currently declared."""
+    time: float | None
+    """Time (s) of the first declaration of the run, ``None`` if none yet."""
+    wheel: Wheel | None
+    """Isolated wheel(s) of the current declaration (``None`` when nothing is declared)."""
+    severity_R: float
+    """Fractional radius loss of the right wheel, 0..1."""
+    severity_L: float
+    """Fractional radius loss of the left wheel, 0..1."""
+    active_mode: int | None = None
+    """Most probable IMM mode (index into the bank), ``None`` for single filters."""
+    events: list[tuple[float, str]] = field(default_factory=list)
+    """All declaration / change / clear events so far (shared list, oldest first)."""
+
+
+class FaultDecision:
+    """Stateful fault-decision layer: ``FaultDecision(cfg).update(t, out) -> DecisionState``."""
+
+    def __init__(self, cfg: RunConfig) -> None:
+        d = cfg.estimator.decision
+        self.rule = d.rule
+        self.k_sigma = d.k_sigma
+        self.min_drop = d.min_drop
+        self.dwell = d.dwell
+        self.mode_threshold = d.mode_threshold
+        self.R0 = cfg.model_wheel_radius
+        self.events: list[tuple[float, str]] = []
+        self.declared: Wheel | None = None
+        self.first_time: float | None = None
+        self.n_declarations = 0
+        self._cond_since: float | None = None
+        self._clear_since: float | None = None
+
+    # ---------------------------------------------------------------- candidate wheel per rule
+    def _sigma_candidate(self, out: FilterOutput) -> Wheel | None:
+        sus = []
+        for i in (3, 4):
+            r = float(out.x[i])
+            s = math.sqrt(max(float(out.P[i, i]), 0.0))
+            dep = abs(r - self.R0)
+            sus.append(math.isfinite(r) and dep > self.k_sigma * s and dep > self.min_drop)
+        if sus[0] and sus[1]:
+            return "both"
+        if sus[0]:
+            return "right"
+        if sus[1]:
+            return "left"
+        return None
+
+    def _mode_candidate(self, out: FilterOutput) -> Wheel | None:
+        mu = np.asarray(out.mode_probs, float)
+        bank = BANK_4 if mu.size == 4 else BANK_5 if mu.size == 5 else None
+        if bank is None:
+            return None
+        probs = {c: float(sum(m for m, h in zip(mu, bank, strict=True) if h.wheel == c)) for c in _CLASSES}
+        best = max(_CLASSES, key=lambda c: probs[c])
+        if probs[best] <= self.mode_threshold:
+            return None
+        drop_R = self.R0 - float(out.x[3]) > self.min_drop
+        drop_L = self.R0 - float(out.x[4]) > self.min_drop
+        ok = {"right": drop_R, "left": drop_L, "both": drop_R and drop_L}[best]
+        return best if ok else None
+
+    # ---------------------------------------------------------------- update
+    def update(self, t: float, out: FilterOutput) -> DecisionState:
+        """Feed the estimator output of time ``t`` (s); returns the current decision."""
+        use_mode = self.rule == "mode" or (self.rule == "auto" and out.mode_probs is not None)
+        if use_mode and out.mode_probs is not None:
+            cand = self._mode_candidate(out)
+        else:
+            cand = self._sigma_candidate(out)
+        eps = 1e-9
+        if cand is not None:
+            self._clear_since = None
+            if self._cond_since is None:
+                self._cond_since = t
+            if self.declared is None and t - self._cond_since >= self.dwell - eps:
+                self.declared = cand
+                self.n_declarations += 1
+                if self.first_time is None:
+                    self.first_time = t
+                self.events.append((t, f"declare {cand}"))
+            elif self.declared is not None and cand != self.declared:
+                self.declared = cand
+                self.events.append((t, f"change {cand}"))
+        else:
+            self._cond_since = None
+            if self.declared is not None:
+                if self._clear_since is None:
+                    self._clear_since = t
+                if t - self._clear_since >= self.dwell - eps:
+                    self.declared = None
+                    self._clear_since = None
+                    self.events.append((t, "clear"))
+        sev = [float(np.clip(1.0 - out.x[i] / self.R0, 0.0, 1.0)) if np.isfinite(out.x[i]) else 0.0 for i in (3, 4)]
+        active = int(np.argmax(out.mode_probs)) if out.mode_probs is not None else None
+        return DecisionState(
+            detected=self.declared is not None, time=self.first_time, wheel=self.declared,
+            severity_R=sev[0], severity_L=sev[1], active_mode=active, events=self.events,
+        )

@@ -1,0 +1,76 @@
+"""Fault-decision layer: sigma and mode rules, dwell, isolation, severity, clears and events."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ftc_mj.config import RunConfig
+from ftc_mj.estimation import FaultDecision, FilterOutput
+
+
+def out(RR: float, RL: float, sigma: float = 0.02, mu: list[float] | None = None) -> FilterOutput:
+    P = np.diag([1.0, 1.0, 0.01, sigma**2, sigma**2])
+    return FilterOutput(
+        x=np.array([0.0, 0.0, 0.0, RR, RL]), P=P, innovation=np.zeros(1), S=np.eye(1), nis=0.0,
+        speed_innovation=0.0, speed_innovation_std=0.5, mode_probs=None if mu is None else np.array(mu),
+    )
+
+
+def feed(dec: FaultDecision, t0: float, t1: float, o: FilterOutput, dt: float = 0.01):
+    state = None
+    for t in np.arange(t0, t1, dt):
+        state = dec.update(float(round(t, 6)), o)
+    return state
+
+
+def test_sigma_rule_dwell_isolation_severity_and_clear() -> None:
+    dec = FaultDecision(RunConfig())  # kind ukf → auto = sigma
+    s = feed(dec, 0.0, 5.0, out(2.0, 1.99))
+    assert not s.detected and s.time is None and s.wheel is None and dec.events == []
+    s = feed(dec, 5.0, 5.4, out(2.0, 1.0))  # shorter than the 0.5 s dwell
+    assert not s.detected
+    s = feed(dec, 5.4, 6.0, out(2.0, 1.0))  # the 5.0..5.4 episode still counts: continuous
+    assert s.detected and s.wheel == "left" and abs(s.time - 5.5) < 1e-9
+    assert abs(s.severity_L - 0.5) < 1e-12 and s.severity_R == 0.0 and s.active_mode is None
+    s = feed(dec, 6.0, 7.0, out(1.2, 1.0))
+    assert s.wheel == "both"
+    s = feed(dec, 7.0, 8.0, out(2.0, 2.0))
+    assert not s.detected and s.time is not None  # first declaration time is kept
+    assert [e[1] for e in dec.events] == ["declare left", "change both", "clear"]
+    assert dec.n_declarations == 1
+
+
+def test_sigma_rule_needs_k_sigma_and_min_drop() -> None:
+    dec = FaultDecision(RunConfig())
+    s = feed(dec, 0.0, 2.0, out(2.0, 1.5, sigma=0.3))  # 0.5 m drop but only 1.7 σ
+    assert not s.detected
+    s = feed(dec, 2.0, 4.0, out(2.0, 1.95, sigma=0.001))  # 50 σ but below min_drop 0.1 m
+    assert not s.detected
+
+
+def test_mode_rule_classes_threshold_and_radius_guard() -> None:
+    cfg = RunConfig.model_validate({"estimator": {"kind": "imm-ukf", "imm_models": 5}})
+    dec = FaultDecision(cfg)
+    # P(left) = 0.5 + 0.45 (50 % left + ramp) > 0.9, radius dropped → left
+    s = feed(dec, 0.0, 1.0, out(2.0, 1.5, mu=[0.05, 0.0, 0.5, 0.0, 0.45]))
+    assert s.detected and s.wheel == "left" and s.active_mode == 2
+    dec = FaultDecision(cfg)
+    # ramp member dominant but the left radius has not dropped by min_drop: no declaration
+    s = feed(dec, 0.0, 2.0, out(2.0, 1.97, mu=[0.02, 0.0, 0.0, 0.0, 0.98]))
+    assert not s.detected and s.active_mode == 4
+    dec = FaultDecision(cfg)
+    s = feed(dec, 0.0, 2.0, out(1.0, 2.0, mu=[0.15, 0.85, 0.0, 0.0, 0.0]))  # below threshold
+    assert not s.detected
+    # the sigma rule can be forced on an IMM output
+    cfg_s = RunConfig.model_validate({"estimator": {"kind": "imm-ukf", "decision": {"rule": "sigma"}}})
+    s = feed(FaultDecision(cfg_s), 0.0, 1.0, out(1.0, 2.0, mu=[1.0, 0.0, 0.0, 0.0]))
+    assert s.detected and s.wheel == "right"
+
+
+def test_no_false_alarm_from_noise() -> None:
+    rng = np.random.default_rng(0)
+    dec = FaultDecision(RunConfig())
+    for k in range(3000):
+        o = out(2.0 + 0.02 * rng.normal(), 2.0 + 0.02 * rng.normal(), sigma=0.02)
+        s = dec.update(k * 0.01, o)
+    assert not s.detected and dec.events == []

@@ -71,7 +71,20 @@ class PlantConfig(_Strict):
     initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """Initial (x, y, psi) of the axle midpoint (m, m, rad)."""
     reseat_hub: bool = True
-    """Move the hub with an instantaneous puncture so the tyre stays on the ground."""
+    """Levelling suspension (suspended variant): on every radius change move the hub and its strut's spring
+    reference by the radius change, so the tyre stays on the ground with the same load and the chassis level.
+    ``False``: passive struts (a shrunken tyre hangs on its spring and the chassis rolls)."""
+    kind: Literal["mujoco", "kinematic"] = "mujoco"
+    """``mujoco``: the physical truth plant; ``kinematic``: the ideal kinematic model integrated exactly (RK4)."""
+    wheel_load_fraction: Annotated[float, Field(gt=0, lt=1)] = 0.7
+    """Share of the chassis weight carried by the two wheel slides (suspended variant); the caster takes the rest.
+    The builder sets the slide spring preload and the chassis centre of mass (x) from it."""
+    slip_limit: PosFloat = 0.3
+    """Longitudinal tyre slip speed (m/s) above which the plant raises the ``SLIP`` flag."""
+    tilt_limit_deg: PosFloat = 10.0
+    """Roll or pitch (deg) above which the plant raises the ``LARGE_ROLL`` flag."""
+    tipped_limit_deg: PosFloat = 60.0
+    """Roll or pitch (deg) above which the plant raises the ``TIPPED`` flag."""
 
     @field_validator("model_file")
     @classmethod
@@ -183,6 +196,9 @@ class EstimatorConfig(_Strict):
     """Deflation rate (m/s) hypothesised by the 5th (linear puncture) IMM model."""
     min_radius: PosFloat = 0.05
     """Floor (m) for radius estimates handed on (and for the ramp hypothesis)."""
+    hypothesis_sigma: PosFloat = 0.05
+    """IMM ``hypothesis`` variant: std (m) of a member's hypothesised radius, re-imposed at every
+    prediction (tolerance for small modelling errors such as tyre compression)."""
     nis_gate: PosFloat = 1.0e4
     """An innovation with NIS above this is rejected as an outlier (not used to update)."""
     divergence_nis: PosFloat = 50.0
@@ -210,7 +226,15 @@ class ControllerConfig(_Strict):
     """Weight on the squared wheel acceleration (rad/s^2)^2 in the cost; 0 = the paper's cost."""
     omega_rate_max: PosFloat = 20.0
     """Input-rate bound |d omega / dt| (rad/s^2)."""
-    solver: Literal["ipopt", "rti-osqp"] = "rti-osqp"
+    solver: Literal["ipopt", "rti-daqp", "rti-qpoases", "rti-osqp"] = "rti-daqp"
+    """NMPC solver. ``ipopt``: full NLP solve each sample (warm-started). ``rti-<qp>``: real-time
+    iteration — one Gauss–Newton SQP step per sample on the state-condensed QP, solved by the named
+    CasADi QP plugin (daqp measured fastest, osqp slowest on this dense QP); the first solve, and a
+    re-seed after repeated failures, is done by IPOPT."""
+    lmpc_qpsol: Literal["daqp", "qpoases", "osqp"] = "daqp"
+    """QP solver of the linear MPC (CasADi conic plugin)."""
+    cold_time_budget: PosFloat = 2.0
+    """Wall-time budget (s) of a cold (first or re-seeding) solve, which has no warm start."""
     max_iter: Annotated[int, Field(ge=0)] = 100
     """Iteration limit of the NLP solver (IPOPT); 0 forces a failure (used in tests)."""
     time_budget: PosFloat = 0.1

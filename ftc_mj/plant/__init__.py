@@ -1,0 +1,49 @@
+"""The truth plant: MuJoCo robot (or the ideal kinematic model), tyre-fault schedules and noisy sensors.
+
+Public API::
+
+    plant = build_plant(cfg)            # Plant (MuJoCo) or KinematicPlant, by cfg.plant.kind
+    sensors = Sensors(cfg.sensors, seed=cfg.seed)
+    plant.set_command(wR, wL); plant.advance(10); tr = plant.truth(); z = sensors.read(tr)
+"""
+
+from __future__ import annotations
+
+from .builder import build_model, load_spec
+from .faults import RadiusSchedule
+from .kinematic import KinematicPlant, build_plant
+from .robot import Plant
+from .sensors import SensorReading, Sensors
+from .truth import (
+    FLAG_NAMES,
+    LARGE_ROLL,
+    LIFTOFF,
+    NAN,
+    PHYSICS_WARNING,
+    SCRAPE,
+    SLIP,
+    TIPPED,
+    Truth,
+    flag_names,
+)
+
+__all__ = [
+    "FLAG_NAMES",
+    "LARGE_ROLL",
+    "LIFTOFF",
+    "NAN",
+    "PHYSICS_WARNING",
+    "SCRAPE",
+    "SLIP",
+    "TIPPED",
+    "KinematicPlant",
+    "Plant",
+    "RadiusSchedule",
+    "SensorReading",
+    "Sensors",
+    "Truth",
+    "build_model",
+    "build_plant",
+    "flag_names",
+    "load_spec",
+]

@@ -1,0 +1,123 @@
+"""Tyre-puncture fault profiles: piecewise-linear wheel radius against time (DESIGN §2).
+
+A schedule is a list of ``(t, r)`` breakpoints (s, m). Before the first breakpoint the radius is the nominal one;
+between breakpoints it is interpolated linearly; after the last it is held. Two breakpoints at the same time make a
+step (the value jumps; the schedule is right-continuous, so at the step time the new value already holds). If the
+first breakpoint's radius differs from the nominal radius, that is a step at the first breakpoint's time.
+
+Scenario 4's ramp ``R_L(t) = 2 - 0.1 (t - 10)`` down to 0.1 m is ``[(10, 2.0), (29, 0.1)]``.
+
+Evaluation is pure Python on scalars (a ``bisect`` plus one interpolation, well under 1 µs), and
+:meth:`RadiusSchedule.changing` tells the plant whether the radius can differ between two times, so the plant can
+step the physics in one call when nothing changes.
+"""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_right
+from collections.abc import Iterable, Sequence
+
+from ..errors import BadInput
+
+
+class RadiusSchedule:
+    """Piecewise-linear radius ``r(t)`` (m) of one wheel.
+
+    Args:
+        breakpoints: ``[(t, r), ...]`` with times (s) non-decreasing and >= 0, radii (m) > 0, at most two
+            breakpoints at one time. Empty = no fault (constant nominal radius).
+        nominal: radius (m) before the first breakpoint.
+        name: label used in error messages (e.g. ``faults.left``).
+
+    Raises:
+        BadInput: (a ``ValueError``) for an invalid schedule.
+    """
+
+    __slots__ = ("nominal", "name", "_t", "_r", "_intervals", "_t_end")
+
+    def __init__(self, breakpoints: Iterable[Sequence[float]], nominal: float, name: str = "faults") -> None:
+        nominal = float(nominal)
+        if not (math.isfinite(nominal) and nominal > 0):
+            raise BadInput(f"{name}: nominal radius {nominal} must be finite and > 0")
+        pts: list[tuple[float, float]] = []
+        for i, bp in enumerate(breakpoints):
+            if len(bp) != 2:
+                raise BadInput(f"{name}[{i}]: a breakpoint is [t, radius]")
+            t, r = float(bp[0]), float(bp[1])
+            if not (math.isfinite(t) and math.isfinite(r)):
+                raise BadInput(f"{name}[{i}]: breakpoints must be finite")
+            if t < 0:
+                raise BadInput(f"{name}[{i}]: breakpoint time {t} is negative")
+            if r <= 0:
+                raise BadInput(f"{name}[{i}]: radius {r} must be > 0")
+            if pts and t < pts[-1][0]:
+                raise BadInput(f"{name}[{i}]: breakpoint times must be non-decreasing ({t} after {pts[-1][0]})")
+            if len(pts) >= 2 and pts[-1][0] == pts[-2][0] == t:
+                raise BadInput(f"{name}[{i}]: more than two breakpoints at t={t}")
+            pts.append((t, r))
+        self.nominal = nominal
+        self.name = name
+        self._t = [p[0] for p in pts]
+        self._r = [p[1] for p in pts]
+        # Intervals [a, b] over which the value changes: ramps (a < b) and steps (a == b).
+        iv: list[tuple[float, float]] = []
+        if pts and pts[0][1] != nominal:
+            iv.append((pts[0][0], pts[0][0]))
+        for (t0, r0), (t1, r1) in zip(pts, pts[1:], strict=False):
+            if r0 != r1:
+                iv.append((t0, t1))
+        self._intervals = iv
+        self._t_end = iv[-1][1] if iv else -math.inf
+
+    # ------------------------------------------------------------------ queries
+    @property
+    def breakpoints(self) -> list[tuple[float, float]]:
+        """The validated breakpoints ``[(t, r), ...]`` (s, m)."""
+        return list(zip(self._t, self._r, strict=True))
+
+    @property
+    def active(self) -> bool:
+        """True if the radius ever departs from a constant (the schedule has a change)."""
+        return bool(self._intervals)
+
+    @property
+    def end_time(self) -> float:
+        """Time (s) after which the radius is constant (``-inf`` if it never changes)."""
+        return self._t_end
+
+    @property
+    def final(self) -> float:
+        """Radius (m) held after the last breakpoint."""
+        return self._r[-1] if self._r else self.nominal
+
+    def value(self, t: float) -> float:
+        """Radius (m) at time ``t`` (s); right-continuous at steps."""
+        ts = self._t
+        if not ts or t < ts[0]:
+            return self.nominal
+        if t >= ts[-1]:
+            return self._r[-1]
+        i = bisect_right(ts, t) - 1
+        t0, t1 = ts[i], ts[i + 1]
+        r0 = self._r[i]
+        return r0 + (self._r[i + 1] - r0) * (t - t0) / (t1 - t0)
+
+    __call__ = value
+
+    def changing(self, t0: float, t1: float) -> bool:
+        """True if ``value`` may differ between any two times in ``[t0, t1]`` (s), i.e. the plant must apply the
+        schedule step by step over that window. A step at exactly ``t0`` is not a change within the window (its new
+        value already holds at ``t0``)."""
+        if t0 > self._t_end:
+            return False
+        for a, b in self._intervals:
+            if a == b:
+                if t0 < a <= t1:
+                    return True
+            elif a < t1 and b > t0:
+                return True
+        return False
+
+    def __repr__(self) -> str:
+        return f"RadiusSchedule({self.breakpoints!r}, nominal={self.nominal})"

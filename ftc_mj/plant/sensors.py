@@ -1,0 +1,84 @@
+"""Sensors with seeded Gaussian noise on top of the plant's truth (DESIGN §3).
+
+Every :meth:`Sensors.read` draws the same fixed block of standard normals, whichever sensors are configured, so
+a run is deterministic for a given config and seed, and switching a sensor on or off does not change the noise
+sequence of the others (e.g. adding a gyro leaves the speed noise identical).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..config import SensorConfig
+from .truth import Truth
+
+_N_DRAWS = 9  # speed, yaw rate, position x, position y, omega_R, omega_L, pose x, pose y, pose psi
+
+_EPS_T = 1e-9  # s, tolerance on the position-fix schedule
+
+
+@dataclass(slots=True)
+class SensorReading:
+    """One sample of all sensors at time ``t`` (s).
+
+    Attributes:
+        t: sample time (s).
+        speed: forward speed of the axle midpoint + N(0, speed_sigma^2) (m/s).
+        yaw_rate: gyro, yaw rate + N(0, yaw_rate_sigma^2) (rad/s); ``None`` without a gyro.
+        position: ``[x, y]`` + N(0, position_sigma^2 I) (m) when a fix is due at ``position_rate``; else ``None``.
+        omega_R, omega_L: encoder wheel rates + N(0, encoder_sigma^2) (rad/s).
+        pose: ``[x, y, psi]`` handed to the controller (m, m, rad), + N(0, pose_sigma^2 I) when ``pose_sigma > 0``.
+    """
+
+    t: float
+    speed: float
+    yaw_rate: float | None
+    position: np.ndarray | None
+    omega_R: float
+    omega_L: float
+    pose: np.ndarray
+
+
+class Sensors:
+    """The run's sensors with their own seeded ``numpy.random.Generator``.
+
+    Args:
+        cfg: ``RunConfig.sensors`` (noise levels in SI units; ``None`` = sensor absent).
+        seed: seed of the generator; the same config and seed give the same readings.
+    """
+
+    def __init__(self, cfg: SensorConfig, seed: int) -> None:
+        self.cfg = cfg
+        self.seed = int(seed)
+        self._fix_period = 1.0 / float(cfg.position_rate)
+        self.reset()
+
+    def reset(self) -> None:
+        """Restart the noise sequence and the position-fix schedule (first fix at t = 0)."""
+        self.rng = np.random.Generator(np.random.PCG64(self.seed))
+        self._next_fix = 0.0
+
+    def read(self, truth: Truth, t: float | None = None) -> SensorReading:
+        """Sample all sensors from ``truth`` at time ``t`` (s; default ``truth.t``)."""
+        c = self.cfg
+        t = truth.t if t is None else float(t)
+        e = self.rng.standard_normal(_N_DRAWS).tolist()
+        speed = truth.v + c.speed_sigma * e[0]
+        yaw = None if c.yaw_rate_sigma is None else truth.yaw_rate + c.yaw_rate_sigma * e[1]
+        position = None
+        if c.position_sigma is not None and t + _EPS_T >= self._next_fix:
+            position = np.array([truth.x + c.position_sigma * e[2], truth.y + c.position_sigma * e[3]])
+            # next fix: the first multiple of the period after t
+            self._next_fix = (math.floor((t + _EPS_T) / self._fix_period) + 1) * self._fix_period
+        s = c.encoder_sigma
+        wR = truth.omega_R + s * e[4]
+        wL = truth.omega_L + s * e[5]
+        ps = c.pose_sigma
+        if ps > 0:
+            pose = np.array([truth.x + ps * e[6], truth.y + ps * e[7], truth.psi + ps * e[8]])
+        else:
+            pose = np.array([truth.x, truth.y, truth.psi])
+        return SensorReading(t=t, speed=speed, yaw_rate=yaw, position=position, omega_R=wR, omega_L=wL, pose=pose)

@@ -31,16 +31,9 @@ from ..estimation import FaultDecision, build_estimator
 from ..estimation.base import FilterOutput, Measurement
 from ..plant import Sensors, build_plant
 from ..recorder import Event, Solve
+from .columns import BASE_COLUMNS
+from .metrics import fault_onsets
 from .reconfig import RadiusFeedback
-
-BASE_COLUMNS: tuple[str, ...] = (
-    "t", "x", "y", "psi", "v", "yaw_rate", "v_meas", "yaw_rate_meas", "R_R", "R_L",
-    "R_R_hat", "R_L_hat", "R_R_std", "R_L_std", "x_hat", "y_hat", "psi_hat",
-    "innovation", "innovation_std", "nis",
-    "omega_R", "omega_L", "omega_R_meas", "omega_L_meas", "omega_R_cmd", "omega_L_cmd",
-    "R_R_model", "R_L_model", "cross_track_error", "roll", "pitch", "z", "slip_R", "slip_L",
-    "plant_flags", "fault_detected", "solve_time_ms", "solver_iterations", "solver_ok",
-)
 
 
 @dataclass
@@ -57,23 +50,6 @@ class SimResult:
     reference_path: np.ndarray | None = None
     wall_time: float = 0.0
     error: str | None = None
-
-
-def fault_onsets(cfg: RunConfig) -> dict[str, float | None]:
-    """First time (s) each wheel's scheduled radius departs from nominal; None = no fault.
-
-    Before its first breakpoint a schedule is at the nominal radius, so a departure at breakpoint
-    ``i`` starts at breakpoint ``i-1`` (the start of a ramp, or the same time for a step).
-    """
-    R0 = cfg.plant_wheel_radius
-    onsets: dict[str, float | None] = {}
-    for wheel, bps in (("right", cfg.faults.right), ("left", cfg.faults.left)):
-        onsets[wheel] = None
-        for i, (t, r) in enumerate(bps):
-            if abs(r - R0) > 1e-9:
-                onsets[wheel] = bps[i - 1][0] if i > 0 else t
-                break
-    return onsets
 
 
 def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) -> SimResult:

@@ -12,6 +12,23 @@ from ..config import RunConfig
 LIMIT_TOL = 1e-3  # a command within 0.1 % of the bound counts as "at the limit"
 
 
+def fault_onsets(cfg: RunConfig) -> dict[str, float | None]:
+    """First time (s) each wheel's scheduled radius departs from nominal; None = no fault.
+
+    Before its first breakpoint a schedule is at the nominal radius, so a departure at breakpoint
+    ``i`` starts at breakpoint ``i-1`` (the start of a ramp, or the same time for a step).
+    """
+    R0 = cfg.plant_wheel_radius
+    onsets: dict[str, float | None] = {}
+    for wheel, bps in (("right", cfg.faults.right), ("left", cfg.faults.left)):
+        onsets[wheel] = None
+        for i, (t, r) in enumerate(bps):
+            if abs(r - R0) > 1e-9:
+                onsets[wheel] = bps[i - 1][0] if i > 0 else t
+                break
+    return onsets
+
+
 def _nanstat(a: np.ndarray, fn: Any) -> float:
     a = np.asarray(a, dtype=float)
     a = a[np.isfinite(a)]

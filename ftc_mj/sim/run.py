@@ -18,8 +18,8 @@ from typing import Any
 
 from ..config import RunConfig, config_to_toml_dict
 from ..io import atomic_dir, unique_dir, write_json, write_parquet, write_toml
-from .loop import SimResult, fault_onsets, simulate
-from .metrics import compute_metrics
+from .loop import SimResult, simulate
+from .metrics import compute_metrics, fault_onsets
 
 
 def config_hash(cfg: RunConfig) -> str:

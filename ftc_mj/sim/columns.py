@@ -1,0 +1,19 @@
+"""Columns of ``trace.parquet`` (DESIGN §6): one row per estimator step, SI units and radians.
+
+Truth: ``x, y, psi, v, yaw_rate, R_R, R_L, omega_R, omega_L, roll, pitch, z, slip_R, slip_L,
+plant_flags``; sensors: ``v_meas, yaw_rate_meas, omega_*_meas``; estimator: ``*_hat, *_std,
+innovation, innovation_std, nis, fault_detected, mode_prob_k``; controller: ``omega_*_cmd,
+R_*_model`` (radii the controller assumed), ``solve_time_ms, solver_iterations, solver_ok`` (on
+controller samples, NaN elsewhere); ``cross_track_error`` (m, positive = left of the path).
+"""
+
+from __future__ import annotations
+
+BASE_COLUMNS: tuple[str, ...] = (
+    "t", "x", "y", "psi", "v", "yaw_rate", "v_meas", "yaw_rate_meas", "R_R", "R_L",
+    "R_R_hat", "R_L_hat", "R_R_std", "R_L_std", "x_hat", "y_hat", "psi_hat",
+    "innovation", "innovation_std", "nis",
+    "omega_R", "omega_L", "omega_R_meas", "omega_L_meas", "omega_R_cmd", "omega_L_cmd",
+    "R_R_model", "R_L_model", "cross_track_error", "roll", "pitch", "z", "slip_R", "slip_L",
+    "plant_flags", "fault_detected", "solve_time_ms", "solver_iterations", "solver_ok",
+)

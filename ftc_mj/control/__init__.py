@@ -1,0 +1,43 @@
+"""Trajectory-tracking controllers (paper §3, DESIGN §5): LGL pseudospectral NMPC, linear MPC,
+open loop; the reference paths; LGL helpers."""
+
+from .base import Controller, ControlOutput
+from .collocation import ProblemSpec
+from .factory import build_controller, problem_spec
+from .lgl import (
+    barycentric_interpolate,
+    barycentric_weights,
+    differentiation_matrix,
+    interpolation_matrix,
+    lgl,
+    lgl_nodes,
+    lgl_weights,
+)
+from .lmpc import LinearMPC
+from .nmpc import NMPC, OptiNMPC
+from .open_loop import OpenLoopController
+from .reference import CircleReference, FigureEightReference, LineReference, RefSample, build_reference
+
+__all__ = [
+    "NMPC",
+    "CircleReference",
+    "ControlOutput",
+    "Controller",
+    "FigureEightReference",
+    "LineReference",
+    "LinearMPC",
+    "OpenLoopController",
+    "OptiNMPC",
+    "ProblemSpec",
+    "RefSample",
+    "barycentric_interpolate",
+    "barycentric_weights",
+    "build_controller",
+    "build_reference",
+    "differentiation_matrix",
+    "interpolation_matrix",
+    "lgl",
+    "lgl_nodes",
+    "lgl_weights",
+    "problem_spec",
+]

@@ -26,6 +26,8 @@ class ControlOutput:
     """Predicted trajectory (K, 3) of [x, y, psi] over the horizon, if the controller has one."""
     predicted_t: np.ndarray | None = field(default=None)
     """Times (s, absolute) of the rows of ``predicted``."""
+    predicted_omega: np.ndarray | None = field(default=None)
+    """Planned wheel rates (K, 2) [omega_R, omega_L] (rad/s) at ``predicted_t``, if any."""
 
 
 class Controller(Protocol):

@@ -1,0 +1,361 @@
+"""The pseudospectral (LGL) tracking problem shared by the NMPC and the linear MPC.
+
+Decision variables on ``N`` LGL nodes over the horizon ``[t0, t0 + T]``: states
+``X = [x, y, psi]`` (m, m, rad) and inputs ``U = [omega_R, omega_L]`` (rad/s) at every node.
+Stacking used everywhere: ``w = [x(N), y(N), psi(N), omega_R(N), omega_L(N)]``; inputs alone
+``u = [omega_R(N), omega_L(N)]``.
+
+Constraints (paper §3): collocation ``(2/T) D X = f(X, U; R_R, R_L, b)`` at all N nodes, the
+initial-state equality ``X(t0) = pose``, input bounds ``|omega| ≤ omega_max`` and input-rate
+bounds ``|(2/T) D omega| ≤ omega_rate_max``.
+
+Cost (paper §3): ``(T/2) Σ_j w_j (q_pose ‖X_j − X_ref,j‖² + q_speed (V_j − V_ref,j)² +
+q_yaw_rate (psidot_j − psidot_ref,j)²)`` plus the optional ``rate_penalty (T/2) Σ_j w_j
+‖(2/T)(D U)_j‖²``. ``V`` and ``psidot`` are linear in the inputs for given radii, and the pose
+error is linear in the states, so the cost is an exact quadratic: its Gauss–Newton Hessian is
+exact, and only the collocation constraints are nonlinear (through cos psi, sin psi).
+
+:class:`CondensedQP` linearises the collocation about a guess and eliminates the states exactly,
+which leaves a dense QP in the 2N inputs only (3 equality rows + 2N rate rows + box bounds). The
+elimination uses the structure of the kinematics (``f`` does not depend on x, y; psidot depends on
+the inputs only): with node 0 replaced by the initial condition, each state obeys
+``X_s = Dt^{-1} [x0_s; rhs_s(1:)]`` with the constant matrix ``Dt = [e_0ᵀ; (2/T) D(1:, :)]``; the
+three node-0 collocation equations stay as equality constraints.
+
+Heading convention: the controllers shift the *measured* heading by a multiple of 2π so that it is
+nearest the (unwrapped) reference heading at t0; predictions are reported in that frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..model.kinematics import KinematicModel
+from .lgl import barycentric_weights, lgl
+
+TWO_PI = 2.0 * np.pi
+
+
+def limit_blas_threads(n: int = 1) -> bool:
+    """Set numpy's OpenBLAS thread count (process-wide) to ``n``; True if it could be set.
+
+    The MPC matrices are ~100x150: multithreaded BLAS only adds synchronisation, and on a loaded
+    2-core machine it made an RTI step ~6x slower (15 ms instead of 2.4 ms median). Equivalent to
+    ``OPENBLAS_NUM_THREADS=1`` but works after numpy has been imported.
+    """
+    import ctypes
+
+    ok = False
+    try:
+        with open("/proc/self/maps") as fh:
+            libs = {ln.split()[-1] for ln in fh if "openblas" in ln.lower() and "/" in ln}
+    except OSError:
+        return False
+    for path in libs:
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for name in ("scipy_openblas_set_num_threads64_", "scipy_openblas_set_num_threads",
+                     "openblas_set_num_threads64_", "openblas_set_num_threads"):
+            fn = getattr(lib, name, None)
+            if fn is not None:
+                fn(ctypes.c_int(n))
+                ok = True
+                break
+    return ok
+
+
+@dataclass(frozen=True)
+class ProblemSpec:
+    """Numbers that define the tracking problem (units in the field comments)."""
+
+    nodes: int = 50
+    horizon: float = 5.0  # s
+    half_track: float = 1.0  # m
+    omega_max: float = np.radians(1000.0)  # rad/s
+    omega_rate_max: float = 20.0  # rad/s^2
+    q_pose: float = 10.0
+    q_speed: float = 1.0
+    q_yaw_rate: float = 1.0
+    rate_penalty: float = 0.0
+
+
+class Collocation:
+    """LGL grid and the symbolic pieces of the problem (built once)."""
+
+    def __init__(self, spec: ProblemSpec) -> None:
+        self.spec = spec
+        N = spec.nodes
+        self.N = N
+        self.tau, self.w, self.D = lgl(N)
+        self.bw = barycentric_weights(self.tau)
+        self.h = spec.horizon / 2.0  # dt/dtau (s)
+        self.W = self.h * self.w  # quadrature weights in time (s)
+        self.model = KinematicModel(b=spec.half_track)
+        f = self.model.casadi_derivative()
+        xs, us, rs = ca.SX.sym("x", 3), ca.SX.sym("u", 2), ca.SX.sym("r", 2)
+        fx = f(ca.vertcat(xs, rs), us)[:3]
+        lin = ca.Function("lin", [xs, us, rs], [fx, ca.densify(ca.jacobian(fx, xs)), ca.densify(ca.jacobian(fx, us))])
+        self.lin = lin.map(N, [False, False, True], [False, False, False])  # (3xN, 2xN, 2x1) -> (3xN, 3x3N, 3x2N)
+        self.f3 = ca.Function("f3", [xs, us, rs], [fx])
+        rates = self.model.casadi_rates()
+        self.rates_jac = ca.Function("rj", [rs], [ca.densify(ca.jacobian(rates(ca.vertcat(0, 0, 0, rs), us), us))])
+        self.rates3 = ca.Function("r3", [us, rs], [rates(ca.vertcat(0, 0, 0, rs), us)])
+
+    def times(self, t0: float) -> np.ndarray:
+        """Absolute node times (s) of a horizon starting at ``t0``."""
+        return t0 + (self.tau + 1.0) * self.h
+
+    def shift(self, t_prev: float, X: np.ndarray, U: np.ndarray, t_new: float, b: float, radii: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+        """Previous plan (X (N,3), U (N,2) on nodes starting at ``t_prev``) evaluated on the nodes
+        starting at ``t_new`` by barycentric Lagrange interpolation. Beyond the old horizon end the
+        inputs are held and the states extrapolated with the model (no polynomial extrapolation)."""
+        tn = self.times(t_new)
+        tau_q = (tn - t_prev) / self.h - 1.0
+        inside = tau_q <= 1.0
+        tau_c = np.clip(tau_q, -1.0, 1.0)
+        diff = tau_c[:, None] - self.tau[None, :]
+        exact = diff == 0.0
+        diff[exact] = 1.0
+        C = self.bw[None, :] / diff
+        C /= C.sum(axis=1, keepdims=True)
+        r, c = np.nonzero(exact)
+        C[r, :] = 0.0
+        C[r, c] = 1.0
+        Xn = C @ X
+        Un = C @ U
+        if not np.all(inside):
+            xe, ue = X[-1], U[-1]
+            dxe = np.asarray(self.f3(xe, ue, radii)).ravel()
+            dt = (tn[~inside] - (t_prev + 2 * self.h))[:, None]
+            Xn[~inside] = xe[None, :] + dt * dxe[None, :]
+            Un[~inside] = ue[None, :]
+        return Xn, Un
+
+
+class BufferedFunction:
+    """Zero-copy evaluation of a CasADi ``Function`` on preallocated numpy arrays.
+
+    Converting numpy arrays to ``DM`` costs ~70 ns per element through SWIG, which dominated the
+    RTI step (a dense 100x100 Hessian); ``Function.buffer()`` reads and writes numpy memory in place.
+    Dense column-major layout: write inputs with :meth:`arg` and read outputs with :meth:`res`.
+    """
+
+    def __init__(self, f: ca.Function) -> None:
+        self.f = f
+        self._buf, self._eval = f.buffer()
+        self.args = [np.zeros(f.nnz_in(i)) for i in range(f.n_in())]
+        self.outs = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]
+        for i, a in enumerate(self.args):
+            self._buf.set_arg(i, memoryview(a))
+        for i, o in enumerate(self.outs):
+            self._buf.set_res(i, memoryview(o))
+
+    def __call__(self, *args: np.ndarray) -> list[np.ndarray]:
+        """Evaluate; each argument is copied (flattened column-major) into the input buffers."""
+        for dst, a in zip(self.args, args, strict=True):
+            dst[:] = np.ravel(a, order="F")
+        self._eval()
+        return self.outs
+
+    def stats(self) -> dict:
+        """Statistics of the last evaluation (for a wrapped solver: the solver's stats)."""
+        try:
+            return dict(self._buf.stats())
+        except RuntimeError:
+            return {}
+
+    @property
+    def ret(self) -> int:
+        """Return code of the last evaluation (0 = ok)."""
+        return int(self._buf.ret())
+
+
+class CondensedQP:
+    """Linearise the collocation about a guess, eliminate the states, solve the dense input QP.
+
+    ``qpsol`` is any CasADi conic plugin (``daqp``, ``qpoases``, ``osqp``, ``piqp``, ...). The QP
+    solver is wrapped in an MX Function together with the constant rate-constraint rows and called
+    through :class:`BufferedFunction` (no per-element conversions).
+    """
+
+    def __init__(self, col: Collocation, qpsol: str = "daqp", qp_options: dict | None = None) -> None:
+        self.col = col
+        N, h, D = col.N, col.h, col.D
+        n = 2 * N
+        self.nu = n
+        Dt = np.vstack([np.eye(N)[:1], D[1:] / h])
+        Dinv = np.linalg.inv(Dt)
+        self.c0 = Dinv[:, 0].copy()
+        self.K = np.ascontiguousarray(Dinv[:, 1:])
+        self.hD0 = D[0] / h
+        Dblk = np.zeros((n, n))
+        Dblk[:N, :N] = D
+        Dblk[N:, N:] = D
+        self.Dblk = Dblk
+        sp = col.spec
+        # rate penalty: (T/2) Σ w ‖(1/h) D u‖² -> u' (Dblk' diag(W) Dblk)/h² u
+        Wd = np.concatenate([col.W, col.W])
+        self.R_rate = 2.0 * sp.rate_penalty * (Dblk.T * Wd) @ Dblk / h**2
+        self.qpsol = qpsol
+        opts = _default_qp_options(qpsol)
+        opts.update(qp_options or {})
+        nA = 3 + n
+        a_pattern = np.zeros((nA, n), dtype=bool)
+        a_pattern[:3] = True
+        a_pattern[3:] = Dblk != 0
+        rows, cols = np.nonzero(a_pattern)
+        a_sp = ca.Sparsity.triplet(nA, n, rows.tolist(), cols.tolist())
+        self.solver = ca.conic("qp", qpsol, {"h": ca.Sparsity.dense(n, n), "a": a_sp}, opts)
+        rate = sp.omega_rate_max * h
+        Hs, gs = ca.MX.sym("H", n, n), ca.MX.sym("g", n)
+        Es, es = ca.MX.sym("E", 3, n), ca.MX.sym("e", 3)
+        xs, lxs, las = ca.MX.sym("x0", n), ca.MX.sym("lam_x0", n), ca.MX.sym("lam_a0", nA)
+        A = ca.vertcat(Es, ca.DM(Dblk))
+        r = self.solver(
+            h=Hs, g=gs, a=A, lba=ca.vertcat(es, -rate * np.ones(n)), uba=ca.vertcat(es, rate * np.ones(n)),
+            lbx=-sp.omega_max, ubx=sp.omega_max, x0=xs, lam_x0=lxs, lam_a0=las,
+        )
+        self._qpfun = BufferedFunction(
+            ca.Function("rti_qp", [Hs, gs, Es, es, xs, lxs, las], [r["x"], r["lam_x"], r["lam_a"], r["cost"]])
+        )
+        self._lin = BufferedFunction(col.lin)
+        self._J = BufferedFunction(col.rates_jac)
+        self._J_cache: tuple[tuple[float, float], np.ndarray] | None = None
+        self.omega_max = sp.omega_max
+        self.rate_lim = rate
+        self._lam_x = np.zeros(n)
+        self._lam_a = np.zeros(nA)
+
+    # ----------------------------------------------------------------------------------------
+    def build(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray, ref: np.ndarray):
+        """QP data for the linearisation about (Xg (N,3), Ug (N,2)).
+
+        ``ref`` is (5, N): x, y, psi, V, psidot references at the nodes. Returns
+        ``(H, g, E, e, G, hc)``: cost ``½ uᵀHu + gᵀu``, node-0 collocation rows ``E u = e``, and the
+        states ``X = G u + hc`` (3N, stacked x, y, psi).
+        """
+        col, N, K, c0 = self.col, self.col.N, self.K, self.c0
+        sp = col.spec
+        fx, A, B = self._lin(Xg.T, Ug.T, radii)
+        fx = fx.reshape(3, N, order="F")
+        A = A.reshape(3, 3, N, order="F")  # A[i, j, k] = d f_i / d x_j at node k
+        B = B.reshape(3, 2, N, order="F")
+        # affine model f ≈ A X + B U + c
+        c = fx - np.einsum("ijk,kj->ik", A, Xg) - np.einsum("ijk,kj->ik", B, Ug)
+        ax, ay = A[0, 2], A[1, 2]
+        G = np.zeros((3, N, 2 * N))
+        hc = np.empty((3, N))
+        # psi
+        G[2][:, 1:N] = K * B[2, 0, 1:]
+        G[2][:, N + 1:] = K * B[2, 1, 1:]
+        hc[2] = c0 * x0[2] + K @ c[2, 1:]
+        for s, a in ((0, ax), (1, ay)):
+            Gs = K @ (a[1:, None] * G[2][1:])
+            Gs[:, 1:N] += K * B[s, 0, 1:]
+            Gs[:, N + 1:] += K * B[s, 1, 1:]
+            G[s] = Gs
+            hc[s] = c0 * x0[s] + K @ (a[1:] * hc[2][1:] + c[s, 1:])
+        # node-0 collocation rows: (2/T) D(0,:) @ X_s - (A X + B U + c)_0 = 0
+        E = self.hD0 @ G  # (3, 2N)
+        E[:, 0] -= B[:, 0, 0]
+        E[:, N] -= B[:, 1, 0]
+        e = c[:, 0] + A[:, :, 0] @ x0 - hc @ self.hD0
+        # cost
+        W = col.W
+        key = (float(radii[0]), float(radii[1]))
+        if self._J_cache is None or self._J_cache[0] != key:
+            self._J_cache = (key, self._J(radii)[0].reshape(2, 2, order="F").copy())
+        J = self._J_cache[1]  # d[V, psidot]/du, constant for given radii
+        qp = sp.q_pose
+        Gf = G.reshape(3 * N, 2 * N)
+        W3 = np.tile(W, 3)
+        GW = Gf.T * (qp * W3)
+        H = GW @ Gf
+        g = GW @ (hc.ravel() - ref[:3].ravel())
+        idx = np.arange(N)
+        for k, q in ((0, sp.q_speed), (1, sp.q_yaw_rate)):
+            a0, a1 = J[k, 0], J[k, 1]
+            qW = q * W
+            H[idx, idx] += qW * a0 * a0
+            H[idx + N, idx + N] += qW * a1 * a1
+            H[idx, idx + N] += qW * a0 * a1
+            H[idx + N, idx] += qW * a0 * a1
+            g[:N] -= qW * a0 * ref[3 + k]
+            g[N:] -= qW * a1 * ref[3 + k]
+        H = 2.0 * H + self.R_rate
+        return H, 2.0 * g, E, e, Gf, hc.ravel()
+
+    def solve(self, Xg, Ug, radii, x0, ref, u_init: np.ndarray | None = None):
+        """Build and solve the QP. Returns ``(ok, status, X (N,3), U (N,2))``."""
+        N = self.col.N
+        H, g, E, e, G, hc = self.build(Xg, Ug, radii, x0, ref)
+        if u_init is None:
+            u_init = Ug.T.ravel()
+        u0 = np.clip(u_init, -self.omega_max, self.omega_max)
+        u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, u0, self._lam_x, self._lam_a)
+        st = self._qpfun.stats()
+        ok = self._qpfun.ret == 0 and bool(st.get("success", True)) and bool(np.all(np.isfinite(u)))
+        if ok:  # independent feasibility check (solvers differ in what they call success)
+            tol = 1e-5 * (1.0 + np.abs(e).max())
+            ok = (np.abs(E @ u - e).max() < tol and np.abs(self.Dblk @ u).max() < self.rate_lim * (1 + 1e-6) + 1e-6
+                  and np.abs(u).max() < self.omega_max * (1 + 1e-6) + 1e-6)
+        if not ok:
+            self._lam_x[:] = 0.0
+            self._lam_a[:] = 0.0
+            return False, str(st.get("return_status", "qp failed")), None, None
+        self._lam_x[:] = lam_x
+        self._lam_a[:] = lam_a
+        u = np.clip(u, -self.omega_max, self.omega_max)
+        X = (G @ u + hc).reshape(3, N).T
+        return True, str(st.get("unified_return_status", st.get("return_status", "ok"))), X, u.reshape(2, N).T
+
+
+def _default_qp_options(qpsol: str) -> dict:
+    if qpsol == "osqp":
+        return {
+            "error_on_fail": False,
+            "warm_start_primal": True,
+            "warm_start_dual": True,
+            "osqp": {
+                "verbose": False,
+                "eps_abs": 1e-6,
+                "eps_rel": 1e-6,
+                "polish": False,
+                "max_iter": 4000,
+                "adaptive_rho": True,
+            },
+        }
+    if qpsol == "qpoases":
+        return {"error_on_fail": False, "printLevel": "none", "sparse": False, "schur": False}
+    return {"error_on_fail": False, "print_problem": False} if qpsol == "daqp" else {"error_on_fail": False}
+
+
+def sanitize_pose(pose: np.ndarray) -> np.ndarray | None:
+    """The pose as a float array (3,), or ``None`` if it is not finite."""
+    p = np.asarray(pose, dtype=float).ravel()
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        return None
+    return p
+
+
+def sanitize_radii(radii: np.ndarray, min_radius: float = 1e-3) -> np.ndarray | None:
+    """The radii as (2,) floored at ``min_radius`` (m), or ``None`` if not finite."""
+    r = np.asarray(radii, dtype=float).ravel()
+    if r.shape != (2,) or not np.all(np.isfinite(r)):
+        return None
+    return np.maximum(r, min_radius)
+
+
+def reference_at_nodes(reference, times: np.ndarray, psi_meas: float) -> tuple[np.ndarray, float]:
+    """Reference (5, N) at the node times, and the measured heading moved by a multiple of 2π to
+    the branch nearest the reference heading at the first node."""
+    r = reference.at(times)
+    ref = np.vstack([np.broadcast_to(np.asarray(v, float), times.shape) for v in r])
+    psi = psi_meas + TWO_PI * np.round((ref[2, 0] - psi_meas) / TWO_PI)
+    return ref, float(psi)

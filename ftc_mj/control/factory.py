@@ -1,0 +1,40 @@
+"""Build the configured controller."""
+
+from __future__ import annotations
+
+from ..config import RunConfig
+from .base import Controller
+from .collocation import ProblemSpec
+from .lmpc import LinearMPC
+from .nmpc import NMPC
+from .open_loop import OpenLoopController
+
+
+def problem_spec(cfg: RunConfig) -> ProblemSpec:
+    """The MPC problem numbers of ``cfg`` (model half track, robot input limits, controller weights)."""
+    c = cfg.controller
+    return ProblemSpec(
+        nodes=c.nodes,
+        horizon=c.horizon,
+        half_track=cfg.model_half_track,
+        omega_max=cfg.robot.omega_max,
+        omega_rate_max=c.omega_rate_max,
+        q_pose=c.q_pose,
+        q_speed=c.q_speed,
+        q_yaw_rate=c.q_yaw_rate,
+        rate_penalty=c.rate_penalty,
+    )
+
+
+def build_controller(cfg: RunConfig, reference) -> Controller:
+    """``cfg.controller.kind``: ``nmpc`` → :class:`NMPC`, ``lmpc`` → :class:`LinearMPC`,
+    ``open-loop`` → :class:`OpenLoopController`."""
+    c = cfg.controller
+    R0 = cfg.model_wheel_radius
+    if c.kind == "open-loop":
+        return OpenLoopController(c.open_loop_omega, c.open_loop_schedule or None, cfg.robot.omega_max)
+    spec = problem_spec(cfg)
+    if c.kind == "lmpc":
+        return LinearMPC(spec, reference, qpsol=c.lmpc_qpsol, time_budget=c.time_budget, nominal_radii=(R0, R0))
+    return NMPC(spec, reference, solver=c.solver, max_iter=c.max_iter, time_budget=c.time_budget,
+                nominal_radii=(R0, R0), cold_time_budget=c.cold_time_budget)

@@ -1,0 +1,67 @@
+"""Linear MPC: the NMPC's problem with the dynamics linearised about the reference.
+
+Same horizon, LGL nodes, weights and constraints as :class:`~ftc_mj.control.nmpc.NMPC`
+(discretisation: the same LGL collocation, with linear dynamics). At each sample the kinematics
+are linearised about the reference trajectory at the node times — reference states and the
+feed-forward wheel rates that realise ``V_ref, psidot_ref`` with the *current* radius estimates —
+and the resulting QP (states eliminated exactly, 2N inputs) is solved once by a CasADi QP plugin
+(``daqp`` by default; ``qpoases``/``osqp`` selectable), warm-started from the shifted previous plan.
+Unlike the RTI NMPC, the linearisation point does not follow the robot, so large deviations from
+the reference (heading errors of tens of degrees) are predicted less accurately.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .base import ControlOutput
+from .collocation import CondensedQP, ProblemSpec, reference_at_nodes, sanitize_pose, sanitize_radii
+from .nmpc import PlanController
+
+
+class LinearMPC(PlanController):
+    """Linear MPC on the reference-linearised kinematics. ``solve(t, pose, radii)`` per sample.
+
+    ``qpsol``: CasADi conic plugin; ``time_budget`` (s): an over-budget solve falls back like a
+    failed one; ``nominal_radii`` (m): used before any valid radii are seen.
+    """
+
+    def __init__(
+        self,
+        spec: ProblemSpec,
+        reference,
+        qpsol: str = "daqp",
+        time_budget: float = 0.1,
+        nominal_radii: tuple[float, float] = (2.0, 2.0),
+        qp_options: dict | None = None,
+    ) -> None:
+        super().__init__(spec, reference, nominal_radii, time_budget)
+        self.qpsol = qpsol
+        self._qp = CondensedQP(self.col, qpsol, qp_options)
+
+    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray) -> ControlOutput:
+        """Command [omega_R, omega_L] (rad/s) at ``t`` (s) from ``pose`` [x, y, psi] (m, m, rad) and
+        the model radii [R_R, R_L] (m)."""
+        t_start = time.perf_counter()
+        self.solves += 1
+        try:
+            p = sanitize_pose(pose)
+            r = sanitize_radii(radii)
+            if p is None:
+                return self._fallback(t, "non-finite pose", t_start, r)
+            if r is None:
+                return self._fallback(t, "non-finite radii", t_start, None)
+            times = self.col.times(t)
+            ref, psi = reference_at_nodes(self.reference, times, p[2])
+            x0 = np.array([p[0], p[1], psi])
+            Xr = ref[:3].T
+            Ur = self._reference_inputs(ref, r)
+            u_init = self._guess(t, x0, ref, r)[1].T.ravel() if self._plan is not None else Ur.T.ravel()
+            ok, status, X, U = self._qp.solve(Xr, Ur, r, x0, ref, u_init)
+            if not ok:
+                return self._fallback(t, f"qp: {status}", t_start, r, 1)
+            return self._accept(t, X, U, f"qp: {status}", 1, t_start, self.time_budget, r)
+        except Exception as exc:  # noqa: BLE001 - a solve must never stop the loop
+            return self._fallback(t, f"exception: {type(exc).__name__}: {exc}", t_start, None)

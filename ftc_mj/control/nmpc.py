@@ -1,0 +1,315 @@
+"""Pseudospectral (LGL) NMPC of the paper, built once with CasADi, solved per sample.
+
+Problem: see :mod:`ftc_mj.control.collocation`. Solver options:
+
+* ``ipopt`` — the full NLP (``nlpsol`` on an SX graph, parameter vector
+  ``p = [pose(3), radii(2), x_ref(N), y_ref(N), psi_ref(N), V_ref(N), psidot_ref(N)]``),
+  warm-started from the previous solution shifted by barycentric Lagrange interpolation
+  (``warm_start_init_point`` with the previous multipliers).
+* ``rti-daqp`` / ``rti-qpoases`` / ``rti-osqp`` — real-time iteration: one Gauss–Newton SQP step
+  per sample, linearised about the shifted previous plan; the cost is exactly quadratic, so the
+  GN Hessian is exact for the cost and positive definite. States are eliminated exactly
+  (:class:`~ftc_mj.control.collocation.CondensedQP`), leaving a dense 2N-input QP for the named
+  CasADi QP plugin. The first solve (and a re-seed after two consecutive failures) is an IPOPT solve.
+
+The first command of the plan (node 0, at ``t0``) is applied under zero-order hold. A failed or
+over-budget solve, or a non-finite pose/radii, never raises: the controller falls back to the
+previous plan shifted to the current time (or, with no plan yet, the reference feed-forward),
+counts it in ``failures`` and says why in ``status``. Outputs are always clipped to the bounds.
+"""
+
+from __future__ import annotations
+
+import time
+
+import casadi as ca
+import numpy as np
+
+from ..model.kinematics import inverse_rates
+from .base import ControlOutput
+from .collocation import (
+    Collocation,
+    CondensedQP,
+    ProblemSpec,
+    limit_blas_threads,
+    reference_at_nodes,
+    sanitize_pose,
+    sanitize_radii,
+)
+
+SOLVERS = ("ipopt", "rti-daqp", "rti-qpoases", "rti-osqp")
+
+
+class PlanController:
+    """Shared plan bookkeeping, warm-start shift and fallback of the MPCs."""
+
+    def __init__(self, spec: ProblemSpec, reference, nominal_radii: tuple[float, float], time_budget: float,
+                 cold_time_budget: float = 2.0, single_thread_blas: bool = True) -> None:
+        if single_thread_blas:
+            limit_blas_threads(1)
+        self.spec = spec
+        self.col = Collocation(spec)
+        self.reference = reference
+        self.nominal_radii = np.asarray(nominal_radii, dtype=float)
+        self.time_budget = float(time_budget)
+        self.cold_time_budget = float(cold_time_budget)
+        self.failures = 0
+        """Number of samples that fell back (failed, over budget, or invalid input)."""
+        self.solves = 0
+        self._plan: tuple[float, np.ndarray, np.ndarray] | None = None  # (t0, X (N,3), U (N,2))
+        self._last_radii = self.nominal_radii.copy()
+
+    def reset(self) -> None:
+        """Forget the plan and the counters."""
+        self._plan = None
+        self.failures = 0
+        self.solves = 0
+
+    # ------------------------------------------------------------------------------------------
+    def _reference_inputs(self, ref: np.ndarray, radii: np.ndarray) -> np.ndarray:
+        """Feed-forward wheel rates (N, 2) (rad/s) that realise the reference V, psidot."""
+        wr, wl = inverse_rates(ref[3], ref[4], radii[0], radii[1], self.spec.half_track)
+        om = self.spec.omega_max
+        return np.clip(np.stack([wr, wl], axis=1), -om, om)
+
+    def _guess(self, t: float, x0: np.ndarray, ref: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Shifted previous plan, or the reference if there is none. Heading moved to x0's branch."""
+        if self._plan is None:
+            Xg = ref[:3].T.copy()
+            Ug = self._reference_inputs(ref, radii)
+        else:
+            t_prev, Xp, Up = self._plan
+            Xg, Ug = self.col.shift(t_prev, Xp, Up, t, self.spec.half_track, radii)
+            Xg[:, 2] += 2 * np.pi * np.round((x0[2] - Xg[0, 2]) / (2 * np.pi))
+        Xg[0] = x0
+        return Xg, Ug
+
+    def _fallback(self, t: float, status: str, t_start: float, radii: np.ndarray | None,
+                  iterations: int = 0) -> ControlOutput:
+        self.failures += 1
+        om = self.spec.omega_max
+        times = self.col.times(t)
+        if self._plan is not None:
+            t_prev, Xp, Up = self._plan
+            r = self._last_radii if radii is None else radii
+            X, U = self.col.shift(t_prev, Xp, Up, t, self.spec.half_track, r)
+            omega = U[0]
+        else:
+            r = self._last_radii if radii is None else radii
+            ref = np.vstack([np.asarray(v, float) * np.ones_like(times) for v in self.reference.at(times)])
+            U = self._reference_inputs(ref, r)
+            X = ref[:3].T
+            omega = U[0]
+        omega = np.clip(np.nan_to_num(omega), -om, om)
+        return ControlOutput(
+            omega=omega, success=False, status=f"fallback: {status}", iterations=iterations,
+            solve_time=time.perf_counter() - t_start, fallback=True, predicted=X, predicted_t=times,
+            predicted_omega=np.clip(U, -om, om),
+        )
+
+    def _accept(self, t: float, X: np.ndarray, U: np.ndarray, status: str, iterations: int, t_start: float,
+                budget: float, radii: np.ndarray) -> ControlOutput:
+        elapsed = time.perf_counter() - t_start
+        if elapsed > budget:
+            return self._fallback(t, f"over budget ({elapsed * 1e3:.1f} ms > {budget * 1e3:.1f} ms; {status})",
+                                  t_start, radii, iterations)
+        om = self.spec.omega_max
+        U = np.clip(U, -om, om)
+        self._plan = (t, X.copy(), U.copy())
+        self._last_radii = radii.copy()
+        return ControlOutput(
+            omega=U[0].copy(), success=True, status=status, iterations=iterations,
+            solve_time=time.perf_counter() - t_start, fallback=False, predicted=X,
+            predicted_t=self.col.times(t), predicted_omega=U,
+        )
+
+
+class NMPC(PlanController):
+    """Pseudospectral NMPC (paper §3). ``solve(t, pose, radii)`` is called at the control rate.
+
+    Parameters: ``spec`` (problem numbers), ``reference`` (has ``at(t)``), ``solver`` (one of
+    :data:`SOLVERS`), ``max_iter`` (IPOPT iteration limit; 0 forces every solve to fail),
+    ``time_budget`` (s, wall time of a warm solve), ``cold_time_budget`` (s, of an IPOPT seed solve),
+    ``nominal_radii`` (m, used before any valid radii have been seen).
+    """
+
+    def __init__(
+        self,
+        spec: ProblemSpec,
+        reference,
+        solver: str = "rti-daqp",
+        max_iter: int = 100,
+        time_budget: float = 0.1,
+        nominal_radii: tuple[float, float] = (2.0, 2.0),
+        cold_time_budget: float = 2.0,
+        qp_options: dict | None = None,
+    ) -> None:
+        if solver not in SOLVERS:
+            raise ValueError(f"unknown NMPC solver {solver!r}; expected one of {SOLVERS}")
+        super().__init__(spec, reference, nominal_radii, time_budget, cold_time_budget)
+        self.solver_name = solver
+        self.max_iter = int(max_iter)
+        self._build_nlp()
+        self._qp = CondensedQP(self.col, solver.split("-", 1)[1], qp_options) if solver != "ipopt" else None
+        self._lam: tuple[np.ndarray, np.ndarray] | None = None
+        self._consecutive_failures = 0
+
+    # ------------------------------------------------------------------------------------------
+    def _build_nlp(self) -> None:
+        col, sp, N = self.col, self.spec, self.col.N
+        h = col.h
+        w = ca.SX.sym("w", 5 * N)
+        p = ca.SX.sym("p", 5 + 5 * N)
+        X = ca.reshape(w[: 3 * N], N, 3).T  # 3 x N
+        U = ca.reshape(w[3 * N:], N, 2).T  # 2 x N
+        x0, radii = p[:3], p[3:5]
+        ref = ca.reshape(p[5:], N, 5).T  # 5 x N
+        f = col.model.casadi_derivative().map(N)
+        rates = col.model.casadi_rates().map(N)
+        Xfull = ca.vertcat(X, ca.repmat(radii, 1, N))
+        xdot = f(Xfull, U)[:3, :]
+        D = ca.DM(col.D)
+        colloc = (ca.mtimes(X, D.T) / h - xdot).T  # N x 3, rows = nodes
+        Vp = rates(Xfull, U)  # 2 x N
+        Wq = ca.DM(col.W).T
+        err = X - ref[:3, :]
+        J = sp.q_pose * ca.sum2(Wq * ca.sum1(err**2))
+        J += sp.q_speed * ca.sum2(Wq * (Vp[0, :] - ref[3, :]) ** 2)
+        J += sp.q_yaw_rate * ca.sum2(Wq * (Vp[1, :] - ref[4, :]) ** 2)
+        dU = ca.mtimes(U, D.T)  # 2 x N, d/dtau
+        if sp.rate_penalty > 0:
+            J += sp.rate_penalty * ca.sum2(Wq * ca.sum1((dU / h) ** 2))
+        g = ca.vertcat(ca.vec(colloc), X[:, 0] - x0, ca.vec(dU.T))
+        rate = sp.omega_rate_max * h
+        self._lbg = np.concatenate([np.zeros(3 * N + 3), -rate * np.ones(2 * N)])
+        self._ubg = np.concatenate([np.zeros(3 * N + 3), rate * np.ones(2 * N)])
+        self._lbx = np.concatenate([-np.inf * np.ones(3 * N), -sp.omega_max * np.ones(2 * N)])
+        self._ubx = -self._lbx
+        self._ubx[: 3 * N] = np.inf
+        opts = {
+            "print_time": False,
+            "ipopt.print_level": 0,
+            "ipopt.sb": "yes",
+            "ipopt.max_iter": self.max_iter,
+            "ipopt.warm_start_init_point": "yes",
+            "ipopt.mu_init": 1e-4,
+            "ipopt.tol": 1e-8,
+            "ipopt.max_wall_time": max(self.cold_time_budget, self.time_budget),
+            "error_on_fail": False,
+        }
+        self._nlp = ca.nlpsol("nmpc", "ipopt", {"x": w, "p": p, "f": J, "g": g}, opts)
+        self.nlp_size = (w.numel(), g.numel())
+
+    # ------------------------------------------------------------------------------------------
+    def _ipopt(self, x0, radii, ref, Xg, Ug):
+        wg = np.concatenate([Xg.T.ravel(), Ug.T.ravel()])
+        pv = np.concatenate([x0, radii, ref.ravel()])
+        args = {"x0": wg, "p": pv, "lbx": self._lbx, "ubx": self._ubx, "lbg": self._lbg, "ubg": self._ubg}
+        if self._lam is not None:
+            args["lam_x0"], args["lam_g0"] = self._lam
+        res = self._nlp(**args)
+        st = self._nlp.stats()
+        wv = np.asarray(res["x"]).ravel()
+        ok = bool(st.get("success", False)) and np.all(np.isfinite(wv))
+        it = int(st.get("iter_count", 0))
+        if not ok:
+            self._lam = None
+            return False, str(st.get("return_status", "failed")), it, None, None
+        self._lam = (np.asarray(res["lam_x"]).ravel(), np.asarray(res["lam_g"]).ravel())
+        N = self.col.N
+        return True, str(st["return_status"]), it, wv[: 3 * N].reshape(3, N).T, wv[3 * N:].reshape(2, N).T
+
+    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray) -> ControlOutput:
+        """Command [omega_R, omega_L] (rad/s) at time ``t`` (s) for the measured ``pose``
+        [x, y, psi] (m, m, rad) and the model radii [R_R, R_L] (m)."""
+        t_start = time.perf_counter()
+        self.solves += 1
+        try:
+            out = self._solve(t, pose, radii, t_start)
+        except Exception as exc:  # noqa: BLE001 - a solve must never stop the loop
+            out = self._fallback(t, f"exception: {type(exc).__name__}: {exc}", t_start, None)
+        self._consecutive_failures = self._consecutive_failures + 1 if out.fallback else 0
+        return out
+
+    def _solve(self, t: float, pose: np.ndarray, radii: np.ndarray, t_start: float) -> ControlOutput:
+        p = sanitize_pose(pose)
+        r = sanitize_radii(radii)
+        if p is None:
+            return self._fallback(t, "non-finite pose", t_start, r)
+        if r is None:
+            return self._fallback(t, "non-finite radii", t_start, None)
+        times = self.col.times(t)
+        ref, psi = reference_at_nodes(self.reference, times, p[2])
+        x0 = np.array([p[0], p[1], psi])
+        Xg, Ug = self._guess(t, x0, ref, r)
+        if self.max_iter == 0:
+            return self._fallback(t, "max_iter=0", t_start, r)
+        cold = self._plan is None or (self._qp is not None and self._consecutive_failures >= 2)
+        if self._qp is None or cold:
+            ok, status, it, X, U = self._ipopt(x0, r, ref, Xg, Ug)
+            budget = self.cold_time_budget if cold else self.time_budget
+            if cold and self._qp is not None:
+                status = f"ipopt seed: {status}"
+        else:
+            ok, status, X, U = self._qp.solve(Xg, Ug, r, x0, ref, Ug.T.ravel())
+            it, budget = 1, self.time_budget
+            status = f"rti: {status}"
+        if not ok:
+            return self._fallback(t, status, t_start, r, it)
+        return self._accept(t, X, U, status, it, t_start, budget, r)
+
+
+class OptiNMPC:
+    """The same NLP written plainly with ``casadi.Opti`` + IPOPT (verification and benchmark only).
+
+    ``solve(x0, radii, ref, X_init, U_init)`` returns ``(X (N,3), U (N,2), iterations)``;
+    primal and dual warm start from the previous call.
+    """
+
+    def __init__(self, spec: ProblemSpec) -> None:
+        col = Collocation(spec)
+        self.col = col
+        N, h = col.N, col.h
+        opti = ca.Opti()
+        X = opti.variable(3, N)
+        U = opti.variable(2, N)
+        x0 = opti.parameter(3)
+        r = opti.parameter(2)
+        ref = opti.parameter(5, N)
+        D = ca.DM(col.D)
+        f = col.model.casadi_derivative()
+        rates = col.model.casadi_rates()
+        J = 0
+        for j in range(N):
+            xj = ca.vertcat(X[:, j], r)
+            fj = f(xj, U[:, j])[:3]
+            opti.subject_to(ca.mtimes(X, D[j, :].T) / h == fj)
+            vp = rates(xj, U[:, j])
+            J += col.W[j] * (spec.q_pose * ca.sumsqr(X[:, j] - ref[:3, j]) + spec.q_speed * (vp[0] - ref[3, j]) ** 2
+                             + spec.q_yaw_rate * (vp[1] - ref[4, j]) ** 2)
+            if spec.rate_penalty > 0:
+                J += col.W[j] * spec.rate_penalty * ca.sumsqr(ca.mtimes(U, D[j, :].T) / h)
+        opti.subject_to(X[:, 0] == x0)
+        opti.subject_to(opti.bounded(-spec.omega_max, U, spec.omega_max))
+        rate = spec.omega_rate_max * h
+        opti.subject_to(opti.bounded(-rate, ca.mtimes(U, D.T), rate))
+        opti.minimize(J)
+        opti.solver("ipopt", {"print_time": False, "expand": True},
+                    {"print_level": 0, "sb": "yes", "tol": 1e-8, "warm_start_init_point": "yes", "mu_init": 1e-4})
+        self.opti, self.X, self.U, self.x0, self.r, self.ref = opti, X, U, x0, r, ref
+        self._lam = None
+
+    def solve(self, x0: np.ndarray, radii: np.ndarray, ref: np.ndarray, X_init: np.ndarray, U_init: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, int]:
+        o = self.opti
+        o.set_value(self.x0, x0)
+        o.set_value(self.r, radii)
+        o.set_value(self.ref, ref)
+        o.set_initial(self.X, X_init.T)
+        o.set_initial(self.U, U_init.T)
+        if self._lam is not None:
+            o.set_initial(o.lam_g, self._lam)
+        sol = o.solve()
+        self._lam = sol.value(o.lam_g)
+        it = int(sol.stats()["iter_count"])
+        return np.asarray(sol.value(self.X)).T, np.asarray(sol.value(self.U)).T, it

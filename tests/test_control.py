@@ -1,0 +1,287 @@
+"""NMPC / LMPC closed loops on the kinematic model (RK4 plant under ZOH), failure handling, factory.
+
+Numbers quoted in the report come from ``pytest tests/test_control.py -s`` (printed lines ``[ctl]``).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from ftc_mj.config import RunConfig
+from ftc_mj.control import (
+    NMPC,
+    LinearMPC,
+    OpenLoopController,
+    OptiNMPC,
+    ProblemSpec,
+    barycentric_interpolate,
+    build_controller,
+    build_reference,
+)
+from ftc_mj.control.collocation import Collocation, reference_at_nodes
+from ftc_mj.control.kinsim import simulate
+
+NOMINAL = (2.0, 2.0)
+OFFSET_POSE = (0.0, -5.0, 0.0)
+OMEGA_MAX = math.radians(1000.0)
+
+
+def left_step(t: float) -> tuple[float, float]:
+    """50 % left-wheel puncture at t = 10 s."""
+    return (2.0, 1.0) if t >= 10.0 else (2.0, 2.0)
+
+
+def _cfg(**ctl) -> RunConfig:
+    """Config with controller overrides; a generous time budget so that a loaded CI machine does not
+    turn a slow solve into a (correctly counted) fallback. Budget handling: test_over_budget_falls_back."""
+    cfg = RunConfig()
+    cfg.controller.time_budget = 5.0
+    for k, v in ctl.items():
+        setattr(cfg.controller, k, v)
+    return cfg
+
+
+def _settle_time(res, tol: float) -> float:
+    """First time after which |cross-track| stays below ``tol`` until the fault (10 s)."""
+    m = res.t < 10.0
+    bad = np.nonzero(np.abs(res.cross_track[m]) >= tol)[0]
+    return float(res.t[m][bad[-1] + 1]) if len(bad) else 0.0
+
+
+def _check_bounds(res) -> None:
+    assert np.max(np.abs(res.omega)) <= OMEGA_MAX + 1e-6
+    for o in res.outputs:
+        assert np.all(np.abs(o.omega) <= OMEGA_MAX + 1e-6)
+
+
+@pytest.fixture(scope="module")
+def rti_fault_run():
+    cfg = _cfg()  # default solver
+    ref = build_reference(cfg)
+    ctl = build_controller(cfg, ref)
+    res = simulate(ctl, ref, 20.0, OFFSET_POSE, true_radii=left_step)
+    return ctl, res
+
+
+def test_nmpc_default_offset_and_fault(rti_fault_run) -> None:
+    ctl, res = rti_fault_run
+    assert isinstance(ctl, NMPC) and ctl.solver_name == RunConfig().controller.solver
+    t01 = _settle_time(res, 0.1)
+    e_hold = res.max_abs_error(2.0, 10.0)
+    e_fault = res.max_abs_error(10.0, 20.0)
+    st = res.solve_times[1:] * 1e3
+    print(f"\n[ctl] nmpc {ctl.solver_name}: |e|<0.1 m from t={t01:.2f} s; max|e| 2-10 s {e_hold:.2e} m; "
+          f"max|e| 10-20 s after 50% left step (true radii) {e_fault:.2e} m; failures {ctl.failures}; "
+          f"warm solve median {np.median(st):.2f} ms p95 {np.percentile(st, 95):.2f} ms")
+    assert t01 <= 2.0
+    assert e_hold < 0.05
+    assert e_fault < 0.5
+    assert ctl.failures == 0
+    assert all(not o.fallback for o in res.outputs)
+    _check_bounds(res)
+    o = res.outputs[-1]
+    assert o.predicted.shape == (50, 3) and o.predicted_omega.shape == (50, 2)
+    np.testing.assert_allclose(o.predicted_t[[0, -1]], [19.9, 24.9])
+
+
+def test_nmpc_ipopt_offset_matches_opti() -> None:
+    cfg = _cfg(solver="ipopt")
+    ref = build_reference(cfg)
+    ctl = build_controller(cfg, ref)
+    res = simulate(ctl, ref, 8.0, OFFSET_POSE, true_radii=left_step)
+    t01 = _settle_time(res, 0.1)
+    print(f"\n[ctl] nmpc ipopt: |e|<0.1 m from t={t01:.2f} s; max|e| 2-8 s {res.max_abs_error(2.0, 8.0):.2e} m; "
+          f"iters median {np.median([o.iterations for o in res.outputs]):.0f}")
+    assert t01 <= 2.0 and res.max_abs_error(2.0, 8.0) < 0.05
+    assert ctl.failures == 0
+    _check_bounds(res)
+    # the plain Opti + IPOPT build of the same problem gives the same plan
+    spec = ctl.spec
+    col = Collocation(spec)
+    opti = OptiNMPC(spec)
+    ctl2 = NMPC(spec, ref, solver="ipopt")
+    out = ctl2.solve(0.0, np.array(OFFSET_POSE), np.array(NOMINAL))
+    r, _ = reference_at_nodes(ref, col.times(0.0), 0.0)
+    X, U, _ = opti.solve(np.array(OFFSET_POSE), np.array(NOMINAL), r, r[:3].T, out.predicted_omega)
+    np.testing.assert_allclose(out.predicted_omega, U, atol=1e-4)
+    np.testing.assert_allclose(out.predicted, X, atol=1e-5)
+
+
+@pytest.mark.parametrize("rate_penalty", [0.0, 0.05])
+def test_nmpc_rti_converges_to_ipopt(rate_penalty: float) -> None:
+    """RTI steps from the shifted IPOPT plan converge (Gauss–Newton, linearly) to IPOPT's solution
+    (also with the optional rate penalty, and IPOPT agrees with the plain Opti build)."""
+    ref = build_reference(RunConfig())
+    spec = ProblemSpec(rate_penalty=rate_penalty)
+    rti = NMPC(spec, ref, solver="rti-daqp")
+    ip = NMPC(spec, ref, solver="ipopt")
+    R = np.array(NOMINAL)
+    pose0 = np.array(OFFSET_POSE)
+    rti.solve(0.0, pose0, R)
+    o0 = ip.solve(0.0, pose0, R)
+    col = Collocation(spec)
+    tau1 = 0.1 / col.h - 1.0
+    pose1 = barycentric_interpolate(col.tau, o0.predicted, np.array([tau1]))[0] + np.array([0.03, -0.02, 0.005])
+    b = ip.solve(0.1, pose1, R)
+    r, _ = reference_at_nodes(ref, col.times(0.1), pose1[2])
+    Xg, Ug = rti._guess(0.1, pose1, r, R)
+    errs = []
+    for _ in range(6):
+        ok, _, Xg, Ug = rti._qp.solve(Xg, Ug, R, pose1, r)
+        assert ok
+        errs.append(np.abs(Ug - b.predicted_omega).max())
+    e_str = np.array2string(np.array(errs), precision=1)
+    print(f"\n[ctl] RTI iterates vs converged IPOPT plan, max|domega| (rad/s): {e_str}")
+    assert errs[0] < 0.2 and errs[-1] < 1e-3
+    a = rti.solve(0.1, pose1, R)
+    assert a.status.startswith("rti") and not a.fallback
+    np.testing.assert_allclose(a.omega, b.omega, atol=0.2)
+    if rate_penalty > 0:
+        X, U, _ = OptiNMPC(spec).solve(pose1, R, r, b.predicted, b.predicted_omega)
+        np.testing.assert_allclose(b.predicted_omega, U, atol=1e-4)
+
+
+def test_nmpc_nominal_radii_steady_error() -> None:
+    """No feedback of the radii: the model keeps the nominal radii after the puncture."""
+    cfg = _cfg()
+    ref = build_reference(cfg)
+    ctl = build_controller(cfg, ref)
+    res = simulate(ctl, ref, 30.0, (0.0, 0.0, 0.0), true_radii=left_step, model_radii=lambda t: NOMINAL)
+    rms = res.rms_error(20.0, 30.0)
+    mx = res.max_abs_error(20.0, 30.0)
+    print(f"\n[ctl] nmpc {cfg.controller.solver}, nominal radii after 50% left step: steady |e| RMS {rms:.2f} m, "
+          f"max {mx:.2f} m (t 20-30 s); with true radii it is < 1e-3 m")
+    assert 0.5 < rms < 5.0
+    assert ctl.failures == 0
+    _check_bounds(res)
+
+
+def test_lmpc_tracks_and_fault() -> None:
+    cfg = _cfg(kind="lmpc")
+    ref = build_reference(cfg)
+    ctl = build_controller(cfg, ref)
+    assert isinstance(ctl, LinearMPC)
+    res = simulate(ctl, ref, 10.0, OFFSET_POSE)
+    st = res.solve_times * 1e3
+    print(f"\n[ctl] lmpc {ctl.qpsol}: 5 m offset, max|e| 3-10 s {res.max_abs_error(3.0, 10.0):.2e} m; "
+          f"solve median {np.median(st):.2f} ms p95 {np.percentile(st, 95):.2f} ms")
+    assert res.max_abs_error(3.0, 10.0) < 0.5
+    assert all(o.success and not o.fallback for o in res.outputs)
+    _check_bounds(res)
+    # 50 % left fault: with the true radii, and with nominal radii
+    ctl = build_controller(cfg, ref)
+    res_t = simulate(ctl, ref, 25.0, (0.0, 0.0, 0.0), true_radii=left_step)
+    ctl2 = build_controller(cfg, ref)
+    res_n = simulate(ctl2, ref, 25.0, (0.0, 0.0, 0.0), true_radii=left_step, model_radii=lambda t: NOMINAL)
+    print(f"[ctl] lmpc after 50% left step at 10 s: true radii max|e| 10-25 s {res_t.max_abs_error(10, 25):.2e} m; "
+          f"nominal radii RMS 15-25 s {res_n.rms_error(15, 25):.2f} m (max {res_n.max_abs_error(10, 25):.2f} m); "
+          f"failures {ctl.failures}/{ctl2.failures}")
+    assert res_t.max_abs_error(10, 25) < 0.5
+    assert ctl.failures == 0 and ctl2.failures == 0
+    _check_bounds(res_t)
+    _check_bounds(res_n)
+
+
+def test_injected_failure_max_iter_zero() -> None:
+    cfg = _cfg(solver="ipopt", max_iter=0)
+    ref = build_reference(cfg)
+    ctl = build_controller(cfg, ref)
+    res = simulate(ctl, ref, 2.0, (0.0, 0.0, 0.0))
+    assert len(res.outputs) == 20
+    assert ctl.failures == 20
+    assert all(o.fallback and not o.success and "max_iter" in o.status for o in res.outputs)
+    _check_bounds(res)
+    # no plan ever existed: fallback is the reference feed-forward, which tracks the nominal circle
+    assert res.max_abs_error(0.0, 2.0) < 1e-6
+
+
+@pytest.mark.parametrize("solver", ["rti-daqp", "ipopt"])
+def test_injected_nan_radii_and_pose(solver: str) -> None:
+    cfg = _cfg(solver=solver)
+    ref = build_reference(cfg)
+    ctl = build_controller(cfg, ref)
+    bad = {12, 13, 14}
+
+    class Faulty:
+        failures = 0
+
+        def solve(self, t, pose, radii):
+            k = int(round(t * 10))
+            if k in bad:
+                radii = np.array([np.nan, 2.0])
+            if k == 20:
+                pose = np.array([np.nan, 0.0, 0.0])
+            return ctl.solve(t, pose, radii)
+
+    res = simulate(Faulty(), ref, 5.0, (0.0, 0.0, 0.0))
+    fb = [k for k, o in enumerate(res.outputs) if o.fallback]
+    assert fb == [12, 13, 14, 20]
+    assert ctl.failures == 4
+    assert "radii" in res.outputs[12].status and "pose" in res.outputs[20].status
+    # fallback = the shifted previous plan: command close to the steady command
+    np.testing.assert_allclose(res.outputs[13].omega, res.outputs[11].omega, atol=0.05)
+    assert res.max_abs_error(0.0, 5.0) < 0.05
+    _check_bounds(res)
+
+
+def test_over_budget_falls_back() -> None:
+    ref = build_reference(RunConfig())
+    ctl = NMPC(ProblemSpec(), ref, solver="rti-daqp", time_budget=1e-9)
+    ctl.solve(0.0, np.zeros(3), np.array(NOMINAL))  # cold IPOPT seed: its own budget
+    o = ctl.solve(0.1, np.array([1.0, 0.0, 0.02]), np.array(NOMINAL))
+    assert o.fallback and "over budget" in o.status and ctl.failures == 1
+
+
+def test_heading_wrap() -> None:
+    """A measured heading off by 2π k is the same pose."""
+    ref = build_reference(RunConfig())
+    a = NMPC(ProblemSpec(), ref, solver="ipopt")
+    b = NMPC(ProblemSpec(), ref, solver="ipopt")
+    pose = np.array([0.0, -1.0, 0.1])
+    oa = a.solve(0.0, pose, np.array(NOMINAL))
+    ob = b.solve(0.0, pose + np.array([0, 0, -4 * np.pi]), np.array(NOMINAL))
+    np.testing.assert_allclose(oa.omega, ob.omega, atol=1e-6)
+
+
+def test_shift_exact_for_polynomials() -> None:
+    col = Collocation(ProblemSpec(nodes=12))
+    t = col.times(0.0)
+    X = np.stack([t**3, t**2, t], axis=1)
+    U = np.stack([t**4, 1 + t], axis=1)
+    Xn, Un = col.shift(0.0, X, U, 0.1, 1.0, np.array(NOMINAL))
+    tn = col.times(0.1)
+    inside = tn <= t[-1]
+    np.testing.assert_allclose(Xn[inside, 0], tn[inside] ** 3, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(Un[inside, 0], tn[inside] ** 4, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(Un[~inside], U[-1][None, :].repeat((~inside).sum(), 0))
+
+
+def test_factory_kinds() -> None:
+    cfg = _cfg(kind="open-loop", open_loop_omega=(3.0, 4.0))
+    ctl = build_controller(cfg, build_reference(cfg))
+    assert isinstance(ctl, OpenLoopController)
+    np.testing.assert_allclose(ctl.solve(0.0, np.zeros(3), np.array(NOMINAL)).omega, [3.0, 4.0])
+    assert isinstance(build_controller(_cfg(kind="lmpc"), build_reference(cfg)), LinearMPC)
+    with pytest.raises(ValueError):
+        NMPC(ProblemSpec(), build_reference(cfg), solver="bogus")
+
+
+@pytest.mark.parametrize("kind", ["nmpc", "lmpc"])
+def test_wrapped_heading_in_closed_loop(kind: str) -> None:
+    """The plant reports psi wrapped to (-π, π]; the circle's psi passes π at t ≈ 15.7 s."""
+    cfg = _cfg(kind=kind)
+    ref = build_reference(cfg)
+    ctl = build_controller(cfg, ref)
+
+    class Wrapped:
+        failures = 0
+
+        def solve(self, t, pose, radii):
+            p = np.array(pose, dtype=float)
+            p[2] = (p[2] + np.pi) % (2 * np.pi) - np.pi
+            return ctl.solve(t, p, radii)
+
+    res = simulate(Wrapped(), ref, 20.0, (0.0, 0.0, 0.0))
+    assert res.max_abs_error(0.0, 20.0) < 1e-3
+    assert ctl.failures == 0

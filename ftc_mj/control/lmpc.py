@@ -33,7 +33,7 @@ class LinearMPC(PlanController):
         spec: ProblemSpec,
         reference,
         qpsol: str = "daqp",
-        time_budget: float = 0.1,
+        time_budget: float | None = 0.1,
         nominal_radii: tuple[float, float] = (2.0, 2.0),
         qp_options: dict | None = None,
     ) -> None:

@@ -43,16 +43,16 @@ SOLVERS = ("ipopt", "rti-daqp", "rti-qpoases", "rti-osqp")
 class PlanController:
     """Shared plan bookkeeping, warm-start shift and fallback of the MPCs."""
 
-    def __init__(self, spec: ProblemSpec, reference, nominal_radii: tuple[float, float], time_budget: float,
-                 cold_time_budget: float = 2.0, single_thread_blas: bool = True) -> None:
+    def __init__(self, spec: ProblemSpec, reference, nominal_radii: tuple[float, float], time_budget: float | None,
+                 cold_time_budget: float | None = 2.0, single_thread_blas: bool = True) -> None:
         if single_thread_blas:
             limit_blas_threads(1)
         self.spec = spec
         self.col = Collocation(spec)
         self.reference = reference
         self.nominal_radii = np.asarray(nominal_radii, dtype=float)
-        self.time_budget = float(time_budget)
-        self.cold_time_budget = float(cold_time_budget)
+        self.time_budget = None if time_budget is None else float(time_budget)
+        self.cold_time_budget = None if cold_time_budget is None else float(cold_time_budget)
         self.failures = 0
         """Number of samples that fell back (failed, over budget, or invalid input)."""
         self.solves = 0
@@ -108,9 +108,9 @@ class PlanController:
         )
 
     def _accept(self, t: float, X: np.ndarray, U: np.ndarray, status: str, iterations: int, t_start: float,
-                budget: float, radii: np.ndarray) -> ControlOutput:
+                budget: float | None, radii: np.ndarray) -> ControlOutput:
         elapsed = time.perf_counter() - t_start
-        if elapsed > budget:
+        if budget is not None and elapsed > budget:
             return self._fallback(t, f"over budget ({elapsed * 1e3:.1f} ms > {budget * 1e3:.1f} ms; {status})",
                                   t_start, radii, iterations)
         om = self.spec.omega_max
@@ -139,9 +139,9 @@ class NMPC(PlanController):
         reference,
         solver: str = "rti-daqp",
         max_iter: int = 100,
-        time_budget: float = 0.1,
+        time_budget: float | None = 0.1,
         nominal_radii: tuple[float, float] = (2.0, 2.0),
-        cold_time_budget: float = 2.0,
+        cold_time_budget: float | None = 2.0,
         qp_options: dict | None = None,
     ) -> None:
         if solver not in SOLVERS:
@@ -194,9 +194,11 @@ class NMPC(PlanController):
             "ipopt.warm_start_init_point": "yes",
             "ipopt.mu_init": 1e-4,
             "ipopt.tol": 1e-8,
-            "ipopt.max_wall_time": max(self.cold_time_budget, self.time_budget),
             "error_on_fail": False,
         }
+        budgets = [b for b in (self.cold_time_budget, self.time_budget) if b is not None]
+        if budgets:
+            opts["ipopt.max_wall_time"] = max(budgets)
         self._nlp = ca.nlpsol("nmpc", "ipopt", {"x": w, "p": p, "f": J, "g": g}, opts)
         self.nlp_size = (w.numel(), g.numel())
 

@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from ..config import RunConfig
-from ..model.kinematics import body_rates, pose_rates
+from ..model.kinematics import body_rates, inverse_rates, pose_rates
 from .faults import RadiusSchedule
 from .robot import _EPS_T, Plant, wheel_index
 from .truth import Truth, flag_names
@@ -88,6 +88,11 @@ class KinematicPlant:
         for w in (float(omega_R), float(omega_L)):
             out.append(0.0 if w != w else max(-lim, min(lim, w)))
         self._cmd = out
+
+    def set_motion(self, v: float, yaw_rate: float) -> None:
+        """Start in steady motion: wheel rates (rad/s) giving forward speed ``v`` (m/s) and ``yaw_rate`` (rad/s)."""
+        wR, wL = inverse_rates(v, yaw_rate, self._radius[0], self._radius[1], self.half_track)
+        self.set_command(wR, wL)
 
     def set_wheel_radius(self, wheel: str, r: float, reseat: bool = True) -> None:
         """Set a wheel's radius (m) now; ``reseat`` has no meaning here and is accepted for interface parity."""

@@ -27,6 +27,7 @@ import mujoco
 import numpy as np
 
 from ..config import RunConfig
+from ..model.kinematics import inverse_rates
 from .builder import build_model
 from .faults import RadiusSchedule
 from .truth import LARGE_ROLL, LIFTOFF, NAN, PHYSICS_WARNING, SCRAPE, SLIP, TIPPED, Truth, flag_names
@@ -154,6 +155,23 @@ class Plant:
                 self.set_wheel_radius("right" if i == 0 else "left", r, reseat=True)
         d.ctrl[:] = 0.0
         d.time = 0.0
+        mujoco.mj_forward(m, d)
+        self._save_good()
+
+    def set_motion(self, v: float, yaw_rate: float) -> None:
+        """Start in steady rolling motion (call right after :meth:`reset`): chassis forward speed ``v`` (m/s) and
+        ``yaw_rate`` (rad/s), wheels spinning at the rolling rates and the servos commanded to them, so that a run can
+        begin on the path at the reference speed instead of from rest (the torque limit allows only about 4 m/s^2)."""
+        m, d = self.model, self.data
+        q, dv = self._root_q, self._root_v
+        qw, qz = d.qpos[q + 3], d.qpos[q + 6]
+        psi = 2.0 * math.atan2(qz, qw)
+        d.qvel[dv : dv + 3] = (v * math.cos(psi), v * math.sin(psi), 0.0)
+        d.qvel[dv + 3 : dv + 6] = (0.0, 0.0, yaw_rate)  # free joint: angular velocity in the body frame (level)
+        wR, wL = inverse_rates(v, yaw_rate, self._radius[0], self._radius[1], self.half_track)
+        d.qvel[self._hinge_v[0]] = wR
+        d.qvel[self._hinge_v[1]] = wL
+        self.set_command(wR, wL)
         mujoco.mj_forward(m, d)
         self._save_good()
 

@@ -67,6 +67,9 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
     estimator = build_estimator(cfg) if cfg.estimator.kind != "none" else None
     decision = FaultDecision(cfg) if estimator is not None else None
     feedback = RadiusFeedback(cfg)
+    if cfg.plant.start_moving:
+        r0 = reference.at(0.0)
+        plant.set_motion(float(r0.V), float(r0.psidot))
     pose_rng = np.random.default_rng([cfg.seed, 7])
 
     n = cfg.n_estimator_steps

@@ -129,6 +129,7 @@ def compute_metrics(
         "p95": float(np.percentile(st, 95)) if st.size else float("nan"),
         "max": float(np.max(st)) if st.size else float("nan"),
     }
+    m["solves_over_period"] = int(np.sum(st > 1e3 / cfg.controller.rate))
     it = trace["solver_iterations"]
     m["solver_iterations_median"] = _nanstat(it, np.median)
     m["solver_failures"] = int(counters.get("solver_failures", 0))

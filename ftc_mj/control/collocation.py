@@ -232,6 +232,11 @@ class CondensedQP:
         self._lam_x = np.zeros(n)
         self._lam_a = np.zeros(nA)
 
+    def reset(self) -> None:
+        """Forget the dual warm start (a reused solver then behaves exactly like a new one)."""
+        self._lam_x[:] = 0.0
+        self._lam_a[:] = 0.0
+
     # ----------------------------------------------------------------------------------------
     def build(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray, ref: np.ndarray):
         """QP data for the linearisation about (Xg (N,3), Ug (N,2)).

@@ -60,10 +60,16 @@ class PlanController:
         self._last_radii = self.nominal_radii.copy()
 
     def reset(self) -> None:
-        """Forget the plan and the counters."""
+        """Forget the plan, the warm start and the counters: a reset controller behaves exactly like a new one."""
         self._plan = None
         self.failures = 0
         self.solves = 0
+        self._last_radii = self.nominal_radii.copy()
+        self._lam = None
+        self._consecutive_failures = 0
+        qp = getattr(self, "_qp", None)
+        if qp is not None:
+            qp.reset()
 
     # ------------------------------------------------------------------------------------------
     def _reference_inputs(self, ref: np.ndarray, radii: np.ndarray) -> np.ndarray:

@@ -25,12 +25,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..config import RunConfig
-from ..control import build_controller, build_reference
+from ..control import build_reference
 from ..control.base import ControlOutput
 from ..estimation import FaultDecision, build_estimator
 from ..estimation.base import FilterOutput, Measurement
-from ..plant import Sensors, build_plant
+from ..plant import Sensors
 from ..recorder import Event, Solve
+from .cache import controller_for, plant_for
 from .columns import BASE_COLUMNS
 from .metrics import fault_onsets
 from .reconfig import RadiusFeedback
@@ -60,10 +61,10 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
     an unexpected exception ends the run early with ``error`` set.
     """
     wall0 = time.perf_counter()
-    plant = build_plant(cfg)
+    plant = plant_for(cfg)
     sensors = Sensors(cfg.sensors, cfg.seed)
     reference = build_reference(cfg)
-    controller = build_controller(cfg, reference)
+    controller = controller_for(cfg, reference)
     estimator = build_estimator(cfg) if cfg.estimator.kind != "none" else None
     decision = FaultDecision(cfg) if estimator is not None else None
     feedback = RadiusFeedback(cfg)

@@ -30,7 +30,7 @@ from ..control.base import ControlOutput
 from ..estimation import FaultDecision, build_estimator
 from ..estimation.base import FilterOutput, Measurement
 from ..plant import Sensors
-from ..recorder import Event, Solve
+from ..recorder import Event, RobotGeometry, Solve
 from .cache import controller_for, plant_for
 from .columns import BASE_COLUMNS
 from .metrics import fault_onsets
@@ -51,6 +51,24 @@ class SimResult:
     reference_path: np.ndarray | None = None
     wall_time: float = 0.0
     error: str | None = None
+    geometry: RobotGeometry | None = None
+
+
+def robot_geometry(plant: object, cfg: RunConfig) -> RobotGeometry:
+    """Sizes (m) to draw the robot, read by name from the MuJoCo model (defaults for the kinematic plant)."""
+    m = getattr(plant, "model", None)
+    if m is None:
+        return RobotGeometry(half_track=cfg.plant_half_track, nominal_radius=cfg.plant_wheel_radius)
+    box = m.geom("chassis_box")
+    z_body = float(m.body("chassis").pos[2])
+    return RobotGeometry(
+        half_track=cfg.plant_half_track,
+        wheel_width=2.0 * float(m.geom("wheel_right_visual").size[1]),
+        chassis_half_sizes=tuple(float(v) for v in box.size[:3]),
+        nominal_radius=cfg.plant_wheel_radius,
+        chassis_offset_x=float(box.pos[0]),
+        chassis_height=z_body + float(box.pos[2]),
+    )
 
 
 def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) -> SimResult:
@@ -198,4 +216,5 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
     ref_path = reference.path_points(720)
     return SimResult(trace=cols, solves=solves, events=sorted(events, key=lambda e: e.t), counters=counters,
                      decision=last_ds, n_modes=n_modes, reference_path=ref_path,
-                     wall_time=time.perf_counter() - wall0, error=error)
+                     wall_time=time.perf_counter() - wall0, error=error,
+                     geometry=robot_geometry(plant, cfg))

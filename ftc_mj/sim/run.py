@@ -98,11 +98,15 @@ def execute(
         write_toml(tmp / "config.toml", config_to_toml_dict(cfg))
         write_parquet(tmp / "trace.parquet", res.trace)
         if want_rrd:
-            from ..recorder import write_rrd  # imported lazily: rerun is heavy and optional here
+            from ..recorder import write_rrd
 
             t0 = time.perf_counter()
-            write_rrd(tmp / "run.rrd", res.trace, run_id=final.name, solves=res.solves, events=res.events,
-                      reference_path=res.reference_path, omega_max=cfg.robot.omega_max, n_modes=res.n_modes)
+            # the suspended chassis stays level at constant height, so the robot is drawn on the ground with
+            # each wheel touching it (no ``z`` column: see RobotGeometry)
+            drawn = {k: v for k, v in res.trace.items() if k != "z"}
+            write_rrd(tmp / "run.rrd", drawn, run_id=final.name, solves=res.solves, events=res.events,
+                      reference_path=res.reference_path, omega_max=cfg.robot.omega_max, n_modes=res.n_modes,
+                      geometry=res.geometry)
             metrics["rrd_write_s"] = time.perf_counter() - t0
         metrics["total_wall_time_s"] = res.wall_time + metrics.get("rrd_write_s", 0.0)
         write_json(tmp / "metrics.json", metrics)

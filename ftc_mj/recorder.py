@@ -147,11 +147,17 @@ class Solve:
     iterations: int
     status: str
     fallback: bool = False
+    success: bool | None = None
+    """The controller's own verdict; ``None`` = judge from ``status``."""
 
     @property
     def ok(self) -> bool:
         """True if the solve converged and no fallback was used."""
-        return (not self.fallback) and self.status.strip().lower() in _OK_STATUSES
+        if self.fallback:
+            return False
+        if self.success is not None:
+            return self.success
+        return self.status.strip().lower() in _OK_STATUSES
 
 
 @dataclass(frozen=True)

@@ -188,7 +188,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
                 c["solver_ok"][k] = float(cmd.success and not cmd.fallback)
                 if cfg.controller.kind != "open-loop":
                     solves.append(Solve(t=t, predicted=cmd.predicted, solve_time_ms=cmd.solve_time * 1e3,
-                                        iterations=cmd.iterations, status=cmd.status, fallback=cmd.fallback))
+                                        iterations=cmd.iterations, status=cmd.status, fallback=cmd.fallback,
+                                        success=cmd.success))
                     if cmd.fallback:
                         events.append(Event(t, "error", f"solver fallback: {cmd.status}"))
             if estimator is not None:

@@ -101,16 +101,109 @@ def run(
         raise typer.Exit(1)
 
 
+class RrdMode(StrEnum):
+    none = "none"
+    failures = "failures"
+    all = "all"
+
+
+@app.command()
+def study(
+    study_file: Annotated[Path, typer.Argument(help="Study file (runs/studies/*.toml).")],
+    out: Annotated[Path | None, typer.Option(help="Study output folder (default: runs/out/studies/<name>).")] = None,
+    workers: Annotated[int, typer.Option(help="Local worker processes (ignored with --address).")] = 2,
+    address: Annotated[str | None, typer.Option(help="Existing dask scheduler, tcp://HOST:PORT.")] = None,
+    rrd: Annotated[RrdMode, typer.Option(help="Per-run Rerun recordings: none, failures or all.")] = RrdMode.none,
+    limit: Annotated[int | None, typer.Option(help="Compute at most N of the missing runs now.")] = None,
+    seeds: Annotated[int | None, typer.Option(help="Replace the study's seed count (part of its identity).")] = None,
+    set_: Annotated[list[str] | None, typer.Option("--set", help="Extra base override dotted.key=value "
+                                                   "(part of the study's identity).")] = None,
+    retry_failed: Annotated[bool, typer.Option("--retry-failed", help="Recompute runs whose row failed.")] = False,
+    serial: Annotated[bool, typer.Option("--serial", help="Run in this process, without dask.")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+) -> None:
+    """Sweep a study on dask.distributed: every finished run is persisted at once under
+    OUT/rows/; re-running the same command computes only the missing runs; OUT/results.parquet,
+    OUT/summary.md and OUT/figures/ are written at the end."""
+    from .study.runner import StudyInterruptedError, run_study, validate_address
+    from .study.spec import load_study
+
+    try:
+        if address is not None:
+            validate_address(address)
+        if workers < 1:
+            raise BadInput("--workers: must be >= 1")
+        if limit is not None and limit < 0:
+            raise BadInput("--limit: must be >= 0")
+        plan = load_study(study_file, extra_overrides=_overrides(set_ or []), seeds=seeds)
+        out_dir = out if out is not None else Path("runs/out/studies") / plan.spec.name
+        report = run_study(plan, out_dir, workers=workers, address=address, serial=serial, rrd=rrd.value,
+                           limit=limit, retry_failed=retry_failed, progress=not quiet and sys.stderr.isatty())
+    except BadInput as err:
+        _fail(str(err))
+        return
+    except StudyInterruptedError as err:
+        typer.echo(f"ftc-mj: {err}", err=True)
+        raise typer.Exit(130) from None
+    done = report.already_done + len(report.computed)
+    typer.echo(f"{plan.spec.name}: computed {len(report.computed)} runs ({len(report.failed)} failed) in "
+               f"{report.wall_time_s:.1f} s; {done} of {report.planned} done; results in {out_dir}")
+
+
 @app.command()
 def view(run_dir: Annotated[Path, typer.Argument(help="A run directory (or a .rrd file).")]) -> None:
     """Open a run's Rerun recording in the Rerun viewer."""
+    from .errors import RunFailed
     from .recorder import open_viewer
 
-    path = run_dir / "run.rrd" if run_dir.is_dir() else run_dir
     try:
-        open_viewer(path)
+        open_viewer(run_dir)
+    except BadInput as err:
+        _fail(f"RUN_DIR: {err}")
+    except RunFailed as err:
+        _fail(str(err), code=1)
+
+
+@app.command()
+def paper(
+    out: Annotated[Path, typer.Option(help="Output folder: runs/, summary.csv, claims.md, figures/.")] = Path(
+        "runs/out/paper"),
+    jobs: Annotated[int, typer.Option(help="Parallel worker processes.")] = 2,
+    duration: Annotated[float | None, typer.Option(help="Shorten every run to this many seconds.")] = None,
+    only: Annotated[list[str] | None, typer.Option("--only", help="Run only labels matching this glob "
+                                                   "(repeatable), e.g. 's2-*' or 's4-imm-ukf5-*'.")] = None,
+    extras: Annotated[bool, typer.Option("--extras/--no-extras",
+                                         help="Add runs beyond the paper's 38 (literal 'paper' IMM).")] = True,
+    no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write Rerun recordings.")] = False,
+    fresh: Annotated[bool, typer.Option("--fresh", help="Recompute runs even if OUT/runs has them.")] = False,
+    list_: Annotated[bool, typer.Option("--list", help="Print the matrix labels and exit.")] = False,
+    report_only: Annotated[bool, typer.Option("--report-only", help="Run nothing: rebuild summary, claims and "
+                                              "figures from the newest run of each label in OUT/runs.")] = False,
+) -> None:
+    """Run the paper's test matrix (38 runs + extras) and write summary.csv, claims.md and figures/."""
+    from .report.matrix import full_matrix, select
+
+    if list_:
+        for e in select(full_matrix(extras), only):
+            typer.echo(f"{e.label}\t{e.scenario}\t" + " ".join(f"{k}={v}" for k, v in e.overrides.items()))
+        return
+    from .report.paper import run_paper
+
+    try:
+        res = run_paper(out, jobs=jobs, duration=duration, only=only, extras=extras, rrd=not no_rrd, fresh=fresh,
+                        echo=lambda s: typer.echo(s, err=True), report_only=report_only)
     except BadInput as err:
         _fail(str(err))
+        return
+    except KeyboardInterrupt:
+        typer.echo("ftc-mj: interrupted; finished runs are kept and reused next time", err=True)
+        raise typer.Exit(130) from None
+    typer.echo(f"{len(res.rows)} runs in {res.wall_time_s:.1f} s (report {res.report_time_s:.1f} s) → {res.out}")
+    for c in res.claims:
+        typer.echo(f"  claim {c.id:>2}: {c.verdict:<15} {c.title}")
+    if res.failed:
+        typer.echo(f"ftc-mj: {len(res.failed)} run(s) failed: {', '.join(res.failed)}", err=True)
+        raise typer.Exit(1)
 
 
 @app.command()

@@ -82,3 +82,24 @@ def test_killed_run_leaves_no_output_under_final_name(tmp_path: Path) -> None:
     proc.wait()
     visible = [p for p in tmp_path.iterdir() if not p.name.startswith(".")] if tmp_path.exists() else []
     assert visible == []
+
+
+def test_view_bad_run_dir(tmp_path: Path) -> None:
+    res = CliRunner().invoke(app, ["view", str(tmp_path)])
+    assert res.exit_code == 2
+    assert res.stderr.count("\n") == 1 and "RUN_DIR" in res.stderr
+
+
+def test_view_opens_the_recording(tmp_path: Path, monkeypatch) -> None:
+    """``ftc-mj view`` hands the run's recording to the Rerun viewer binary."""
+    import ftc_mj.recorder as recorder
+
+    (tmp_path / "run.rrd").write_bytes(b"")
+    seen: list[list[str]] = []
+
+    class Done:
+        returncode = 0
+
+    monkeypatch.setattr(recorder.subprocess, "run", lambda cmd, check=False: seen.append(cmd) or Done())
+    assert CliRunner().invoke(app, ["view", str(tmp_path)]).exit_code == 0
+    assert seen and seen[0][1] == str(tmp_path / "run.rrd")

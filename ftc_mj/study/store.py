@@ -1,0 +1,134 @@
+"""The study output folder: identity check, per-run rows, the run log and the collected table.
+
+Layout of ``OUT/``::
+
+    study.toml        copy of the study file (of the latest invocation; same identity)
+    plan.json         the resolved plan (run keys, axis labels, seeds) and the study hash
+    rows/<key>.parquet one metrics row per finished run, written atomically by the client
+    log.jsonl         one line per invocation start/end and per persisted run (who computed what)
+    runs/<run-id>/    per-run recordings (``--rrd failures|all``)
+    results.parquet   all rows of the plan, collected atomically at the end
+    summary.md, figures/  the analysis
+
+Nothing here ever deletes or rewrites a row of another run; a row is replaced only when its run is
+explicitly recomputed (``--retry-failed``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+import polars as pl
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from ..errors import BadInput
+from ..io import atomic_path, write_json
+from .spec import StudyPlan
+
+
+class StudyStore:
+    """Reads and writes one study output folder."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = Path(root)
+        self.rows_dir = self.root / "rows"
+        self.runs_dir = self.root / "runs"
+        self.log_path = self.root / "log.jsonl"
+
+    # ------------------------------------------------------------------ identity
+    def check(self, plan: StudyPlan) -> None:
+        """Refuse (BadInput) an output folder that holds another study's results. Read-only."""
+        if self.root.exists() and not self.root.is_dir():
+            raise BadInput(f"--out: {self.root} exists and is not a directory")
+        pj = self.root / "plan.json"
+        if pj.is_file():
+            try:
+                old = json.loads(pj.read_text())
+            except (OSError, json.JSONDecodeError) as err:
+                raise BadInput(f"--out: {pj} is unreadable ({err}); use another --out") from None
+            if old.get("study_hash") != plan.study_hash:
+                raise BadInput(f"--out: {self.root} holds results of a different study "
+                               f"({old.get('study')!r} from {old.get('study_file')}); use another --out")
+        elif self.rows_dir.is_dir() and any(self.rows_dir.glob("*.parquet")):
+            raise BadInput(f"--out: {self.root} holds rows but no plan.json; use another --out")
+
+    def init(self, plan: StudyPlan) -> None:
+        """Write the study file copy and (first invocation) the plan."""
+        self.rows_dir.mkdir(parents=True, exist_ok=True)
+        # the copy follows the latest invocation (same identity; only [analysis] may have changed)
+        with atomic_path(self.root / "study.toml") as tmp:
+            shutil.copyfile(plan.path, tmp)
+        if not (self.root / "plan.json").is_file():
+            write_json(self.root / "plan.json", plan.to_json())
+
+    # ------------------------------------------------------------------ rows
+    def row_path(self, key: str) -> Path:
+        return self.rows_dir / f"{key}.parquet"
+
+    def done_keys(self) -> set[str]:
+        """Keys of runs whose row has been persisted."""
+        if not self.rows_dir.is_dir():
+            return set()
+        return {p.stem for p in self.rows_dir.glob("*.parquet") if not p.name.startswith(".")}
+
+    def failed_keys(self) -> set[str]:
+        """Keys of persisted rows whose run failed."""
+        out = set()
+        for p in self.rows_dir.glob("*.parquet"):
+            if p.name.startswith("."):
+                continue
+            t = pq.read_table(p, columns=["status"])
+            if t.num_rows and t.column("status")[0].as_py() != "ok":
+                out.add(p.stem)
+        return out
+
+    def write_row(self, key: str, row: dict[str, Any]) -> None:
+        """Persist one run's row atomically (temporary file + rename)."""
+        table = pa.Table.from_pylist([row])
+        with atomic_path(self.row_path(key)) as tmp:
+            pq.write_table(table, tmp)
+
+    def read_rows(self, keys: list[str] | None = None) -> pl.DataFrame:
+        """All persisted rows (or those of ``keys`` that exist), as one table."""
+        paths = [self.row_path(k) for k in keys] if keys is not None else sorted(self.rows_dir.glob("[!.]*.parquet"))
+        frames = [pl.read_parquet(p) for p in paths if p.is_file()]
+        if not frames:
+            return pl.DataFrame()
+        return pl.concat(frames, how="diagonal_relaxed")
+
+    def collect(self, plan: StudyPlan) -> pl.DataFrame:
+        """Write ``results.parquet`` (atomically) with the rows of the plan's runs, in plan order."""
+        df = self.read_rows([r.key for r in plan.runs])
+        if df.height:
+            df = df.sort("run_index")
+        with atomic_path(self.root / "results.parquet") as tmp:
+            df.write_parquet(tmp)
+        return df
+
+    # ------------------------------------------------------------------ log
+    def log(self, event: str, **data: Any) -> None:
+        """Append one JSON line to ``log.jsonl`` (flushed and fsynced)."""
+        self.root.mkdir(parents=True, exist_ok=True)
+        line = json.dumps({"time": time.time(), "event": event, **data}, default=str)
+        with open(self.log_path, "a") as fh:
+            fh.write(line + "\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+
+    def read_log(self) -> list[dict[str, Any]]:
+        """Parsed ``log.jsonl`` (a torn last line from a killed process is skipped)."""
+        if not self.log_path.is_file():
+            return []
+        out = []
+        for line in self.log_path.read_text().splitlines():
+            try:
+                out.append(json.loads(line))
+            except json.JSONDecodeError:
+                continue
+        return out

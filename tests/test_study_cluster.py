@@ -1,0 +1,194 @@
+"""Studies with the real simulation: a real LocalCluster (2 workers) against the same runs made
+serially, an interrupted CLI study resumed without recomputation, and the shipped studies at
+reduced size (their summaries state the findings with numbers).
+
+Kept small for 2 shared cores: short durations, one seed, first and last value of each axis.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+import tomllib
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import polars as pl
+import pytest
+import tomli_w
+
+from ftc_mj.study.runner import open_client, run_study, wall_columns
+from ftc_mj.study.spec import load_study
+from ftc_mj.study.store import StudyStore
+
+ROOT = Path(__file__).resolve().parents[1]
+STUDIES = ROOT / "runs" / "studies"
+
+SMALL = """
+name = "small"
+description = "8 short runs: left 50 % puncture at 1.5 s"
+scenario = "scenario2"
+seeds = 2
+[base]
+duration = 4.0
+feedback = false
+"faults.left" = [[1.5, 2.0], [1.5, 1.0]]
+"estimator.decision.dwell" = 0.2
+"controller.time_budget" = 5.0   # no wall-time-dependent fallbacks: runs must be reproducible
+[[axes]]
+name = "sensors"
+labels = ["speed", "speed+yaw"]
+values = [{}, { "sensors.yaw_rate_sigma" = 0.01 }]
+[[axes]]
+name = "estimator"
+key = "estimator.kind"
+values = ["ekf", "ukf"]
+[[analysis.findings]]
+metric = "abs_radius_final_error_L"
+axis = "sensors"
+baseline = "speed"
+unit = "m"
+"""
+
+
+def comparable(df: pl.DataFrame) -> pl.DataFrame:
+    """Drop timing/bookkeeping columns; order by plan index."""
+    return df.drop(wall_columns(df.columns)).sort("run_index")
+
+
+def assert_same_rows(a: pl.DataFrame, b: pl.DataFrame) -> None:
+    """Row by row, every non-wall-time column identical (NaN/None equal)."""
+    a, b = comparable(a), comparable(b)
+    assert a.columns == b.columns or set(a.columns) == set(b.columns)
+    b = b.select(a.columns)
+    assert a.height == b.height
+    for ra, rb in zip(a.iter_rows(named=True), b.iter_rows(named=True), strict=True):
+        diff = {k: (ra[k], rb[k]) for k in ra if ra[k] != rb[k] and not (_nan(ra[k]) and _nan(rb[k]))}
+        assert not diff, (ra["run_key"], diff)
+
+
+def _nan(x: Any) -> bool:
+    return x is None or (isinstance(x, float) and x != x)
+
+
+@pytest.fixture(scope="module")
+def small_study(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    p = tmp_path_factory.mktemp("study") / "small.toml"
+    p.write_text(textwrap.dedent(SMALL))
+    return p
+
+
+@pytest.fixture(scope="module")
+def serial_reference(small_study: Path, tmp_path_factory: pytest.TempPathFactory) -> pl.DataFrame:
+    rep = run_study(load_study(small_study), tmp_path_factory.mktemp("serial"), serial=True, analyse=False)
+    assert rep.results is not None
+    return rep.results
+
+
+@pytest.fixture(scope="module")
+def client() -> Iterator[Any]:
+    with open_client(2, None) as cl:
+        yield cl
+
+
+def test_cluster_matches_serial(small_study: Path, serial_reference: pl.DataFrame, client: Any,
+                                tmp_path: Path) -> None:
+    plan = load_study(small_study)
+    assert len(plan.runs) == 8
+    rep = run_study(plan, tmp_path, client=client)
+    assert rep.results is not None and rep.results.height == 8 and not rep.failed, rep.results["error"].to_list()
+    workers = set(rep.results["worker"].to_list())
+    assert len(workers) == 2  # both worker processes did runs
+    # solvers are built once per worker process (ftc_mj.sim.cache), then reset and reused
+    per_worker = rep.results.group_by("worker").agg(pl.col("worker_controller_builds").max().alias("builds"),
+                                                    pl.col("worker_controller_hits").max().alias("hits"))
+    assert per_worker["builds"].to_list() == [1, 1] and sum(per_worker["hits"].to_list()) == 8 - 2
+    assert_same_rows(rep.results, serial_reference)
+    assert re.search(r"sensors = speed\+yaw (reduces|raises) it from [0-9.]+ ± [0-9.e-]+ m", (tmp_path / "summary.md")
+                     .read_text())
+
+
+def _cli(*args: str) -> list[str]:
+    return [sys.executable, "-m", "ftc_mj.cli", "study", *args]
+
+
+def test_interrupted_study_resumes_without_recomputing(small_study: Path, serial_reference: pl.DataFrame,
+                                                       tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    proc = subprocess.Popen(_cli(str(small_study), "--out", str(out), "--workers", "2", "-q"), cwd=ROOT, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+    deadline = time.time() + 120
+    rows = out / "rows"
+    try:
+        while time.time() < deadline and proc.poll() is None:
+            if rows.is_dir() and len(list(rows.glob("[!.]*.parquet"))) >= 2:
+                break
+            time.sleep(0.05)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)  # the client and its local workers (same new session)
+        proc.wait(timeout=30)
+    n_before = len(list(rows.glob("[!.]*.parquet")))
+    assert 2 <= n_before < 8, f"kill came too late ({n_before} rows)"
+    assert not (out / "results.parquet").exists()
+    res = subprocess.run(_cli(str(small_study), "--out", str(out), "--workers", "2", "-q"), cwd=ROOT, env=env,
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    log = StudyStore(out).read_log()
+    starts = [e for e in log if e["event"] == "start"]
+    assert len(starts) == 2 and starts[1]["done_before"] == n_before and starts[1]["todo"] == 8 - n_before
+    persisted = [(e["invocation"], e["run_key"]) for e in log if e["event"] == "run"]
+    assert len(persisted) == 8 and len({k for _, k in persisted}) == 8  # no run persisted twice
+    second = [k for inv, k in persisted if inv == starts[1]["invocation"]]
+    assert len(second) == 8 - n_before
+    final = pl.read_parquet(out / "results.parquet")
+    assert_same_rows(final, serial_reference)
+    assert set(final["invocation"].to_list()) == {starts[0]["invocation"], starts[1]["invocation"]}
+
+
+def reduced(name: str, tmp_path: Path, overrides: dict[str, Any], keep: dict[str, list[Any]]) -> Path:
+    """A copy of a shipped study with one seed, shorter runs and only the axis labels in ``keep``."""
+    data = tomllib.loads((STUDIES / f"{name}.toml").read_text())
+    data["seeds"] = 1
+    data.setdefault("base", {}).update(overrides)
+    for ax in data.get("axes", []):
+        col = ax.get("name", ax.get("key"))
+        labels = ax.get("labels", ax["values"])
+        idx = [labels.index(v) for v in keep[col]]
+        ax["values"] = [ax["values"][i] for i in idx]
+        if "labels" in ax:
+            ax["labels"] = [ax["labels"][i] for i in idx]
+    p = tmp_path / f"{name}.toml"
+    p.write_text(tomli_w.dumps(data))
+    return p
+
+
+NUM = r"[0-9.]+(e[-+][0-9]+)?"
+
+
+@pytest.mark.parametrize(("name", "overrides", "keep", "expect"), [
+    ("observability", {"duration": 12.0}, {"sensors": ["speed", "speed+yaw+pos"], "estimator": ["ukf"]},
+     rf"final left-radius error .*: sensors = speed\+yaw\+pos (reduces|raises) it from {NUM} m \(speed, n = 1\) "
+     rf"to {NUM} m"),
+    ("mismatch", {"duration": 12.0}, {"half_track": [0.9, 1.1], "friction": [1.0], "variant": ["suspended"]},
+     r"detection delay: half_track = 1\.1 (reduces|raises|leaves)"),
+    ("severity", {"duration": 10.0}, {"severity": [0.1, 0.9], "wheel": ["left"], "estimator": ["ekf"]},
+     r"detection delay \(estimator = ekf\): severity = 0\.9 (reduces|raises|leaves)"),
+])
+def test_shipped_study_reduced(name: str, overrides: dict[str, Any], keep: dict[str, list[Any]], expect: str,
+                               client: Any, tmp_path: Path) -> None:
+    plan = load_study(reduced(name, tmp_path, overrides, keep))
+    assert len(plan.runs) == 2
+    rep = run_study(plan, tmp_path / "out", client=client)
+    assert rep.results is not None and rep.results.height == len(plan.runs)
+    text = (tmp_path / "out" / "summary.md").read_text()
+    assert "## Findings" in text
+    assert re.search(expect, text), text[:3000]
+    assert (tmp_path / "out" / "figures" / f"by_{plan.axis_columns[0]}.png").is_file()

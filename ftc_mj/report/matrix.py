@@ -1,0 +1,119 @@
+"""The paper's test matrix (paper §4, DESIGN §6 ``ftc-mj paper``) as a list of (label, overrides).
+
+- scenarios 1–4 × {EKF, UKF, IMM-EKF, IMM-UKF (4 models)} × feedback {off, on}, NMPC — 32 runs;
+- scenario 4 with the 5-model IMM-EKF and IMM-UKF, feedback off and on — 4 runs;
+- the NMPC-vs-LMPC comparison with the UKF and feedback on, scenarios 2 and 4 — the NMPC runs are
+  already above, so 2 LMPC runs.
+
+That is the paper's 38 runs. :data:`EXTRA_RUNS` adds runs beyond the paper: the IMM as literally
+printed (variant ``paper``, which collapses) beside the default ``hypothesis`` variant.
+
+Labels are ``s<N>-<estimator>[5]-<fb|nofb>-<controller>[-paper]``, e.g. ``s4-imm-ukf5-fb-nmpc``;
+``ftc-mj paper --only GLOB`` selects by label.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+from dataclasses import dataclass, field
+from typing import Any
+
+SCENARIOS = ("scenario1", "scenario2", "scenario3", "scenario4")
+ESTIMATORS = ("ekf", "ukf", "imm-ekf", "imm-ukf")
+IMM_ESTIMATORS = ("imm-ekf", "imm-ukf")
+
+
+@dataclass(frozen=True)
+class MatrixEntry:
+    """One run of the matrix: a label, the built-in scenario and the config overrides."""
+
+    label: str
+    scenario: str
+    overrides: dict[str, Any] = field(default_factory=dict)
+    extra: bool = False
+    """True for runs beyond the paper's 38."""
+
+    @property
+    def estimator(self) -> str:
+        return str(self.overrides["estimator.kind"])
+
+    @property
+    def feedback(self) -> bool:
+        return bool(self.overrides["feedback"])
+
+    @property
+    def controller(self) -> str:
+        return str(self.overrides["controller.kind"])
+
+    @property
+    def imm_models(self) -> int | None:
+        return int(self.overrides.get("estimator.imm_models", 4)) if self.estimator.startswith("imm") else None
+
+    @property
+    def imm_variant(self) -> str | None:
+        return str(self.overrides.get("estimator.imm_variant", "hypothesis")) if self.estimator.startswith("imm") \
+            else None
+
+
+def make_label(scenario: str, estimator: str, feedback: bool, controller: str = "nmpc", imm_models: int = 4,
+               imm_variant: str = "hypothesis") -> str:
+    """The label of a matrix entry (see the module docstring)."""
+    n = scenario.removeprefix("scenario")
+    est = estimator + ("5" if estimator.startswith("imm") and imm_models == 5 else "")
+    label = f"s{n}-{est}-{'fb' if feedback else 'nofb'}-{controller}"
+    if estimator.startswith("imm") and imm_variant == "paper":
+        label += "-paper"
+    return label
+
+
+def _entry(scenario: str, estimator: str, feedback: bool, controller: str = "nmpc", imm_models: int = 4,
+           imm_variant: str = "hypothesis", extra: bool = False) -> MatrixEntry:
+    ov: dict[str, Any] = {"estimator.kind": estimator, "feedback": feedback, "controller.kind": controller}
+    if estimator.startswith("imm"):
+        ov["estimator.imm_models"] = imm_models
+        ov["estimator.imm_variant"] = imm_variant
+    return MatrixEntry(make_label(scenario, estimator, feedback, controller, imm_models, imm_variant),
+                       scenario, ov, extra)
+
+
+def paper_matrix() -> list[MatrixEntry]:
+    """The paper's 38 runs, in a stable order."""
+    out: list[MatrixEntry] = []
+    for sc in SCENARIOS:
+        for est in ESTIMATORS:
+            for fb in (False, True):
+                out.append(_entry(sc, est, fb))
+    for est in IMM_ESTIMATORS:
+        for fb in (False, True):
+            out.append(_entry("scenario4", est, fb, imm_models=5))
+    for sc in ("scenario2", "scenario4"):
+        out.append(_entry(sc, "ukf", True, controller="lmpc"))
+    return out
+
+
+EXTRA_RUNS: tuple[tuple[str, str, bool], ...] = (
+    ("scenario2", "imm-ukf", False),
+    ("scenario2", "imm-ukf", True),
+)
+"""(scenario, estimator, feedback) of the extra runs with the literal ``paper`` IMM variant."""
+
+
+def extra_runs() -> list[MatrixEntry]:
+    """Runs beyond the paper: the literal (collapsing) ``paper`` IMM variant."""
+    return [_entry(sc, est, fb, imm_variant="paper", extra=True) for sc, est, fb in EXTRA_RUNS]
+
+
+def full_matrix(extras: bool = True) -> list[MatrixEntry]:
+    return paper_matrix() + (extra_runs() if extras else [])
+
+
+def select(entries: list[MatrixEntry], patterns: list[str] | None) -> list[MatrixEntry]:
+    """Entries whose label matches any of the glob ``patterns`` (all when none are given)."""
+    if not patterns:
+        return list(entries)
+    return [e for e in entries if any(fnmatch.fnmatchcase(e.label, p) for p in patterns)]
+
+
+def as_pairs(entries: list[MatrixEntry]) -> list[tuple[str, dict[str, Any]]]:
+    """(label, overrides) pairs, the overrides including ``scenario``-independent keys only."""
+    return [(e.label, dict(e.overrides)) for e in entries]

@@ -1,0 +1,88 @@
+"""``ftc-mj paper`` end to end on a few short real runs (parallel workers, reuse, exit codes)."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from ftc_mj.cli import app
+
+runner = CliRunner()
+ONLY = ["--only", "s2-ukf-*", "--only", "s2-imm-ukf-fb-nmpc"]  # NMPC fb off/on, LMPC, an IMM
+
+
+def test_paper_list_prints_the_matrix() -> None:
+    res = runner.invoke(app, ["paper", "--list", "--no-extras"])
+    assert res.exit_code == 0, res.output
+    assert len(res.output.strip().splitlines()) == 38
+    res = runner.invoke(app, ["paper", "--list"])
+    assert len(res.output.strip().splitlines()) == 40
+
+
+def test_paper_bad_input_exits_2_and_writes_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "o"
+    for args in (["--jobs", "0"], ["--only", "no-such-label"], ["--duration", "-1"]):
+        res = runner.invoke(app, ["paper", "--out", str(out), *args])
+        assert res.exit_code == 2, (args, res.output)
+        assert not out.exists()
+    f = tmp_path / "file"
+    f.write_text("x")
+    assert runner.invoke(app, ["paper", "--out", str(f), "--duration", "1"]).exit_code == 2
+
+
+def test_paper_smoke_end_to_end(tmp_path: Path) -> None:
+    out = tmp_path / "paper"
+    res = runner.invoke(app, ["paper", "--out", str(out), "--duration", "2", "--jobs", "2", *ONLY])
+    assert res.exit_code == 0, res.output
+    rows = list(csv.DictReader(open(out / "summary.csv")))
+    labels = {r["label"] for r in rows}
+    assert labels == {"s2-ukf-nofb-nmpc", "s2-ukf-fb-nmpc", "s2-ukf-fb-lmpc", "s2-imm-ukf-fb-nmpc"}
+    for r in rows:
+        assert r["status"] == "ok"
+        assert r["scenario"] == "scenario2"
+        assert r["controller"] in ("nmpc", "lmpc") and r["feedback"] in ("True", "False")
+        assert float(r["radius_rmse_L"]) >= 0 and r["solve_time_ms_median"] != ""
+        run_dir = Path(r["run_dir"])
+        for name in ("config.toml", "trace.parquet", "metrics.json", "run.rrd"):
+            assert (run_dir / name).is_file(), (run_dir, name)
+        assert run_dir.parent == out / "runs"
+    md = (out / "claims.md").read_text()
+    assert "## Verdicts" in md and "## Thresholds" in md
+    figs = sorted(p.name for p in (out / "figures").glob("*.png"))
+    assert "innovations_s2.png" in figs and "wheel_rates_s2_nmpc_vs_lmpc.png" in figs
+    assert "mode_probs_fb.png" in figs and "trajectory_s2.png" in figs
+    info = json.loads((out / "paper_run.json").read_text())
+    assert info["runs"] == 4 and info["failed"] == [] and info["reused"] == 0
+    # a second invocation reuses the finished runs
+    res = runner.invoke(app, ["paper", "--out", str(out), "--duration", "2", "--jobs", "2", *ONLY])
+    assert res.exit_code == 0, res.output
+    info = json.loads((out / "paper_run.json").read_text())
+    assert info["reused"] == 4
+    assert len(list((out / "runs").iterdir())) == 4
+    assert not list(out.glob(".*.tmp"))
+    # the report alone, rebuilt from the run directories
+    (out / "claims.md").unlink()
+    res = runner.invoke(app, ["paper", "--out", str(out), "--report-only", *ONLY])
+    assert res.exit_code == 0, res.output
+    assert (out / "claims.md").is_file()
+    assert json.loads((out / "paper_run.json").read_text())["report_only"] is True
+
+
+def test_a_failed_run_gives_exit_1_and_everything_is_still_written(tmp_path: Path, monkeypatch) -> None:
+    from ftc_mj.report import paper as paper_mod
+    from ftc_mj.report.matrix import MatrixEntry, full_matrix
+
+    good = next(e for e in full_matrix() if e.label == "s2-ukf-nofb-nmpc")
+    bad = MatrixEntry("s9-ukf-nofb-nmpc", str(tmp_path / "missing.toml"), dict(good.overrides))
+    monkeypatch.setattr(paper_mod, "full_matrix", lambda extras=True: [good, bad])
+    out = tmp_path / "paper"
+    res = runner.invoke(app, ["paper", "--out", str(out), "--duration", "1", "--jobs", "1"])
+    assert res.exit_code == 1, res.output
+    rows = {r["label"]: r for r in csv.DictReader(open(out / "summary.csv"))}
+    assert rows["s2-ukf-nofb-nmpc"]["status"] == "ok"
+    assert rows["s9-ukf-nofb-nmpc"]["status"] == "failed" and "missing.toml" in rows["s9-ukf-nofb-nmpc"]["error"]
+    assert (out / "claims.md").is_file()
+    assert "s9-ukf-nofb-nmpc" in json.loads((out / "paper_run.json").read_text())["failed"]

@@ -40,6 +40,10 @@ from .collocation import (
 SOLVERS = ("ipopt", "rti-daqp", "rti-qpoases", "rti-osqp")
 
 
+RESEED_WAIT = 20
+"""Samples (2 s at 10 Hz) without IPOPT re-seeds after a re-seed failed (RTI steps continue meanwhile)."""
+
+
 class PlanController:
     """Shared plan bookkeeping, warm-start shift and fallback of the MPCs."""
 
@@ -67,6 +71,7 @@ class PlanController:
         self._last_radii = self.nominal_radii.copy()
         self._lam = None
         self._consecutive_failures = 0
+        self._reseed_wait = 0
         qp = getattr(self, "_qp", None)
         if qp is not None:
             qp.reset()
@@ -159,6 +164,7 @@ class NMPC(PlanController):
         self._qp = CondensedQP(self.col, solver.split("-", 1)[1], qp_options) if solver != "ipopt" else None
         self._lam: tuple[np.ndarray, np.ndarray] | None = None
         self._consecutive_failures = 0
+        self._reseed_wait = 0
 
     # ------------------------------------------------------------------------------------------
     def _build_nlp(self) -> None:
@@ -252,7 +258,9 @@ class NMPC(PlanController):
         Xg, Ug = self._guess(t, x0, ref, r)
         if self.max_iter == 0:
             return self._fallback(t, "max_iter=0", t_start, r)
-        cold = self._plan is None or (self._qp is not None and self._consecutive_failures >= 2)
+        reseed = self._qp is not None and self._consecutive_failures >= 2 and self._reseed_wait == 0
+        self._reseed_wait = max(self._reseed_wait - 1, 0)
+        cold = self._plan is None or reseed
         if self._qp is None or cold:
             ok, status, it, X, U = self._ipopt(x0, r, ref, Xg, Ug)
             budget = self.cold_time_budget if cold else self.time_budget
@@ -263,6 +271,10 @@ class NMPC(PlanController):
             it, budget = 1, self.time_budget
             status = f"rti: {status}"
         if not ok:
+            if reseed:
+                # an IPOPT re-seed failed too: go on with RTI steps from the shifted plan and do not try
+                # another (costly) re-seed for RESEED_WAIT samples
+                self._reseed_wait = RESEED_WAIT
             return self._fallback(t, status, t_start, r, it)
         return self._accept(t, X, U, status, it, t_start, budget, r)
 

@@ -6,8 +6,6 @@ On a physical plant that can run away (DESIGN §9), so a ``safe`` policy is offe
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..config import RunConfig
@@ -50,7 +48,3 @@ class RadiusFeedback:
         self._current = self._current + step
         return self._current.copy()
 
-
-def wrap_angle(a: float) -> float:
-    """Wrap an angle (rad) to (-pi, pi]."""
-    return -((-a + math.pi) % (2.0 * math.pi) - math.pi)

@@ -12,12 +12,10 @@ the reference (heading errors of tens of degrees) are predicted less accurately.
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from .base import ControlOutput
-from .collocation import CondensedQP, ProblemSpec, reference_at_nodes, sanitize_pose, sanitize_radii
+from .collocation import CondensedQP, ProblemSpec
 from .nmpc import PlanController
 
 
@@ -41,27 +39,16 @@ class LinearMPC(PlanController):
         self.qpsol = qpsol
         self._qp = CondensedQP(self.col, qpsol, qp_options)
 
-    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray) -> ControlOutput:
-        """Command [omega_R, omega_L] (rad/s) at ``t`` (s) from ``pose`` [x, y, psi] (m, m, rad) and
-        the model radii [R_R, R_L] (m)."""
-        t_start = time.perf_counter()
-        self.solves += 1
-        try:
-            p = sanitize_pose(pose)
-            r = sanitize_radii(radii)
-            if p is None:
-                return self._fallback(t, "non-finite pose", t_start, r)
-            if r is None:
-                return self._fallback(t, "non-finite radii", t_start, None)
-            times = self.col.times(t)
-            ref, psi = reference_at_nodes(self.reference, times, p[2])
-            x0 = np.array([p[0], p[1], psi])
-            Xr = ref[:3].T
-            Ur = self._reference_inputs(ref, r)
-            u_init = self._guess(t, x0, ref, r)[1].T.ravel() if self._plan is not None else Ur.T.ravel()
-            ok, status, X, U = self._qp.solve(Xr, Ur, r, x0, ref, u_init)
-            if not ok:
-                return self._fallback(t, f"qp: {status}", t_start, r, 1)
-            return self._accept(t, X, U, f"qp: {status}", 1, t_start, self.time_budget, r)
-        except Exception as exc:  # noqa: BLE001 - a solve must never stop the loop
-            return self._fallback(t, f"exception: {type(exc).__name__}: {exc}", t_start, None)
+    def _solve(self, t: float, pose: np.ndarray, radii: np.ndarray, t_start: float) -> ControlOutput:
+        """One QP on the model linearised about the reference (``solve`` of the base class wraps it)."""
+        prep = self._prepare(t, pose, radii, t_start)
+        if isinstance(prep, ControlOutput):
+            return prep
+        r, ref, x0 = prep
+        Xr = ref[:3].T
+        Ur = self._reference_inputs(ref, r)
+        u_init = self._guess(t, x0, ref, r)[1].T.ravel() if self._plan is not None else Ur.T.ravel()
+        ok, status, X, U = self._qp.solve(Xr, Ur, r, x0, ref, u_init)
+        if not ok:
+            return self._fallback(t, f"qp: {status}", t_start, r, 1)
+        return self._accept(t, X, U, f"qp: {status}", 1, t_start, self.time_budget, r)

@@ -62,6 +62,7 @@ class PlanController:
         self.solves = 0
         self._plan: tuple[float, np.ndarray, np.ndarray] | None = None  # (t0, X (N,3), U (N,2))
         self._last_radii = self.nominal_radii.copy()
+        self._consecutive_failures = 0
 
     def reset(self) -> None:
         """Forget the plan, the warm start and the counters: a reset controller behaves exactly like a new one."""
@@ -75,6 +76,34 @@ class PlanController:
         qp = getattr(self, "_qp", None)
         if qp is not None:
             qp.reset()
+
+    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray) -> ControlOutput:
+        """Command [omega_R, omega_L] (rad/s) at time ``t`` (s) for the measured ``pose``
+        [x, y, psi] (m, m, rad) and the model radii [R_R, R_L] (m)."""
+        t_start = time.perf_counter()
+        self.solves += 1
+        try:
+            out = self._solve(t, pose, radii, t_start)
+        except Exception as exc:  # noqa: BLE001 - a solve must never stop the loop
+            out = self._fallback(t, f"exception: {type(exc).__name__}: {exc}", t_start, None)
+        self._consecutive_failures = self._consecutive_failures + 1 if out.fallback else 0
+        return out
+
+    def _prepare(self, t: float, pose: np.ndarray, radii: np.ndarray, t_start: float
+                 ) -> ControlOutput | tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Sanitised radii, the reference (5, N) at the nodes and the initial state with its heading on the
+        reference's branch; or the fallback output when pose or radii are not finite."""
+        p = sanitize_pose(pose)
+        r = sanitize_radii(radii)
+        if p is None:
+            return self._fallback(t, "non-finite pose", t_start, r)
+        if r is None:
+            return self._fallback(t, "non-finite radii", t_start, None)
+        ref, psi = reference_at_nodes(self.reference, self.col.times(t), p[2])
+        return r, ref, np.array([p[0], p[1], psi])
+
+    def _solve(self, t: float, pose: np.ndarray, radii: np.ndarray, t_start: float) -> ControlOutput:
+        raise TypeError(f"{type(self).__name__} must define _solve")
 
     # ------------------------------------------------------------------------------------------
     def _reference_inputs(self, ref: np.ndarray, radii: np.ndarray) -> np.ndarray:
@@ -233,28 +262,11 @@ class NMPC(PlanController):
         N = self.col.N
         return True, str(st["return_status"]), it, wv[: 3 * N].reshape(3, N).T, wv[3 * N:].reshape(2, N).T
 
-    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray) -> ControlOutput:
-        """Command [omega_R, omega_L] (rad/s) at time ``t`` (s) for the measured ``pose``
-        [x, y, psi] (m, m, rad) and the model radii [R_R, R_L] (m)."""
-        t_start = time.perf_counter()
-        self.solves += 1
-        try:
-            out = self._solve(t, pose, radii, t_start)
-        except Exception as exc:  # noqa: BLE001 - a solve must never stop the loop
-            out = self._fallback(t, f"exception: {type(exc).__name__}: {exc}", t_start, None)
-        self._consecutive_failures = self._consecutive_failures + 1 if out.fallback else 0
-        return out
-
     def _solve(self, t: float, pose: np.ndarray, radii: np.ndarray, t_start: float) -> ControlOutput:
-        p = sanitize_pose(pose)
-        r = sanitize_radii(radii)
-        if p is None:
-            return self._fallback(t, "non-finite pose", t_start, r)
-        if r is None:
-            return self._fallback(t, "non-finite radii", t_start, None)
-        times = self.col.times(t)
-        ref, psi = reference_at_nodes(self.reference, times, p[2])
-        x0 = np.array([p[0], p[1], psi])
+        prep = self._prepare(t, pose, radii, t_start)
+        if isinstance(prep, ControlOutput):
+            return prep
+        r, ref, x0 = prep
         Xg, Ug = self._guess(t, x0, ref, r)
         if self.max_iter == 0:
             return self._fallback(t, "max_iter=0", t_start, r)

@@ -140,9 +140,9 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
             c["roll"][k], c["pitch"][k], c["z"][k] = tr.roll, tr.pitch, tr.z_chassis
             c["slip_R"][k], c["slip_L"][k] = tr.slip_R, tr.slip_L
             c["plant_flags"][k] = tr.flags
-            if tr.flags and not (tr.flags & flags_seen) == tr.flags:
-                new = tr.flags & ~flags_seen
-                flags_seen |= tr.flags
+            new = tr.flags & ~flags_seen
+            if new:
+                flags_seen |= new
                 events.append(Event(t, "warn", f"plant left the kinematic model's domain: {plant.describe_flags(new)}"))
             c["cross_track_error"][k] = float(reference.cross_track(tr.x, tr.y))
 

@@ -28,6 +28,13 @@ class EstimatorKind(StrEnum):
     none = "none"
 
 
+class ReconfigPolicy(StrEnum):
+    none = "none"
+    direct = "direct"
+    safe = "safe"
+    truth = "truth"
+
+
 class ControllerKind(StrEnum):
     nmpc = "nmpc"
     lmpc = "lmpc"
@@ -55,8 +62,11 @@ def run(
     estimator: Annotated[EstimatorKind | None, typer.Option(help="FDI filter.")] = None,
     imm_models: Annotated[int | None, typer.Option(help="IMM bank size: 4 or 5.")] = None,
     imm_variant: Annotated[str | None, typer.Option(help="IMM variant: hypothesis or paper.")] = None,
+    reconfig: Annotated[ReconfigPolicy | None, typer.Option(
+        help="Reconfiguration policy: none (nominal radii), direct (latest estimate, the paper's feedback), "
+             "safe (gated, clamped, rate-limited hand-over; the default), truth (oracle).")] = None,
     feedback: Annotated[bool | None, typer.Option("--feedback/--no-feedback",
-                                                  help="Reconfigure the controller with estimated radii.")] = None,
+                                                  help="Aliases of --reconfig direct / --reconfig none.")] = None,
     controller: Annotated[ControllerKind | None, typer.Option(help="Tracking controller.")] = None,
     seed: Annotated[int | None, typer.Option(help="Random seed (noise).")] = None,
     duration: Annotated[float | None, typer.Option(help="Simulated time (s).")] = None,
@@ -71,9 +81,12 @@ def run(
 
     try:
         ov = _overrides(set_ or [])
+        if reconfig is not None and feedback is not None:
+            raise BadInput("--feedback/--no-feedback: give either it or --reconfig, not both")
         for key, val in (("estimator.kind", estimator.value if estimator else None),
                          ("estimator.imm_models", imm_models), ("estimator.imm_variant", imm_variant),
-                         ("feedback", feedback), ("controller.kind", controller.value if controller else None),
+                         ("feedback", feedback), ("reconfiguration.policy", reconfig.value if reconfig else None),
+                         ("controller.kind", controller.value if controller else None),
                          ("seed", seed), ("duration", duration)):
             if val is not None:
                 ov[key] = val

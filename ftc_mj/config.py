@@ -172,9 +172,14 @@ class DecisionConfig(_Strict):
     k_sigma: PosFloat = 3.0
     min_drop: NonNegFloat = 0.1
     """Minimum radius departure (m) for the sigma rule (guards against tiny-σ false alarms)."""
-    dwell: NonNegFloat = 0.5
-    """Time (s) the condition must hold before a fault is declared."""
+    dwell: NonNegFloat = 0.3
+    """Time (s) the condition must hold before a fault is declared. It trades false alarms against the
+    delay of a reconfiguration: on the MuJoCo robot a 0.5 s dwell let a 1.6 m offset build up after
+    the scenario 2 puncture, and correcting it lifted the inner wheel (docs/findings.md)."""
     mode_threshold: Annotated[float, Field(gt=0, lt=1)] = 0.9
+    max_split_sigma: PosFloat = 0.15
+    """Sigma rule: a wheel is isolated only when the σ (m) of the radius split along the direction
+    the speed cannot observe is at most this; otherwise the declared wheel is ``'unknown'``."""
 
 
 class EstimatorConfig(_Strict):
@@ -251,17 +256,50 @@ class ControllerConfig(_Strict):
     """Optional ``[t, omega_R, omega_L]`` breakpoints (piecewise-linear) for the open-loop controller."""
 
 
-class ReconfigConfig(_Strict):
-    """How estimated radii reach the controller when ``feedback`` is on (DESIGN §9)."""
+class ExcitationConfig(_Strict):
+    """Dither of the wheel-rate ratio while a fault is suspected but not isolated (off by default).
 
-    policy: Literal["direct", "safe"] = "direct"
-    """``direct``: the paper's, the latest estimate at every solve. ``safe``: feed back only after
-    the decision layer isolated a fault and the estimate's σ is below ``max_sigma``; clamp to
-    [min_radius, nominal]; rate-limit; fall back to nominal on filter divergence."""
+    With speed-only sensing and a constant wheel-rate ratio only ``R_R ω_R + R_L ω_L`` is observable;
+    varying the ratio makes the split observable. The commanded rates become
+    ``ω_R (1 + a s(t))``, ``ω_L (1 - a s(t))`` with ``s`` a unit sine of period ``period``, clipped
+    to the wheel-rate limits; the mean speed is unchanged to first order."""
+
+    enabled: bool = False
+    amplitude: Annotated[float, Field(gt=0, le=0.5)] = 0.1
+    """Relative amplitude ``a`` of the ratio dither (-)."""
+    period: PosFloat = 2.0
+    """Dither period (s)."""
+
+
+class ReconfigurationConfig(_Strict):
+    """How the estimated radii reach the controller's model (DESIGN §3, §9; issue 7)."""
+
+    policy: Literal["none", "direct", "safe", "truth"] = "safe"
+    """``none``: nominal radii (the paper's "feedback off"). ``direct``: the latest estimate at every
+    solve (the paper's "feedback on"). ``safe``: hand radii over only after the fault decision has
+    declared and isolated a fault and the estimate is identified (σ of each radius and of the
+    unobservable split below ``max_sigma``, innovations consistent); clamped to
+    [``min_radius``, nominal], rate-limited to ``max_rate``; reverts to the last trusted values on
+    filter divergence and to nominal when the decision is withdrawn. ``truth``: the true radii
+    (an oracle upper bound for comparisons; not realisable)."""
     max_sigma: PosFloat = 0.1
-    min_radius: PosFloat = 0.1
-    max_rate: PosFloat = 1.0
-    """Largest change of a fed-back radius (m/s)."""
+    """Largest standard deviation (m) of each radius and of the radius split accepted for hand-over."""
+    min_radius: PosFloat = 0.05
+    """Lower clamp (m) of a handed-over radius (upper clamp: the nominal radius)."""
+    max_rate: PosFloat = 5.0
+    """Largest change of a handed-over radius (m/s): a 50 % step (1 m) is handed over in 0.2 s."""
+    nis_window: PosFloat = 1.0
+    """Window (s) of the innovation-consistency check (mean NIS)."""
+    max_nis_ratio: PosFloat = 5.0
+    """Mean NIS per measurement over ``nis_window`` above which the filter is taken as inconsistent:
+    no new hand-over, and a revert to the last trusted radii (a consistent filter gives ≈ 1)."""
+    spike_nis_ratio: PosFloat = 12.0
+    """A NIS per measurement above this at any step since the last solve *holds* the radii in use
+    (a sudden jump of the estimate is not handed over; P(χ²₁ > 12) ≈ 5e-4)."""
+    trust_lag: NonNegFloat = 1.0
+    """On a revert, the last trusted radii are those handed over at least this long (s) before the
+    filter reported trouble (its estimate may already have been drifting)."""
+    excitation: ExcitationConfig = Field(default_factory=ExcitationConfig)
 
 
 class ReferenceConfig(_Strict):
@@ -289,8 +327,6 @@ class RunConfig(_Strict):
     duration: PosFloat = 40.0
     """Simulated time (s)."""
     seed: Annotated[int, Field(ge=0)] = 0
-    feedback: bool = True
-    """Controller model uses the estimated radii (True) or the nominal ones (False)."""
     robot: RobotConfig = Field(default_factory=RobotConfig)
     plant: PlantConfig = Field(default_factory=PlantConfig)
     model: ModelConfig = Field(default_factory=ModelConfig)
@@ -298,9 +334,37 @@ class RunConfig(_Strict):
     sensors: SensorConfig = Field(default_factory=SensorConfig)
     estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
     controller: ControllerConfig = Field(default_factory=ControllerConfig)
-    reconfig: ReconfigConfig = Field(default_factory=ReconfigConfig)
+    reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
     reference: ReferenceConfig = Field(default_factory=ReferenceConfig)
     output: OutputConfig = Field(default_factory=OutputConfig)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _feedback_alias(cls, data: Any) -> Any:
+        """``feedback = true|false`` (the paper's switch) is an alias: false = policy ``none``; true =
+        policy ``direct`` unless a feeding policy is given. A contradiction is an error."""
+        if not isinstance(data, dict) or "feedback" not in data:
+            return data
+        data = dict(data)
+        fb = data.pop("feedback")
+        if not isinstance(fb, bool):
+            raise ValueError("feedback: must be true or false (alias of reconfiguration.policy)")
+        rc = data.get("reconfiguration")
+        rc = dict(rc) if isinstance(rc, dict) else {}
+        given = rc.get("policy")
+        if given is None:
+            rc["policy"] = "direct" if fb else "none"
+        elif fb and given == "none":
+            raise ValueError("feedback: true contradicts reconfiguration.policy = 'none'")
+        elif not fb and given != "none":
+            raise ValueError(f"feedback: false contradicts reconfiguration.policy = {given!r}")
+        data["reconfiguration"] = rc
+        return data
+
+    @property
+    def feedback(self) -> bool:
+        """The controller's model is handed estimated (or true) radii: the policy is not ``none``."""
+        return self.reconfiguration.policy != "none"
 
     @model_validator(mode="after")
     def _rates(self) -> RunConfig:
@@ -361,6 +425,8 @@ def _one_line(err: ValidationError) -> str:
         msg = "unknown key"
     msg = msg.removeprefix("Value error, ")
     extra = f" (and {err.error_count() - 1} more)" if err.error_count() > 1 else ""
+    if loc == "<root>" and ": " in msg:  # model-level checks name their field themselves
+        return f"{msg}{extra}"
     return f"{loc}: {msg}{extra}"
 
 

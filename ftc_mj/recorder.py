@@ -50,7 +50,10 @@ Time series (``Scalars``; one sample per trace row unless stated):
 - ``/speed/{truth,measured}``: ``v``, ``v_meas``.
 - ``/yaw_rate/{truth,measured}`` (if ``yaw_rate``/``yaw_rate_meas`` are in the trace).
 - ``/attitude/{roll,pitch,z}`` (if present).
+- ``/radius/{right,left}/model``: ``R_*_model``, the radii the controller was handed (if present).
 - ``/fault/detected`` (if ``fault_detected`` is present; 0/1).
+- ``/reconfiguration/state`` (if ``reconfig_state`` is present; 0 nominal, 1 hold, 2 handed over,
+  3 reverted). Every hand-over, hold and revert is also an ``/events`` line.
 - ``/solver/{solve_time_ms,iterations,status}``: **only at solve times** (not forward-filled).
   Taken from ``solves`` if given, else from the trace rows where ``solve_time_ms`` is finite.
   ``status`` is 1 for a solve that converged, 0 for a failed one, and 0.5 for a fallback.
@@ -334,8 +337,8 @@ def _blueprint(trace: Mapping[str, np.ndarray], n_modes: int, has_solves: bool,
                               eye_up=[0, 0, 1])
 
     series: list[rrb.View | rrb.Container] = [
-        ts("/radius/right", "Right radius R_R (m): truth, estimate ±2σ", axis_y=rad_axis),
-        ts("/radius/left", "Left radius R_L (m): truth, estimate ±2σ", axis_y=rad_axis),
+        ts("/radius/right", "Right radius R_R (m): truth, estimate ±2σ, controller's model", axis_y=rad_axis),
+        ts("/radius/left", "Left radius R_L (m): truth, estimate ±2σ, controller's model", axis_y=rad_axis),
     ]
     inn = ts("/innovation", "Speed innovation (m/s) ±2σ",
              contents=["/innovation/value", "/innovation/upper", "/innovation/lower"])
@@ -354,6 +357,9 @@ def _blueprint(trace: Mapping[str, np.ndarray], n_modes: int, has_solves: bool,
         speed.append(ts("/attitude", "Roll, pitch (rad), chassis z (m)"))
     if "fault_detected" in trace:
         speed.append(ts("/fault", "Fault detected (0/1)", axis_y=rrb.ScalarAxis(range=(-0.05, 1.05))))
+    if "reconfig_state" in trace:
+        speed.append(ts("/reconfiguration", "Reconfiguration (0 nominal, 1 hold, 2 handed over, 3 reverted)",
+                        axis_y=rrb.ScalarAxis(range=(-0.1, 3.1))))
     series.append(rrb.Tabs(*speed, active_tab=0) if len(speed) > 1 else speed[0])
     if has_solves:
         series.append(rrb.Tabs(
@@ -554,6 +560,8 @@ def _log_all(rec: rr.RecordingStream, trace: Mapping[str, np.ndarray], n: int, s
         scalars(f"/radius/{side}/estimate", est, _EST, f"R_{s} estimate", 2.0)
         scalars(f"/radius/{side}/upper", est + 2.0 * std, _BOUND, "+2σ", 1.0)
         scalars(f"/radius/{side}/lower", est - 2.0 * std, _BOUND, "-2σ", 1.0)
+        if f"R_{s}_model" in trace:
+            scalars(f"/radius/{side}/model", col(f"R_{s}_model"), _CMD, f"R_{s} controller model", 1.5)
     inn, inn_std = col("innovation"), col("innovation_std")
     scalars("/innovation/value", inn, _EST, "innovation", 1.0)
     scalars("/innovation/upper", 2.0 * inn_std, _BOUND, "+2σ", 1.0)
@@ -587,6 +595,8 @@ def _log_all(rec: rr.RecordingStream, trace: Mapping[str, np.ndarray], n: int, s
             scalars(f"/attitude/{name}", col(name), c, name, 1.0)
     if "fault_detected" in trace:
         scalars("/fault/detected", col("fault_detected"), _LIMIT, "fault detected", 1.5)
+    if "reconfig_state" in trace:
+        scalars("/reconfiguration/state", col("reconfig_state"), _EST, "reconfiguration state", 1.5)
 
     # ---- events -----------------------------------------------------------------------------------
     if events:

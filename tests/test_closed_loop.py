@@ -17,7 +17,8 @@ from ftc_mj.sim.run import execute
 
 @pytest.fixture(scope="module")
 def scenario2_gyro() -> dict:
-    cfg = load_config("scenario2", {"sensors.yaw_rate_sigma": 0.01, "controller.rate_penalty": 1.0})
+    cfg = load_config("scenario2", {"sensors.yaw_rate_sigma": 0.01, "controller.rate_penalty": 1.0,
+                                    "reconfiguration.policy": "direct"})
     out = execute(cfg)
     assert out.metrics["status"] == "ok"
     return {"trace": out.result.trace, "metrics": out.metrics, "cfg": cfg}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import FaultDecision, FilterOutput
@@ -24,7 +25,7 @@ def feed(dec: FaultDecision, t0: float, t1: float, o: FilterOutput, dt: float = 
 
 
 def test_sigma_rule_dwell_isolation_severity_and_clear() -> None:
-    dec = FaultDecision(RunConfig())  # kind ukf → auto = sigma
+    dec = FaultDecision(RunConfig.model_validate({"estimator": {"decision": {"dwell": 0.5}}}))  # ukf → sigma
     s = feed(dec, 0.0, 5.0, out(2.0, 1.99))
     assert not s.detected and s.time is None and s.wheel is None and dec.events == []
     s = feed(dec, 5.0, 5.4, out(2.0, 1.0))  # shorter than the 0.5 s dwell
@@ -74,3 +75,30 @@ def test_no_false_alarm_from_noise() -> None:
         o = out(2.0 + 0.02 * rng.normal(), 2.0 + 0.02 * rng.normal(), sigma=0.02)
         s = dec.update(k * 0.01, o)
     assert not s.detected and dec.events == []
+
+
+def test_sigma_rule_isolates_only_an_identified_split() -> None:
+    """Speed only, constant wheel-rate ratio: the filter's covariance along the split the speed cannot
+    see stays large; a departure is then declared as a fault of unknown wheel, not isolated."""
+    dec = FaultDecision(RunConfig())
+    omega = np.array([5.0, 10.0])
+    o = out(2.9, 0.55, sigma=0.3)
+    w = omega / np.linalg.norm(omega)
+    d = np.array([w[1], -w[0]])
+    # covariance: tight along the observed combination w, 0.6 m along the split d
+    o.P[3:5, 3:5] = 0.02**2 * np.outer(w, w) + 0.6**2 * np.outer(d, d)
+    s = None
+    for t in np.arange(0.0, 1.0, 0.01):
+        s = dec.update(float(round(t, 6)), o, omega)
+    assert s.detected and s.wheel == "unknown" and s.suspected and s.split_std == pytest.approx(0.6)
+    # the same estimate with the split identified (yaw-rate sensing): isolated as the left wheel
+    dec = FaultDecision(RunConfig())
+    o.P[3:5, 3:5] = 0.02**2 * np.eye(2)
+    for t in np.arange(0.0, 1.0, 0.01):
+        s = dec.update(float(round(t, 6)), o, omega)
+    assert s.detected and s.wheel == "both" and not s.suspected  # 2.9 m is a 0.9 m departure as well
+    dec = FaultDecision(RunConfig())
+    o = out(2.0, 1.0, sigma=0.02)
+    for t in np.arange(0.0, 1.0, 0.01):
+        s = dec.update(float(round(t, 6)), o, omega)
+    assert s.wheel == "left" and not s.suspected

@@ -1,47 +1,142 @@
-"""Radius feedback policies (DESIGN §3, §9): what the controller's model is handed."""
+"""Reconfiguration policies (issue 7): what the controller's model is handed, and why.
+
+The ``safe`` policy's rules are checked one by one against hand-made filter outputs and decisions;
+the closed-loop behaviour (revert after an injected divergence) is in test_reconfig_loop.py.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from hypothesis import assume, given
+from hypothesis import strategies as st
 
 from ftc_mj.config import load_config
+from ftc_mj.errors import BadInput
 from ftc_mj.estimation.base import FilterOutput
-from ftc_mj.sim.reconfig import RadiusFeedback
+from ftc_mj.estimation.decision import DecisionState
+from ftc_mj.estimation.observability import radius_directions
+from ftc_mj.sim.reconfig import RadiusFeedback, ReconfigState
+
+OMEGA = np.array([5.0, 5.0])
+TRUTH = (2.0, 1.0)
 
 
-def _out(rR: float, rL: float, sigma: float) -> FilterOutput:
+def _out(rR: float, rL: float, sigma: float, nis: float = 1.0, corr: float = 0.0) -> FilterOutput:
     P = np.diag([0.1, 0.1, 0.01, sigma**2, sigma**2])
-    return FilterOutput(x=np.array([0, 0, 0, rR, rL]), P=P, innovation=np.zeros(1), S=np.eye(1), nis=0.0,
+    P[3, 4] = P[4, 3] = corr * sigma**2
+    return FilterOutput(x=np.array([0, 0, 0, rR, rL]), P=P, innovation=np.zeros(1), S=np.eye(1), nis=nis,
                         speed_innovation=0.0, speed_innovation_std=1.0)
 
 
-def test_feedback_off_is_nominal() -> None:
-    fb = RadiusFeedback(load_config("scenario2", {"feedback": False}))
-    np.testing.assert_array_equal(fb.radii(_out(2.0, 1.0, 0.01), True, True), [2.0, 2.0])
+def _dec(wheel: str | None) -> DecisionState:
+    return DecisionState(detected=wheel is not None, time=None if wheel is None else 10.0, wheel=wheel,  # type: ignore[arg-type]
+                         severity_R=0.0, severity_L=0.0)
 
 
-def test_direct_is_latest_estimate_with_positive_floor() -> None:
-    cfg = load_config("scenario2")
-    fb = RadiusFeedback(cfg)
-    np.testing.assert_array_equal(fb.radii(_out(2.1, 1.0, 0.5), False, True), [2.1, 1.0])
-    np.testing.assert_array_equal(fb.radii(_out(2.1, -0.3, 0.5), False, True), [2.1, cfg.estimator.min_radius])
+def _fb(policy: str, **kw: object) -> RadiusFeedback:
+    return RadiusFeedback(load_config("scenario2", {"reconfiguration.policy": policy,
+                                                    **{f"reconfiguration.{k}": v for k, v in kw.items()}}))
+
+
+def _step(fb: RadiusFeedback, t: float, out: FilterOutput, wheel: str | None, reset: bool = False) -> np.ndarray:
+    fb.observe(out)
+    return fb.radii(t, out, _dec(wheel), reset, OMEGA, TRUTH)
+
+
+def test_feedback_alias_and_contradictions() -> None:
+    assert load_config("scenario2").reconfiguration.policy == "safe"  # the default for new users
+    assert load_config("scenario2", {"feedback": True}).reconfiguration.policy == "direct"
+    assert load_config("scenario2", {"feedback": False}).reconfiguration.policy == "none"
+    assert load_config("scenario2", {"feedback": True, "reconfiguration.policy": "safe"}).feedback
+    with pytest.raises(BadInput, match=r"^feedback: false contradicts reconfiguration.policy"):
+        load_config("scenario2", {"feedback": False, "reconfiguration.policy": "safe"})
+    with pytest.raises(BadInput, match=r"^reconfiguration.policy: "):
+        load_config("scenario2", {"reconfiguration.policy": "sometimes"})
+
+
+def test_none_direct_truth() -> None:
+    o = _out(2.1, 1.0, 0.01)
+    np.testing.assert_array_equal(_fb("none").radii(0.0, o, _dec("left"), False, OMEGA, TRUTH), [2.0, 2.0])
+    np.testing.assert_array_equal(_fb("truth").radii(0.0, o, None, False, OMEGA, TRUTH), TRUTH)
+    fb = _fb("direct")
+    np.testing.assert_array_equal(fb.radii(0.0, o, None, False, OMEGA, TRUTH), [2.1, 1.0])
+    floor = load_config("scenario2").estimator.min_radius
+    np.testing.assert_array_equal(fb.radii(0.1, _out(2.1, -0.3, 0.5), None, False, OMEGA, TRUTH), [2.1, floor])
     # a non-finite estimate keeps the previous radii
-    np.testing.assert_array_equal(fb.radii(_out(np.nan, 1.0, 0.5), False, True), [2.1, cfg.estimator.min_radius])
+    np.testing.assert_array_equal(fb.radii(0.2, _out(np.nan, 1.0, 0.5), None, False, OMEGA, TRUTH), [2.1, floor])
 
 
-def test_safe_policy_gates_bounds_and_rate_limits() -> None:
-    cfg = load_config("scenario2", {"reconfig.policy": "safe"})
-    fb = RadiusFeedback(cfg)
-    step = cfg.reconfig.max_rate / cfg.controller.rate
-    # not isolated yet: nominal, whatever the estimate
-    np.testing.assert_array_equal(fb.radii(_out(2.0, 1.0, 0.01), False, True), [2.0, 2.0])
-    # isolated but uncertain: still nominal
-    np.testing.assert_array_equal(fb.radii(_out(2.0, 1.0, 0.5), True, True), [2.0, 2.0])
-    # isolated and confident: moves towards the estimate at max_rate, clamped to [min_radius, nominal]
-    r = fb.radii(_out(2.4, 1.0, 0.01), True, True)
+def test_safe_waits_for_an_isolated_and_identified_fault() -> None:
+    fb = _fb("safe")
+    # no declaration: nominal, whatever the estimate
+    np.testing.assert_array_equal(_step(fb, 0.0, _out(2.0, 1.0, 0.01), None), [2.0, 2.0])
+    assert fb.state == ReconfigState.NOMINAL
+    # declared, wheel unknown: hold the radii in use
+    np.testing.assert_array_equal(_step(fb, 0.1, _out(2.0, 1.0, 0.01), "unknown"), [2.0, 2.0])
+    assert fb.state == ReconfigState.HOLD
+    # isolated but uncertain: still held
+    np.testing.assert_array_equal(_step(fb, 0.2, _out(2.0, 1.0, 0.5), "left"), [2.0, 2.0])
+    # small marginal σ but strongly anti-correlated radii = a large σ along the unobservable split
+    o = _out(2.0, 1.0, 0.09, corr=-0.95)
+    assert radius_directions(o.P, OMEGA).split_std > 0.1 >= np.sqrt(o.P[4, 4])
+    np.testing.assert_array_equal(_step(fb, 0.3, o, "left"), [2.0, 2.0])
+    assert fb.state == ReconfigState.HOLD
+    assert [e.text.split(":")[1].strip()[:9] for e in fb.events] == ["wheel not", "radii not"]
+
+
+def test_safe_hands_over_only_the_isolated_wheel_clamped_and_rate_limited() -> None:
+    fb = _fb("safe", max_rate=1.0)
+    step = 1.0 / load_config("scenario2").controller.rate
+    r = _step(fb, 0.0, _out(1.9, 1.0, 0.01), "left")  # right estimate 1.9: not isolated, stays nominal
     np.testing.assert_allclose(r, [2.0, 2.0 - step])
-    for _ in range(200):
-        r = fb.radii(_out(2.4, 1.0, 0.01), True, True)
+    assert fb.state == ReconfigState.HANDED and "hand-over (left)" in fb.events[-1].text
+    for k in range(1, 40):
+        r = _step(fb, 0.1 * k, _out(1.9, 1.0, 0.01), "left")
     np.testing.assert_allclose(r, [2.0, 1.0])
-    # filter divergence: back towards nominal, rate-limited
-    np.testing.assert_allclose(fb.radii(_out(2.0, 1.0, 0.01), True, False), [2.0, 1.0 + step])
+    # estimates beyond the physical bounds are clamped to [min_radius, nominal]
+    fb = _fb("safe", max_rate=100.0)
+    np.testing.assert_allclose(_step(fb, 0.0, _out(2.6, -0.4, 0.01), "both"), [2.0, 0.05])
+
+
+def test_safe_reverts_to_last_trusted_on_divergence_and_to_nominal_when_withdrawn() -> None:
+    fb = _fb("safe", max_rate=100.0, trust_lag=1.0)
+    for k in range(30):  # 0 .. 2.9 s: handed over at 1.0 m
+        _step(fb, 0.1 * k, _out(2.0, 1.0, 0.01), "left")
+    for k in range(30, 40):  # 3.0 .. 3.9 s: the estimate drifts to 0.5 m (still "consistent")
+        _step(fb, 0.1 * k, _out(2.0, 0.5, 0.01), "left")
+    # the filter resets at 3.95 s: back to the radii trusted ≥ 1 s earlier (at 2.9 s: 1.0 m), not the
+    # drifted ones it accepted just before the trouble showed
+    r = _step(fb, 3.95, _out(2.0, 0.5, 0.01), "left", reset=True)
+    assert fb.state == ReconfigState.REVERTED
+    np.testing.assert_allclose(r, [2.0, 1.0])
+    assert fb.events[-1].level == "error" and "filter reset" in fb.events[-1].text
+    # inconsistent innovations (mean NIS per measurement over the window above the bound): revert too
+    fb2 = _fb("safe", max_rate=100.0)
+    for k in range(20):
+        _step(fb2, 0.1 * k, _out(2.0, 1.0, 0.01), "left")
+    for _ in range(100):
+        fb2.observe(_out(2.0, 0.3, 0.01, nis=50.0))
+    r = fb2.radii(3.0, _out(2.0, 0.3, 0.01, nis=50.0), _dec("left"), False, OMEGA, TRUTH)
+    assert fb2.state == ReconfigState.REVERTED and "inconsistent innovations" in fb2.events[-1].text
+    np.testing.assert_allclose(r, [2.0, 1.0])
+    # the decision is withdrawn: back to nominal
+    r = _step(fb2, 3.1, _out(2.0, 2.0, 0.01), None)
+    np.testing.assert_allclose(r, [2.0, 2.0])
+    assert "withdrawn" in fb2.events[-1].text
+
+
+@given(p11=st.floats(1e-6, 1.0), p22=st.floats(1e-6, 1.0), rho=st.floats(-0.99, 0.99),
+       wR=st.floats(-20, 20), wL=st.floats(-20, 20))
+def test_radius_directions_split_is_what_the_speed_cannot_see(p11: float, p22: float, rho: float,
+                                                                wR: float, wL: float) -> None:
+    P = np.zeros((5, 5))
+    P[3, 3], P[4, 4] = p11, p22
+    P[3, 4] = P[4, 3] = rho * np.sqrt(p11 * p22)
+    d = radius_directions(P, np.array([wR, wL]))
+    H = np.array([wR, wL]) / 2.0  # ∂V/∂[R_R, R_L]
+    assume(np.linalg.norm(H) > 1e-3)  # a (nearly) stopped robot uses the documented equal-rate convention
+    assert abs(np.dot(d.d, H)) <= 1e-9 * max(1.0, np.linalg.norm(H))  # the split is unseen by the speed
+    assert abs(np.dot(d.w, d.d)) < 1e-12 and abs(np.hypot(*d.w) - 1.0) < 1e-12
+    # an orthonormal change of basis keeps the total variance
+    assert d.sum_std**2 + d.split_std**2 == pytest.approx(p11 + p22, rel=1e-9)

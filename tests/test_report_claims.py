@@ -44,15 +44,23 @@ def test_matrix_has_the_papers_38_runs() -> None:
 def test_extras_are_the_literal_imm_variant() -> None:
     full = full_matrix(extras=True)
     extras = [e for e in full if e.extra]
-    assert 1 <= len(extras) <= 2
-    assert all(e.imm_variant == "paper" and e.overrides["estimator.imm_variant"] == "paper" for e in extras)
+    literal = [e for e in extras if e.estimator.startswith("imm")]
+    assert len(literal) == 2
+    assert all(e.imm_variant == "paper" and e.overrides["estimator.imm_variant"] == "paper" for e in literal)
     assert len(full_matrix(extras=False)) == 38
+    # the reconfiguration-policy axis: scenarios 2-4 x {none, direct, safe} x {speed, speed+yaw}, UKF, NMPC
+    policy = [e for e in extras if not e.estimator.startswith("imm")]
+    assert len(policy) == 18 and len({e.label for e in policy}) == 18
+    assert {(e.scenario, e.policy, e.sensing) for e in policy} == {
+        (f"scenario{n}", p, s) for n in (2, 3, 4) for p in ("none", "direct", "safe") for s in ("speed", "speed+yaw")}
+    assert all(e.estimator == "ukf" and e.controller == "nmpc" and e.rate_penalty > 0 for e in policy)
 
 
 def test_select_by_glob() -> None:
     m = full_matrix()
     assert [e.label for e in select(m, ["s4-imm-ukf5-*"])] == ["s4-imm-ukf5-nofb-nmpc", "s4-imm-ukf5-fb-nmpc"]
-    assert len(select(m, ["s1-*", "s2-*"])) == 8 + 9 + 2
+    assert len(select(m, ["s1-*", "s2-*"])) == 8 + 9 + 2 + 6
+    assert [e.label for e in select(m, ["s2-ukf-safe-*"])] == ["s2-ukf-safe-speed-nmpc-rp", "s2-ukf-safe-yaw-nmpc-rp"]
     assert select(m, None) == m
     assert select(m, ["nothing"]) == []
 

@@ -11,7 +11,8 @@ from typer.testing import CliRunner
 from ftc_mj.cli import app
 
 runner = CliRunner()
-ONLY = ["--only", "s2-ukf-*", "--only", "s2-imm-ukf-fb-nmpc"]  # NMPC fb off/on, LMPC, an IMM
+ONLY = ["--only", "s2-ukf-*fb-*", "--only", "s2-imm-ukf-fb-nmpc",  # NMPC fb off/on, LMPC, an IMM
+        "--only", "s2-ukf-safe-yaw-nmpc-rp"]  # and one run of the reconfiguration-policy axis
 
 
 def test_paper_list_prints_the_matrix() -> None:
@@ -19,7 +20,7 @@ def test_paper_list_prints_the_matrix() -> None:
     assert res.exit_code == 0, res.output
     assert len(res.output.strip().splitlines()) == 38
     res = runner.invoke(app, ["paper", "--list"])
-    assert len(res.output.strip().splitlines()) == 40
+    assert len(res.output.strip().splitlines()) == 38 + 2 + 18  # + literal IMM + reconfiguration-policy axis
 
 
 def test_paper_bad_input_exits_2_and_writes_nothing(tmp_path: Path) -> None:
@@ -39,11 +40,13 @@ def test_paper_smoke_end_to_end(tmp_path: Path) -> None:
     assert res.exit_code == 0, res.output
     rows = list(csv.DictReader(open(out / "summary.csv")))
     labels = {r["label"] for r in rows}
-    assert labels == {"s2-ukf-nofb-nmpc", "s2-ukf-fb-nmpc", "s2-ukf-fb-lmpc", "s2-imm-ukf-fb-nmpc"}
+    assert labels == {"s2-ukf-nofb-nmpc", "s2-ukf-fb-nmpc", "s2-ukf-fb-lmpc", "s2-imm-ukf-fb-nmpc",
+                      "s2-ukf-safe-yaw-nmpc-rp"}
     for r in rows:
         assert r["status"] == "ok"
         assert r["scenario"] == "scenario2"
         assert r["controller"] in ("nmpc", "lmpc") and r["feedback"] in ("True", "False")
+        assert r["policy"] == ("none" if r["feedback"] == "False" else "safe" if "safe" in r["label"] else "direct")
         assert float(r["radius_rmse_L"]) >= 0 and r["solve_time_ms_median"] != ""
         run_dir = Path(r["run_dir"])
         for name in ("config.toml", "trace.parquet", "metrics.json", "run.rrd"):
@@ -55,13 +58,13 @@ def test_paper_smoke_end_to_end(tmp_path: Path) -> None:
     assert "innovations_s2.png" in figs and "wheel_rates_s2_nmpc_vs_lmpc.png" in figs
     assert "mode_probs_fb.png" in figs and "trajectory_s2.png" in figs
     info = json.loads((out / "paper_run.json").read_text())
-    assert info["runs"] == 4 and info["failed"] == [] and info["reused"] == 0
+    assert info["runs"] == 5 and info["failed"] == [] and info["reused"] == 0
     # a second invocation reuses the finished runs
     res = runner.invoke(app, ["paper", "--out", str(out), "--duration", "2", "--jobs", "2", *ONLY])
     assert res.exit_code == 0, res.output
     info = json.loads((out / "paper_run.json").read_text())
-    assert info["reused"] == 4
-    assert len(list((out / "runs").iterdir())) == 4
+    assert info["reused"] == 5
+    assert len(list((out / "runs").iterdir())) == 5
     assert not list(out.glob(".*.tmp"))
     # the report alone, rebuilt from the run directories
     (out / "claims.md").unlink()

@@ -4,9 +4,14 @@ Rules (``estimator.decision.rule``):
 
 ``sigma``
     A wheel is *suspect* when its radius estimate departs from nominal ``R0`` by more than
-    ``k_sigma`` of its standard deviation **and** by more than ``min_drop`` (m). A fault is declared
-    when some wheel has been suspect for ``dwell`` seconds; the isolated wheel is the set of suspect
-    wheels (``'both'`` if both).
+    ``k_sigma`` of its standard deviation **and** by more than ``min_drop`` (m). The wheel is only
+    *isolated* when the filter's covariance says the split between the two radii is identified (σ
+    along the unobservable split direction ≤ ``max_split_sigma``, see
+    :mod:`~ftc_mj.estimation.observability`); otherwise — and also when no single wheel is suspect
+    but the observed radius combination ``w·R`` departs from ``w·R0`` by ``k_sigma`` σ and
+    ``min_drop`` — the candidate is ``'unknown'``: a fault is evident, which wheel is not. A fault is
+    declared when a candidate has held for ``dwell`` seconds; the isolated wheel is the set of
+    suspect wheels (``'both'`` if both) or ``'unknown'``.
 ``mode``
     For an IMM: the probability of a fault *class* — the sum of the mode probabilities of the
     members hypothesising that wheel (``right``; ``left`` = 50 % left + left ramp; ``both``) —
@@ -35,8 +40,9 @@ import numpy as np
 from ..config import RunConfig
 from .base import FilterOutput
 from .imm import BANK_4, BANK_5
+from .observability import RadiusDirections, radius_directions
 
-Wheel = Literal["right", "left", "both"]
+Wheel = Literal["right", "left", "both", "unknown"]
 _CLASSES: tuple[Wheel, ...] = ("right", "left", "both")
 
 
@@ -49,11 +55,16 @@ class DecisionState:
     time: float | None
     """Time (s) of the first declaration of the run, ``None`` if none yet."""
     wheel: Wheel | None
-    """Isolated wheel(s) of the current declaration (``None`` when nothing is declared)."""
+    """Isolated wheel(s) of the current declaration (``None`` when nothing is declared; ``'unknown'``
+    when a fault is evident but the radius split is not identified)."""
     severity_R: float
     """Fractional radius loss of the right wheel, 0..1."""
     severity_L: float
     """Fractional radius loss of the left wheel, 0..1."""
+    suspected: bool = False
+    """A fault is evident (candidate or declaration) but not isolated (``'unknown'``)."""
+    split_std: float = float("nan")
+    """σ (m) of the filter's radius split along the unobservable direction this step."""
     active_mode: int | None = None
     """Most probable IMM mode (index into the bank), ``None`` for single filters."""
     events: list[tuple[float, str]] = field(default_factory=list)
@@ -70,6 +81,7 @@ class FaultDecision:
         self.min_drop = d.min_drop
         self.dwell = d.dwell
         self.mode_threshold = d.mode_threshold
+        self.max_split_sigma = d.max_split_sigma
         self.R0 = cfg.model_wheel_radius
         self.events: list[tuple[float, str]] = []
         self.declared: Wheel | None = None
@@ -79,19 +91,17 @@ class FaultDecision:
         self._clear_since: float | None = None
 
     # ---------------------------------------------------------------- candidate wheel per rule
-    def _sigma_candidate(self, out: FilterOutput) -> Wheel | None:
-        sus = []
-        for i in (3, 4):
-            r = float(out.x[i])
-            s = math.sqrt(max(float(out.P[i, i]), 0.0))
-            dep = abs(r - self.R0)
-            sus.append(math.isfinite(r) and dep > self.k_sigma * s and dep > self.min_drop)
-        if sus[0] and sus[1]:
-            return "both"
-        if sus[0]:
-            return "right"
-        if sus[1]:
-            return "left"
+    def _departs(self, dep: float, std: float) -> bool:
+        return math.isfinite(dep) and abs(dep) > self.k_sigma * std and abs(dep) > self.min_drop
+
+    def _sigma_candidate(self, out: FilterOutput, dirs: RadiusDirections) -> Wheel | None:
+        dR, dL = float(out.x[3]) - self.R0, float(out.x[4]) - self.R0
+        sus_R = self._departs(dR, math.sqrt(max(float(out.P[3, 3]), 0.0)))
+        sus_L = self._departs(dL, math.sqrt(max(float(out.P[4, 4]), 0.0)))
+        if (sus_R or sus_L) and dirs.split_std <= self.max_split_sigma:
+            return "both" if sus_R and sus_L else "right" if sus_R else "left"
+        if sus_R or sus_L or self._departs(dirs.w[0] * dR + dirs.w[1] * dL, dirs.sum_std):
+            return "unknown"
         return None
 
     def _mode_candidate(self, out: FilterOutput) -> Wheel | None:
@@ -109,13 +119,15 @@ class FaultDecision:
         return best if ok else None
 
     # ---------------------------------------------------------------- update
-    def update(self, t: float, out: FilterOutput) -> DecisionState:
-        """Feed the estimator output of time ``t`` (s); returns the current decision."""
+    def update(self, t: float, out: FilterOutput, omega: np.ndarray | None = None) -> DecisionState:
+        """Feed the estimator output of time ``t`` (s) and the wheel rates ``omega`` (rad/s) it was
+        predicted with (they set which radius combination is observable); returns the decision."""
+        dirs = radius_directions(out.P, omega)
         use_mode = self.rule == "mode" or (self.rule == "auto" and out.mode_probs is not None)
         if use_mode and out.mode_probs is not None:
             cand = self._mode_candidate(out)
         else:
-            cand = self._sigma_candidate(out)
+            cand = self._sigma_candidate(out, dirs)
         eps = 1e-9
         if cand is not None:
             self._clear_since = None
@@ -143,5 +155,6 @@ class FaultDecision:
         active = int(np.argmax(out.mode_probs)) if out.mode_probs is not None else None
         return DecisionState(
             detected=self.declared is not None, time=self.first_time, wheel=self.declared,
-            severity_R=sev[0], severity_L=sev[1], active_mode=active, events=self.events,
+            severity_R=sev[0], severity_L=sev[1], suspected="unknown" in (cand, self.declared),
+            split_std=dirs.split_std, active_mode=active, events=self.events,
         )

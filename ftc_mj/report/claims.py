@@ -198,7 +198,7 @@ def any_of(*vals: bool | None) -> bool | None:
 
 
 def lbl(sc: int, est: str, fb: bool, ctrl: str = "nmpc", models: int = 4, variant: str = "hypothesis") -> str:
-    return make_label(f"scenario{sc}", est, fb, ctrl, models, variant)
+    return make_label(f"scenario{sc}", est, "direct" if fb else "none", ctrl, models, variant)
 
 
 def fbname(fb: bool) -> str:

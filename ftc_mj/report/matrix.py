@@ -5,10 +5,16 @@
 - the NMPC-vs-LMPC comparison with the UKF and feedback on, scenarios 2 and 4 — the NMPC runs are
   already above, so 2 LMPC runs.
 
-That is the paper's 38 runs. :data:`EXTRA_RUNS` adds runs beyond the paper: the IMM as literally
-printed (variant ``paper``, which collapses) beside the default ``hypothesis`` variant.
+That is the paper's 38 runs ("feedback off/on" = reconfiguration policy ``none``/``direct``).
+Beyond the paper (``extra``): :data:`EXTRA_RUNS`, the IMM as literally printed (variant ``paper``,
+which collapses) beside the default ``hypothesis`` variant; and :func:`policy_runs`, the
+reconfiguration-policy axis (issue 7): scenarios 2–4, UKF, NMPC, policies none / direct / safe ×
+speed only / speed + yaw rate, with the NMPC's actuation-rate term (``controller.rate_penalty``
+= :data:`POLICY_RATE_PENALTY`) — with the paper's cost the loop on the MuJoCo robot breaks under
+any realisable policy (docs/findings.md), which would leave nothing to compare.
 
-Labels are ``s<N>-<estimator>[5]-<fb|nofb>-<controller>[-paper]``, e.g. ``s4-imm-ukf5-fb-nmpc``;
+Labels are ``s<N>-<estimator>[5]-<fb|nofb>-<controller>[-paper]``, e.g. ``s4-imm-ukf5-fb-nmpc``, and
+``s<N>-<estimator>-<policy>-<speed|yaw>-<controller>[-rp]`` for the policy axis;
 ``ftc-mj paper --only GLOB`` selects by label.
 """
 
@@ -38,8 +44,20 @@ class MatrixEntry:
         return str(self.overrides["estimator.kind"])
 
     @property
+    def policy(self) -> str:
+        return str(self.overrides["reconfiguration.policy"])
+
+    @property
     def feedback(self) -> bool:
-        return bool(self.overrides["feedback"])
+        return self.policy != "none"
+
+    @property
+    def sensing(self) -> str:
+        return "speed+yaw" if self.overrides.get("sensors.yaw_rate_sigma") else "speed"
+
+    @property
+    def rate_penalty(self) -> float:
+        return float(self.overrides.get("controller.rate_penalty", 0.0))
 
     @property
     def controller(self) -> str:
@@ -55,12 +73,15 @@ class MatrixEntry:
             else None
 
 
-def make_label(scenario: str, estimator: str, feedback: bool, controller: str = "nmpc", imm_models: int = 4,
-               imm_variant: str = "hypothesis") -> str:
+def make_label(scenario: str, estimator: str, policy: str, controller: str = "nmpc", imm_models: int = 4,
+               imm_variant: str = "hypothesis", sensing: str = "speed", rate_penalty: float = 0.0) -> str:
     """The label of a matrix entry (see the module docstring)."""
     n = scenario.removeprefix("scenario")
     est = estimator + ("5" if estimator.startswith("imm") and imm_models == 5 else "")
-    label = f"s{n}-{est}-{'fb' if feedback else 'nofb'}-{controller}"
+    if policy not in ("none", "direct") or sensing != "speed" or rate_penalty > 0:
+        sens = "yaw" if "yaw" in sensing else "speed"
+        return f"s{n}-{est}-{policy}-{sens}-{controller}" + ("-rp" if rate_penalty > 0 else "")
+    label = f"s{n}-{est}-{'fb' if policy == 'direct' else 'nofb'}-{controller}"
     if estimator.startswith("imm") and imm_variant == "paper":
         label += "-paper"
     return label
@@ -68,11 +89,12 @@ def make_label(scenario: str, estimator: str, feedback: bool, controller: str = 
 
 def _entry(scenario: str, estimator: str, feedback: bool, controller: str = "nmpc", imm_models: int = 4,
            imm_variant: str = "hypothesis", extra: bool = False) -> MatrixEntry:
-    ov: dict[str, Any] = {"estimator.kind": estimator, "feedback": feedback, "controller.kind": controller}
+    policy = "direct" if feedback else "none"
+    ov: dict[str, Any] = {"estimator.kind": estimator, "reconfiguration.policy": policy, "controller.kind": controller}
     if estimator.startswith("imm"):
         ov["estimator.imm_models"] = imm_models
         ov["estimator.imm_variant"] = imm_variant
-    return MatrixEntry(make_label(scenario, estimator, feedback, controller, imm_models, imm_variant),
+    return MatrixEntry(make_label(scenario, estimator, policy, controller, imm_models, imm_variant),
                        scenario, ov, extra)
 
 
@@ -103,8 +125,31 @@ def extra_runs() -> list[MatrixEntry]:
     return [_entry(sc, est, fb, imm_variant="paper", extra=True) for sc, est, fb in EXTRA_RUNS]
 
 
+POLICIES = ("none", "direct", "safe")
+POLICY_SCENARIOS = ("scenario2", "scenario3", "scenario4")
+POLICY_RATE_PENALTY = 1.0
+YAW_RATE_SIGMA = 0.01
+"""Gyro noise (rad/s) of the speed + yaw-rate sensing in the policy axis."""
+
+
+def policy_runs() -> list[MatrixEntry]:
+    """The reconfiguration-policy axis (issue 7): scenarios 2–4 × {none, direct, safe} × {speed,
+    speed + yaw rate}, UKF + NMPC with the actuation-rate term — 18 runs."""
+    out = []
+    for sc in POLICY_SCENARIOS:
+        for sensing in ("speed", "speed+yaw"):
+            for pol in POLICIES:
+                ov: dict[str, Any] = {"estimator.kind": "ukf", "reconfiguration.policy": pol, "controller.kind": "nmpc",
+                                      "controller.rate_penalty": POLICY_RATE_PENALTY}
+                if sensing == "speed+yaw":
+                    ov["sensors.yaw_rate_sigma"] = YAW_RATE_SIGMA
+                out.append(MatrixEntry(make_label(sc, "ukf", pol, "nmpc", sensing=sensing,
+                                                  rate_penalty=POLICY_RATE_PENALTY), sc, ov, extra=True))
+    return out
+
+
 def full_matrix(extras: bool = True) -> list[MatrixEntry]:
-    return paper_matrix() + (extra_runs() if extras else [])
+    return paper_matrix() + (extra_runs() + policy_runs() if extras else [])
 
 
 def select(entries: list[MatrixEntry], patterns: list[str] | None) -> list[MatrixEntry]:

@@ -24,6 +24,7 @@ from ..errors import BadInput
 from ..io import atomic_path, write_json
 from .claims import Claim, evaluate_claims
 from .matrix import full_matrix, make_label, select
+from .policy_claims import evaluate_policy_claims
 from .render import render_claims
 from .runner import RunTask, row_from_run_dir, run_tasks
 from .summary import write_summary_csv
@@ -87,8 +88,10 @@ def label_of_run(run_dir: Path) -> str | None:
     est = m.get("estimator")
     if not isinstance(est, str) or not isinstance(m.get("scenario"), str):
         return None
-    return make_label(m["scenario"], est, bool(m.get("feedback")), str(m.get("controller")),
-                      int(m.get("imm_models") or 4), str(m.get("imm_variant") or "hypothesis"))
+    policy = m.get("policy") or ("direct" if m.get("feedback") else "none")
+    return make_label(m["scenario"], est, str(policy), str(m.get("controller")),
+                      int(m.get("imm_models") or 4), str(m.get("imm_variant") or "hypothesis"),
+                      str(m.get("sensing") or "speed"), float(m.get("rate_penalty") or 0.0))
 
 
 def collect_existing(runs_dir: Path, tasks: list[RunTask]) -> list[dict[str, Any]]:
@@ -158,7 +161,7 @@ def run_paper(out: Path, *, jobs: int = 2, duration: float | None = None, only: 
     t1 = time.perf_counter()
     write_summary_csv(out / "summary.csv", rows)
     by_label = {r["label"]: r for r in rows}
-    claims = evaluate_claims(by_label)
+    claims = evaluate_claims(by_label) + evaluate_policy_claims(by_label)
     figs: list[Path] = []
     if figures:
         from .figures import make_figures

@@ -52,6 +52,7 @@ class RunTask:
             ov["duration"] = float(duration)
         ident = {"label": entry.label, "scenario": entry.scenario, "estimator": entry.estimator,
                  "imm_models": entry.imm_models, "imm_variant": entry.imm_variant, "feedback": entry.feedback,
+                 "policy": entry.policy, "sensing": entry.sensing, "rate_penalty": entry.rate_penalty,
                  "controller": entry.controller, "extra": entry.extra}
         return RunTask(entry.label, entry.scenario, ov, str(runs_dir), entry.extra, rrd, fresh, ident)
 
@@ -104,7 +105,8 @@ def _row(task: RunTask, metrics: dict[str, Any], cfg: dict[str, Any], trace: Any
          reused: bool) -> dict[str, Any]:
     row: dict[str, Any] = dict(task.identity)
     flat = flatten(metrics)
-    for k in ("scenario", "estimator", "imm_models", "imm_variant", "feedback", "controller"):
+    for k in ("scenario", "estimator", "imm_models", "imm_variant", "feedback", "controller", "policy", "sensing",
+              "rate_penalty"):
         flat.pop(k, None)  # the identity columns come from the matrix entry
     row.update(flat)
     n_modes = int(task.identity.get("imm_models") or 0) if str(task.identity.get("estimator", "")).startswith("imm") \

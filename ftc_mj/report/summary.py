@@ -11,7 +11,8 @@ from typing import Any
 
 from ..io import atomic_path
 
-ID_COLUMNS = ("label", "scenario", "estimator", "imm_models", "imm_variant", "feedback", "controller", "extra",
+ID_COLUMNS = ("label", "scenario", "estimator", "imm_models", "imm_variant", "feedback", "policy", "sensing",
+              "rate_penalty", "controller", "extra",
               "status", "error", "run_id", "run_dir")
 
 

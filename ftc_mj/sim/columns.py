@@ -2,8 +2,11 @@
 
 Truth: ``x, y, psi, v, yaw_rate, R_R, R_L, omega_R, omega_L, roll, pitch, z, slip_R, slip_L,
 plant_flags``; sensors: ``v_meas, yaw_rate_meas, omega_*_meas``; estimator: ``*_hat, *_std,
-innovation, innovation_std, nis, fault_detected, mode_prob_k``; controller: ``omega_*_cmd,
-R_*_model`` (radii the controller assumed), ``solve_time_ms, solver_iterations, solver_ok`` (on
+innovation, innovation_std, nis, fault_detected, fault_suspected`` (a fault is evident but its
+wheel is not identified), ``radius_split_std`` (m, σ of the unobservable radius split),
+``mode_prob_k``; reconfiguration: ``reconfig_state`` (0 nominal, 1 hold, 2 handed over,
+3 reverted), ``excitation`` (relative wheel-rate-ratio dither, NaN when off); controller:
+``omega_*_cmd, R_*_model`` (radii the controller assumed), ``solve_time_ms, solver_iterations, solver_ok`` (on
 controller samples, NaN elsewhere); ``cross_track_error`` (m, positive = left of the path).
 """
 
@@ -15,5 +18,6 @@ BASE_COLUMNS: tuple[str, ...] = (
     "innovation", "innovation_std", "nis",
     "omega_R", "omega_L", "omega_R_meas", "omega_L_meas", "omega_R_cmd", "omega_L_cmd",
     "R_R_model", "R_L_model", "cross_track_error", "roll", "pitch", "z", "slip_R", "slip_L",
-    "plant_flags", "fault_detected", "solve_time_ms", "solver_iterations", "solver_ok",
+    "plant_flags", "fault_detected", "fault_suspected", "radius_split_std", "reconfig_state", "excitation",
+    "solve_time_ms", "solver_iterations", "solver_ok",
 )

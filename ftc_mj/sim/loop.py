@@ -10,7 +10,8 @@ hold) between controller samples. At estimator step ``k`` (time ``t_k``):
 2. the filter predicts over ``[t_{k-1}, t_k]`` with the wheel rates measured at ``t_{k-1}`` and
    updates with the measurement at ``t_k``; the fault decision runs on its output;
 3. on a controller sample, the controller solves from the pose at ``t_k`` with the radii chosen by
-   the feedback policy, and its command is applied from ``t_k``;
+   the reconfiguration policy (optionally dithered while a fault is suspected but not isolated), and
+   its command is applied from ``t_k``;
 4. one trace row is stored; the plant advances to ``t_{k+1}``.
 
 Telemetry is buffered in preallocated arrays; nothing is logged call by call.
@@ -27,6 +28,7 @@ import numpy as np
 from ..config import RunConfig
 from ..control import build_reference
 from ..control.base import ControlOutput
+from ..control.excitation import ratio_dither
 from ..estimation import FaultDecision, build_estimator
 from ..estimation.base import FilterOutput, Measurement
 from ..plant import Sensors
@@ -86,6 +88,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
     estimator = build_estimator(cfg) if cfg.estimator.kind != "none" else None
     decision = FaultDecision(cfg) if estimator is not None else None
     feedback = RadiusFeedback(cfg)
+    exc = cfg.reconfiguration.excitation
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
@@ -117,6 +120,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
     last_resets = 0
     last_ds = None
     detected_before = False
+    suspected = False
+    reset_since_solve = False
     flags_seen = 0
     error: str | None = None
     report_every = max(1, n // 200)
@@ -149,10 +154,13 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
             # ---- estimator (100 Hz)
             if estimator is not None:
                 z = Measurement(speed=rd.speed, yaw_rate=rd.yaw_rate, position=rd.position)
-                out = estimator.step(u_prev if u_prev is not None else u_meas, z)
+                u_pred = u_prev if u_prev is not None else u_meas
+                out = estimator.step(u_pred, z)
                 assert decision is not None
-                ds = decision.update(t, out)
+                ds = decision.update(t, out, u_pred)
+                feedback.observe(out)
                 last_ds = ds
+                suspected = ds.suspected
                 c["x_hat"][k], c["y_hat"][k], c["psi_hat"][k] = out.x[0], out.x[1], out.x[2]
                 c["R_R_hat"][k], c["R_L_hat"][k] = out.x[3], out.x[4]
                 c["R_R_std"][k] = np.sqrt(max(out.P[3, 3], 0.0))
@@ -161,6 +169,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
                 c["innovation_std"][k] = out.speed_innovation_std
                 c["nis"][k] = out.nis
                 c["fault_detected"][k] = float(ds.detected)
+                c["fault_suspected"][k] = float(ds.suspected)
+                c["radius_split_std"][k] = ds.split_std
                 if out.mode_probs is not None:
                     for j in range(n_modes):
                         c[f"mode_prob_{j + 1}"][k] = out.mode_probs[j]
@@ -170,18 +180,25 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
                 detected_before = ds.detected
                 resets = estimator.resets
                 if resets != last_resets:
+                    reset_since_solve = True
                     events.append(Event(t, "error", f"filter divergence: reset #{resets}"))
+                last_resets = resets
             u_prev = u_meas
 
             # ---- controller (10 Hz)
             if k % est_per_ctl == 0:
-                healthy = estimator is None or estimator.resets == last_resets
-                isolated = bool(decision is not None and detected_before)
-                model_radii = feedback.radii(out, isolated, healthy)
+                model_radii = feedback.radii(t, out, last_ds, reset_since_solve,
+                                             u_prev if u_prev is not None else u_meas, (tr.R_R, tr.R_L))
+                reset_since_solve = False
                 pose = np.array([tr.x, tr.y, tr.psi])
                 if cfg.sensors.pose_sigma > 0:
                     pose = pose + pose_rng.normal(0.0, cfg.sensors.pose_sigma, 3)
                 cmd = controller.solve(t, pose, model_radii)
+                if exc.enabled and suspected:
+                    dither = ratio_dither(t, exc.amplitude, exc.period)
+                    cmd.omega = np.clip(cmd.omega * (1.0 + dither * np.array([1.0, -1.0])),
+                                        -cfg.robot.omega_max, cfg.robot.omega_max)
+                    c["excitation"][k] = dither
                 plant.set_command(float(cmd.omega[0]), float(cmd.omega[1]))
                 c["solve_time_ms"][k] = cmd.solve_time * 1e3
                 c["solver_iterations"][k] = cmd.iterations
@@ -192,8 +209,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
                                         success=cmd.success))
                     if cmd.fallback:
                         events.append(Event(t, "error", f"solver fallback: {cmd.status}"))
-            if estimator is not None:
-                last_resets = estimator.resets
+            c["reconfig_state"][k] = float(feedback.state)
             c["omega_R_cmd"][k], c["omega_L_cmd"][k] = cmd.omega[0], cmd.omega[1]
             c["R_R_model"][k], c["R_L_model"][k] = model_radii
             rows = k + 1
@@ -215,6 +231,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
         "plant_flags": float(flags_seen),
     }
     ref_path = reference.path_points(720)
+    events.extend(feedback.events)
     return SimResult(trace=cols, solves=solves, events=sorted(events, key=lambda e: e.t), counters=counters,
                      decision=last_ds, n_modes=n_modes, reference_path=ref_path,
                      wall_time=time.perf_counter() - wall0, error=error,

@@ -1,50 +1,173 @@
-"""Which wheel radii the controller's model uses at each solve (feedback on/off, DESIGN §3, §9).
+"""Which wheel radii the controller's model uses at each solve: the reconfiguration policy
+(``reconfiguration.policy``; DESIGN §3, §9; issue 7).
 
-The paper closes the loop directly: the latest filter estimate goes to the NMPC at every solve.
-On a physical plant that can run away (DESIGN §9), so a ``safe`` policy is offered beside it.
+``none``
+    Nominal radii for ever (the paper's "feedback off").
+``direct``
+    The latest filter estimate at every solve, floored at a positive radius (the paper's
+    "feedback on"). On a physical plant this can run away (DESIGN §9): a wrong estimate makes the
+    controller drive the robot somewhere the kinematic model no longer holds, which makes the
+    estimate worse.
+``safe``
+    Hand the estimate over only when (a) the fault decision has declared a fault *and isolated the
+    wheel*, (b) the filter's covariance says the radii are identified — σ of each radius and σ
+    along the split direction the speed cannot observe (:mod:`~ftc_mj.estimation.observability`)
+    at most ``max_sigma`` — and (c) the filter is healthy (no divergence reset since the last solve,
+    mean NIS per measurement over ``nis_window`` at most ``max_nis_ratio``; a single NIS per
+    measurement above ``spike_nis_ratio`` since the last solve holds instead). Only the isolated
+    wheel(s) are changed; radii are clamped to [``min_radius``, nominal] and rate-limited to
+    ``max_rate``. A declared but unidentified fault *holds* the radii in use. Filter trouble
+    *reverts* to the radii trusted at least ``trust_lag`` before it (or nominal); a withdrawn
+    decision reverts to nominal.
+``truth``
+    The true radii (an oracle: the best any policy could do with this controller).
+
+Every change of the ``safe`` policy's state is an :class:`~ftc_mj.recorder.Event`, and the state
+is a trace column (``reconfig_state``: 0 nominal, 1 hold, 2 handed over, 3 reverted).
 """
 
 from __future__ import annotations
+
+from collections import deque
+from enum import IntEnum
 
 import numpy as np
 
 from ..config import RunConfig
 from ..estimation.base import FilterOutput
+from ..estimation.decision import DecisionState
+from ..estimation.observability import radius_directions
+from ..recorder import Event
+
+
+class ReconfigState(IntEnum):
+    """State of the ``safe`` policy (other policies stay ``NOMINAL`` or ``HANDED``)."""
+
+    NOMINAL = 0
+    HOLD = 1
+    HANDED = 2
+    REVERTED = 3
+
+
+_ISOLATED = {"right": (True, False), "left": (False, True), "both": (True, True)}
 
 
 class RadiusFeedback:
-    """Turns filter outputs into the radii [R_R, R_L] (m) handed to the controller."""
+    """Turns filter outputs and fault decisions into the radii [R_R, R_L] (m) handed to the controller.
+
+    Call :meth:`observe` at every estimator step (it keeps the innovation-consistency window) and
+    :meth:`radii` at every controller sample.
+    """
 
     def __init__(self, cfg: RunConfig) -> None:
-        self.enabled = cfg.feedback and cfg.estimator.kind != "none"
-        self.policy = cfg.reconfig.policy
+        rc = cfg.reconfiguration
+        self.policy = rc.policy if cfg.estimator.kind != "none" or rc.policy == "truth" else "none"
         self.nominal = np.full(2, cfg.model_wheel_radius)
-        self.min_radius = cfg.reconfig.min_radius if self.policy == "safe" else cfg.estimator.min_radius
-        self.max_sigma = cfg.reconfig.max_sigma
-        self.max_step = cfg.reconfig.max_rate / cfg.controller.rate
+        self.floor = cfg.estimator.min_radius
+        self.min_radius = rc.min_radius
+        self.max_sigma = rc.max_sigma
+        self.max_nis_ratio = rc.max_nis_ratio
+        self.trust_lag = rc.trust_lag
+        self.max_step = rc.max_rate / cfg.controller.rate
+        self._nis: deque[float] = deque(maxlen=max(1, round(rc.nis_window * cfg.estimator.rate)))
+        self._nis_sum = 0.0
+        self.spike_nis_ratio = rc.spike_nis_ratio
+        self._recent_max = 0.0
         self._current = self.nominal.copy()
+        self._trusted: list[tuple[float, np.ndarray]] = []
+        self.state = ReconfigState.HANDED if self.policy in ("direct", "truth") else ReconfigState.NOMINAL
+        self.events: list[Event] = []
+        self._why = "nominal"
 
-    def radii(self, out: FilterOutput | None, fault_isolated: bool, filter_healthy: bool) -> np.ndarray:
-        """Radii for the next solve. ``fault_isolated``: the decision layer has isolated a fault;
-        ``filter_healthy``: no divergence reset since the last solve."""
-        if not self.enabled or out is None:
+    # ---------------------------------------------------------------- estimator rate
+    def observe(self, out: FilterOutput) -> None:
+        """Record this step's NIS per measurement (rejected measurements count as inconsistent)."""
+        if self.policy != "safe":
+            return
+        m = max(int(np.size(out.innovation)), 1)
+        r = float(out.nis) / m if np.isfinite(out.nis) and not out.rejected else 1e3
+        if len(self._nis) == self._nis.maxlen:
+            self._nis_sum -= self._nis[0]
+        self._nis.append(r)
+        self._nis_sum += r
+        self._recent_max = max(self._recent_max, r)
+
+    @property
+    def nis_ratio(self) -> float:
+        """Mean NIS per measurement over the window (≈ 1 for a consistent filter)."""
+        return self._nis_sum / len(self._nis) if self._nis else 0.0
+
+    # ---------------------------------------------------------------- controller rate
+    def radii(self, t: float, out: FilterOutput | None, decision: DecisionState | None, filter_reset: bool,
+              omega: np.ndarray, truth: tuple[float, float]) -> np.ndarray:
+        """Radii (m) for the solve at ``t`` (s). ``filter_reset``: the filter reset itself since the
+        last solve; ``omega``: wheel rates (rad/s) of the filter's last prediction; ``truth``: the
+        plant's true radii (used by the ``truth`` policy only)."""
+        if self.policy == "none" or (out is None and self.policy != "truth"):
             return self.nominal.copy()
+        if self.policy == "truth":
+            return np.maximum(np.asarray(truth, dtype=float), self.floor)
+        assert out is not None
+        recent, self._recent_max = self._recent_max, 0.0
         est = np.asarray(out.x[3:5], dtype=float)
         if self.policy == "direct":
-            # The paper's policy; only a physical floor (a radius must stay positive) is imposed.
-            if not np.all(np.isfinite(est)):
-                return self._current.copy()
-            self._current = np.maximum(est, self.min_radius)
+            if np.all(np.isfinite(est)):
+                self._current = np.maximum(est, self.floor)
             return self._current.copy()
-        # safe policy
+        return self._safe(t, out, est, decision, filter_reset, omega, recent)
+
+    def _safe(self, t: float, out: FilterOutput, est: np.ndarray, decision: DecisionState | None,
+              filter_reset: bool, omega: np.ndarray, recent_nis: float) -> np.ndarray:
+        declared = decision is not None and decision.detected
+        healthy = not filter_reset and self.nis_ratio <= self.max_nis_ratio and bool(np.all(np.isfinite(est)))
+        if not declared:
+            if np.any(self._current != self.nominal):
+                self._enter(ReconfigState.REVERTED, "withdrawn", t, "warn",
+                            "reconfiguration revert to nominal: fault decision withdrawn")
+            else:
+                self._enter(ReconfigState.NOMINAL, "nominal", t, "info", "reconfiguration: nominal radii")
+            return self._move(self.nominal)
+        if not healthy:
+            why = "filter reset (divergence)" if filter_reset else f"inconsistent innovations (mean NIS/dim " \
+                                                                   f"{self.nis_ratio:.1f})"
+            target = self._last_trusted(t)
+            self._enter(ReconfigState.REVERTED, "reset" if filter_reset else "nis", t, "error",
+                        f"reconfiguration revert to R_R {target[0]:.2f} m, R_L {target[1]:.2f} m: {why}")
+            return self._move(target)
+        assert decision is not None
+        dirs = radius_directions(out.P, omega)
         sig = np.sqrt(np.clip(np.diag(out.P)[3:5], 0.0, None))
-        if not filter_healthy or not np.all(np.isfinite(est)):
-            target = self.nominal
-        elif fault_isolated and float(np.max(sig)) < self.max_sigma:
-            target = np.clip(est, self.min_radius, self.nominal)
-        else:
-            target = self._current if fault_isolated else self.nominal
-        step = np.clip(target - self._current, -self.max_step, self.max_step)
-        self._current = self._current + step
+        iso = _ISOLATED.get(decision.wheel or "")
+        identified = float(np.max(sig)) <= self.max_sigma and dirs.split_std <= self.max_sigma
+        if iso is None or not identified or recent_nis > self.spike_nis_ratio:
+            if iso is None:
+                why, tag = "wheel not isolated", "isolation"
+            elif not identified:
+                why, tag = (f"radii not identified (σ R {sig[0]:.2f}/{sig[1]:.2f} m, split {dirs.split_std:.2f} m)",
+                            "identification")
+            else:
+                why, tag = f"surprising innovation (NIS/dim {recent_nis:.1f})", "spike"
+            self._enter(ReconfigState.HOLD, tag, t, "warn", f"reconfiguration hold: {why}")
+            return self._move(self._current)
+        target = np.where(iso, np.clip(est, self.min_radius, self.nominal), self.nominal)
+        self._enter(ReconfigState.HANDED, str(decision.wheel), t, "info",
+                    f"reconfiguration hand-over ({decision.wheel}): R_R {target[0]:.2f} m, R_L {target[1]:.2f} m")
+        self._trusted.append((t, target))
+        return self._move(target)
+
+    # ---------------------------------------------------------------- helpers
+    def _enter(self, state: ReconfigState, why: str, t: float, level: str, text: str) -> None:
+        """Switch to ``state`` for reason ``why``; an event when either changes."""
+        if (state, why) != (self.state, self._why):
+            self.state, self._why = state, why
+            self.events.append(Event(t, level, text))
+
+    def _move(self, target: np.ndarray) -> np.ndarray:
+        self._current = self._current + np.clip(target - self._current, -self.max_step, self.max_step)
         return self._current.copy()
 
+    def _last_trusted(self, t: float) -> np.ndarray:
+        for t_acc, r in reversed(self._trusted):
+            if t_acc <= t - self.trust_lag:
+                return r
+        return self.nominal

@@ -30,14 +30,13 @@ def config_hash(cfg: RunConfig) -> str:
 
 
 def run_id_for(cfg: RunConfig) -> str:
-    """``<name>_<estimator>[-M]_<controller>_<fb|nofb>_s<seed>_<hash>``."""
+    """``<name>_<estimator>[-M]_<controller>_<policy>_s<seed>_<hash>`` (policy: reconfiguration policy)."""
     est = cfg.estimator.kind
     if est.startswith("imm"):
         est += f"{cfg.estimator.imm_models}"
         if cfg.estimator.imm_variant == "paper":
             est += "p"
-    fb = "fb" if cfg.feedback else "nofb"
-    return f"{cfg.name}_{est}_{cfg.controller.kind}_{fb}_s{cfg.seed}_{config_hash(cfg)}"
+    return f"{cfg.name}_{est}_{cfg.controller.kind}_{cfg.reconfiguration.policy}_s{cfg.seed}_{config_hash(cfg)}"
 
 
 @dataclass
@@ -58,6 +57,10 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "imm_variant": cfg.estimator.imm_variant if cfg.estimator.kind.startswith("imm") else None,
         "controller": cfg.controller.kind,
         "feedback": cfg.feedback,
+        "policy": cfg.reconfiguration.policy,
+        "sensing": "+".join(["speed"] + (["yaw"] if cfg.sensors.yaw_rate_sigma is not None else [])
+                            + (["position"] if cfg.sensors.position_sigma is not None else [])),
+        "rate_penalty": cfg.controller.rate_penalty,
         "seed": cfg.seed,
         "status": "failed" if res.error else "ok",
         "error": res.error,

@@ -139,6 +139,8 @@ def prepare(results: pl.DataFrame) -> pl.DataFrame:
         c = f"radius_final_error_{w}"
         if c in df.columns:
             extra.append(pl.col(c).cast(pl.Float64).abs().alias(f"abs_{c}"))
+    if "cross_track_final" in df.columns:
+        extra.append(pl.col("cross_track_final").cast(pl.Float64).abs().alias("abs_cross_track_final"))
     if "status" in df.columns:
         extra.append((pl.col("status") != "ok").alias("failed"))
     if extra:
@@ -208,7 +210,33 @@ def finding_text(df: pl.DataFrame, f: FindingSpec, plan: StudyPlan | None) -> li
             lines.append(f"- {title}{suffix}: {f.axis} = {base}: {eb.fmt(mdef.unit, mdef.rate)} (n = {eb.n}).")
         else:
             lines.append(f"- {title}{suffix}: " + "; ".join(phrases) + ".")
+        if f.paired:
+            keys = [c for c in (plan.axis_columns if plan is not None else []) if c != f.axis] + ["seed"]
+            for v in vals:
+                if v != base:
+                    lines.append("  - " + paired_text(part, f.axis, base, v, keys, mdef, f.tolerance))
     return lines
+
+
+def paired_text(df: pl.DataFrame, axis: str, base: Any, v: Any, keys: list[str], mdef: MetricDef,
+                tolerance: float) -> str:
+    """Run-by-run comparison of ``axis = v`` against ``axis = base`` (rows matched on ``keys``)."""
+    keys = [k for k in keys if k in df.columns]
+    col = mdef.column
+    a = df.filter(_eq(axis, base)).select([*keys, pl.col(col).cast(pl.Float64).alias("_b")])
+    b = df.filter(_eq(axis, v)).select([*keys, pl.col(col).cast(pl.Float64).alias("_v")])
+    j = a.join(b, on=keys, how="inner").drop_nulls(["_b", "_v"])
+    if j.height == 0:
+        return f"paired, {axis} = {v} vs {base}: no matching runs"
+    d = (j["_v"] - j["_b"]).to_numpy()
+    worse = d > tolerance if mdef.lower_is_better else d < -tolerance
+    excess = float(np.max(d) if mdef.lower_is_better else -np.min(d))
+    u = f" {mdef.unit}" if mdef.unit else ""
+    return (f"paired, {axis} = {v} vs {base}: worse by more than {tolerance:g}{u} in {int(worse.sum())} of "
+            f"{j.height} matched runs (largest excess {_g(excess)}{u}; worst {axis} = {v}: "
+            f"{_g(float(np.max(j['_v'].to_numpy()) if mdef.lower_is_better else np.min(j['_v'].to_numpy())))}{u}, "
+            f"worst {axis} = {base}: "
+            f"{_g(float(np.max(j['_b'].to_numpy()) if mdef.lower_is_better else np.min(j['_b'].to_numpy())))}{u})")
 
 
 def _sentence(text: str) -> str:

@@ -202,6 +202,12 @@ class FindingSpec(_Strict):
     unit: str = ""
     where: dict[str, Scalar] = Field(default_factory=dict)
     """Restrict to rows whose axis columns equal these labels."""
+    paired: bool = False
+    """Also compare run by run: each value of ``axis`` against ``baseline`` with every other axis and
+    the seed equal, counting the pairs where it is worse by more than ``tolerance`` ("never worse
+    than" claims need this; means can hide one bad seed)."""
+    tolerance: Annotated[float, Field(ge=0)] = 0.0
+    """Difference (metric units) within which a paired comparison counts as "not worse"."""
 
 
 class AnalysisSpec(_Strict):
@@ -257,6 +263,8 @@ def flatten_dotted(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 def key_error(key: str) -> str | None:
     """Why ``key`` is not a settable leaf of RunConfig (None if it is)."""
+    if key == "feedback":  # the paper's switch, an alias of reconfiguration.policy (none/direct)
+        return None
     model: type[BaseModel] = RunConfig
     parts = key.split(".")
     for i, part in enumerate(parts):

@@ -234,6 +234,10 @@ class ControllerConfig(_Strict):
     """Weight on the squared wheel acceleration (rad/s^2)^2 in the cost; 0 = the paper's cost."""
     omega_rate_max: PosFloat = 20.0
     """Input-rate bound |d omega / dt| (rad/s^2)."""
+    max_lateral_accel: PosFloat | None = None
+    """Bound (m/s²) on the lateral acceleration ``V ψ̇`` the NMPC may plan at every node; ``None`` =
+    the paper's problem (no bound). The MuJoCo robot (2 m wheels, 1 m half track, centre of mass about
+    2.5 m high) starts lifting its inner wheel at about 3.5 m/s²; the 50 m circle at 10 m/s needs 2."""
     solver: Literal["ipopt", "rti-daqp", "rti-qpoases", "rti-osqp"] = "rti-daqp"
     """NMPC solver. ``ipopt``: full NLP solve each sample (warm-started). ``rti-<qp>``: real-time
     iteration — one Gauss–Newton SQP step per sample on the state-condensed QP, solved by the named

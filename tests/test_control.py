@@ -285,3 +285,38 @@ def test_wrapped_heading_in_closed_loop(kind: str) -> None:
     res = simulate(Wrapped(), ref, 20.0, (0.0, 0.0, 0.0))
     assert res.max_abs_error(0.0, 20.0) < 1e-3
     assert ctl.failures == 0
+
+
+def _lateral(omega: np.ndarray, radii=NOMINAL, b: float = 1.0) -> np.ndarray:
+    V = (radii[0] * omega[:, 0] + radii[1] * omega[:, 1]) / 2.0
+    r = (radii[0] * omega[:, 0] - radii[1] * omega[:, 1]) / (2.0 * b)
+    return V * r
+
+
+def test_lateral_acceleration_bound_is_respected_and_rti_converges_to_it() -> None:
+    """With ``max_lateral_accel`` = 1.5 m/s² the 10 m/s, 50 m circle (2 m/s²) is infeasible: IPOPT's
+    plan meets the bound at every node (active somewhere), and RTI iterates on the linearised bound
+    converge to the same plan."""
+    ref = build_reference(RunConfig())
+    spec = ProblemSpec(max_lateral_accel=1.5)
+    ip = NMPC(spec, ref, solver="ipopt")
+    rti = NMPC(spec, ref, solver="rti-daqp")
+    R = np.array(NOMINAL)
+    r0 = ref.at(0.0)
+    pose = np.array([r0.x, r0.y, r0.psi])  # on the circle, heading along it
+    o = ip.solve(0.0, pose, R)
+    assert o.success and not o.fallback
+    lat = _lateral(o.predicted_omega)
+    assert np.max(np.abs(lat)) <= 1.5 + 1e-6 and np.max(np.abs(lat)) > 1.5 - 1e-3
+    rti.solve(0.0, pose, R)  # IPOPT seed
+    col = Collocation(spec)
+    r, _ = reference_at_nodes(ref, col.times(0.0), pose[2])
+    Xg, Ug = rti._guess(0.0, pose, r, R)
+    for _ in range(8):
+        ok, _, Xg, Ug = rti._qp.solve(Xg, Ug, R, pose, r)
+        assert ok
+    np.testing.assert_allclose(Ug, o.predicted_omega, atol=1e-3)
+    assert np.max(np.abs(_lateral(Ug))) <= 1.5 + 1e-4
+    # without the bound the same plan asks for the circle's 2 m/s²
+    free = NMPC(ProblemSpec(), ref, solver="ipopt").solve(0.0, pose, R)
+    assert np.max(np.abs(_lateral(free.predicted_omega))) > 1.9

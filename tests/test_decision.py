@@ -102,3 +102,14 @@ def test_sigma_rule_isolates_only_an_identified_split() -> None:
     for t in np.arange(0.0, 1.0, 0.01):
         s = dec.update(float(round(t, 6)), o, omega)
     assert s.wheel == "left" and not s.suspected
+
+
+def test_isolated_wheel_changes_only_after_the_dwell() -> None:
+    dec = FaultDecision(RunConfig.model_validate({"estimator": {"decision": {"dwell": 0.3}}}))
+    s = feed(dec, 0.0, 1.0, out(2.0, 1.0))
+    assert s.wheel == "left"
+    s = feed(dec, 1.0, 1.2, out(1.2, 1.0))  # a 0.2 s blip of the right estimate: no change
+    assert s.wheel == "left"
+    s = feed(dec, 1.2, 1.4, out(2.0, 1.0))
+    s = feed(dec, 1.4, 2.0, out(1.2, 1.0))  # held for 0.6 s: changes after the 0.3 s dwell
+    assert s.wheel == "both" and [e for e in dec.events if e[1] == "change both"][0][0] == pytest.approx(1.7)

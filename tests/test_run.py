@@ -103,3 +103,23 @@ def test_view_opens_the_recording(tmp_path: Path, monkeypatch) -> None:
     monkeypatch.setattr(recorder.subprocess, "run", lambda cmd, check=False: seen.append(cmd) or Done())
     assert CliRunner().invoke(app, ["view", str(tmp_path)]).exit_code == 0
     assert seen and seen[0][1] == str(tmp_path / "run.rrd")
+
+
+def test_cli_reconfig_option_and_feedback_aliases(tmp_path: Path) -> None:
+    r = CliRunner()
+    for args, policy in ((["--reconfig", "direct"], "direct"), (["--no-feedback"], "none"), (["--feedback"], "direct"),
+                         ([], "safe")):
+        out = tmp_path / (args[0].strip("-") if args else "default")
+        res = r.invoke(app, ["run", "scenario2", "--duration", "0.5", "--no-rrd", "--out", str(out), "-q", *args])
+        assert res.exit_code == 0, res.output
+        (run_dir,) = list(out.iterdir())
+        assert json.loads((run_dir / "metrics.json").read_text())["policy"] == policy
+        assert f"_{policy}_s0_" in run_dir.name
+    # contradictions and unknown policies: one line naming the option or field, exit 2, nothing written
+    for args, msg in ((["--reconfig", "safe", "--no-feedback"], "--feedback/--no-feedback"),
+                      (["--set", "feedback=false", "--set", "reconfiguration.policy=direct"], "feedback: false"),
+                      (["--reconfig", "sometimes"], "--reconfig")):
+        out = tmp_path / "bad"
+        res = r.invoke(app, ["run", "scenario2", "--duration", "0.5", "--out", str(out), "-q", *args])
+        assert res.exit_code == 2 and msg in res.output, (args, res.output)
+        assert not out.exists()

@@ -7,7 +7,8 @@ Stacking used everywhere: ``w = [x(N), y(N), psi(N), omega_R(N), omega_L(N)]``; 
 
 Constraints (paper §3): collocation ``(2/T) D X = f(X, U; R_R, R_L, b)`` at all N nodes, the
 initial-state equality ``X(t0) = pose``, input bounds ``|omega| ≤ omega_max`` and input-rate
-bounds ``|(2/T) D omega| ≤ omega_rate_max``.
+bounds ``|(2/T) D omega| ≤ omega_rate_max`` and, optionally, a lateral-acceleration (roll-over)
+bound ``|V psidot| ≤ max_lateral_accel`` at every node (linearised about the guess in the QP).
 
 Cost (paper §3): ``(T/2) Σ_j w_j (q_pose ‖X_j − X_ref,j‖² + q_speed (V_j − V_ref,j)² +
 q_yaw_rate (psidot_j − psidot_ref,j)²)`` plus the optional ``rate_penalty (T/2) Σ_j w_j
@@ -82,6 +83,7 @@ class ProblemSpec:
     q_speed: float = 1.0
     q_yaw_rate: float = 1.0
     rate_penalty: float = 0.0
+    max_lateral_accel: float | None = None  # m/s^2; None = no bound (the paper's problem)
 
 
 class Collocation:
@@ -205,10 +207,15 @@ class CondensedQP:
         self.qpsol = qpsol
         opts = _default_qp_options(qpsol)
         opts.update(qp_options or {})
-        nA = 3 + n
+        self.a_lat = sp.max_lateral_accel
+        n_lat = N if self.a_lat is not None else 0
+        nA = 3 + n + n_lat
         a_pattern = np.zeros((nA, n), dtype=bool)
         a_pattern[:3] = True
-        a_pattern[3:] = Dblk != 0
+        a_pattern[3:3 + n] = Dblk != 0
+        idx = np.arange(n_lat)
+        a_pattern[3 + n + idx, idx] = True
+        a_pattern[3 + n + idx, N + idx] = True
         rows, cols = np.nonzero(a_pattern)
         a_sp = ca.Sparsity.triplet(nA, n, rows.tolist(), cols.tolist())
         self.solver = ca.conic("qp", qpsol, {"h": ca.Sparsity.dense(n, n), "a": a_sp}, opts)
@@ -216,13 +223,19 @@ class CondensedQP:
         Hs, gs = ca.MX.sym("H", n, n), ca.MX.sym("g", n)
         Es, es = ca.MX.sym("E", 3, n), ca.MX.sym("e", 3)
         xs, lxs, las = ca.MX.sym("x0", n), ca.MX.sym("lam_x0", n), ca.MX.sym("lam_a0", nA)
-        A = ca.vertcat(Es, ca.DM(Dblk))
+        # lateral-acceleration rows: row j holds d(V psidot)_j/d[omega_R,j, omega_L,j] (nonzeros Lv),
+        # bounds [ll, lu] from the linearisation
+        Lv, ll, lu = ca.MX.sym("Lv", 2 * n_lat), ca.MX.sym("ll", n_lat), ca.MX.sym("lu", n_lat)
+        lat_sp = ca.Sparsity.triplet(n_lat, n, np.concatenate([idx, idx]).tolist(),
+                                     np.concatenate([idx, N + idx]).tolist())
+        A = ca.vertcat(Es, ca.DM(Dblk), ca.MX(lat_sp, Lv))
         r = self.solver(
-            h=Hs, g=gs, a=A, lba=ca.vertcat(es, -rate * np.ones(n)), uba=ca.vertcat(es, rate * np.ones(n)),
+            h=Hs, g=gs, a=A, lba=ca.vertcat(es, -rate * np.ones(n), ll), uba=ca.vertcat(es, rate * np.ones(n), lu),
             lbx=-sp.omega_max, ubx=sp.omega_max, x0=xs, lam_x0=lxs, lam_a0=las,
         )
         self._qpfun = BufferedFunction(
-            ca.Function("rti_qp", [Hs, gs, Es, es, xs, lxs, las], [r["x"], r["lam_x"], r["lam_a"], r["cost"]])
+            ca.Function("rti_qp", [Hs, gs, Es, es, Lv, ll, lu, xs, lxs, las],
+                        [r["x"], r["lam_x"], r["lam_a"], r["cost"]])
         )
         self._lin = BufferedFunction(col.lin)
         self._J = BufferedFunction(col.rates_jac)
@@ -296,20 +309,38 @@ class CondensedQP:
         H = 2.0 * H + self.R_rate
         return H, 2.0 * g, E, e, Gf, hc.ravel()
 
+    def lateral_rows(self, Ug: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Linearised bound ``ll ≤ L u ≤ lu`` of ``|V psidot| ≤ max_lateral_accel`` about ``Ug`` (N,2).
+        Returns the nonzeros of ``L`` (column-major: all d/d omega_R, then all d/d omega_L) and the
+        bounds; empty arrays without a bound."""
+        if self.a_lat is None:
+            return np.zeros(0), np.zeros(0), np.zeros(0)
+        J = self._J_cache[1] if self._J_cache is not None else self._J(radii)[0].reshape(2, 2, order="F")
+        V = Ug @ J[0]
+        r = Ug @ J[1]
+        gR = r * J[0, 0] + V * J[1, 0]
+        gL = r * J[0, 1] + V * J[1, 1]
+        lin0 = V * r - (gR * Ug[:, 0] + gL * Ug[:, 1])  # a(u) ≈ a(ug) + grad·(u - ug) = lin0 + grad·u
+        return np.concatenate([gR, gL]), -self.a_lat - lin0, self.a_lat - lin0
+
     def solve(self, Xg, Ug, radii, x0, ref, u_init: np.ndarray | None = None):
         """Build and solve the QP. Returns ``(ok, status, X (N,3), U (N,2))``."""
         N = self.col.N
         H, g, E, e, G, hc = self.build(Xg, Ug, radii, x0, ref)
+        Lv, ll, lu = self.lateral_rows(Ug, radii)
         if u_init is None:
             u_init = Ug.T.ravel()
         u0 = np.clip(u_init, -self.omega_max, self.omega_max)
-        u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, u0, self._lam_x, self._lam_a)
+        u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, Lv, ll, lu, u0, self._lam_x, self._lam_a)
         st = self._qpfun.stats()
         ok = self._qpfun.ret == 0 and bool(st.get("success", True)) and bool(np.all(np.isfinite(u)))
         if ok:  # independent feasibility check (solvers differ in what they call success)
             tol = 1e-5 * (1.0 + np.abs(e).max())
             ok = (np.abs(E @ u - e).max() < tol and np.abs(self.Dblk @ u).max() < self.rate_lim * (1 + 1e-6) + 1e-6
                   and np.abs(u).max() < self.omega_max * (1 + 1e-6) + 1e-6)
+            if ok and Lv.size:
+                lat = Lv[:N] * u[:N] + Lv[N:] * u[N:]
+                ok = bool(np.all(lat >= ll - 1e-6 * (1 + np.abs(ll))) and np.all(lat <= lu + 1e-6 * (1 + np.abs(lu))))
         if not ok:
             self._lam_x[:] = 0.0
             self._lam_a[:] = 0.0

@@ -23,6 +23,7 @@ def problem_spec(cfg: RunConfig) -> ProblemSpec:
         q_speed=c.q_speed,
         q_yaw_rate=c.q_yaw_rate,
         rate_penalty=c.rate_penalty,
+        max_lateral_accel=c.max_lateral_accel,
     )
 
 

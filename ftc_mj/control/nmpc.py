@@ -224,6 +224,10 @@ class NMPC(PlanController):
         rate = sp.omega_rate_max * h
         self._lbg = np.concatenate([np.zeros(3 * N + 3), -rate * np.ones(2 * N)])
         self._ubg = np.concatenate([np.zeros(3 * N + 3), rate * np.ones(2 * N)])
+        if sp.max_lateral_accel is not None:  # roll-over bound |V psidot| at every node
+            g = ca.vertcat(g, (Vp[0, :] * Vp[1, :]).T)
+            self._lbg = np.concatenate([self._lbg, -sp.max_lateral_accel * np.ones(N)])
+            self._ubg = np.concatenate([self._ubg, sp.max_lateral_accel * np.ones(N)])
         self._lbx = np.concatenate([-np.inf * np.ones(3 * N), -sp.omega_max * np.ones(2 * N)])
         self._ubx = -self._lbx
         self._ubx[: 3 * N] = np.inf

@@ -23,7 +23,8 @@ Rules (``estimator.decision.rule``):
 ``auto``
     ``mode`` when the output carries IMM mode probabilities, else ``sigma``.
 
-A declared fault is cleared when the condition has been false for ``dwell`` seconds. Every
+A declared fault is cleared when the condition has been false for ``dwell`` seconds, and its
+isolated wheel changes only when the new candidate has held for ``dwell`` seconds. Every
 declaration, change of isolated wheel and clear is appended to :attr:`FaultDecision.events` as
 ``(t, text)`` so the loop can count false alarms. Severity is the fractional radius loss
 ``clip(1 - R̂/R0, 0, 1)`` of each wheel from the (combined) estimate.
@@ -89,6 +90,8 @@ class FaultDecision:
         self.n_declarations = 0
         self._cond_since: float | None = None
         self._clear_since: float | None = None
+        self._change_cand: Wheel | None = None
+        self._change_since = 0.0
 
     # ---------------------------------------------------------------- candidate wheel per rule
     def _departs(self, dep: float, std: float) -> bool:
@@ -140,10 +143,18 @@ class FaultDecision:
                     self.first_time = t
                 self.events.append((t, f"declare {cand}"))
             elif self.declared is not None and cand != self.declared:
-                self.declared = cand
-                self.events.append((t, f"change {cand}"))
+                # a change of the isolated wheel needs the same dwell as a declaration (no flapping)
+                if cand != self._change_cand:
+                    self._change_cand, self._change_since = cand, t
+                if t - self._change_since >= self.dwell - eps:
+                    self.declared = cand
+                    self._change_cand = None
+                    self.events.append((t, f"change {cand}"))
+            else:
+                self._change_cand = None
         else:
             self._cond_since = None
+            self._change_cand = None
             if self.declared is not None:
                 if self._clear_since is None:
                     self._clear_since = t
@@ -151,10 +162,15 @@ class FaultDecision:
                     self.declared = None
                     self._clear_since = None
                     self.events.append((t, "clear"))
-        sev = [float(np.clip(1.0 - out.x[i] / self.R0, 0.0, 1.0)) if np.isfinite(out.x[i]) else 0.0 for i in (3, 4)]
+        sev = [_loss(float(out.x[i]), self.R0) for i in (3, 4)]
         active = int(np.argmax(out.mode_probs)) if out.mode_probs is not None else None
         return DecisionState(
             detected=self.declared is not None, time=self.first_time, wheel=self.declared,
             severity_R=sev[0], severity_L=sev[1], suspected="unknown" in (cand, self.declared),
             split_std=dirs.split_std, active_mode=active, events=self.events,
         )
+
+
+def _loss(r: float, R0: float) -> float:
+    """Fractional radius loss ``clip(1 - r/R0, 0, 1)``; 0 for a non-finite estimate."""
+    return min(max(1.0 - r / R0, 0.0), 1.0) if math.isfinite(r) else 0.0

@@ -652,7 +652,11 @@ def synthetic_run(duration: float = 40.0, *, rate_hz: float = 100.0, solve_rate_
         "roll": np.where(t < fault_time, 0.0, -np.arcsin((R0 - R_R) / (2 * b))),
         "pitch": np.zeros(n), "z": 0.5 * (R_R + R_L), "nis": innovation**2 / innovation_std**2,
         "fault_detected": (t >= fault_time + 0.8).astype(np.float64),
+        # safe reconfiguration: nominal, hold after the declaration, hand-over 0.5 s later
+        "reconfig_state": np.select([t < fault_time + 0.8, t < fault_time + 1.3], [0.0, 1.0], 2.0),
+        "R_L_model": np.full(n, R0),
     }
+    trace["R_R_model"] = np.where(trace["reconfig_state"] == 2.0, np.maximum(R_R_hat, 0.05), R0)
     if n_modes:
         logits = np.zeros((n, n_modes))
         logits[:, 0] = np.where(t < fault_time + 0.5, 4.0, -2.0)

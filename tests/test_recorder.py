@@ -99,6 +99,8 @@ def _expected(trace: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         "/yaw_rate/truth": trace["yaw_rate"], "/yaw_rate/measured": trace["yaw_rate_meas"],
         "/attitude/roll": trace["roll"], "/attitude/pitch": trace["pitch"], "/attitude/z": trace["z"],
         "/fault/detected": trace["fault_detected"],
+        "/reconfiguration/state": trace["reconfig_state"],
+        "/radius/right/model": trace["R_R_model"], "/radius/left/model": trace["R_L_model"],
     }
     for k in range(1, N_MODES + 1):
         e[f"/imm/mode_prob_{k}"] = trace[f"mode_prob_{k}"]

@@ -120,3 +120,14 @@ def test_existing_run_lookup(tmp_path: Path) -> None:
     m["status"] = "failed"
     (d / "metrics.json").write_text(json.dumps(m))
     assert existing_run(runs, d.name) is None  # failed runs are recomputed
+
+
+def test_figures_in_worker_processes_equal_sequential(tmp_path: Path) -> None:
+    runs = tmp_path / "runs"
+    dirs = {lb: fake_run(runs, lb, duration=4.0) for lb in ("s2-ukf-fb-nmpc", "s2-ukf-nofb-nmpc", "s2-ukf-fb-lmpc",
+                                                             "s2-imm-ukf-fb-nmpc")}
+    seq = make_figures(dirs, tmp_path / "seq")
+    par = make_figures(dirs, tmp_path / "par", jobs=2)
+    assert [p.name for p in par] == [p.name for p in seq] and seq
+    for a, b in zip(seq, par, strict=True):
+        assert a.read_bytes() == b.read_bytes()

@@ -161,7 +161,10 @@ class BufferedFunction:
     def __call__(self, *args: np.ndarray) -> list[np.ndarray]:
         """Evaluate; each argument is copied (flattened column-major) into the input buffers."""
         for dst, a in zip(self.args, args, strict=True):
-            dst[:] = np.ravel(a, order="F")
+            if isinstance(a, np.ndarray) and a.ndim == 2:
+                dst.reshape(a.shape, order="F")[...] = a  # column-major in one pass (no temporary copy)
+            else:
+                dst[:] = np.ravel(a, order="F")
         self._eval()
         return self.outs
 

@@ -112,8 +112,34 @@ class Assembled:
     """``diag(r)`` (m, m)."""
 
 
+_NOISE: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray]] = {}
+"""Read-only ``(r, diag(r))`` arrays by variances (a run has one or two channel sets: built once, not per step)."""
+
+
+def _noise(r: list[float]) -> tuple[np.ndarray, np.ndarray]:
+    key = tuple(r)
+    hit = _NOISE.get(key)
+    if hit is None:
+        ra = np.asarray(r, float)
+        Ra = np.diag(ra)
+        ra.flags.writeable = False
+        Ra.flags.writeable = False
+        hit = (ra, Ra)
+        if len(_NOISE) < 64:
+            _NOISE[key] = hit
+    return hit
+
+
+_SPEED_ONLY = (SPEED,)
+
+
 def assemble(setup: FilterSetup, meas: Measurement) -> Assembled:
     """Collect the finite channels of ``meas`` that the configured sensor set provides."""
+    if setup.yaw_rate_sigma is None and setup.position_sigma is None:  # speed sensor only (the paper's set)
+        v = meas.speed
+        if v is not None and type(v) is float and math.isfinite(v):
+            ra, Ra = _noise([setup.speed_sigma * setup.speed_sigma])
+            return Assembled(np.array([v]), ra, _SPEED_ONLY, False, Ra)
     z: list[float] = []
     r: list[float] = []
     kinds: list[int] = []
@@ -145,8 +171,8 @@ def assemble(setup: FilterSetup, meas: Measurement) -> Assembled:
         else:
             add(pos[0], setup.position_sigma, POS_X)
             add(pos[1], setup.position_sigma, POS_Y)
-    ra = np.asarray(r, float)
-    return Assembled(np.asarray(z, float), ra, tuple(kinds), dropped, np.diag(ra))
+    ra, Ra = _noise(r)
+    return Assembled(np.asarray(z, float), ra, tuple(kinds), dropped, Ra)
 
 
 def measure(model: KinematicModel, X: np.ndarray, u: np.ndarray, kinds: tuple[int, ...]) -> np.ndarray:
@@ -174,7 +200,7 @@ def measure_jacobian(model: KinematicModel, X: np.ndarray, u: np.ndarray, kinds:
 # ---------------------------------------------------------------------------- numerics
 def symmetrise(P: np.ndarray) -> np.ndarray:
     """``(P + Pᵀ)/2`` over the last two axes."""
-    return 0.5 * (P + np.swapaxes(P, -1, -2))
+    return 0.5 * (P + P.swapaxes(-1, -2))
 
 
 def eig_floor(P: np.ndarray, floor: float = EIG_FLOOR) -> np.ndarray:
@@ -182,7 +208,7 @@ def eig_floor(P: np.ndarray, floor: float = EIG_FLOOR) -> np.ndarray:
     P = np.where(np.isfinite(P), P, 0.0)
     w, V = np.linalg.eigh(symmetrise(P))
     w = np.maximum(w, floor)
-    return symmetrise((V * w[..., None, :]) @ np.swapaxes(V, -1, -2))
+    return symmetrise((V * w[..., None, :]) @ V.swapaxes(-1, -2))
 
 
 def gaussian_terms(y: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -245,7 +271,7 @@ class UKFCore:
         if not math.isfinite(L[..., -1, -1].sum()) and math.isfinite(float(P.sum())):
             P = eig_floor(P)  # finite but not PD: repair; non-finite: NaNs propagate → reset
             L = chol(self.c * P)
-        U = np.swapaxes(L, -1, -2)  # rows of U (UᵀU = (n+κ)P), as filterpy's scipy upper Cholesky
+        U = L.swapaxes(-1, -2)  # rows of U (UᵀU = (n+κ)P), as filterpy's scipy upper Cholesky
         Xc = X[:, None, :]
         return np.concatenate((Xc, Xc + U, Xc - U), axis=1), P
 
@@ -255,7 +281,7 @@ class UKFCore:
         sf = self.model.step_batch(sig, u)
         Xp = self.W @ sf
         d = sf - Xp[:, None, :]
-        Pp = (np.swapaxes(d, 1, 2) * self.W) @ d + self.setup.Q
+        Pp = (d.swapaxes(1, 2) * self.W) @ d + self.setup.Q
         return Xp, Pp
 
     def update(self, X: np.ndarray, P: np.ndarray, u: np.ndarray, a: Assembled) -> UpdateResult:
@@ -264,14 +290,14 @@ class UKFCore:
         sh = measure(self.model, sig, u, a.kinds)  # (M, 11, m)
         zp = self.W @ sh
         dz = sh - zp[:, None, :]
-        dzT_W = np.swapaxes(dz, 1, 2) * self.W
+        dzT_W = dz.swapaxes(1, 2) * self.W
         S = dzT_W @ dz + a.R
-        Pxz = (np.swapaxes(sig - X[:, None, :], 1, 2) * self.W) @ dz
+        Pxz = ((sig - X[:, None, :]).swapaxes(1, 2) * self.W) @ dz
         y = a.z - zp
         SI, nis, ll = gaussian_terms(y, S)
         K = Pxz @ SI
         Xn = X + (K @ y[:, :, None])[:, :, 0]
-        Pn = P - K @ (S @ np.swapaxes(K, 1, 2))
+        Pn = P - K @ (S @ K.swapaxes(1, 2))
         return UpdateResult(Xn, Pn, y, zp, S, nis, ll)
 
 
@@ -329,13 +355,13 @@ class EKFCore:
         """``F`` (AD Jacobian at the posterior), Euler step, ``P⁻ = F P Fᵀ + Q``."""
         F = numpy_step_jacobian(self.model, X, u, self.setup.dt)
         Xp = self.model.step_batch(X, u)
-        Pp = F @ P @ np.swapaxes(F, 1, 2) + self.setup.Q
+        Pp = F @ P @ F.swapaxes(1, 2) + self.setup.Q
         return Xp, Pp
 
     def update(self, X: np.ndarray, P: np.ndarray, u: np.ndarray, a: Assembled) -> UpdateResult:
         """Linearised update at the prior, Joseph form."""
         H = measure_jacobian(self.model, X, u, a.kinds)
-        HT = np.swapaxes(H, 1, 2)
+        HT = H.swapaxes(1, 2)
         PHT = P @ HT
         R = a.R
         S = H @ PHT + R
@@ -345,7 +371,7 @@ class EKFCore:
         K = PHT @ SI
         Xn = X + (K @ y[:, :, None])[:, :, 0]
         I_KH = self.eye - K @ H
-        Pn = I_KH @ P @ np.swapaxes(I_KH, 1, 2) + K @ R @ np.swapaxes(K, 1, 2)
+        Pn = I_KH @ P @ I_KH.swapaxes(1, 2) + K @ R @ K.swapaxes(1, 2)
         return UpdateResult(Xn, Pn, y, zp, S, nis, ll)
 
 
@@ -386,4 +412,4 @@ def make_core(setup: FilterSetup, member: str) -> UKFCore | EKFCore:
 
 def healthy(X: np.ndarray, P: np.ndarray) -> bool:
     """Finite state and covariance with a positive diagonal (cheap test, every step)."""
-    return math.isfinite(float(X.sum()) + float(P.sum())) and float(np.diagonal(P, 0, -2, -1).min()) > 0.0
+    return math.isfinite(float(X.sum()) + float(P.sum())) and float(P.diagonal(0, -2, -1).min()) > 0.0

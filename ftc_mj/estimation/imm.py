@@ -197,7 +197,7 @@ class IMM:
         X0 = W @ X
         d = X[None, :, :] - X0[:, None, :]  # (j, i, 5)
         M = P.shape[0]
-        P0 = (W @ P.reshape(M, 25)).reshape(M, 5, 5) + (np.swapaxes(d, 1, 2) * W[:, None, :]) @ d
+        P0 = (W @ P.reshape(M, 25)).reshape(M, 5, 5) + (d.swapaxes(1, 2) * W[:, None, :]) @ d
         return X0, P0
 
     @staticmethod
@@ -219,7 +219,7 @@ class IMM:
     def step(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         """One IMM cycle with wheel rates ``u`` = [omega_R, omega_L] (rad/s) and measurement ``z``."""
         u = np.asarray(u, dtype=float).reshape(2)
-        if np.all(np.isfinite(u)):
+        if math.isfinite(u[0]) and math.isfinite(u[1]):
             self._u_last = u
         else:
             u = self._u_last
@@ -260,12 +260,12 @@ class IMM:
                 mu = w / w.sum()
             else:
                 rejected = True
-        P = 0.5 * (P + np.swapaxes(P, 1, 2))
+        P = 0.5 * (P + P.swapaxes(1, 2))
         reset = self._check_divergence(X, P, nis)
         if reset:
             X, P = self._reset_state(X_prev, P_prev)
-        elif float(np.diagonal(P, 0, 1, 2).min()) <= 0.0:  # (non-PD otherwise: repaired at the next Cholesky)
-            bad = np.any(np.diagonal(P, 0, 1, 2) <= 0.0, axis=1)
+        elif float(P.diagonal(0, 1, 2).min()) <= 0.0:  # (non-PD otherwise: repaired at the next Cholesky)
+            bad = np.any(P.diagonal(0, 1, 2) <= 0.0, axis=1)
             P[bad] = eig_floor(P[bad])
         mu = np.maximum(mu, 1e-300)  # no mode is ever impossible (as filterpy's likelihood floor)
         self.X, self.P, self.mu = X, P, mu / mu.sum()

@@ -195,7 +195,9 @@ def casadi_to_numpy(fn: ca.Function) -> Any:
         if not scalar_in[i]:
             lines.append(f"    a{i} = np.asarray(a{i}, dtype=float)")
     shape_terms = [f"np.shape(a{i})" if scalar_in[i] else f"a{i}.shape[:-1]" for i in range(n_in)]
-    lines.append(f"    _bs = np.broadcast_shapes({', '.join(shape_terms)})")
+    # one point (1-D vectors, float scalars) is the hot case: its batch shape is () without a broadcast_shapes call
+    one = [f"type(a{i}) is float" if scalar_in[i] else f"a{i}.ndim == 1" for i in range(n_in)]
+    lines.append(f"    _bs = () if {' and '.join(one)} else np.broadcast_shapes({', '.join(shape_terms)})")
     # components: Python floats for a single point (fast scalar arithmetic), else arrays over the batch
     for i in range(n_in):
         if not scalar_in[i]:

@@ -122,6 +122,13 @@ class Plant:
         self._tipped_limit = math.radians(pc.tipped_limit_deg)
         self._slip_limit = float(pc.slip_limit)
         self._qpos_spring0 = m.qpos_spring.copy()
+        # numpy views of the model/data arrays used every step (a property access builds a new view each time)
+        d = self.data
+        self._geom_size = m.geom_size
+        self._qpos_spring = m.qpos_spring
+        self._qpos = d.qpos
+        self._qvel = d.qvel
+        self._warning_number = d.warning.number
         self._qpos_good = np.empty(m.nq)
         self._qvel_good = np.empty(m.nv)
         self._act_good = np.empty(m.na)
@@ -210,7 +217,7 @@ class Plant:
         return float(self.data.ctrl[self._act[0]]), float(self.data.ctrl[self._act[1]])
 
     def _write_radius(self, i: int, r: float) -> None:
-        gs = self.model.geom_size
+        gs = self._geom_size
         gs[self._g_sphere[i], 0] = r
         gs[self._g_visual[i], 0] = r * self._visual_ratio
         if self._g_spoke[i] >= 0:
@@ -245,18 +252,27 @@ class Plant:
         r = float(r)
         if not (math.isfinite(r) and r > 0):
             raise ValueError(f"wheel radius must be finite and > 0, got {r}")
+        self._apply_radius(i, r, reseat)
+
+    def _apply_radius(self, i: int, r: float, reseat: bool) -> None:
+        """:meth:`set_wheel_radius` for wheel index ``i`` and a valid radius ``r`` (the per-step path of a ramp)."""
         dr = r - self._radius[i]
-        self._write_radius(i, r)
+        gs = self._geom_size
+        gs[self._g_sphere[i], 0] = r
+        gs[self._g_visual[i], 0] = r * self._visual_ratio
+        if self._g_spoke[i] >= 0:
+            gs[self._g_spoke[i], 0] = r * self._spoke_ratio
         self._radius[i] = r
         if r > self._bound_radius[i]:
             self._refresh_bounds()
         if reseat and self._slide_q is not None and dr != 0.0:
             a = self._slide_q[i]
             lo, hi = self._slide_range[i]  # type: ignore[index]
-            q = self.data.qpos[a] + dr
-            self.data.qpos[a] = lo if q < lo else (hi if q > hi else q)
+            qpos = self._qpos
+            q = qpos[a] + dr
+            qpos[a] = lo if q < lo else (hi if q > hi else q)
             # Self-levelling: the strut's spring reference follows the hub, so the down-force is unchanged.
-            self.model.qpos_spring[a] += dr
+            self._qpos_spring[a] += dr
 
     # ------------------------------------------------------------------ stepping
     def advance(self, n: int) -> None:
@@ -288,21 +304,24 @@ class Plant:
             mujoco.mj_step(m, d, n)
         else:
             radius = self._radius
+            apply = self._apply_radius
+            step = mujoco.mj_step
+            vR, vL = sR.value, sL.value
             for j in range(n):
                 t = (k0 + j) * dt + _EPS_T
                 if chR:
-                    r = sR.value(t)
+                    r = vR(t)
                     if r != radius[0]:
-                        self.set_wheel_radius("right", r, reseat)
+                        apply(0, r, reseat)
                 if chL:
-                    r = sL.value(t)
+                    r = vL(t)
                     if r != radius[1]:
-                        self.set_wheel_radius("left", r, reseat)
-                mujoco.mj_step(m, d)
+                        apply(1, r, reseat)
+                step(m, d)
         self._k = k0 + n
         d.time = self._k * dt
         # sum() of a list is NaN if any entry is NaN or +-inf (much cheaper than numpy for these short vectors)
-        if not (math.isfinite(sum(d.qvel.tolist())) and math.isfinite(sum(d.qpos.tolist()))):
+        if not (math.isfinite(sum(self._qvel.tolist())) and math.isfinite(sum(self._qpos.tolist()))):
             d.qpos[:] = self._qpos_good
             d.qvel[:] = self._qvel_good
             if m.na:
@@ -330,12 +349,14 @@ class Plant:
         unwrapped between calls, so call it at least once per half turn of the robot (any sim loop does).
         """
         d = self.data
-        if not self._sticky & PHYSICS_WARNING and d.warning.number.any():
+        if not self._sticky & PHYSICS_WARNING and any(self._warning_number.tolist()):
             self._sticky |= PHYSICS_WARNING
-        qp = d.qpos
-        qv = d.qvel
+        qp = self._qpos
+        qv = self._qvel
+        qp = qp.tolist()
+        qv = qv.tolist()
         a = self._root_q
-        px, py, pz, w, qx, qy, qz = qp[a : a + 7].tolist()
+        px, py, pz, w, qx, qy, qz = qp[a : a + 7]
         nq = math.sqrt(w * w + qx * qx + qy * qy + qz * qz) or 1.0
         w, qx, qy, qz = w / nq, qx / nq, qy / nq, qz / nq
         # rotation matrix (world <- chassis)
@@ -357,20 +378,20 @@ class Plant:
         c, s = math.cos(psi), math.sin(psi)
 
         b = self._root_v
-        vx, vy, vz, lx, ly, lz = qv[b : b + 6].tolist()
+        vx, vy, vz, lx, ly, lz = qv[b : b + 6]
         # world angular velocity of the chassis
         wx = r00 * lx + r01 * ly + r02 * lz
         wy = r10 * lx + r11 * ly + r12 * lz
         wz = r20 * lx + r21 * ly + r22 * lz
 
         if self._slide_q is not None:
-            qs = (float(qp[self._slide_q[0]]), float(qp[self._slide_q[1]]))
-            qsd = (float(qv[self._slide_v[0]]), float(qv[self._slide_v[1]]))  # type: ignore[index]
+            qs = (qp[self._slide_q[0]], qp[self._slide_q[1]])
+            qsd = (qv[self._slide_v[0]], qv[self._slide_v[1]])  # type: ignore[index]
         else:
             qs = qsd = (0.0, 0.0)
         hubs = []
         slips = []
-        omegas = (float(qv[self._hinge_v[0]]), float(qv[self._hinge_v[1]]))
+        omegas = (qv[self._hinge_v[0]], qv[self._hinge_v[1]])
         for i in (0, 1):
             ay, az = self._hub_y[i], qs[i]
             # hub offset in world: R (0, ay, az)

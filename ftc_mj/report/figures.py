@@ -374,19 +374,50 @@ def fig_imm_variants(store: RunStore, out: Path) -> Path | None:
     return _save(fig, out / "imm_variants_s2.png")
 
 
-def make_figures(run_dirs: Mapping[str, Path | None], out: Path) -> list[Path]:
-    """Render every figure whose runs are available into ``out``; return the written paths."""
-    store = RunStore(run_dirs)
-    made: list[Path | None] = []
-    for sc in (1, 2, 3, 4):
-        made.append(fig_innovations(store, sc, out))
-        made.append(fig_radius(store, sc, out))
-        made.append(fig_trajectories(store, sc, out))
-    for sc in (2, 4):
-        made.append(fig_wheel_rates(store, sc, out))
-    made.append(fig_trajectories_mpc(store, out))
-    made.append(fig_radius_comparison(store, out))
-    for fb in (False, True):
-        made.append(fig_mode_probs(store, fb, out))
-    made.append(fig_imm_variants(store, out))
+FIGURES: tuple[tuple[str, tuple[Any, ...]], ...] = (
+    *((name, (sc,)) for sc in (1, 2, 3, 4) for name in ("fig_innovations", "fig_radius", "fig_trajectories")),
+    *(("fig_wheel_rates", (sc,)) for sc in (2, 4)),
+    ("fig_trajectories_mpc", ()),
+    ("fig_radius_comparison", ()),
+    ("fig_mode_probs", (False,)),
+    ("fig_mode_probs", (True,)),
+    ("fig_imm_variants", ()),
+)
+"""Every figure as (function name in this module, arguments before ``out``), in report order."""
+
+_SLOW_FIRST = ("fig_radius", "fig_innovations", "fig_mode_probs")
+"""The figures with many panels (rendered first when figures are spread over processes)."""
+
+
+def _render(store: RunStore, name: str, args: tuple[Any, ...], out: Path) -> Path | None:
+    return globals()[name](store, *args, out)
+
+
+def _render_job(run_dirs: Mapping[str, Path | None], name: str, args: tuple[Any, ...], out: Path) -> Path | None:
+    """One figure in a worker process (its own lazily loaded traces)."""
+    return _render(RunStore(run_dirs), name, args, out)
+
+
+def make_figures(run_dirs: Mapping[str, Path | None], out: Path, jobs: int = 1) -> list[Path]:
+    """Render every figure whose runs are available into ``out``; return the written paths (report order).
+
+    With ``jobs > 1`` the figures are rendered by that many worker processes (each figure is independent and
+    written atomically; the PNGs are the same as the sequential ones).
+    """
+    if jobs <= 1:
+        store = RunStore(run_dirs)
+        made = [_render(store, name, args, out) for name, args in FIGURES]
+        return [p for p in made if p is not None]
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    try:
+        ctx = mp.get_context("forkserver")
+    except ValueError:  # pragma: no cover - platforms without forkserver
+        ctx = mp.get_context("spawn")
+    dirs = {k: (Path(v) if v is not None else None) for k, v in run_dirs.items()}
+    order = sorted(range(len(FIGURES)), key=lambda i: FIGURES[i][0] not in _SLOW_FIRST)
+    with ProcessPoolExecutor(max_workers=min(jobs, len(FIGURES)), mp_context=ctx) as pool:
+        futs = {i: pool.submit(_render_job, dirs, FIGURES[i][0], FIGURES[i][1], out) for i in order}
+        made = [futs[i].result() for i in range(len(FIGURES))]
     return [p for p in made if p is not None]

@@ -167,7 +167,7 @@ def run_paper(out: Path, *, jobs: int = 2, duration: float | None = None, only: 
         from .figures import make_figures
 
         figs = make_figures({r["label"]: (Path(r["run_dir"]) if r.get("run_dir") else None) for r in rows},
-                            out / "figures")
+                            out / "figures", jobs=jobs)
     matrix_wall = prev_wall if report_only else wall
     meta = {"duration": duration, "wall_time_s": matrix_wall, "jobs": jobs,
             "reused": prev_reused if report_only else sum(1 for r in rows if r.get("reused"))}

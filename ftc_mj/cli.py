@@ -186,14 +186,15 @@ def paper(
     only: Annotated[list[str] | None, typer.Option("--only", help="Run only labels matching this glob "
                                                    "(repeatable), e.g. 's2-*' or 's4-imm-ukf5-*'.")] = None,
     extras: Annotated[bool, typer.Option("--extras/--no-extras",
-                                         help="Add runs beyond the paper's 38 (literal 'paper' IMM).")] = True,
+                                         help="Add runs beyond the paper's 38: the literal 'paper' IMM (2) "
+                                              "and the reconfiguration-policy axis (18).")] = True,
     no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write Rerun recordings.")] = False,
     fresh: Annotated[bool, typer.Option("--fresh", help="Recompute runs even if OUT/runs has them.")] = False,
     list_: Annotated[bool, typer.Option("--list", help="Print the matrix labels and exit.")] = False,
     report_only: Annotated[bool, typer.Option("--report-only", help="Run nothing: rebuild summary, claims and "
                                               "figures from the newest run of each label in OUT/runs.")] = False,
 ) -> None:
-    """Run the paper's test matrix (38 runs + extras) and write summary.csv, claims.md and figures/."""
+    """Run the paper's test matrix (38 runs + 20 extras) and write summary.csv, claims.md and figures/."""
     from .report.matrix import full_matrix, select
 
     if list_:

@@ -100,7 +100,7 @@ def test_nmpc_ipopt_offset_matches_opti() -> None:
     spec = ctl.spec
     col = Collocation(spec)
     opti = OptiNMPC(spec)
-    ctl2 = NMPC(spec, ref, solver="ipopt")
+    ctl2 = NMPC(spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None)
     out = ctl2.solve(0.0, np.array(OFFSET_POSE), np.array(NOMINAL))
     r, _ = reference_at_nodes(ref, col.times(0.0), 0.0)
     X, U, _ = opti.solve(np.array(OFFSET_POSE), np.array(NOMINAL), r, r[:3].T, out.predicted_omega)
@@ -114,8 +114,8 @@ def test_nmpc_rti_converges_to_ipopt(rate_penalty: float) -> None:
     (also with the optional rate penalty, and IPOPT agrees with the plain Opti build)."""
     ref = build_reference(RunConfig())
     spec = ProblemSpec(rate_penalty=rate_penalty)
-    rti = NMPC(spec, ref, solver="rti-daqp")
-    ip = NMPC(spec, ref, solver="ipopt")
+    rti = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)  # no wall-clock rules:
+    ip = NMPC(spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None)  # a loaded machine must not matter
     R = np.array(NOMINAL)
     pose0 = np.array(OFFSET_POSE)
     rti.solve(0.0, pose0, R)
@@ -236,8 +236,8 @@ def test_over_budget_falls_back() -> None:
 def test_heading_wrap() -> None:
     """A measured heading off by 2π k is the same pose."""
     ref = build_reference(RunConfig())
-    a = NMPC(ProblemSpec(), ref, solver="ipopt")
-    b = NMPC(ProblemSpec(), ref, solver="ipopt")
+    a = NMPC(ProblemSpec(), ref, solver="ipopt", time_budget=None, cold_time_budget=None)
+    b = NMPC(ProblemSpec(), ref, solver="ipopt", time_budget=None, cold_time_budget=None)
     pose = np.array([0.0, -1.0, 0.1])
     oa = a.solve(0.0, pose, np.array(NOMINAL))
     ob = b.solve(0.0, pose + np.array([0, 0, -4 * np.pi]), np.array(NOMINAL))
@@ -299,8 +299,8 @@ def test_lateral_acceleration_bound_is_respected_and_rti_converges_to_it() -> No
     converge to the same plan."""
     ref = build_reference(RunConfig())
     spec = ProblemSpec(max_lateral_accel=1.5)
-    ip = NMPC(spec, ref, solver="ipopt")
-    rti = NMPC(spec, ref, solver="rti-daqp")
+    ip = NMPC(spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None)
+    rti = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)
     R = np.array(NOMINAL)
     r0 = ref.at(0.0)
     pose = np.array([r0.x, r0.y, r0.psi])  # on the circle, heading along it
@@ -318,5 +318,5 @@ def test_lateral_acceleration_bound_is_respected_and_rti_converges_to_it() -> No
     np.testing.assert_allclose(Ug, o.predicted_omega, atol=1e-3)
     assert np.max(np.abs(_lateral(Ug))) <= 1.5 + 1e-4
     # without the bound the same plan asks for the circle's 2 m/s²
-    free = NMPC(ProblemSpec(), ref, solver="ipopt").solve(0.0, pose, R)
+    free = NMPC(ProblemSpec(), ref, solver="ipopt", time_budget=None, cold_time_budget=None).solve(0.0, pose, R)
     assert np.max(np.abs(_lateral(free.predicted_omega))) > 1.9

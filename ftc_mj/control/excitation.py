@@ -1,17 +1,33 @@
-"""Persistent excitation for fault isolation: a dither of the wheel-rate ratio.
+"""Persistent excitation for fault isolation: a yaw-rate dither at constant speed.
 
-With speed-only sensing and a constant wheel-rate ratio only the radius combination
-``R_R ω_R + R_L ω_L`` is observable (:mod:`~ftc_mj.estimation.observability`). Varying the ratio —
-``ω_R (1 + δ)``, ``ω_L (1 - δ)`` — changes the observed combination over time and so makes the
-split observable, at the cost of a small yaw wobble (the mean speed is unchanged to first order).
-The loop applies it only while a fault is suspected but not isolated, and clips to the limits.
+With speed-only sensing only the radius combination ``R_R ω_R + R_L ω_L`` is observed at each
+instant (:mod:`~ftc_mj.estimation.observability`); the split between the radii is seen only through
+``ω_R − ω_L``, i.e. through turning. A dither of the commanded yaw rate, ``δψ̇(t) = a sin(2π t/T)``,
+changes ``ω_R − ω_L`` and so the observed combination. It is added to the controller's command as
+
+    Δω_R = +δψ̇ b / R_R,   Δω_L = −δψ̇ b / R_L
+
+with the radii the controller assumes, which leaves the model's speed ``(R_R ω_R + R_L ω_L)/2``
+unchanged and adds exactly ``δψ̇`` to its yaw rate (lateral acceleration ``V δψ̇``). The loop
+applies it only while a fault is suspected but not isolated, and clips to the wheel-rate limits.
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 
-def ratio_dither(t: float, amplitude: float, period: float) -> float:
-    """Relative ratio dither δ(t) = a sin(2π t / T) (dimensionless; ``t``, ``period`` in s)."""
+
+def yaw_dither(t: float, amplitude: float, period: float) -> float:
+    """Yaw-rate dither δψ̇(t) = a sin(2π t / T) (rad/s; ``t``, ``period`` in s)."""
     return amplitude * math.sin(2.0 * math.pi * t / period)
+
+
+def dither_wheel_rates(omega: np.ndarray, dpsi: float, radii: np.ndarray, half_track: float,
+                       omega_max: float) -> np.ndarray:
+    """Wheel rates (rad/s) ``omega`` = [ω_R, ω_L] with the yaw-rate dither ``dpsi`` (rad/s) added at
+    constant model speed, for model radii ``radii`` (m) and half track ``half_track`` (m); clipped to
+    ±``omega_max``."""
+    d = dpsi * half_track / np.asarray(radii, dtype=float)
+    return np.clip(np.asarray(omega, dtype=float) + d * np.array([1.0, -1.0]), -omega_max, omega_max)

@@ -24,6 +24,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from ..io import atomic_path  # noqa: E402
 from .claims import EST_NAMES, FILTERS, lbl  # noqa: E402
 from .derived import onsets_of_config, read_trace  # noqa: E402
+from .policy_claims import SENSING, plabel  # noqa: E402
 
 DPI = 90
 FB_TITLE = {False: "feedback off", True: "feedback on"}
@@ -374,6 +375,44 @@ def fig_imm_variants(store: RunStore, out: Path) -> Path | None:
     return _save(fig, out / "imm_variants_s2.png")
 
 
+POLICY_COLORS = {"none": "tab:gray", "direct": "tab:red", "safe": "tab:blue"}
+
+
+def fig_policies(store: RunStore, out: Path) -> Path | None:
+    """Reconfiguration-policy axis: |cross-track error| over time for none / direct / safe, scenarios 2–4
+    (rows) × speed only / speed + yaw rate (columns); dots mark the safe policy's hand-overs."""
+    scs = [sc for sc in (2, 3, 4) if any(plabel(f"scenario{sc}", p, s) in store for p in POLICY_COLORS
+                                          for s, _ in SENSING)]
+    if not scs:
+        return None
+    fig, axes = plt.subplots(len(scs), 2, figsize=(11, 2.8 * len(scs)), squeeze=False, sharex=True)
+    for i, sc in enumerate(scs):
+        for j, (sens, sname) in enumerate(SENSING):
+            ax = axes[i][j]
+            for pol, color in POLICY_COLORS.items():
+                lb = plabel(f"scenario{sc}", pol, sens)
+                tr = store.trace(lb)
+                if tr is None:
+                    continue
+                ax.semilogy(tr["t"], np.maximum(np.abs(tr["cross_track_error"]), 1e-3), color=color, lw=1.0,
+                            label=pol)
+                if pol == "safe" and "reconfig_state" in tr:
+                    st = np.nan_to_num(tr["reconfig_state"])
+                    k = np.flatnonzero((st[1:] == 2) & (st[:-1] != 2)) + 1
+                    ax.plot(tr["t"][k], np.maximum(np.abs(tr["cross_track_error"][k]), 1e-3), "o", color=color,
+                            ms=3, label="safe hand-over" if len(k) else None)
+                _vlines(ax, store.onsets(lb))
+            ax.set_title(f"scenario {sc}, {sname}", fontsize=9)
+            ax.set_ylabel("|cross-track| [m]")
+            if i == len(scs) - 1:
+                ax.set_xlabel("t [s]")
+            if ax.get_legend_handles_labels()[0]:
+                ax.legend(fontsize=7, loc="best")
+    fig.suptitle("Reconfiguration policies (UKF, NMPC with the actuation-rate term): cross-track error")
+    fig.tight_layout()
+    return _save(fig, out / "policies.png")
+
+
 FIGURES: tuple[tuple[str, tuple[Any, ...]], ...] = (
     *((name, (sc,)) for sc in (1, 2, 3, 4) for name in ("fig_innovations", "fig_radius", "fig_trajectories")),
     *(("fig_wheel_rates", (sc,)) for sc in (2, 4)),
@@ -382,6 +421,7 @@ FIGURES: tuple[tuple[str, tuple[Any, ...]], ...] = (
     ("fig_mode_probs", (False,)),
     ("fig_mode_probs", (True,)),
     ("fig_imm_variants", ()),
+    ("fig_policies", ()),
 )
 """Every figure as (function name in this module, arguments before ``out``), in report order."""
 

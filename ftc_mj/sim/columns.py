@@ -5,7 +5,7 @@ plant_flags``; sensors: ``v_meas, yaw_rate_meas, omega_*_meas``; estimator: ``*_
 innovation, innovation_std, nis, fault_detected, fault_suspected`` (a fault is evident but its
 wheel is not identified), ``radius_split_std`` (m, σ of the unobservable radius split),
 ``mode_prob_k``; reconfiguration: ``reconfig_state`` (0 nominal, 1 hold, 2 handed over,
-3 reverted), ``excitation`` (relative wheel-rate-ratio dither, NaN when off); controller:
+3 reverted), ``excitation`` (yaw-rate dither, rad/s, NaN when off); controller:
 ``omega_*_cmd, R_*_model`` (radii the controller assumed), ``solve_time_ms, solver_iterations, solver_ok`` (on
 controller samples, NaN elsewhere); ``cross_track_error`` (m, positive = left of the path).
 """

@@ -28,7 +28,7 @@ import numpy as np
 from ..config import RunConfig
 from ..control import build_reference
 from ..control.base import ControlOutput
-from ..control.excitation import ratio_dither
+from ..control.excitation import dither_wheel_rates, yaw_dither
 from ..estimation import FaultDecision, build_estimator
 from ..estimation.base import FilterOutput, Measurement
 from ..plant import Sensors
@@ -195,9 +195,9 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
                     pose = pose + pose_rng.normal(0.0, cfg.sensors.pose_sigma, 3)
                 cmd = controller.solve(t, pose, model_radii)
                 if exc.enabled and suspected:
-                    dither = ratio_dither(t, exc.amplitude, exc.period)
-                    cmd.omega = np.clip(cmd.omega * (1.0 + dither * np.array([1.0, -1.0])),
-                                        -cfg.robot.omega_max, cfg.robot.omega_max)
+                    dither = yaw_dither(t, exc.amplitude, exc.period)
+                    cmd.omega = dither_wheel_rates(cmd.omega, dither, model_radii, cfg.model_half_track,
+                                                   cfg.robot.omega_max)
                     c["excitation"][k] = dither
                 plant.set_command(float(cmd.omega[0]), float(cmd.omega[1]))
                 c["solve_time_ms"][k] = cmd.solve_time * 1e3

@@ -299,8 +299,8 @@ def test_lateral_acceleration_bound_is_respected_and_rti_converges_to_it() -> No
     converge to the same plan."""
     ref = build_reference(RunConfig())
     spec = ProblemSpec(max_lateral_accel=1.5)
-    ip = NMPC(spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None)
-    rti = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)
+    ip = NMPC(spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None, max_iter=100)  # cold, infeasible ref
+    rti = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None, max_iter=100)
     R = np.array(NOMINAL)
     r0 = ref.at(0.0)
     pose = np.array([r0.x, r0.y, r0.psi])  # on the circle, heading along it

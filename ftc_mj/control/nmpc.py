@@ -178,7 +178,7 @@ class NMPC(PlanController):
         spec: ProblemSpec,
         reference,
         solver: str = "rti-daqp",
-        max_iter: int = 100,
+        max_iter: int = 30,
         time_budget: float | None = 0.1,
         nominal_radii: tuple[float, float] = (2.0, 2.0),
         cold_time_budget: float | None = 2.0,

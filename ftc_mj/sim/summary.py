@@ -23,7 +23,8 @@ def _fmt(v: Any) -> str:
 SUMMARY_KEYS = (
     "status", "radius_final_error_R", "radius_final_error_L", "radius_rmse_R", "radius_rmse_L",
     "innovation_in_2sigma", "detection_time", "detection_delay", "isolated_wheel", "false_alarm",
-    "cross_track_rms", "cross_track_max", "cross_track_final", "omega_at_limit_fraction",
+    "cross_track_rms", "cross_track_max", "cross_track_final", "cross_track_max_recovered", "omega_at_limit_fraction",
+    "policy", "reconfig_handovers", "reconfig_holds", "reconfig_reverts", "reconfig_handover_delay", "tipped",
     "solve_time_ms", "solver_failures", "filter_resets", "plant_out_of_domain_fraction",
     "wall_time_s", "realtime_factor",
 )

@@ -187,8 +187,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
 
             # ---- controller (10 Hz)
             if k % est_per_ctl == 0:
-                model_radii = feedback.radii(t, out, last_ds, reset_since_solve,
-                                             u_prev if u_prev is not None else u_meas, (tr.R_R, tr.R_L))
+                model_radii = feedback.radii(t, out, last_ds, reset_since_solve, u_meas, (tr.R_R, tr.R_L))
                 reset_since_solve = False
                 pose = np.array([tr.x, tr.y, tr.psi])
                 if cfg.sensors.pose_sigma > 0:

@@ -101,7 +101,8 @@ class RadiusFeedback:
     def radii(self, t: float, out: FilterOutput | None, decision: DecisionState | None, filter_reset: bool,
               omega: np.ndarray, truth: tuple[float, float]) -> np.ndarray:
         """Radii (m) for the solve at ``t`` (s). ``filter_reset``: the filter reset itself since the
-        last solve; ``omega``: wheel rates (rad/s) of the filter's last prediction; ``truth``: the
+        last solve; ``omega``: wheel rates (rad/s) measured at this sample (they set which radius
+        combination the speed observes); ``truth``: the
         plant's true radii (used by the ``truth`` policy only)."""
         if self.policy == "none" or (out is None and self.policy != "truth"):
             return self.nominal.copy()

@@ -198,7 +198,7 @@ def finding_text(df: pl.DataFrame, f: FindingSpec, plan: StudyPlan | None) -> li
             (v0, e0), (v1, e1) = ests[0], ests[-1]
             lines.append(f"- {title}{suffix}, by {f.axis}: {listing}. "
                          + _sentence(_compare(f.axis, v0, v1, e0, e1, mdef, title)) + ".")
-            lines.extend(_paired_lines(part, f, base, vals, plan))
+            lines.extend(_paired_lines(part, f, mdef, base, vals, plan))
             continue
         eb = estimate(part.filter(_eq(f.axis, base)), mdef)
         phrases = []
@@ -211,16 +211,15 @@ def finding_text(df: pl.DataFrame, f: FindingSpec, plan: StudyPlan | None) -> li
             lines.append(f"- {title}{suffix}: {f.axis} = {base}: {eb.fmt(mdef.unit, mdef.rate)} (n = {eb.n}).")
         else:
             lines.append(f"- {title}{suffix}: " + "; ".join(phrases) + ".")
-        lines.extend(_paired_lines(part, f, base, vals, plan))
+        lines.extend(_paired_lines(part, f, mdef, base, vals, plan))
     return lines
 
 
-def _paired_lines(part: pl.DataFrame, f: FindingSpec, base: Any, vals: list[Any], plan: StudyPlan | None) -> list[str]:
+def _paired_lines(part: pl.DataFrame, f: FindingSpec, mdef: MetricDef, base: Any, vals: list[Any],
+                  plan: StudyPlan | None) -> list[str]:
+    """The run-by-run lines of a ``paired`` finding (none otherwise)."""
     if not f.paired:
         return []
-    mdef = METRIC_BY_COLUMN.get(f.metric, MetricDef(f.metric, f.title or f.metric, f.unit))
-    if f.unit:
-        mdef = MetricDef(mdef.column, mdef.label, f.unit, mdef.rate, mdef.lower_is_better)
     keys = [c for c in (plan.axis_columns if plan is not None else []) if c != f.axis] + ["seed"]
     return ["  - " + paired_text(part, f.axis, base, v, keys, mdef, f.tolerance) for v in vals if v != base]
 

@@ -238,6 +238,10 @@ class ControllerConfig(_Strict):
     """Bound (m/s²) on the lateral acceleration ``V ψ̇`` the NMPC may plan at every node; ``None`` =
     the paper's problem (no bound). The MuJoCo robot (2 m wheels, 1 m half track, centre of mass about
     2.5 m high) starts lifting its inner wheel at about 3.5 m/s²; the 50 m circle at 10 m/s needs 2."""
+    max_longitudinal_accel: PosFloat | None = None
+    """Bound (m/s²) on the longitudinal acceleration ``dV/dt`` the NMPC/LMPC may plan at every node (linear
+    in the wheel accelerations for given radii); ``None`` = no bound. With ``max_lateral_accel`` it bounds
+    what tips this tall robot over in roll and pitch; both off by default (trade-offs in docs/findings.md)."""
     solver: Literal["ipopt", "rti-daqp", "rti-qpoases", "rti-osqp"] = "rti-daqp"
     """NMPC solver. ``ipopt``: full NLP solve each sample (warm-started). ``rti-<qp>``: real-time
     iteration — one Gauss–Newton SQP step per sample on the state-condensed QP, solved by the named
@@ -297,6 +301,12 @@ class ReconfigurationConfig(_Strict):
     """Lower clamp (m) of a handed-over radius (upper clamp: the nominal radius)."""
     max_rate: PosFloat = 5.0
     """Largest change of a handed-over radius (m/s): a 50 % step (1 m) is handed over in 0.2 s."""
+    max_growth_rate: NonNegFloat = 0.05
+    """Largest *increase* (m/s) of a handed-over radius while the fault stays declared. A punctured tyre
+    does not re-inflate: an estimate that grows quickly is the filter leaving the kinematic model's
+    domain (a lifted or skidding wheel), not the tyre; this rate still lets the model radius recover
+    from a transient undershoot (0.2 m in 4 s). Reverts (filter trouble, withdrawn decision) are not
+    limited by it."""
     nis_window: PosFloat = 1.0
     """Window (s) of the innovation-consistency check (mean NIS)."""
     max_nis_ratio: PosFloat = 5.0

@@ -320,3 +320,36 @@ def test_lateral_acceleration_bound_is_respected_and_rti_converges_to_it() -> No
     # without the bound the same plan asks for the circle's 2 m/s²
     free = NMPC(ProblemSpec(), ref, solver="ipopt", time_budget=None, cold_time_budget=None).solve(0.0, pose, R)
     assert np.max(np.abs(_lateral(free.predicted_omega))) > 1.9
+
+
+def test_longitudinal_acceleration_bound_is_respected_and_rti_meets_it() -> None:
+    """Starting 10 m behind the reference, the free plan catches up with more than 2 m/s² of forward
+    acceleration; with ``max_longitudinal_accel`` = 1 m/s² IPOPT's plan keeps |dV/dt| ≤ 1 m/s² at every
+    node (active somewhere) and the RTI QP (the rows are linear in the inputs, so exact) converges to it."""
+    ref = build_reference(RunConfig())
+    spec = ProblemSpec(max_longitudinal_accel=1.0)
+    ip = NMPC(spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None, max_iter=100)
+    rti = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None, max_iter=100)
+    R = np.array(NOMINAL)
+    col = Collocation(spec)
+    r0 = ref.at(0.0)
+    pose = np.array([r0.x - 10.0, r0.y, r0.psi])
+
+    def accel(omega: np.ndarray) -> np.ndarray:
+        V = (R[0] * omega[:, 0] + R[1] * omega[:, 1]) / 2.0
+        return col.D @ V / col.h
+
+    o = ip.solve(0.0, pose, R)
+    assert o.success and not o.fallback
+    a = np.abs(accel(o.predicted_omega))
+    assert a.max() <= 1.0 + 1e-6 and a.max() > 1.0 - 1e-3
+    rti.solve(0.0, pose, R)  # IPOPT seed
+    r, _ = reference_at_nodes(ref, col.times(0.0), pose[2])
+    Xg, Ug = rti._guess(0.0, pose, r, R)
+    for _ in range(8):
+        ok, _, Xg, Ug = rti._qp.solve(Xg, Ug, R, pose, r)
+        assert ok
+        assert np.abs(accel(Ug)).max() <= 1.0 + 1e-5
+    np.testing.assert_allclose(Ug, o.predicted_omega, atol=1e-3)
+    free = NMPC(ProblemSpec(), ref, solver="ipopt", time_budget=None, cold_time_budget=None).solve(0.0, pose, R)
+    assert np.abs(accel(free.predicted_omega)).max() > 2.0

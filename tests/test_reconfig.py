@@ -140,3 +140,20 @@ def test_radius_directions_split_is_what_the_speed_cannot_see(p11: float, p22: f
     assert abs(np.dot(d.w, d.d)) < 1e-12 and abs(np.hypot(*d.w) - 1.0) < 1e-12
     # an orthonormal change of basis keeps the total variance
     assert d.sum_std**2 + d.split_std**2 == pytest.approx(p11 + p22, rel=1e-9)
+
+
+def test_safe_lets_a_handed_over_radius_grow_only_slowly_but_falls_and_reverts_fast() -> None:
+    """A puncture does not re-inflate: an isolated wheel's model radius climbs by at most
+    ``max_growth_rate`` per second while it may fall at ``max_rate``; a wheel the decision stops
+    isolating, and a withdrawn decision, return to nominal at the full rate."""
+    rate = load_config("scenario2").controller.rate
+    fb = _fb("safe", max_rate=10.0, max_growth_rate=0.5)
+    np.testing.assert_allclose(_step(fb, 0.0, _out(2.0, 1.0, 0.01), "left"), [2.0, 1.0])  # falls 1 m at once
+    r = _step(fb, 0.1, _out(2.0, 1.8, 0.01), "left")  # the estimate runs back up by 0.8 m
+    np.testing.assert_allclose(r, [2.0, 1.0 + 0.5 / rate])
+    assert fb.state == ReconfigState.HANDED
+    np.testing.assert_allclose(_step(fb, 0.2, _out(2.0, 0.9, 0.01), "left"), [2.0, 0.9])  # and down again at once
+    # the decision now isolates the right wheel only: the left returns to nominal at the full rate
+    np.testing.assert_allclose(_step(fb, 0.3, _out(1.0, 0.9, 0.01), "right"), [1.0, 1.9])
+    # withdrawn: nominal at the full rate
+    np.testing.assert_allclose(_step(fb, 0.4, _out(1.0, 2.0, 0.01), None), [2.0, 2.0])

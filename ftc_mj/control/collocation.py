@@ -8,7 +8,9 @@ Stacking used everywhere: ``w = [x(N), y(N), psi(N), omega_R(N), omega_L(N)]``; 
 Constraints (paper §3): collocation ``(2/T) D X = f(X, U; R_R, R_L, b)`` at all N nodes, the
 initial-state equality ``X(t0) = pose``, input bounds ``|omega| ≤ omega_max`` and input-rate
 bounds ``|(2/T) D omega| ≤ omega_rate_max`` and, optionally, a lateral-acceleration (roll-over)
-bound ``|V psidot| ≤ max_lateral_accel`` at every node (linearised about the guess in the QP).
+bound ``|V psidot| ≤ max_lateral_accel`` at every node (linearised about the guess in the QP) and a
+longitudinal-acceleration (pitch-over) bound ``|dV/dt| ≤ max_longitudinal_accel`` (linear in the
+inputs for given radii, so exact in the QP).
 
 Cost (paper §3): ``(T/2) Σ_j w_j (q_pose ‖X_j − X_ref,j‖² + q_speed (V_j − V_ref,j)² +
 q_yaw_rate (psidot_j − psidot_ref,j)²)`` plus the optional ``rate_penalty (T/2) Σ_j w_j
@@ -84,6 +86,7 @@ class ProblemSpec:
     q_yaw_rate: float = 1.0
     rate_penalty: float = 0.0
     max_lateral_accel: float | None = None  # m/s^2; None = no bound (the paper's problem)
+    max_longitudinal_accel: float | None = None  # m/s^2; None = no bound
 
 
 class Collocation:
@@ -211,14 +214,17 @@ class CondensedQP:
         opts = _default_qp_options(qpsol)
         opts.update(qp_options or {})
         self.a_lat = sp.max_lateral_accel
+        self.a_lon = sp.max_longitudinal_accel
         n_lat = N if self.a_lat is not None else 0
-        nA = 3 + n + n_lat
+        n_lon = N if self.a_lon is not None else 0
+        nA = 3 + n + n_lat + n_lon
         a_pattern = np.zeros((nA, n), dtype=bool)
         a_pattern[:3] = True
         a_pattern[3:3 + n] = Dblk != 0
         idx = np.arange(n_lat)
         a_pattern[3 + n + idx, idx] = True
         a_pattern[3 + n + idx, N + idx] = True
+        a_pattern[3 + n + n_lat:] = True
         rows, cols = np.nonzero(a_pattern)
         a_sp = ca.Sparsity.triplet(nA, n, rows.tolist(), cols.tolist())
         self.solver = ca.conic("qp", qpsol, {"h": ca.Sparsity.dense(n, n), "a": a_sp}, opts)
@@ -231,13 +237,17 @@ class CondensedQP:
         Lv, ll, lu = ca.MX.sym("Lv", 2 * n_lat), ca.MX.sym("ll", n_lat), ca.MX.sym("lu", n_lat)
         lat_sp = ca.Sparsity.triplet(n_lat, n, np.concatenate([idx, idx]).tolist(),
                                      np.concatenate([idx, N + idx]).tolist())
-        A = ca.vertcat(Es, ca.DM(Dblk), ca.MX(lat_sp, Lv))
+        # longitudinal-acceleration rows dV/dt = J_V (D/h) u (dense N x 2N, values depend on the radii)
+        Lo = ca.MX.sym("Lo", n_lon, n)
+        A = ca.vertcat(Es, ca.DM(Dblk), ca.MX(lat_sp, Lv), Lo)
+        lon_b = (self.a_lon or 0.0) * np.ones(n_lon)
         r = self.solver(
-            h=Hs, g=gs, a=A, lba=ca.vertcat(es, -rate * np.ones(n), ll), uba=ca.vertcat(es, rate * np.ones(n), lu),
+            h=Hs, g=gs, a=A, lba=ca.vertcat(es, -rate * np.ones(n), ll, -lon_b),
+            uba=ca.vertcat(es, rate * np.ones(n), lu, lon_b),
             lbx=-sp.omega_max, ubx=sp.omega_max, x0=xs, lam_x0=lxs, lam_a0=las,
         )
         self._qpfun = BufferedFunction(
-            ca.Function("rti_qp", [Hs, gs, Es, es, Lv, ll, lu, xs, lxs, las],
+            ca.Function("rti_qp", [Hs, gs, Es, es, Lv, ll, lu, Lo, xs, lxs, las],
                         [r["x"], r["lam_x"], r["lam_a"], r["cost"]])
         )
         self._lin = BufferedFunction(col.lin)
@@ -326,15 +336,25 @@ class CondensedQP:
         lin0 = V * r - (gR * Ug[:, 0] + gL * Ug[:, 1])  # a(u) ≈ a(ug) + grad·(u - ug) = lin0 + grad·u
         return np.concatenate([gR, gL]), -self.a_lat - lin0, self.a_lat - lin0
 
+    def longitudinal_rows(self) -> np.ndarray:
+        """Rows (N, 2N) of ``dV/dt`` at the nodes in the inputs for the current radii (empty without a bound):
+        ``V = J_V u`` node by node, so ``dV/dt = J_V (D/h) u``."""
+        if self.a_lon is None:
+            return np.zeros((0, self.nu))
+        J = self._J_cache[1]
+        Dh = self.col.D / self.col.h
+        return np.hstack([J[0, 0] * Dh, J[0, 1] * Dh])
+
     def solve(self, Xg, Ug, radii, x0, ref, u_init: np.ndarray | None = None):
         """Build and solve the QP. Returns ``(ok, status, X (N,3), U (N,2))``."""
         N = self.col.N
         H, g, E, e, G, hc = self.build(Xg, Ug, radii, x0, ref)
         Lv, ll, lu = self.lateral_rows(Ug, radii)
+        Lo = self.longitudinal_rows()
         if u_init is None:
             u_init = Ug.T.ravel()
         u0 = np.clip(u_init, -self.omega_max, self.omega_max)
-        u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, Lv, ll, lu, u0, self._lam_x, self._lam_a)
+        u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, Lv, ll, lu, Lo, u0, self._lam_x, self._lam_a)
         st = self._qpfun.stats()
         ok = self._qpfun.ret == 0 and bool(st.get("success", True)) and bool(np.all(np.isfinite(u)))
         if ok:  # independent feasibility check (solvers differ in what they call success)
@@ -344,6 +364,8 @@ class CondensedQP:
             if ok and Lv.size:
                 lat = Lv[:N] * u[:N] + Lv[N:] * u[N:]
                 ok = bool(np.all(lat >= ll - 1e-6 * (1 + np.abs(ll))) and np.all(lat <= lu + 1e-6 * (1 + np.abs(lu))))
+            if ok and Lo.size:
+                ok = bool(np.abs(Lo @ u).max() <= self.a_lon * (1 + 1e-6) + 1e-6)
         if not ok:
             self._lam_x[:] = 0.0
             self._lam_a[:] = 0.0

@@ -24,6 +24,7 @@ def problem_spec(cfg: RunConfig) -> ProblemSpec:
         q_yaw_rate=c.q_yaw_rate,
         rate_penalty=c.rate_penalty,
         max_lateral_accel=c.max_lateral_accel,
+        max_longitudinal_accel=c.max_longitudinal_accel,
     )
 
 

@@ -228,6 +228,11 @@ class NMPC(PlanController):
             g = ca.vertcat(g, (Vp[0, :] * Vp[1, :]).T)
             self._lbg = np.concatenate([self._lbg, -sp.max_lateral_accel * np.ones(N)])
             self._ubg = np.concatenate([self._ubg, sp.max_lateral_accel * np.ones(N)])
+        if sp.max_longitudinal_accel is not None:  # |dV/dt| at every node
+            Vd = rates(ca.vertcat(ca.DM.zeros(3, N), ca.repmat(radii, 1, N)), dU / h)[0, :]
+            g = ca.vertcat(g, Vd.T)
+            self._lbg = np.concatenate([self._lbg, -sp.max_longitudinal_accel * np.ones(N)])
+            self._ubg = np.concatenate([self._ubg, sp.max_longitudinal_accel * np.ones(N)])
         self._lbx = np.concatenate([-np.inf * np.ones(3 * N), -sp.omega_max * np.ones(2 * N)])
         self._ubx = -self._lbx
         self._ubx[: 3 * N] = np.inf

@@ -529,34 +529,41 @@ class FilterBuffers:
         self.cnt[C_N] = n
 
 
+class Counter:
+    """Attribute that is the integer ``self._st.cnt[index]`` (counted by the compiled steps)."""
+
+    def __init__(self, index: int, doc: str = "") -> None:
+        self.index = index
+        self.__doc__ = doc
+
+    def __get__(self, obj: object, objtype: type | None = None) -> int:
+        return int(obj._st.cnt[self.index])  # type: ignore[union-attr]
+
+    def __set__(self, obj: object, value: int) -> None:
+        obj._st.cnt[self.index] = value  # type: ignore[attr-defined]
+
+
+class BufferView:
+    """Attribute that is the view ``self._st.<name>`` of a filter's buffers: reading gives the live
+    array (it changes with every step), assigning copies the value into it (shape-checked)."""
+
+    def __init__(self, name: str, doc: str = "") -> None:
+        self.name = name
+        self.__doc__ = doc
+
+    def __get__(self, obj: object, objtype: type | None = None) -> np.ndarray:
+        return getattr(obj._st, self.name)  # type: ignore[union-attr]
+
+    def __set__(self, obj: object, value: np.ndarray) -> None:
+        view = getattr(obj._st, self.name)  # type: ignore[attr-defined]
+        view[...] = np.asarray(value, dtype=float).reshape(view.shape)
+
+
 class HealthCounters:
-    """``resets``/``rejections`` (and the internal NIS-dwell and step counters) kept in ``self._st.cnt``,
-    where the compiled steps count them."""
+    """``resets``/``rejections`` (and the internal NIS-dwell counter) kept in ``self._st.cnt``, where the
+    compiled steps count them."""
 
     _st: FilterBuffers
-
-    @property
-    def resets(self) -> int:
-        """Divergence resets so far."""
-        return int(self._st.cnt[C_RESETS])
-
-    @resets.setter
-    def resets(self, value: int) -> None:
-        self._st.cnt[C_RESETS] = value
-
-    @property
-    def rejections(self) -> int:
-        """Steps whose measurement was rejected (non-finite channel or NIS above the gate)."""
-        return int(self._st.cnt[C_REJECTIONS])
-
-    @rejections.setter
-    def rejections(self, value: int) -> None:
-        self._st.cnt[C_REJECTIONS] = value
-
-    @property
-    def _bad_nis_steps(self) -> int:
-        return int(self._st.cnt[C_BAD_NIS])
-
-    @_bad_nis_steps.setter
-    def _bad_nis_steps(self, value: int) -> None:
-        self._st.cnt[C_BAD_NIS] = value
+    resets = Counter(C_RESETS, "Divergence resets so far.")
+    rejections = Counter(C_REJECTIONS, "Steps whose measurement was rejected (non-finite channel, NIS above gate).")
+    _bad_nis_steps = Counter(C_BAD_NIS, "Consecutive steps with NIS above the divergence level.")

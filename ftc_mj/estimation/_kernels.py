@@ -706,11 +706,6 @@ def ekf_update(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, kin
 
 # ---------------------------------------------------------------------------- whole steps
 @njit(cache=True, error_model="numpy")
-def _finite_sum(A: np.ndarray) -> bool:
-    return math.isfinite(A.sum())
-
-
-@njit(cache=True, error_model="numpy")
 def _symmetrise(P: np.ndarray) -> None:
     """``P ← (P + Pᵀ)/2`` for each member, in place."""
     for j in range(P.shape[0]):

@@ -23,6 +23,7 @@ import numpy as np
 from ..config import RunConfig
 from ._core import (
     SPEED,
+    Counter,
     EKFCore,
     FilterBuffers,
     FilterSetup,
@@ -84,14 +85,7 @@ class SingleFilter(HealthCounters):
     def P(self, value: np.ndarray) -> None:
         self._P[:] = np.asarray(value, float).reshape(5, 5)
 
-    @property
-    def t_steps(self) -> int:
-        """Steps taken."""
-        return int(self._st.cnt[C_STEPS])
-
-    @t_steps.setter
-    def t_steps(self, value: int) -> None:
-        self._st.cnt[C_STEPS] = value
+    t_steps = Counter(C_STEPS, "Steps taken.")
 
     def set_state(self, x: np.ndarray, P: np.ndarray) -> None:
         """Overwrite the estimate (m, m, rad, m, m) and its 5x5 covariance."""

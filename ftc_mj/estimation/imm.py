@@ -69,6 +69,7 @@ import numpy as np
 from ..config import RunConfig
 from ._core import (
     SPEED,
+    BufferView,
     EKFCore,
     FilterBuffers,
     FilterSetup,
@@ -209,59 +210,12 @@ class IMM(HealthCounters):
         st.cnt[C_HYP] = hyp
 
     # ---------------------------------------------------------------- state (views of the buffers)
-    @property
-    def X(self) -> np.ndarray:
-        """Member estimates (M, 5) (m, m, rad, m, m)."""
-        return self._st.X
-
-    @X.setter
-    def X(self, value: np.ndarray) -> None:
-        self._st.X[:] = value
-
-    @property
-    def P(self) -> np.ndarray:
-        """Member covariances (M, 5, 5)."""
-        return self._st.P
-
-    @P.setter
-    def P(self, value: np.ndarray) -> None:
-        self._st.P[:] = value
-
-    @property
-    def mu(self) -> np.ndarray:
-        """Mode probabilities (M,)."""
-        return self._st.mu
-
-    @mu.setter
-    def mu(self, value: np.ndarray) -> None:
-        self._st.mu[:] = value
-
-    @property
-    def loglik(self) -> np.ndarray:
-        """Members' log-likelihoods of the last accepted measurement (M,) (0 before the first)."""
-        return self._st.loglik
-
-    @loglik.setter
-    def loglik(self, value: np.ndarray) -> None:
-        self._st.loglik[:] = value
-
-    @property
-    def x(self) -> np.ndarray:
-        """Combined estimate (5,)."""
-        return self._st.x
-
-    @x.setter
-    def x(self, value: np.ndarray) -> None:
-        self._st.x[:] = value
-
-    @property
-    def P_comb(self) -> np.ndarray:
-        """Combined covariance (5, 5)."""
-        return self._st.Pc
-
-    @P_comb.setter
-    def P_comb(self, value: np.ndarray) -> None:
-        self._st.Pc[:] = value
+    X = BufferView("X", "Member estimates (M, 5) (m, m, rad, m, m).")
+    P = BufferView("P", "Member covariances (M, 5, 5).")
+    mu = BufferView("mu", "Mode probabilities (M,).")
+    loglik = BufferView("loglik", "Members' log-likelihoods of the last accepted measurement (M,) (0 before any).")
+    x = BufferView("x", "Combined estimate (5,).")
+    P_comb = BufferView("Pc", "Combined covariance (5, 5).")
 
     # ---------------------------------------------------------------- IMM steps
     def mixing_probabilities(self) -> tuple[np.ndarray, np.ndarray]:

@@ -9,11 +9,19 @@ runs ``repeats`` times over ``steps`` steps, the implementations interleaved (ro
 load change on the machine affects all of them alike; every step (the whole ``step`` call, with
 measurement assembly and output) is timed with perf_counter_ns. Prints median and p95 µs/step, the
 ratio to filterpy's UKF and, for the compiled rows, the speed-up over the numpy reference.
+
+``--compile`` instead times the first step of each compiled filter kind in fresh processes: once with
+an empty numba cache (``NUMBA_CACHE_DIR`` = a new temporary directory: compilation) and once more with
+that cache warm (loading the cached machine code).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import subprocess
+import sys
+import tempfile
 import time
 from collections.abc import Callable
 
@@ -120,11 +128,42 @@ def runner_filterpy_imm(setup: FilterSetup) -> Callable[[np.ndarray, np.ndarray]
     return run
 
 
+FIRST_STEPS = """
+import time
+t0 = time.perf_counter()
+import numpy as np
+from ftc_mj.config import RunConfig
+from ftc_mj.estimation import EKF, IMM, UKF, Measurement
+t1 = time.perf_counter()
+print(f"imports {t1 - t0:6.2f} s", end="")
+cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01}})
+for name, f in (("UKF", UKF(cfg)), ("EKF", EKF(cfg)), ("IMM-UKF", IMM(cfg, "ukf")), ("IMM-EKF", IMM(cfg, "ekf"))):
+    t = time.perf_counter()
+    f.step(np.array([5.0, 5.0]), Measurement(10.0, 0.0))
+    print(f" | first {name} step {time.perf_counter() - t:6.2f} s", end="")
+print(f" | total {time.perf_counter() - t0:6.2f} s")
+"""
+
+
+def compile_times() -> None:
+    """First-step times in fresh processes, cold and warm numba cache (see the module docstring)."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = os.environ | {"NUMBA_CACHE_DIR": cache}
+        for label in ("cold cache", "warm cache"):
+            out = subprocess.run([sys.executable, "-c", FIRST_STEPS], env=env, capture_output=True, text=True,
+                                 check=True).stdout.strip()
+            print(f"{label}: {out}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=1500)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--compile", action="store_true", help="time compilation and cache loading instead")
     args = ap.parse_args()
+    if args.compile:
+        compile_times()
+        return
     cfg4 = RunConfig()
     cfg5 = RunConfig.model_validate({"estimator": {"imm_models": 5}})
     yaw = {"sensors": {"yaw_rate_sigma": 0.01}}

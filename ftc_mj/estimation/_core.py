@@ -225,11 +225,10 @@ def kernel_inputs(
     ``u0, u1`` (rad/s), the channel values ``z0..z3`` (first ``m`` used, zero padded), the channel
     bit mask and the dropped flag. Plain scalars: cheaper to pass to numba than small arrays."""
     u = np.asarray(u, dtype=float)
-    if u.shape != (2,):
-        u = u.reshape(2)
+    u0, u1 = (u if u.shape == (2,) else u.reshape(2)).tolist()
     z, _, kinds, dropped = channels(setup, meas)
     z0, z1, z2, z3 = (*z, 0.0, 0.0, 0.0, 0.0)[:4]
-    return float(u[0]), float(u[1]), z0, z1, z2, z3, kinds_mask(kinds), dropped
+    return u0, u1, z0, z1, z2, z3, kinds_mask(kinds), dropped
 
 
 _MASKS: dict[tuple[int, ...], int] = {}

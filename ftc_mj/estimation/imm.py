@@ -80,7 +80,7 @@ from ._core import (
     kernel_inputs,
     resolve_backend,
 )
-from ._kernels import C_HYP, P_RAMP_STEP, imm_step
+from ._kernels import C_HYP, MU_FLOOR, P_RAMP_STEP, imm_step
 from .base import FilterOutput, Measurement
 
 
@@ -313,7 +313,7 @@ class IMM(HealthCounters):
         elif float(P.diagonal(0, 1, 2).min()) <= 0.0:  # (non-PD otherwise: repaired at the next Cholesky)
             bad = np.any(P.diagonal(0, 1, 2) <= 0.0, axis=1)
             P[bad] = eig_floor(P[bad])
-        mu = np.maximum(mu, 1e-300)  # no mode is ever impossible (as filterpy's likelihood floor)
+        mu = np.maximum(mu, MU_FLOOR)  # no mode is ever impossible (as filterpy's likelihood floor)
         self.X, self.P, self.mu = X, P, mu / mu.sum()
         self.x, self.P_comb = self._combine(self.X, self.P, self.mu)
         if rejected:

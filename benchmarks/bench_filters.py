@@ -137,10 +137,11 @@ from ftc_mj.estimation import EKF, IMM, UKF, Measurement
 t1 = time.perf_counter()
 print(f"imports {t1 - t0:6.2f} s", end="")
 cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01}})
-for name, f in (("UKF", UKF(cfg)), ("EKF", EKF(cfg)), ("IMM-UKF", IMM(cfg, "ukf")), ("IMM-EKF", IMM(cfg, "ekf"))):
+for name, make in (("UKF", lambda: UKF(cfg)), ("EKF", lambda: EKF(cfg)), ("IMM-UKF", lambda: IMM(cfg, "ukf")),
+                   ("IMM-EKF", lambda: IMM(cfg, "ekf"))):
     t = time.perf_counter()
-    f.step(np.array([5.0, 5.0]), Measurement(10.0, 0.0))
-    print(f" | first {name} step {time.perf_counter() - t:6.2f} s", end="")
+    make().step(np.array([5.0, 5.0]), Measurement(10.0, 0.0))
+    print(f" | {name} built + first step {time.perf_counter() - t:6.2f} s", end="")
 print(f" | total {time.perf_counter() - t0:6.2f} s")
 """
 

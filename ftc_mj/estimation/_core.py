@@ -1,5 +1,10 @@
 """Shared machinery of the FDI filters: configuration, measurement assembly, batched EKF/UKF maths.
 
+This module is the numpy *reference* implementation; the filters step through the compiled kernels
+of :mod:`._kernels` (the same maths, one call per step) unless built with ``backend="numpy"``, and the
+tests require both to agree to round-off. :class:`FilterBuffers` holds a filter bank's state in the
+flat arrays both backends read and write.
+
 ``predict``/``update`` work on a *batch* of ``M`` filters at once (state ``X`` of shape ``(M, 5)``,
 covariance ``P`` of shape ``(M, 5, 5)``): an IMM is a batch of its member filters (all their sigma
 points go through the kinematic model in one numpy call), a Monte-Carlo study a batch of runs.
@@ -35,11 +40,44 @@ from ..model.kinematics import (
     numpy_rates_jacobian,
     numpy_step_jacobian,
 )
+from ._kernels import (
+    C_BAD_NIS,
+    C_DIV_STEPS,
+    C_EKF,
+    C_N,
+    C_REJECTIONS,
+    C_RESETS,
+    EIG_FLOOR,
+    LOG_2PI,
+    N_COUNTERS,
+    N_PRM,
+    P_B,
+    P_DIV_NIS,
+    P_DT,
+    P_GATE,
+    P_INFLATION,
+    P_KAPPA,
+    P_MIN_RADIUS,
+    P_R0,
+    POS_X,
+    POS_Y,
+    SPEED,
+    YAW,
+    layout,
+)
 from .base import Measurement
 
-LOG_2PI = math.log(2.0 * math.pi)
-EIG_FLOOR = 1e-12
-"""Smallest eigenvalue (in units of the state, squared) kept when repairing a covariance."""
+BACKENDS = ("numba", "numpy")
+DEFAULT_BACKEND = "numba"
+"""Backend of filters built without ``backend=``: ``"numba"`` (compiled kernels) or ``"numpy"`` (reference)."""
+
+
+def resolve_backend(backend: str | None) -> str:
+    """``backend`` or the module default, checked."""
+    b = DEFAULT_BACKEND if backend is None else backend
+    if b not in BACKENDS:
+        raise ValueError(f"unknown filter backend {b!r} (expected one of {BACKENDS})")
+    return b
 
 
 @dataclass(frozen=True)
@@ -93,8 +131,6 @@ class FilterSetup:
 
 
 # ---------------------------------------------------------------------------- measurements
-SPEED, YAW, POS_X, POS_Y = 0, 1, 2, 3
-
 
 @dataclass
 class Assembled:
@@ -133,13 +169,14 @@ def _noise(r: list[float]) -> tuple[np.ndarray, np.ndarray]:
 _SPEED_ONLY = (SPEED,)
 
 
-def assemble(setup: FilterSetup, meas: Measurement) -> Assembled:
-    """Collect the finite channels of ``meas`` that the configured sensor set provides."""
+def channels(setup: FilterSetup, meas: Measurement) -> tuple[list[float], list[float], tuple[int, ...], bool]:
+    """The finite channels of ``meas`` that the configured sensor set provides: values (SI units), noise
+    variances, channel codes (in the order speed, yaw rate, x, y), and whether a channel that should have
+    been there was non-finite and dropped."""
     if setup.yaw_rate_sigma is None and setup.position_sigma is None:  # speed sensor only (the paper's set)
         v = meas.speed
         if v is not None and type(v) is float and math.isfinite(v):
-            ra, Ra = _noise([setup.speed_sigma * setup.speed_sigma])
-            return Assembled(np.array([v]), ra, _SPEED_ONLY, False, Ra)
+            return [v], [setup.speed_sigma * setup.speed_sigma], _SPEED_ONLY, False
     z: list[float] = []
     r: list[float] = []
     kinds: list[int] = []
@@ -171,8 +208,38 @@ def assemble(setup: FilterSetup, meas: Measurement) -> Assembled:
         else:
             add(pos[0], setup.position_sigma, POS_X)
             add(pos[1], setup.position_sigma, POS_Y)
+    return z, r, tuple(kinds), dropped
+
+
+def assemble(setup: FilterSetup, meas: Measurement) -> Assembled:
+    """Collect the finite channels of ``meas`` that the configured sensor set provides."""
+    z, r, kinds, dropped = channels(setup, meas)
     ra, Ra = _noise(r)
-    return Assembled(np.asarray(z, float), ra, tuple(kinds), dropped, Ra)
+    return Assembled(np.asarray(z, float), ra, kinds, dropped, Ra)
+
+
+def kernel_inputs(
+    setup: FilterSetup, u: np.ndarray, meas: Measurement
+) -> tuple[float, float, float, float, float, float, int, bool]:
+    """Per-step arguments of a compiled step (:mod:`._kernels`) after its two buffers: wheel rates
+    ``u0, u1`` (rad/s), the channel values ``z0..z3`` (first ``m`` used, zero padded), the channel
+    bit mask and the dropped flag. Plain scalars: cheaper to pass to numba than small arrays."""
+    u = np.asarray(u, dtype=float)
+    u0, u1 = (u if u.shape == (2,) else u.reshape(2)).tolist()
+    z, _, kinds, dropped = channels(setup, meas)
+    z0, z1, z2, z3 = (*z, 0.0, 0.0, 0.0, 0.0)[:4]
+    return u0, u1, z0, z1, z2, z3, kinds_mask(kinds), dropped
+
+
+_MASKS: dict[tuple[int, ...], int] = {}
+
+
+def kinds_mask(kinds: tuple[int, ...]) -> int:
+    """Bit mask of channel codes (bit k = code k), the compiled kernels' form of ``Assembled.kinds``."""
+    mask = _MASKS.get(kinds)
+    if mask is None:
+        mask = _MASKS[kinds] = sum(1 << k for k in kinds)
+    return mask
 
 
 def measure(model: KinematicModel, X: np.ndarray, u: np.ndarray, kinds: tuple[int, ...]) -> np.ndarray:
@@ -413,3 +480,89 @@ def make_core(setup: FilterSetup, member: str) -> UKFCore | EKFCore:
 def healthy(X: np.ndarray, P: np.ndarray) -> bool:
     """Finite state and covariance with a positive diagonal (cheap test, every step)."""
     return math.isfinite(float(X.sum()) + float(P.sum())) and float(P.diagonal(0, -2, -1).min()) > 0.0
+
+
+# ---------------------------------------------------------------------------- state storage
+class FilterBuffers:
+    """State, constants and per-step outputs of a bank of ``n`` filters in two flat arrays.
+
+    ``buf`` (float64, offsets :func:`._kernels.layout`) and ``cnt`` (int64, indices ``C_*``) are what a
+    compiled step reads and writes; the attributes are views of ``buf`` (see :func:`._kernels.layout`):
+    ``X`` (n, 5), ``P`` (n, 5, 5), ``mu``, ``loglik`` (n,), ``x`` (5,), ``Pc`` (5, 5), ``y`` (4,), ``S`` (4, 4),
+    ``ulast`` (2,), the constants ``Q``, ``P0``, ``x0``, ``rvar`` (noise variance by channel code), ``Pi``
+    (n, n), ``pin_value``/``pin`` (n, 2), ``keep``/``reset_var`` (n, 5, 5), ``ramp`` (n,) and ``prm``.
+    """
+
+    def __init__(self, setup: FilterSetup, n: int, member: str) -> None:
+        lay = layout(n)
+        self.n = n
+        self.buf = np.zeros(lay.size)
+        self.cnt = np.zeros(N_COUNTERS, dtype=np.int64)
+
+        def view(offset: int, *shape: int) -> np.ndarray:
+            return self.buf[offset:offset + math.prod(shape)].reshape(shape)
+
+        self.X, self.P = view(lay.X, n, 5), view(lay.P, n, 5, 5)
+        self.mu, self.loglik = view(lay.mu, n), view(lay.loglik, n)
+        self.x, self.Pc = view(lay.x, 5), view(lay.Pc, 5, 5)
+        self.y, self.S, self.ulast = view(lay.y, 4), view(lay.S, 4, 4), view(lay.ulast, 2)
+        self.Q, self.P0, self.x0 = view(lay.Q, 5, 5), view(lay.P0, 5, 5), view(lay.x0, 5)
+        self.rvar, self.Pi = view(lay.rvar, 4), view(lay.Pi, n, n)
+        self.pin_value, self.pin = view(lay.pin_value, n, 2), view(lay.pin, n, 2)
+        self.keep, self.reset_var = view(lay.keep, n, 5, 5), view(lay.reset_var, n, 5, 5)
+        self.ramp, self.prm = view(lay.ramp, n), view(lay.prm, N_PRM)
+        # the innovation and its covariance over m channels, by m (views made once, not per step)
+        self.y_of = [self.y[:m] for m in range(5)]
+        self.S_of = [self.S[:m, :m] for m in range(5)]
+        self.Q[:], self.P0[:], self.x0[:] = setup.Q, setup.P0, setup.x0
+        # variances as assemble() computes them (sigma * sigma)
+        for code, sigma in ((SPEED, setup.speed_sigma), (YAW, setup.yaw_rate_sigma),
+                            (POS_X, setup.position_sigma), (POS_Y, setup.position_sigma)):
+            self.rvar[code] = math.nan if sigma is None else sigma * sigma
+        prm = self.prm
+        prm[P_DT], prm[P_B], prm[P_KAPPA] = setup.dt, setup.model.b, setup.kappa
+        prm[P_GATE], prm[P_DIV_NIS] = setup.nis_gate, setup.divergence_nis
+        prm[P_INFLATION], prm[P_MIN_RADIUS], prm[P_R0] = setup.reset_inflation, setup.min_radius, setup.nominal_radius
+        self.cnt[C_DIV_STEPS] = setup.divergence_steps
+        self.cnt[C_EKF] = member == "ekf"
+        self.cnt[C_N] = n
+
+
+class Counter:
+    """Attribute that is the integer ``self._st.cnt[index]`` (counted by the compiled steps)."""
+
+    def __init__(self, index: int, doc: str = "") -> None:
+        self.index = index
+        self.__doc__ = doc
+
+    def __get__(self, obj: object, objtype: type | None = None) -> int:
+        return int(obj._st.cnt[self.index])  # type: ignore[union-attr]
+
+    def __set__(self, obj: object, value: int) -> None:
+        obj._st.cnt[self.index] = value  # type: ignore[attr-defined]
+
+
+class BufferView:
+    """Attribute that is the view ``self._st.<name>`` of a filter's buffers: reading gives the live
+    array (it changes with every step), assigning copies the value into it (shape-checked)."""
+
+    def __init__(self, name: str, doc: str = "") -> None:
+        self.name = name
+        self.__doc__ = doc
+
+    def __get__(self, obj: object, objtype: type | None = None) -> np.ndarray:
+        return getattr(obj._st, self.name)  # type: ignore[union-attr]
+
+    def __set__(self, obj: object, value: np.ndarray) -> None:
+        view = getattr(obj._st, self.name)  # type: ignore[attr-defined]
+        view[...] = np.asarray(value, dtype=float).reshape(view.shape)
+
+
+class HealthCounters:
+    """``resets``/``rejections`` (and the internal NIS-dwell counter) kept in ``self._st.cnt``, where the
+    compiled steps count them."""
+
+    _st: FilterBuffers
+    resets = Counter(C_RESETS, "Divergence resets so far.")
+    rejections = Counter(C_REJECTIONS, "Steps whose measurement was rejected (non-finite channel, NIS above gate).")
+    _bad_nis_steps = Counter(C_BAD_NIS, "Consecutive steps with NIS above the divergence level.")

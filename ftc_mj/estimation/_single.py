@@ -9,6 +9,9 @@ Health rules (a run never dies of a filter):
 * *divergence* (non-finite state/covariance, or NIS above ``divergence_nis`` for
   ``divergence_dwell`` seconds) triggers a *reset*: the last finite estimate (radii clipped to
   ``[min_radius, 10 R0]``) with covariance ``reset_inflation · P0``.
+
+A step is one call of the compiled kernel :func:`._kernels.single_step` (``backend="numba"``, the
+default) or the numpy reference code below (``backend="numpy"``); both work on the same buffers.
 """
 
 from __future__ import annotations
@@ -18,29 +21,48 @@ import math
 import numpy as np
 
 from ..config import RunConfig
-from ._core import SPEED, EKFCore, FilterSetup, UKFCore, assemble, chol, eig_floor, healthy
+from ._core import (
+    SPEED,
+    Counter,
+    EKFCore,
+    FilterBuffers,
+    FilterSetup,
+    HealthCounters,
+    UKFCore,
+    assemble,
+    chol,
+    eig_floor,
+    healthy,
+    kernel_inputs,
+    resolve_backend,
+)
+from ._kernels import C_STEPS, single_step
 from .base import FilterOutput, Measurement
 
 _EMPTY_Y = np.zeros(0)
 _EMPTY_S = np.zeros((0, 0))
 
 
-class SingleFilter:
-    """Base of :class:`~ftc_mj.estimation.EKF` and :class:`~ftc_mj.estimation.UKF`."""
+class SingleFilter(HealthCounters):
+    """Base of :class:`~ftc_mj.estimation.EKF` and :class:`~ftc_mj.estimation.UKF`.
+
+    ``backend``: ``"numba"`` (compiled step) or ``"numpy"`` (reference); default
+    :data:`._core.DEFAULT_BACKEND`.
+    """
 
     member = "ukf"
 
-    def __init__(self, cfg: RunConfig, setup: FilterSetup | None = None) -> None:
+    def __init__(self, cfg: RunConfig, setup: FilterSetup | None = None, *, backend: str | None = None) -> None:
         self.cfg = cfg
         self.setup = setup if setup is not None else FilterSetup.from_config(cfg)
+        self.backend = resolve_backend(backend)
         self.core: UKFCore | EKFCore = UKFCore(self.setup) if self.member == "ukf" else EKFCore(self.setup)
-        self._x = self.setup.x0.copy()
-        self._P = self.setup.P0.copy()
-        self.resets = 0
-        self.rejections = 0
-        self._bad_nis_steps = 0
+        self._st = FilterBuffers(self.setup, 1, self.member)
+        self._x = self._st.X[0]  # views: the state lives in the buffers the compiled step works on
+        self._P = self._st.P[0]
+        self._x[:] = self.setup.x0
+        self._P[:] = self.setup.P0
         self._u_last = np.zeros(2)
-        self.t_steps = 0
         # the UKF's next Cholesky repairs a non-PD covariance itself; the EKF checks every step
         self._check_pd = isinstance(self.core, EKFCore)
 
@@ -52,7 +74,7 @@ class SingleFilter:
 
     @x.setter
     def x(self, value: np.ndarray) -> None:
-        self._x = np.asarray(value, float).reshape(5).copy()
+        self._x[:] = np.asarray(value, float).reshape(5)
 
     @property
     def P(self) -> np.ndarray:
@@ -61,7 +83,9 @@ class SingleFilter:
 
     @P.setter
     def P(self, value: np.ndarray) -> None:
-        self._P = np.asarray(value, float).reshape(5, 5).copy()
+        self._P[:] = np.asarray(value, float).reshape(5, 5)
+
+    t_steps = Counter(C_STEPS, "Steps taken.")
 
     def set_state(self, x: np.ndarray, P: np.ndarray) -> None:
         """Overwrite the estimate (m, m, rad, m, m) and its 5x5 covariance."""
@@ -80,8 +104,19 @@ class SingleFilter:
 
     def step(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         """Predict with wheel rates ``u`` = [omega_R, omega_L] (rad/s), update with ``z``."""
+        return self._step_numba(u, z) if self.backend == "numba" else self._step_numpy(u, z)
+
+    def _step_numba(self, u: np.ndarray, z: Measurement) -> FilterOutput:
+        st = self._st
+        nis, sp_innov, sp_std, m, rejected, reset = single_step(st.buf, st.cnt, *kernel_inputs(self.setup, u, z))
+        return FilterOutput(
+            x=self._x.copy(), P=self._P.copy(), innovation=st.y_of[m].copy(), S=st.S_of[m].copy(), nis=nis,
+            speed_innovation=sp_innov, speed_innovation_std=sp_std, rejected=rejected, reset=reset,
+        )
+
+    def _step_numpy(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         u = self._inputs(u)
-        x_prev = self._x
+        x_prev = self._x.copy()
         core = self.core
         x, P = core.predict1(x_prev, self._P, u)
         a = assemble(self.setup, z)
@@ -103,7 +138,7 @@ class SingleFilter:
             x, P = self._reset_state(x_prev)
         elif self._check_pd and math.isnan(chol(P)[-1, -1]):
             P = eig_floor(P)
-        self._x, self._P = x, P
+        self._x[:], self._P[:] = x, P
         if rejected:
             self.rejections += 1
         self.t_steps += 1

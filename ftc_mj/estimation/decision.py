@@ -32,6 +32,7 @@ declaration, change of isolated wheel and clear is appended to :attr:`FaultDecis
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Literal
@@ -109,10 +110,11 @@ class FaultDecision:
 
     def _mode_candidate(self, out: FilterOutput) -> Wheel | None:
         mu = np.asarray(out.mode_probs, float)
-        bank = BANK_4 if mu.size == 4 else BANK_5 if mu.size == 5 else None
-        if bank is None:
+        members = _class_members(mu.size)
+        if members is None:
             return None
-        probs = {c: float(sum(m for m, h in zip(mu, bank, strict=True) if h.wheel == c)) for c in _CLASSES}
+        m = mu.tolist()
+        probs = {c: float(sum(m[i] for i in idx)) for c, idx in members}
         best = max(_CLASSES, key=lambda c: probs[c])
         if probs[best] <= self.mode_threshold:
             return None
@@ -169,6 +171,16 @@ class FaultDecision:
             severity_R=sev[0], severity_L=sev[1], suspected="unknown" in (cand, self.declared),
             split_std=dirs.split_std, active_mode=active, events=self.events,
         )
+
+
+@functools.cache
+def _class_members(n: int) -> tuple[tuple[Wheel, tuple[int, ...]], ...] | None:
+    """For the 4- or 5-model bank: each fault class with the indices of the members hypothesising it
+    (computed once: the decision runs at every filter step); ``None`` for other bank sizes."""
+    bank = BANK_4 if n == 4 else BANK_5 if n == 5 else None
+    if bank is None:
+        return None
+    return tuple((c, tuple(i for i, h in enumerate(bank) if h.wheel == c)) for c in _CLASSES)
 
 
 def _loss(r: float, R0: float) -> float:

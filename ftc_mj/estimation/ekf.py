@@ -5,6 +5,8 @@ step and of the measurements from CasADi's automatic differentiation of the sing
 The maths is that of filterpy 2.0.0's ``ExtendedKalmanFilter`` (``F`` evaluated at the posterior
 before the Euler step, Joseph-form covariance update), so a test compares the two to round-off.
 See :mod:`._single` for the numerical-health rules.
+A step runs as one compiled call (:mod:`._kernels`, numba); ``backend="numpy"`` runs the numpy
+reference code of :mod:`._core` instead (same results to round-off).
 """
 
 from __future__ import annotations

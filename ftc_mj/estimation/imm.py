@@ -54,6 +54,9 @@ Health rules are those of :mod:`._single`, applied to the whole bank: an update 
 the gate for *every* member is rejected; a member whose covariance is not positive definite is
 eigen-floored; divergence (non-finite numbers, or the mixture NIS above ``divergence_nis`` for
 ``divergence_dwell`` s) resets all members to their last finite estimates with ``reset_inflation·P0``.
+
+A step is one call of the compiled kernel :func:`._kernels.imm_step` (``backend="numba"``, the
+default) or the numpy reference code below (``backend="numpy"``); both work on the same buffers.
 """
 
 from __future__ import annotations
@@ -64,7 +67,20 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import RunConfig
-from ._core import SPEED, EKFCore, FilterSetup, UKFCore, assemble, eig_floor
+from ._core import (
+    SPEED,
+    BufferView,
+    EKFCore,
+    FilterBuffers,
+    FilterSetup,
+    HealthCounters,
+    UKFCore,
+    assemble,
+    eig_floor,
+    kernel_inputs,
+    resolve_backend,
+)
+from ._kernels import C_HYP, MU_FLOOR, P_RAMP_STEP, imm_step
 from .base import FilterOutput, Measurement
 
 
@@ -110,11 +126,15 @@ def transition_matrix(n: int, p_stay: float) -> np.ndarray:
     return np.full((n, n), off) + np.eye(n) * (p_stay - off)
 
 
-class IMM:
+class IMM(HealthCounters):
     """IMM over EKF or UKF members: ``IMM(cfg, member="ukf").step(u, z) -> FilterOutput``.
 
     ``hypotheses``/``transition``/``variant`` default to the configured bank (4 or 5 models);
-    they can be given explicitly (e.g. a 2-model bank in tests).
+    they can be given explicitly (e.g. a 2-model bank in tests). ``backend``: ``"numba"`` (compiled
+    step) or ``"numpy"`` (reference); default :data:`._core.DEFAULT_BACKEND`.
+
+    ``X`` (M, 5), ``P`` (M, 5, 5), ``mu`` (M,), ``loglik`` (M,), ``x`` (5,) and ``P_comb`` (5, 5) are
+    views of the bank's buffers: assigning to them copies into the buffers.
     """
 
     def __init__(
@@ -126,10 +146,12 @@ class IMM:
         transition: np.ndarray | None = None,
         variant: str | None = None,
         setup: FilterSetup | None = None,
+        backend: str | None = None,
     ) -> None:
         est = cfg.estimator
         self.cfg = cfg
         self.setup = setup if setup is not None else FilterSetup.from_config(cfg)
+        self.backend = resolve_backend(backend)
         self.member = member
         self.core: UKFCore | EKFCore = UKFCore(self.setup) if member == "ukf" else EKFCore(self.setup)
         if hypotheses is None:
@@ -141,6 +163,7 @@ class IMM:
         self.Pi = np.asarray(transition, float)
         self.variant = variant if variant is not None else est.imm_variant
         R0 = self.setup.nominal_radius
+        self._st = FilterBuffers(self.setup, n, member)
         self.frac = np.array([[h.frac_R, h.frac_L] for h in self.hypotheses])
         self.X = np.repeat(self.setup.x0[None, :], n, axis=0)
         self.X[:, 3] = self.frac[:, 0] * R0
@@ -176,12 +199,23 @@ class IMM:
         self._keep = keep
         if hyp:
             self._hypothesis_radii(self.X, self.P)
-        self.resets = 0
-        self.rejections = 0
-        self._bad_nis_steps = 0
         self._u_last = np.zeros(2)
         self.x, self.P_comb = self._combine(self.X, self.P, self.mu)
-        self.loglik = np.zeros(n)
+        # constants of the compiled step
+        st = self._st
+        st.Pi[:] = self.Pi
+        st.pin_value[:], st.pin[:] = self._pin_value, self._pin
+        st.keep[:], st.reset_var[:], st.ramp[:] = self._keep, self._reset_var, self._ramp
+        st.prm[P_RAMP_STEP] = self._ramp_step
+        st.cnt[C_HYP] = hyp
+
+    # ---------------------------------------------------------------- state (views of the buffers)
+    X = BufferView("X", "Member estimates (M, 5) (m, m, rad, m, m).")
+    P = BufferView("P", "Member covariances (M, 5, 5).")
+    mu = BufferView("mu", "Mode probabilities (M,).")
+    loglik = BufferView("loglik", "Members' log-likelihoods of the last accepted measurement (M,) (0 before any).")
+    x = BufferView("x", "Combined estimate (5,).")
+    P_comb = BufferView("Pc", "Combined covariance (5, 5).")
 
     # ---------------------------------------------------------------- IMM steps
     def mixing_probabilities(self) -> tuple[np.ndarray, np.ndarray]:
@@ -218,12 +252,24 @@ class IMM:
     # ---------------------------------------------------------------- step
     def step(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         """One IMM cycle with wheel rates ``u`` = [omega_R, omega_L] (rad/s) and measurement ``z``."""
+        return self._step_numba(u, z) if self.backend == "numba" else self._step_numpy(u, z)
+
+    def _step_numba(self, u: np.ndarray, z: Measurement) -> FilterOutput:
+        st = self._st
+        nis, sp_innov, sp_std, m, rejected, reset = imm_step(st.buf, st.cnt, *kernel_inputs(self.setup, u, z))
+        return FilterOutput(
+            x=st.x.copy(), P=st.Pc.copy(), innovation=st.y_of[m].copy(), S=st.S_of[m].copy(),
+            nis=nis, speed_innovation=sp_innov, speed_innovation_std=sp_std,
+            mode_probs=st.mu.copy(), model_x=st.X.copy(), rejected=rejected, reset=reset,
+        )
+
+    def _step_numpy(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         u = np.asarray(u, dtype=float).reshape(2)
         if math.isfinite(u[0]) and math.isfinite(u[1]):
             self._u_last = u
         else:
             u = self._u_last
-        X_prev, P_prev = self.X, self.P
+        X_prev, P_prev = self.X.copy(), self.P.copy()
         cbar, omega = self.mixing_probabilities()
         X0, P0 = self.mix(self.X, self.P, omega)
         if self._hyp:
@@ -267,7 +313,7 @@ class IMM:
         elif float(P.diagonal(0, 1, 2).min()) <= 0.0:  # (non-PD otherwise: repaired at the next Cholesky)
             bad = np.any(P.diagonal(0, 1, 2) <= 0.0, axis=1)
             P[bad] = eig_floor(P[bad])
-        mu = np.maximum(mu, 1e-300)  # no mode is ever impossible (as filterpy's likelihood floor)
+        mu = np.maximum(mu, MU_FLOOR)  # no mode is ever impossible (as filterpy's likelihood floor)
         self.X, self.P, self.mu = X, P, mu / mu.sum()
         self.x, self.P_comb = self._combine(self.X, self.P, self.mu)
         if rejected:

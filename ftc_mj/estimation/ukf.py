@@ -5,6 +5,8 @@ The maths is that of filterpy 2.0.0's ``UnscentedKalmanFilter`` with ``JulierSig
 including 2.0's regeneration of the sigma points from the prior before the update (TECHNOTES §3.1),
 so a test compares the two to round-off. See :mod:`._core` for the shared maths and
 :mod:`._single` for the numerical-health rules (gating, symmetrising, resets).
+A step runs as one compiled call (:mod:`._kernels`, numba); ``backend="numpy"`` runs the numpy
+reference code of :mod:`._core` instead (same results to round-off).
 """
 
 from __future__ import annotations

@@ -54,6 +54,23 @@ def inverse_rates(V: Any, psidot: Any, R_R: Any, R_L: Any, b: Any) -> tuple[Any,
     return (V + b * psidot) / R_R, (V - b * psidot) / R_L
 
 
+def _sx_derivative(x: ca.SX, u: ca.SX, b: Any) -> ca.SX:
+    """Symbolic ``xdot`` (5x1) of :func:`pose_rates`; ``b`` is a number or a CasADi symbol."""
+    xd, yd, pd = pose_rates(x[2], x[3], x[4], u[0], u[1], b, ca)
+    return ca.vertcat(xd, yd, pd, 0, 0)
+
+
+def _sx_step(x: ca.SX, u: ca.SX, dt: Any, b: Any) -> ca.SX:
+    """Symbolic Euler step ``x + dt f(x, u)``."""
+    return x + dt * _sx_derivative(x, u, b)
+
+
+def _sx_rates(x: ca.SX, u: ca.SX, b: Any) -> ca.SX:
+    """Symbolic ``[V, psidot]`` (2x1) of :func:`body_rates`."""
+    V, pd = body_rates(x[3], x[4], u[0], u[1], b)
+    return ca.vertcat(V, pd)
+
+
 @dataclass(frozen=True)
 class KinematicModel:
     """The kinematic model with half track ``b`` (m) and filter step ``dt`` (s).
@@ -123,8 +140,7 @@ class KinematicModel:
         """``f(x[5], u[2]) -> xdot[5]`` as a CasADi Function (SX)."""
         if "f" not in self._cache:
             x, u, _ = self._symbols
-            xd, yd, pd = pose_rates(x[2], x[3], x[4], u[0], u[1], self.b, ca)
-            self._cache["f"] = ca.Function("f", [x, u], [ca.vertcat(xd, yd, pd, 0, 0)], ["x", "u"], ["xdot"])
+            self._cache["f"] = ca.Function("f", [x, u], [_sx_derivative(x, u, self.b)], ["x", "u"], ["xdot"])
         return self._cache["f"]
 
     def casadi_step(self) -> ca.Function:
@@ -132,7 +148,7 @@ class KinematicModel:
         if "step" not in self._cache:
             x, u, dt = self._symbols
             self._cache["step"] = ca.Function(
-                "step", [x, u, dt], [x + dt * self.casadi_derivative()(x, u)], ["x", "u", "dt"], ["x_next"]
+                "step", [x, u, dt], [_sx_step(x, u, dt, self.b)], ["x", "u", "dt"], ["x_next"]
             )
         return self._cache["step"]
 
@@ -148,8 +164,7 @@ class KinematicModel:
         """``rates(x, u) -> [V, psidot]`` as a CasADi Function."""
         if "rates" not in self._cache:
             x, u, _ = self._symbols
-            V, pd = body_rates(x[3], x[4], u[0], u[1], self.b)
-            self._cache["rates"] = ca.Function("rates", [x, u], [ca.vertcat(V, pd)], ["x", "u"], ["Vpsidot"])
+            self._cache["rates"] = ca.Function("rates", [x, u], [_sx_rates(x, u, self.b)], ["x", "u"], ["Vpsidot"])
         return self._cache["rates"]
 
     def casadi_rates_jacobian(self) -> ca.Function:
@@ -176,6 +191,38 @@ _NP_BINARY = {
 }
 
 
+def _transcribe(fn: ca.Function, scalar_in: list[bool], vector_src: str) -> tuple[list[str], list[str]]:
+    """Body lines ``w<k> = ...`` of the SX instruction list of ``fn`` and, per output, the names of its
+    non-zeros in sparsity order. A vector input ``i`` element ``j`` is read as ``vector_src.format(i, j)``."""
+    lines: list[str] = []
+    outs: list[list[str]] = [[] for _ in range(fn.n_out())]
+    for k in range(fn.n_instructions()):
+        op = fn.instruction_id(k)
+        ins = fn.instruction_input(k)
+        outk = fn.instruction_output(k)
+        if op == ca.OP_CONST:
+            lines.append(f"    w{outk[0]} = {float(fn.instruction_constant(k))!r}")
+        elif op == ca.OP_INPUT:
+            src = f"a{ins[0]}" if scalar_in[ins[0]] else vector_src.format(ins[0], ins[1])
+            lines.append(f"    w{outk[0]} = {src}")
+        elif op == ca.OP_OUTPUT:
+            outs[outk[0]].append(f"o{outk[0]}_{outk[1]}")
+            lines.append(f"    o{outk[0]}_{outk[1]} = w{ins[0]}")
+        elif op in _NP_UNARY:
+            lines.append(f"    w{outk[0]} = " + _NP_UNARY[op].format(f"w{ins[0]}"))
+        elif op in _NP_BINARY:
+            lines.append(f"    w{outk[0]} = " + _NP_BINARY[op].format(f"w{ins[0]}", f"w{ins[1]}"))
+        else:
+            raise ValueError(f"casadi code generation: unsupported operation id {op}")
+    return lines, [names for names in outs]
+
+
+def _sx(fn: ca.Function) -> tuple[ca.Function, list[bool]]:
+    if not fn.is_a("SXFunction"):
+        fn = fn.expand()
+    return fn, [fn.sparsity_in(i).numel() == 1 for i in range(fn.n_in())]
+
+
 def casadi_to_numpy(fn: ca.Function) -> Any:
     """Translate an SX CasADi Function into a vectorised numpy function (generated once).
 
@@ -186,11 +233,9 @@ def casadi_to_numpy(fn: ca.Function) -> Any:
     straight transcription of the SX instruction list, so it is exactly the CasADi expression (the same
     derivative CasADi's AD produced), without the several-µs call overhead of ``Function.__call__``.
     """
-    if not fn.is_a("SXFunction"):
-        fn = fn.expand()
+    fn, scalar_in = _sx(fn)
     n_in, n_out = fn.n_in(), fn.n_out()
     lines = [f"def _generated({', '.join(f'a{i}' for i in range(n_in))}):"]
-    scalar_in = [fn.sparsity_in(i).numel() == 1 for i in range(n_in)]
     for i in range(n_in):
         if not scalar_in[i]:
             lines.append(f"    a{i} = np.asarray(a{i}, dtype=float)")
@@ -202,25 +247,8 @@ def casadi_to_numpy(fn: ca.Function) -> Any:
     for i in range(n_in):
         if not scalar_in[i]:
             lines.append(f"    c{i} = a{i}.tolist() if a{i}.ndim == 1 else np.moveaxis(a{i}, -1, 0)")
-    outs: list[tuple[int, int, str]] = []
-    for k in range(fn.n_instructions()):
-        op = fn.instruction_id(k)
-        ins = fn.instruction_input(k)
-        outk = fn.instruction_output(k)
-        if op == ca.OP_CONST:
-            lines.append(f"    w{outk[0]} = {float(fn.instruction_constant(k))!r}")
-        elif op == ca.OP_INPUT:
-            src = f"a{ins[0]}" if scalar_in[ins[0]] else f"c{ins[0]}[{ins[1]}]"
-            lines.append(f"    w{outk[0]} = {src}")
-        elif op == ca.OP_OUTPUT:
-            outs.append((outk[0], outk[1], f"w{ins[0]}"))
-            lines.append(f"    o{outk[0]}_{outk[1]} = w{ins[0]}")
-        elif op in _NP_UNARY:
-            lines.append(f"    w{outk[0]} = " + _NP_UNARY[op].format(f"w{ins[0]}"))
-        elif op in _NP_BINARY:
-            lines.append(f"    w{outk[0]} = " + _NP_BINARY[op].format(f"w{ins[0]}", f"w{ins[1]}"))
-        else:
-            raise ValueError(f"casadi_to_numpy: unsupported operation id {op}")
+    body, outs = _transcribe(fn, scalar_in, "c{0}[{1}]")
+    lines += body
     results = []
     for j in range(n_out):
         sp = fn.sparsity_out(j)
@@ -228,9 +256,9 @@ def casadi_to_numpy(fn: ca.Function) -> Any:
         r_idx, c_idx = sp.get_triplet()
         shape = f"_bs + ({rows},)" if cols == 1 else f"_bs + ({rows}, {cols})"
         lines.append(f"    r{j} = np.zeros({shape})")
-        for nz, (r, c) in enumerate(zip(r_idx, c_idx, strict=True)):
+        for name, r, c in zip(outs[j], r_idx, c_idx, strict=True):
             idx = f"..., {r}" if cols == 1 else f"..., {r}, {c}"
-            lines.append(f"    r{j}[{idx}] = o{j}_{nz}")
+            lines.append(f"    r{j}[{idx}] = {name}")
         results.append(f"r{j}")
     lines.append(f"    return {results[0] if n_out == 1 else '(' + ', '.join(results) + ',)'}")
     namespace: dict[str, Any] = {"np": np}
@@ -238,6 +266,48 @@ def casadi_to_numpy(fn: ca.Function) -> Any:
     gen = namespace["_generated"]
     gen.__doc__ = f"numpy transcription of CasADi Function {fn.name()!r}"
     return gen
+
+
+def casadi_to_scalar_source(fn: ca.Function, name: str) -> str:
+    """Python source of ``def name(a0, ..., out0, ...)`` evaluating an SX Function at one point.
+
+    Vector inputs are 1-D arrays, scalar inputs floats; each output is written, dense (structural
+    zeros included), into a preallocated array: a column output ``(rows, 1)`` of shape ``(rows,)``, a
+    matrix output of shape ``(rows, cols)``. Straight-line float arithmetic (and ``np.sin``/``np.cos``
+    of floats) transcribed from the instruction list as :func:`casadi_to_numpy` does, so numba can
+    compile it into the filters' kernels: the same CasADi expressions, without a second hand-typed copy.
+    """
+    fn, scalar_in = _sx(fn)
+    args = [f"a{i}" for i in range(fn.n_in())] + [f"out{j}" for j in range(fn.n_out())]
+    body, outs = _transcribe(fn, scalar_in, "a{0}[{1}]")
+    lines = [f"def {name}({', '.join(args)}):", f'    """CasADi Function {fn.name()!r} at one point."""', *body]
+    for j in range(fn.n_out()):
+        sp = fn.sparsity_out(j)
+        rows, cols = sp.size1(), sp.size2()
+        nz = dict(zip(zip(*sp.get_triplet(), strict=True), outs[j], strict=True))
+        for r in range(rows):
+            for c in range(cols):
+                idx = f"{r}" if cols == 1 else f"{r}, {c}"
+                lines.append(f"    out{j}[{idx}] = {nz.get((r, c), '0.0')}")
+    return "\n".join(lines) + "\n"
+
+
+def casadi_parametric_functions() -> dict[str, ca.Function]:
+    """The model with the half track ``b`` as an *input*, for compiled code shared by every ``b``.
+
+    ``step(x, u, dt, b)`` (Euler step), ``F(x, u, dt, b)`` = d step/d x, ``rates(x, u, b)`` =
+    ``[V, psidot]`` and ``H(x, u, b)`` = d rates/d x (CasADi automatic differentiation): the same
+    expressions as :class:`KinematicModel`'s Functions, in which ``b`` is a constant.
+    """
+    x, u, dt, b = ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("dt"), ca.SX.sym("b")
+    nxt = _sx_step(x, u, dt, b)
+    rates = _sx_rates(x, u, b)
+    return {
+        "step": ca.Function("step", [x, u, dt, b], [nxt]),
+        "F": ca.Function("F", [x, u, dt, b], [ca.jacobian(nxt, x)]),
+        "rates": ca.Function("rates", [x, u, b], [rates]),
+        "H": ca.Function("H", [x, u, b], [ca.jacobian(rates, x)]),
+    }
 
 
 def _numpy_jacobians(model: KinematicModel) -> tuple[Any, Any]:

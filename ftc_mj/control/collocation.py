@@ -29,12 +29,14 @@ nearest the (unwrapped) reference heading at t0; predictions are reported in tha
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
 from ..model.kinematics import KinematicModel
+from .certified_qp import CertifiedQP
 from .lgl import barycentric_weights, lgl
 
 TWO_PI = 2.0 * np.pi
@@ -187,9 +189,22 @@ class CondensedQP:
     ``qpsol`` is any CasADi conic plugin (``daqp``, ``qpoases``, ``osqp``, ``piqp``, ...). The QP
     solver is wrapped in an MX Function together with the constant rate-constraint rows and called
     through :class:`BufferedFunction` (no per-element conversions).
+
+    With ``certified`` (the default for ``daqp``) the QP is first solved by
+    :class:`~ftc_mj.control.certified_qp.CertifiedQP`: the previous sample's active set, else the one
+    read off an interior-point solve, is solved exactly and accepted with a KKT certificate (or the
+    QP is declared infeasible with a Farkas certificate); only an unresolved QP goes to the CasADi
+    plugin. The result equals the plugin's within the solvers' tolerances; the saturated loops, where
+    DAQP needs hundreds of active-set iterations, get much cheaper. ``path_counts`` counts how each
+    QP was decided (``guess``, ``ipm``, ``farkas``, ``plugin``).
+
+    Constraint rows (``A u`` in the order of ``lam_a``): the 3 node-0 collocation equalities, the 2N
+    rate rows, then the optional N lateral-acceleration rows. :meth:`_rows` assembles them densely
+    for the certified path; a new block of rows goes there and into the plugin's ``A`` alike.
     """
 
-    def __init__(self, col: Collocation, qpsol: str = "daqp", qp_options: dict | None = None) -> None:
+    def __init__(self, col: Collocation, qpsol: str = "daqp", qp_options: dict | None = None,
+                 certified: bool | None = None) -> None:
         self.col = col
         N, h, D = col.N, col.h, col.D
         n = 2 * N
@@ -247,11 +262,17 @@ class CondensedQP:
         self.rate_lim = rate
         self._lam_x = np.zeros(n)
         self._lam_a = np.zeros(nA)
+        self.certified = (qpsol == "daqp") if certified is None else bool(certified)
+        self._cqp = CertifiedQP()
+        self._ws: np.ndarray | None = None  # working set of the last certified solution (the next guess)
+        self.path_counts: Counter[str] = Counter()
 
     def reset(self) -> None:
-        """Forget the dual warm start (a reused solver then behaves exactly like a new one)."""
+        """Forget the dual warm start and the active-set guess (a reused solver then behaves exactly
+        like a new one)."""
         self._lam_x[:] = 0.0
         self._lam_a[:] = 0.0
+        self._ws = None
 
     # ----------------------------------------------------------------------------------------
     def build(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray, ref: np.ndarray):
@@ -326,17 +347,62 @@ class CondensedQP:
         lin0 = V * r - (gR * Ug[:, 0] + gL * Ug[:, 1])  # a(u) ≈ a(ug) + grad·(u - ug) = lin0 + grad·u
         return np.concatenate([gR, gL]), -self.a_lat - lin0, self.a_lat - lin0
 
+    def _rows(self, E: np.ndarray, e: np.ndarray, Lv: np.ndarray, ll: np.ndarray, lu: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Dense constraint rows ``lba ≤ A u ≤ uba`` (same rows and order as the plugin's ``A``):
+        node-0 collocation equalities, rate rows ``|D u| ≤ rate`` (rad/s per unit tau), lateral rows."""
+        N, n = self.col.N, self.nu
+        n_lat = ll.size
+        A = np.empty((3 + n + n_lat, n))
+        A[:3] = E
+        A[3:3 + n] = self.Dblk
+        if n_lat:
+            Lat = A[3 + n:]
+            Lat[:] = 0.0
+            j = np.arange(n_lat)
+            Lat[j, j] = Lv[:N]
+            Lat[j, N + j] = Lv[N:]
+        r = np.full(n, self.rate_lim)
+        return A, np.concatenate([e, -r, ll]), np.concatenate([e, r, lu])
+
+    def _solve_certified(self, H: np.ndarray, g: np.ndarray, E: np.ndarray, e: np.ndarray, Lv: np.ndarray,
+                         ll: np.ndarray, lu: np.ndarray) -> tuple[str, np.ndarray | None, np.ndarray | None,
+                                                                  np.ndarray | None]:
+        """The certified path: ``(verdict, u, lam_x, lam_a)`` with verdict ``optimal``/``infeasible``/
+        ``unresolved``."""
+        A, lba, uba = self._rows(E, e, Lv, ll, lu)
+        ob = np.full(self.nu, self.omega_max)
+        res = self._cqp.solve(H, g, A, lba, uba, -ob, ob, self._ws)
+        if res.status == "unresolved":
+            return "unresolved", None, None, None
+        self.path_counts[res.path] += 1
+        self._ws = res.working_set
+        return res.status, res.u, res.lam_x, res.lam_a
+
     def solve(self, Xg, Ug, radii, x0, ref, u_init: np.ndarray | None = None):
         """Build and solve the QP. Returns ``(ok, status, X (N,3), U (N,2))``."""
         N = self.col.N
         H, g, E, e, G, hc = self.build(Xg, Ug, radii, x0, ref)
         Lv, ll, lu = self.lateral_rows(Ug, radii)
-        if u_init is None:
-            u_init = Ug.T.ravel()
-        u0 = np.clip(u_init, -self.omega_max, self.omega_max)
-        u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, Lv, ll, lu, u0, self._lam_x, self._lam_a)
-        st = self._qpfun.stats()
-        ok = self._qpfun.ret == 0 and bool(st.get("success", True)) and bool(np.all(np.isfinite(u)))
+        verdict = "unresolved"
+        if self.certified:
+            verdict, u, lam_x, lam_a = self._solve_certified(H, g, E, e, Lv, ll, lu)
+        if verdict == "infeasible":
+            st = {"success": False, "return_status": "infeasible (Farkas certificate)"}
+            u = np.full(self.nu, np.nan)
+            ok = False
+        elif verdict == "optimal":
+            st = {"success": True, "return_status": "optimal (certified active set)"}
+            ok = True
+        else:
+            if u_init is None:
+                u_init = Ug.T.ravel()
+            u0 = np.clip(u_init, -self.omega_max, self.omega_max)
+            u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, Lv, ll, lu, u0, self._lam_x, self._lam_a)
+            st = self._qpfun.stats()
+            ok = self._qpfun.ret == 0 and bool(st.get("success", True)) and bool(np.all(np.isfinite(u)))
+            self.path_counts["plugin"] += 1
+            self._ws = None
         if ok:  # independent feasibility check (solvers differ in what they call success)
             tol = 1e-5 * (1.0 + np.abs(e).max())
             ok = (np.abs(E @ u - e).max() < tol and np.abs(self.Dblk @ u).max() < self.rate_lim * (1 + 1e-6) + 1e-6
@@ -347,6 +413,7 @@ class CondensedQP:
         if not ok:
             self._lam_x[:] = 0.0
             self._lam_a[:] = 0.0
+            self._ws = None
             return False, str(st.get("return_status", "qp failed")), None, None
         self._lam_x[:] = lam_x
         self._lam_a[:] = lam_a

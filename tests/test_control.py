@@ -329,21 +329,8 @@ def _record_qps(spec: ProblemSpec, true_radii, model_radii, duration: float = 10
     ctl = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None, max_iter=300)
     qp = ctl._qp
     qp.certified = False
-    rec: list = []
-    build, lateral = qp.build, qp.lateral_rows
-
-    def build_rec(*a):
-        out = build(*a)
-        rec.append(list(out[:4]))
-        return out
-
-    def lateral_rec(*a):
-        out = lateral(*a)
-        rec[-1].extend(np.copy(x) for x in out)
-        return out
-
-    qp.build, qp.lateral_rows = build_rec, lateral_rec
-    simulate(ctl, ref, duration, (0.0, 0.0, 0.0), true_radii=true_radii, model_radii=model_radii)
+    with qp.recording() as rec:
+        simulate(ctl, ref, duration, (0.0, 0.0, 0.0), true_radii=true_radii, model_radii=model_radii)
     return ctl, rec
 
 

@@ -29,7 +29,9 @@ nearest the (unwrapped) reference heading at t0; predictions are reported in tha
 
 from __future__ import annotations
 
+import contextlib
 from collections import Counter
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import casadi as ca
@@ -346,6 +348,29 @@ class CondensedQP:
         gL = r * J[0, 1] + V * J[1, 1]
         lin0 = V * r - (gR * Ug[:, 0] + gL * Ug[:, 1])  # a(u) ≈ a(ug) + grad·(u - ug) = lin0 + grad·u
         return np.concatenate([gR, gL]), -self.a_lat - lin0, self.a_lat - lin0
+
+    @contextlib.contextmanager
+    def recording(self) -> Iterator[list[list[np.ndarray]]]:
+        """Record the data ``[H, g, E, e, Lv, ll, lu]`` of every QP solved inside the block (for tests
+        and benchmarks that replay them through both solve paths)."""
+        rec: list[list[np.ndarray]] = []
+        build, lateral = self.build, self.lateral_rows
+
+        def build_rec(*a):
+            out = build(*a)
+            rec.append([np.copy(x) for x in out[:4]])
+            return out
+
+        def lateral_rec(*a):
+            out = lateral(*a)
+            rec[-1].extend(np.copy(x) for x in out)
+            return out
+
+        self.build, self.lateral_rows = build_rec, lateral_rec
+        try:
+            yield rec
+        finally:
+            del self.build, self.lateral_rows
 
     def _rows(self, E: np.ndarray, e: np.ndarray, Lv: np.ndarray, ll: np.ndarray, lu: np.ndarray
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

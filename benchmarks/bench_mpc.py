@@ -5,7 +5,17 @@ default circle (R = 50 m, 10 m/s), R_L steps 2 → 1 m at t = 10 s and the MPC i
 radii. Columns: build time, first (cold) solve, warm solve median/p95/max (all samples after the
 first), iterations, fallbacks, time to |cross-track| < 0.1 m, tracking RMS/max for t > 5 s.
 
-Usage: ``.venv/bin/python benchmarks/bench_mpc.py [--duration 30] [--skip-opti]``
+``--qp``: per-QP time of the RTI QP, old path (CasADi daqp plugin alone) vs new (certified active
+set, :mod:`ftc_mj.control.certified_qp`), on QPs recorded from the well-behaved loop above and from a
+saturated loop (the model is told swapped radii, so ~90 of the 100 inputs' bounds are active);
+each QP is solved by both paths back to back, in alternating order.
+
+``--runs R``: whole-run wall times of three MuJoCo runs (scenario4 and scenario2 with UKF, direct
+radius feedback and the NMPC — they leave the path and saturate the wheels — and scenario2 with
+``sensors.yaw_rate_sigma`` 0.01), old and new path alternated R times in one process; medians.
+
+Usage: ``.venv/bin/python benchmarks/bench_mpc.py [--duration 30] [--skip-opti] [--skip-table] [--qp]
+[--runs 3]``
 """
 
 from __future__ import annotations
@@ -16,14 +26,17 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import contextlib  # noqa: E402
 import time  # noqa: E402
+from collections import Counter  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
 
 import numpy as np  # noqa: E402
 
 from ftc_mj.config import RunConfig  # noqa: E402
 from ftc_mj.control import NMPC, LinearMPC, OptiNMPC, build_reference, problem_spec  # noqa: E402
 from ftc_mj.control.base import ControlOutput  # noqa: E402
-from ftc_mj.control.collocation import Collocation, reference_at_nodes  # noqa: E402
+from ftc_mj.control.collocation import Collocation, CondensedQP, reference_at_nodes  # noqa: E402
 from ftc_mj.control.kinsim import simulate  # noqa: E402
 
 
@@ -67,12 +80,157 @@ def row(name: str, build: float, res, ctl) -> str:
             f"{res.rms_error(5.0):.1e} | {res.max_abs_error(5.0):.1e} |")
 
 
+def record_qps(ctl: NMPC, ref, duration: float, pose, true_radii, model_radii=None) -> list[list[np.ndarray]]:
+    """QP data ``[H, g, E, e, Lv, ll, lu]`` of every RTI step of a kinematic closed loop of ``ctl``."""
+    with ctl._qp.recording() as rec:
+        simulate(ctl, ref, duration, pose, true_radii=true_radii, model_radii=model_radii)
+    return rec
+
+
+def replay_qps(qp: CondensedQP, qps: list[list[np.ndarray]]) -> dict:
+    """Solve every recorded QP with the plugin (old) and the certified path (new, guesses chained
+    as in the loop), back to back in alternating order. Times in ms; max |u_new − u_old| (rad/s)."""
+    n, na = qp.nu, qp._lam_a.size
+    t_old, t_new, du = [], [], []
+    qp.reset()
+    qp.path_counts.clear()
+
+    def old(q):
+        t0 = time.perf_counter()
+        u = qp._qpfun(*q, np.zeros(n), np.zeros(n), np.zeros(na))[0].copy()
+        t_old.append(time.perf_counter() - t0)
+        return u
+
+    def new(q):
+        t0 = time.perf_counter()
+        verdict, u, _, _ = qp._solve_certified(*q)
+        if verdict == "unresolved":  # what CondensedQP.solve does: the plugin decides
+            qp.path_counts["plugin"] += 1
+            u = qp._qpfun(*q, np.zeros(n), np.zeros(n), np.zeros(na))[0].copy()
+        if verdict != "optimal":
+            qp._ws = None
+        t_new.append(time.perf_counter() - t0)
+        return u if verdict == "optimal" else None
+
+    for i, q in enumerate(qps):
+        if i % 2:
+            u_new, u_old = new(q), old(q)
+        else:
+            u_old, u_new = old(q), new(q)
+        if u_new is not None and qp._qpfun.ret == 0 and qp._qpfun.stats().get("success", True):
+            du.append(np.abs(u_new - u_old).max())
+    return {"old": np.array(t_old) * 1e3, "new": np.array(t_new) * 1e3, "du": np.array(du),
+            "paths": dict(qp.path_counts)}
+
+
+def qp_table(spec, ref, duration: float) -> None:
+    """Per-QP time, old vs new, on the well-behaved and a saturated loop (printed)."""
+    cases = {
+        "well-behaved (BASELINES §2 loop)": ((0.0, -5.0, 0.0), left_step, None),
+        "saturated (model told swapped radii)": ((0.0, 0.0, 0.0), lambda t: (1.0, 2.0), lambda t: (2.0, 1.0)),
+    }
+    print("\nPer-QP time of the RTI QP (ms), old = CasADi daqp plugin alone, new = certified active set; "
+          f"{duration:.0f} s loops.\n")
+    print("| loop | QPs | old median | old p90 | old total | new median | new p90 | new total | "
+          "new decided by | max abs du (rad/s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for name, (pose, true_r, model_r) in cases.items():
+        ctl = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None, max_iter=300)
+        ctl._qp.certified = False
+        qps = record_qps(ctl, ref, duration, pose, true_r, model_r)
+        r = replay_qps(ctl._qp, qps)
+        o, nw = r["old"], r["new"]
+        print(f"| {name} | {len(qps)} | {np.median(o):.2f} | {np.percentile(o, 90):.2f} | {o.sum():.0f} | "
+              f"**{np.median(nw):.2f}** | {np.percentile(nw, 90):.2f} | {nw.sum():.0f} | {r['paths']} | "
+              f"{r['du'].max():.1e} |")
+
+
+@contextlib.contextmanager
+def qp_path(certified: bool, clock: Counter) -> Iterator[None]:
+    """Every CondensedQP built inside uses the given path; QP and IPOPT wall times go to ``clock`` (s)."""
+    from ftc_mj.control import nmpc
+
+    init, ipopt = CondensedQP.__init__, nmpc.NMPC._ipopt
+
+    def timed(f, key):
+        def g(*a, **k):
+            t0 = time.perf_counter()
+            try:
+                return f(*a, **k)
+            finally:
+                clock[key] += time.perf_counter() - t0
+                clock[key + "_calls"] += 1
+        return g
+
+    def init2(self, *a, **k):
+        init(self, *a, **k)
+        self.certified = certified
+        f = self._qpfun  # the plugin: old path, and the new path's fallback
+        self._qpfun = type("TimedQP", (), {"__call__": staticmethod(timed(f, "qp")), "stats": staticmethod(f.stats),
+                                           "ret": property(lambda _: f.ret)})()
+        self._solve_certified = timed(self._solve_certified, "qp")
+
+    from ftc_mj.sim import cache
+
+    cache.clear()  # controllers are cached per process: build them under the patch
+    CondensedQP.__init__ = init2
+    nmpc.NMPC._ipopt = timed(ipopt, "ipopt")
+    try:
+        yield
+    finally:
+        CondensedQP.__init__, nmpc.NMPC._ipopt = init, ipopt
+        cache.clear()
+
+
+def run_table(repeats: int) -> None:
+    """Whole-run wall times of the three MuJoCo runs, old and new path alternated (printed, medians)."""
+    import tempfile
+    from pathlib import Path
+
+    from ftc_mj.config import load_config
+    from ftc_mj.sim.run import execute
+
+    base = {"estimator.kind": "ukf", "feedback": True, "controller.kind": "nmpc", "duration": 40.0}
+    runs = {"scenario4 feedback": ("scenario4", base), "scenario2 feedback": ("scenario2", base),
+            "scenario2 yaw_rate_sigma 0.01": ("scenario2", {**base, "sensors.yaw_rate_sigma": 0.01})}
+    with tempfile.TemporaryDirectory() as tmp:
+        execute(load_config("scenario2", {"duration": 0.5}), Path(tmp) / "w", rrd=True)  # warm-up
+    res: dict = {}
+    for k in range(repeats):
+        for name, (sc, ov) in runs.items():
+            for certified in ((False, True) if k % 2 == 0 else (True, False)):
+                clock: Counter = Counter()
+                with qp_path(certified, clock):
+                    m = execute(load_config(sc, ov), None).metrics
+                res.setdefault((name, certified), []).append(
+                    (m["wall_time_s"], clock["qp"], clock["ipopt"], clock["ipopt_calls"], m["solver_failures"],
+                     m["cross_track_rms"]))
+    print(f"\nWhole runs (40 s), medians of {repeats}; old = plugin alone, new = certified; load avg "
+          f"{os.getloadavg()[0]:.2f}.\n")
+    print("| run | path | wall s | QP s | IPOPT s (calls) | solver failures | cross-track RMS m |")
+    print("|---|---|---|---|---|---|---|")
+    for (name, certified), v in res.items():
+        a = np.array(v)
+        print(f"| {name} | {'new' if certified else 'old'} | {np.median(a[:, 0]):.2f} | {np.median(a[:, 1]):.2f} | "
+              f"{np.median(a[:, 2]):.2f} ({np.median(a[:, 3]):.0f}) | {np.median(a[:, 4]):.0f} | "
+              f"{np.median(a[:, 5]):.1f} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=30.0)
     ap.add_argument("--skip-opti", action="store_true")
+    ap.add_argument("--skip-table", action="store_true", help="skip the controller comparison table")
+    ap.add_argument("--qp", action="store_true", help="per-QP time, old vs new path")
+    ap.add_argument("--runs", type=int, default=0, help="whole MuJoCo runs, old vs new, this many times each")
     args = ap.parse_args()
     cfg = RunConfig()
+    if args.qp:
+        qp_table(problem_spec(cfg), build_reference(cfg), min(args.duration, 20.0))
+    if args.runs:
+        run_table(args.runs)
+    if args.skip_table:
+        return
     cfg.controller.time_budget = 10.0  # measure, don't fall back
     ref = build_reference(cfg)
     spec = problem_spec(cfg)

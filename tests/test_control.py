@@ -353,3 +353,119 @@ def test_longitudinal_acceleration_bound_is_respected_and_rti_meets_it() -> None
     np.testing.assert_allclose(Ug, o.predicted_omega, atol=1e-3)
     free = NMPC(ProblemSpec(), ref, solver="ipopt", time_budget=None, cold_time_budget=None).solve(0.0, pose, R)
     assert np.abs(accel(free.predicted_omega)).max() > 2.0
+
+
+DAQP_ITERATION_LIMIT = -4  # DAQP's exit flag when it stops at its iteration limit
+
+
+def _record_qps(spec: ProblemSpec, true_radii, model_radii, duration: float = 10.0) -> tuple[NMPC, list]:
+    """QP data ``(H, g, E, e, Lv, ll, lu, Lo)`` of every RTI step of a closed loop solved by the CasADi
+    plugin alone (``certified`` off)."""
+    ref = build_reference(RunConfig())
+    ctl = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None, max_iter=300)
+    qp = ctl._qp
+    qp.certified = False
+    with qp.recording() as rec:
+        simulate(ctl, ref, duration, (0.0, 0.0, 0.0), true_radii=true_radii, model_radii=model_radii)
+    return ctl, rec
+
+
+@pytest.mark.parametrize("case", ["swapped", "wrong-radii", "lateral", "longitudinal"])
+def test_certified_qp_equals_plugin_on_saturated_loop(case: str) -> None:
+    """The certified active-set path and the CasADi daqp plugin give the same QP solutions (and the
+    same infeasibility verdicts) on QPs recorded from loops that saturate the wheels: the model is
+    told the wrong radii, so the plan keeps hitting the rate and wheel-rate bounds (up to ~97 of the
+    100 inputs' constraints active)."""
+    spec = {"lateral": ProblemSpec(max_lateral_accel=1.5),
+            "longitudinal": ProblemSpec(max_longitudinal_accel=1.0)}.get(case, ProblemSpec())
+    if case == "wrong-radii":
+        ctl, rec = _record_qps(spec, lambda t: (2.0, 0.5), lambda t: NOMINAL)
+    else:
+        ctl, rec = _record_qps(spec, lambda t: (1.0, 2.0), lambda t: (2.0, 1.0))
+    qp = ctl._qp
+    qp.reset()
+    n = qp.nu
+    errs, n_active, verdicts = [], [], []
+    for H, g, E, e, Lv, ll, lu, Lo in rec:
+        u_ref, _, _, _ = qp._qpfun(H, g, E, e, Lv, ll, lu, Lo, np.zeros(n), np.zeros(n), np.zeros(qp._lam_a.size))
+        ref_status = qp._qpfun.stats().get("return_status")
+        ok_ref = qp._qpfun.ret == 0 and bool(qp._qpfun.stats().get("success", True))
+        verdict, u, lam_x, lam_a = qp._solve_certified(H, g, E, e, Lv, ll, lu, Lo)
+        verdicts.append(verdict)
+        if verdict == "unresolved":  # the plugin decides; nothing to compare
+            qp._ws = None
+            continue
+        # DAQP may stop at its iteration limit (exit flag -4) on a feasible QP that the certified path
+        # solves; it must never contradict a verdict either way (infeasible is exit flag -1)
+        gave_up = verdict == "optimal" and not ok_ref and ref_status == DAQP_ITERATION_LIMIT
+        assert (verdict == "optimal") == ok_ref or gave_up
+        if verdict != "optimal":
+            qp._ws = None
+            continue
+        A, lba, uba = qp._rows(E, e, Lv, ll, lu, Lo)
+        Au = A @ u
+        assert np.all(Au >= lba - 1e-6) and np.all(Au <= uba + 1e-6) and np.all(np.abs(u) <= qp.omega_max + 1e-6)
+        np.testing.assert_allclose(H @ u + g + lam_x + A.T @ lam_a, 0.0, atol=1e-6 * (1 + np.abs(g).max()))
+        if gave_up:  # certified (feasible, stationary, right-signed multipliers); nothing to compare
+            continue
+        cost = 0.5 * u @ H @ u + g @ u
+        cost_ref = 0.5 * u_ref @ H @ u_ref + g @ u_ref
+        assert cost <= cost_ref + 1e-9 * (1 + abs(cost_ref))  # never worse than the plugin's
+        assert cost >= cost_ref - 1e-6 * (1 + abs(cost_ref))  # nor better than tolerance allows
+        errs.append(np.abs(u - u_ref).max())
+        n_active.append(int(np.count_nonzero(qp._ws)))
+    errs_a = np.array(errs)
+    counts = {v: verdicts.count(v) for v in set(verdicts)}
+    print(f"\n[ctl] certified vs plugin QP ({case}): {len(rec)} QPs {counts}; active bounds/rows median "
+          f"{np.median(n_active):.0f} max {max(n_active)}; max|du| median {np.median(errs_a):.1e} "
+          f"max {errs_a.max():.1e} rad/s")
+    assert counts.get("optimal", 0) >= 0.85 * len(rec)
+    assert max(n_active) >= (80 if case in ("swapped", "wrong-radii") else 20)
+    assert np.median(errs_a) < 1e-8
+    assert errs_a.max() < 1e-3  # ill-conditioned H (cond ~1e7): DAQP versions differ by up to ~5e-4 here
+
+
+def test_certified_qp_random_and_infeasible() -> None:
+    """CertifiedQP on small random QPs against CasADi's daqp (same solution or same infeasibility
+    verdict), a wrong guess is rejected, and an infeasible QP is certified infeasible."""
+    import casadi as ca
+
+    from ftc_mj.control.certified_qp import CertifiedQP
+
+    rng = np.random.default_rng(3)
+    n, m = 12, 9
+    ref = ca.conic("q", "daqp", {"h": ca.Sparsity.dense(n, n), "a": ca.Sparsity.dense(m, n)},
+                   {"error_on_fail": False})
+    cqp = CertifiedQP()
+    seen = set()
+    for _ in range(60):
+        M = rng.standard_normal((n, n))
+        H = M @ M.T + 0.1 * np.eye(n)
+        g = 10.0 * rng.standard_normal(n)
+        A = rng.standard_normal((m, n))
+        c = rng.standard_normal(m)
+        lba, uba = c - rng.uniform(0.0, 2.0, m), c + rng.uniform(0.0, 2.0, m)
+        lba[0] = uba[0]  # one equality row
+        lbx, ubx = -np.ones(n), np.ones(n)
+        r_ref = ref(h=H, g=g, a=A, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
+        ok_ref = bool(ref.stats()["success"])
+        res = cqp.solve(H, g, A, lba, uba, lbx, ubx)
+        seen.add(res.path)
+        if res.status == "unresolved":
+            continue
+        assert (res.status == "optimal") == ok_ref
+        if ok_ref:
+            np.testing.assert_allclose(res.u, np.asarray(r_ref["x"]).ravel(), atol=1e-6)
+            # the solution's own working set is a certified guess; a wrong one is not accepted
+            again = cqp.solve(H, g, A, lba, uba, lbx, ubx, guess=res.working_set)
+            assert again.path == "guess"
+            np.testing.assert_allclose(again.u, res.u, atol=1e-9)
+            wrong = np.zeros(n + m, dtype=np.int8)
+            wrong[:n] = 1  # all upper bounds active: not optimal for these g
+            assert cqp._try(np.linalg.inv(np.linalg.cholesky(H)), H, g, A, np.r_[lbx, lba], np.r_[ubx, uba],
+                            lba == uba, wrong, "guess") is None or np.all(res.u > 1 - 1e-6)
+    assert "ipm" in seen and "farkas" in seen
+    # equality row outside what the box allows: infeasible, with a certificate
+    A = np.ones((1, n))
+    res = cqp.solve(np.eye(n), np.zeros(n), A, np.array([2.0 * n]), np.array([2.0 * n]), -np.ones(n), np.ones(n))
+    assert res.status == "infeasible" and res.path == "farkas"

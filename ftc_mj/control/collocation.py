@@ -31,12 +31,16 @@ nearest the (unwrapped) reference heading at t0; predictions are reported in tha
 
 from __future__ import annotations
 
+import contextlib
+from collections import Counter
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
-from ..model.kinematics import KinematicModel
+from ..model.kinematics import KinematicModel, body_rates
+from .certified_qp import CertifiedQP
 from .lgl import barycentric_weights, lgl
 
 TWO_PI = 2.0 * np.pi
@@ -106,7 +110,6 @@ class Collocation:
         fx = f(ca.vertcat(xs, rs), us)[:3]
         lin = ca.Function("lin", [xs, us, rs], [fx, ca.densify(ca.jacobian(fx, xs)), ca.densify(ca.jacobian(fx, us))])
         self.lin = lin.map(N, [False, False, True], [False, False, False])  # (3xN, 2xN, 2x1) -> (3xN, 3x3N, 3x2N)
-        self.f3 = ca.Function("f3", [xs, us, rs], [fx])
         rates = self.model.casadi_rates()
         self.rates_jac = ca.Function("rj", [rs], [ca.densify(ca.jacobian(rates(ca.vertcat(0, 0, 0, rs), us), us))])
         self.rates3 = ca.Function("r3", [us, rs], [rates(ca.vertcat(0, 0, 0, rs), us)])
@@ -136,7 +139,8 @@ class Collocation:
         Un = C @ U
         if not np.all(inside):
             xe, ue = X[-1], U[-1]
-            dxe = np.asarray(self.f3(xe, ue, radii)).ravel()
+            V, psidot = body_rates(radii[0], radii[1], ue[0], ue[1], b)  # numpy: a CasADi call costs ~0.1 ms
+            dxe = np.array([V * np.cos(xe[2]), V * np.sin(xe[2]), psidot])
             dt = (tn[~inside] - (t_prev + 2 * self.h))[:, None]
             Xn[~inside] = xe[None, :] + dt * dxe[None, :]
             Un[~inside] = ue[None, :]
@@ -190,9 +194,22 @@ class CondensedQP:
     ``qpsol`` is any CasADi conic plugin (``daqp``, ``qpoases``, ``osqp``, ``piqp``, ...). The QP
     solver is wrapped in an MX Function together with the constant rate-constraint rows and called
     through :class:`BufferedFunction` (no per-element conversions).
+
+    With ``certified`` (the default for ``daqp``) the QP is first solved by
+    :class:`~ftc_mj.control.certified_qp.CertifiedQP`: the previous sample's active set, else the one
+    read off an interior-point solve, is solved exactly and accepted with a KKT certificate (or the
+    QP is declared infeasible with a Farkas certificate); only an unresolved QP goes to the CasADi
+    plugin. The result equals the plugin's within the solvers' tolerances; the saturated loops, where
+    DAQP needs hundreds of active-set iterations, get much cheaper. ``path_counts`` counts how each
+    QP was decided (``guess``, ``ipm``, ``farkas``, ``plugin``).
+
+    Constraint rows (``A u`` in the order of ``lam_a``): the 3 node-0 collocation equalities, the 2N
+    rate rows, then the optional N lateral-acceleration rows. :meth:`_rows` assembles them densely
+    for the certified path; a new block of rows goes there and into the plugin's ``A`` alike.
     """
 
-    def __init__(self, col: Collocation, qpsol: str = "daqp", qp_options: dict | None = None) -> None:
+    def __init__(self, col: Collocation, qpsol: str = "daqp", qp_options: dict | None = None,
+                 certified: bool | None = None) -> None:
         self.col = col
         N, h, D = col.N, col.h, col.D
         n = 2 * N
@@ -210,6 +227,7 @@ class CondensedQP:
         # rate penalty: (T/2) Σ w ‖(1/h) D u‖² -> u' (Dblk' diag(W) Dblk)/h² u
         Wd = np.concatenate([col.W, col.W])
         self.R_rate = 2.0 * sp.rate_penalty * (Dblk.T * Wd) @ Dblk / h**2
+        self._qW3 = sp.q_pose * np.tile(col.W, 3)  # pose-error weights of the stacked states (x, y, psi)
         self.qpsol = qpsol
         opts = _default_qp_options(qpsol)
         opts.update(qp_options or {})
@@ -257,11 +275,17 @@ class CondensedQP:
         self.rate_lim = rate
         self._lam_x = np.zeros(n)
         self._lam_a = np.zeros(nA)
+        self.certified = (qpsol == "daqp") if certified is None else bool(certified)
+        self._cqp = CertifiedQP()
+        self._ws: np.ndarray | None = None  # working set of the last certified solution (the next guess)
+        self.path_counts: Counter[str] = Counter()
 
     def reset(self) -> None:
-        """Forget the dual warm start (a reused solver then behaves exactly like a new one)."""
+        """Forget the dual warm start and the active-set guess (a reused solver then behaves exactly
+        like a new one)."""
         self._lam_x[:] = 0.0
         self._lam_a[:] = 0.0
+        self._ws = None
 
     # ----------------------------------------------------------------------------------------
     def build(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray, ref: np.ndarray):
@@ -303,10 +327,8 @@ class CondensedQP:
         if self._J_cache is None or self._J_cache[0] != key:
             self._J_cache = (key, self._J(radii)[0].reshape(2, 2, order="F").copy())
         J = self._J_cache[1]  # d[V, psidot]/du, constant for given radii
-        qp = sp.q_pose
         Gf = G.reshape(3 * N, 2 * N)
-        W3 = np.tile(W, 3)
-        GW = Gf.T * (qp * W3)
+        GW = Gf.T * self._qW3
         H = GW @ Gf
         g = GW @ (hc.ravel() - ref[:3].ravel())
         idx = np.arange(N)
@@ -345,18 +367,96 @@ class CondensedQP:
         Dh = self.col.D / self.col.h
         return np.hstack([J[0, 0] * Dh, J[0, 1] * Dh])
 
+    @contextlib.contextmanager
+    def recording(self) -> Iterator[list[list[np.ndarray]]]:
+        """Record the data ``[H, g, E, e, Lv, ll, lu, Lo]`` of every QP solved inside the block (for tests
+        and benchmarks that replay them through both solve paths)."""
+        rec: list[list[np.ndarray]] = []
+        build, lateral, longitudinal = self.build, self.lateral_rows, self.longitudinal_rows
+
+        def build_rec(*a):
+            out = build(*a)
+            rec.append([np.copy(x) for x in out[:4]])
+            return out
+
+        def lateral_rec(*a):
+            out = lateral(*a)
+            rec[-1].extend(np.copy(x) for x in out)
+            return out
+
+        def longitudinal_rec():
+            out = longitudinal()
+            rec[-1].append(np.copy(out))
+            return out
+
+        self.build, self.lateral_rows, self.longitudinal_rows = build_rec, lateral_rec, longitudinal_rec
+        try:
+            yield rec
+        finally:
+            del self.build, self.lateral_rows, self.longitudinal_rows
+
+    def _rows(self, E: np.ndarray, e: np.ndarray, Lv: np.ndarray, ll: np.ndarray, lu: np.ndarray,
+              Lo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Dense constraint rows ``lba ≤ A u ≤ uba`` (same rows and order as the plugin's ``A``):
+        node-0 collocation equalities, rate rows ``|D u| ≤ rate`` (rad/s per unit tau), lateral rows,
+        longitudinal rows."""
+        N, n = self.col.N, self.nu
+        n_lat = ll.size
+        n_lon = Lo.shape[0]
+        A = np.empty((3 + n + n_lat + n_lon, n))
+        A[:3] = E
+        A[3:3 + n] = self.Dblk
+        if n_lat:
+            Lat = A[3 + n:]
+            Lat[:] = 0.0
+            j = np.arange(n_lat)
+            Lat[j, j] = Lv[:N]
+            Lat[j, N + j] = Lv[N:]
+        if n_lon:
+            A[3 + n + n_lat:] = Lo
+        r = np.full(n, self.rate_lim)
+        lon = np.full(n_lon, self.a_lon or 0.0)
+        return A, np.concatenate([e, -r, ll, -lon]), np.concatenate([e, r, lu, lon])
+
+    def _solve_certified(self, H: np.ndarray, g: np.ndarray, E: np.ndarray, e: np.ndarray, Lv: np.ndarray,
+                         ll: np.ndarray, lu: np.ndarray, Lo: np.ndarray
+                         ) -> tuple[str, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+        """The certified path: ``(verdict, u, lam_x, lam_a)`` with verdict ``optimal``/``infeasible``/
+        ``unresolved``."""
+        A, lba, uba = self._rows(E, e, Lv, ll, lu, Lo)
+        ob = np.full(self.nu, self.omega_max)
+        res = self._cqp.solve(H, g, A, lba, uba, -ob, ob, self._ws)
+        if res.status == "unresolved":
+            return "unresolved", None, None, None
+        self.path_counts[res.path] += 1
+        self._ws = res.working_set
+        return res.status, res.u, res.lam_x, res.lam_a
+
     def solve(self, Xg, Ug, radii, x0, ref, u_init: np.ndarray | None = None):
         """Build and solve the QP. Returns ``(ok, status, X (N,3), U (N,2))``."""
         N = self.col.N
         H, g, E, e, G, hc = self.build(Xg, Ug, radii, x0, ref)
         Lv, ll, lu = self.lateral_rows(Ug, radii)
         Lo = self.longitudinal_rows()
-        if u_init is None:
-            u_init = Ug.T.ravel()
-        u0 = np.clip(u_init, -self.omega_max, self.omega_max)
-        u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, Lv, ll, lu, Lo, u0, self._lam_x, self._lam_a)
-        st = self._qpfun.stats()
-        ok = self._qpfun.ret == 0 and bool(st.get("success", True)) and bool(np.all(np.isfinite(u)))
+        verdict = "unresolved"
+        if self.certified:
+            verdict, u, lam_x, lam_a = self._solve_certified(H, g, E, e, Lv, ll, lu, Lo)
+        if verdict == "infeasible":
+            st = {"success": False, "return_status": "infeasible (Farkas certificate)"}
+            u = np.full(self.nu, np.nan)
+            ok = False
+        elif verdict == "optimal":
+            st = {"success": True, "return_status": "optimal (certified active set)"}
+            ok = True
+        else:
+            if u_init is None:
+                u_init = Ug.T.ravel()
+            u0 = np.clip(u_init, -self.omega_max, self.omega_max)
+            u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, Lv, ll, lu, Lo, u0, self._lam_x, self._lam_a)
+            st = self._qpfun.stats()
+            ok = self._qpfun.ret == 0 and bool(st.get("success", True)) and bool(np.all(np.isfinite(u)))
+            self.path_counts["plugin"] += 1
+            self._ws = None
         if ok:  # independent feasibility check (solvers differ in what they call success)
             tol = 1e-5 * (1.0 + np.abs(e).max())
             ok = (np.abs(E @ u - e).max() < tol and np.abs(self.Dblk @ u).max() < self.rate_lim * (1 + 1e-6) + 1e-6
@@ -369,6 +469,7 @@ class CondensedQP:
         if not ok:
             self._lam_x[:] = 0.0
             self._lam_a[:] = 0.0
+            self._ws = None
             return False, str(st.get("return_status", "qp failed")), None, None
         self._lam_x[:] = lam_x
         self._lam_a[:] = lam_a

@@ -10,7 +10,9 @@ Problem: see :mod:`ftc_mj.control.collocation`. Solver options:
   per sample, linearised about the shifted previous plan; the cost is exactly quadratic, so the
   GN Hessian is exact for the cost and positive definite. States are eliminated exactly
   (:class:`~ftc_mj.control.collocation.CondensedQP`), leaving a dense 2N-input QP for the named
-  CasADi QP plugin. The first solve (and a re-seed after two consecutive failures) is an IPOPT solve.
+  CasADi QP plugin (for ``daqp``: first an exact, certified active-set solve, see
+  :mod:`~ftc_mj.control.certified_qp`; the plugin only for QPs that stay unresolved). The first
+  solve (and a re-seed after two consecutive failures) is an IPOPT solve.
 
 The first command of the plan (node 0, at ``t0``) is applied under zero-order hold. A failed or
 over-budget solve, or a non-finite pose/radii, never raises: the controller falls back to the

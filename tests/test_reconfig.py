@@ -157,3 +157,20 @@ def test_safe_lets_a_handed_over_radius_grow_only_slowly_but_falls_and_reverts_f
     np.testing.assert_allclose(_step(fb, 0.3, _out(1.0, 0.9, 0.01), "right"), [1.0, 1.9])
     # withdrawn: nominal at the full rate
     np.testing.assert_allclose(_step(fb, 0.4, _out(1.0, 2.0, 0.01), None), [2.0, 2.0])
+
+
+def test_safe_reverts_to_the_radius_in_use_not_to_a_target_the_growth_limit_held_back() -> None:
+    """After a hand-over at 1.0 m the estimate climbs to 1.8 m; the growth limit (0.05 m/s) lets the
+    model radius reach only 1.1 m by t = 2 s. A filter reset at t = 3 s reverts to the radius the
+    controller was using ≥ ``trust_lag`` (1 s) earlier — 1.1 m — not to the 1.8 m estimate the limit
+    refused."""
+    rate = load_config("scenario2").controller.rate
+    fb = _fb("safe", max_rate=10.0, max_growth_rate=0.05, trust_lag=1.0)
+    np.testing.assert_allclose(_step(fb, 0.0, _out(2.0, 1.0, 0.01), "left"), [2.0, 1.0])
+    in_use = {}
+    for k in range(1, 30):
+        in_use[k] = _step(fb, k / rate, _out(2.0, 1.8, 0.01), "left")[1]
+    assert in_use[20] == pytest.approx(1.0 + 20 * 0.05 / rate)
+    r = _step(fb, 3.0, _out(2.0, 1.8, 0.01), "left", reset=True)
+    assert fb.state == ReconfigState.REVERTED
+    np.testing.assert_allclose(r, [2.0, in_use[20]])

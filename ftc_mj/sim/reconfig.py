@@ -21,8 +21,8 @@
     kinematic model's domain (measured in scenario 3: while the robot lifted a wheel the UKF's R_L
     ran from 1.0 to 2.7 m in 0.7 s with consistent innovations, and handing that over kept the wheel
     lifted for seconds). A declared but unidentified fault *holds* the radii in use. Filter trouble
-    *reverts* to the radii trusted at least ``trust_lag`` before it (or nominal); a withdrawn
-    decision reverts to nominal.
+    *reverts* to the radii handed over (as rate-limited, i.e. as the controller used them) at least
+    ``trust_lag`` before it (or nominal); a withdrawn decision reverts to nominal.
 ``truth``
     The true radii (an oracle: the best any policy could do with this controller).
 
@@ -158,10 +158,13 @@ class RadiusFeedback:
         target = np.where(iso, np.clip(est, self.min_radius, self.nominal), self.nominal)
         self._enter(ReconfigState.HANDED, str(decision.wheel), t, "info",
                     f"reconfiguration hand-over ({decision.wheel}): R_R {target[0]:.2f} m, R_L {target[1]:.2f} m")
-        self._trusted.append((t, target))
         # an isolated wheel's radius grows no faster than max_growth_rate (a puncture does not re-inflate);
         # a wheel the decision no longer isolates returns to nominal at the full rate
-        return self._move(target, np.where(iso, self.max_grow, self.max_step))
+        in_use = self._move(target, np.where(iso, self.max_grow, self.max_step))
+        # what is trusted is what the controller was given, not the target the rate limits held back:
+        # a revert must not jump to an estimate the growth limit refused
+        self._trusted.append((t, in_use.copy()))
+        return in_use
 
     # ---------------------------------------------------------------- helpers
     def _enter(self, state: ReconfigState, why: str, t: float, level: str, text: str) -> None:

@@ -81,7 +81,7 @@ def row(name: str, build: float, res, ctl) -> str:
 
 
 def record_qps(ctl: NMPC, ref, duration: float, pose, true_radii, model_radii=None) -> list[list[np.ndarray]]:
-    """QP data ``[H, g, E, e, Lv, ll, lu]`` of every RTI step of a kinematic closed loop of ``ctl``."""
+    """QP data ``[H, g, E, e, Lv, ll, lu, Lo]`` of every RTI step of a kinematic closed loop of ``ctl``."""
     with ctl._qp.recording() as rec:
         simulate(ctl, ref, duration, pose, true_radii=true_radii, model_radii=model_radii)
     return rec
@@ -94,6 +94,7 @@ def replay_qps(qp: CondensedQP, qps: list[list[np.ndarray]]) -> dict:
     t_old, t_new, du = [], [], []
     qp.reset()
     qp.path_counts.clear()
+    qp.certified = True  # the "new" path; "old" calls the plugin directly
 
     def old(q):
         t0 = time.perf_counter()
@@ -103,14 +104,11 @@ def replay_qps(qp: CondensedQP, qps: list[list[np.ndarray]]) -> dict:
 
     def new(q):
         t0 = time.perf_counter()
-        verdict, u, _, _ = qp._solve_certified(*q)
-        if verdict == "unresolved":  # what CondensedQP.solve does: the plugin decides
-            qp.path_counts["plugin"] += 1
-            u = qp._qpfun(*q, np.zeros(n), np.zeros(n), np.zeros(na))[0].copy()
-        if verdict != "optimal":
+        ok, _, u, _, _ = qp.solve_qp(*q, np.zeros(n))  # the production dispatch: certified, else the plugin
+        if not ok:
             qp._ws = None
         t_new.append(time.perf_counter() - t0)
-        return u if verdict == "optimal" else None
+        return u.copy() if ok and qp._ws is not None else None  # compared only where the certified path decided
 
     for i, q in enumerate(qps):
         if i % 2:

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from ..model.kinematics import KinematicModel, body_rates
+from ..model.kinematics import KinematicModel, pose_rates
 from .certified_qp import CertifiedQP
 from .lgl import barycentric_weights, lgl
 
@@ -112,7 +112,6 @@ class Collocation:
         self.lin = lin.map(N, [False, False, True], [False, False, False])  # (3xN, 2xN, 2x1) -> (3xN, 3x3N, 3x2N)
         rates = self.model.casadi_rates()
         self.rates_jac = ca.Function("rj", [rs], [ca.densify(ca.jacobian(rates(ca.vertcat(0, 0, 0, rs), us), us))])
-        self.rates3 = ca.Function("r3", [us, rs], [rates(ca.vertcat(0, 0, 0, rs), us)])
 
     def times(self, t0: float) -> np.ndarray:
         """Absolute node times (s) of a horizon starting at ``t0``."""
@@ -139,8 +138,7 @@ class Collocation:
         Un = C @ U
         if not np.all(inside):
             xe, ue = X[-1], U[-1]
-            V, psidot = body_rates(radii[0], radii[1], ue[0], ue[1], b)  # numpy: a CasADi call costs ~0.1 ms
-            dxe = np.array([V * np.cos(xe[2]), V * np.sin(xe[2]), psidot])
+            dxe = np.array(pose_rates(xe[2], radii[0], radii[1], ue[0], ue[1], b))  # numpy: a CasADi call ~0.1 ms
             dt = (tn[~inside] - (t_prev + 2 * self.h))[:, None]
             Xn[~inside] = xe[None, :] + dt * dxe[None, :]
             Un[~inside] = ue[None, :]
@@ -204,7 +202,7 @@ class CondensedQP:
     QP was decided (``guess``, ``ipm``, ``farkas``, ``plugin``).
 
     Constraint rows (``A u`` in the order of ``lam_a``): the 3 node-0 collocation equalities, the 2N
-    rate rows, then the optional N lateral-acceleration rows. :meth:`_rows` assembles them densely
+    rate rows, then the optional N lateral- and N longitudinal-acceleration rows. :meth:`_rows` assembles them densely
     for the certified path; a new block of rows goes there and into the plugin's ``A`` alike.
     """
 
@@ -432,31 +430,38 @@ class CondensedQP:
         self._ws = res.working_set
         return res.status, res.u, res.lam_x, res.lam_a
 
+    def solve_qp(self, H: np.ndarray, g: np.ndarray, E: np.ndarray, e: np.ndarray, Lv: np.ndarray, ll: np.ndarray,
+                 lu: np.ndarray, Lo: np.ndarray, u0: np.ndarray
+                 ) -> tuple[bool, dict, np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """Solve one built QP (the data :meth:`build`, :meth:`lateral_rows` and
+        :meth:`longitudinal_rows` return): the certified path first when enabled, the CasADi plugin
+        (primal guess ``u0``) for what it leaves unresolved. Returns ``(ok, stats, u, lam_x, lam_a)``;
+        ``ok`` is the solver's verdict, before :meth:`solve`'s independent feasibility check."""
+        if self.certified:
+            verdict, u, lam_x, lam_a = self._solve_certified(H, g, E, e, Lv, ll, lu, Lo)
+            if verdict == "infeasible":
+                return False, {"success": False, "return_status": "infeasible (Farkas certificate)"}, \
+                    np.full(self.nu, np.nan), None, None
+            if verdict == "optimal":
+                assert u is not None
+                return True, {"success": True, "return_status": "optimal (certified active set)"}, u, lam_x, lam_a
+        u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, Lv, ll, lu, Lo, u0, self._lam_x, self._lam_a)
+        st = self._qpfun.stats()
+        ok = self._qpfun.ret == 0 and bool(st.get("success", True)) and bool(np.all(np.isfinite(u)))
+        self.path_counts["plugin"] += 1
+        self._ws = None
+        return ok, st, u, lam_x, lam_a
+
     def solve(self, Xg, Ug, radii, x0, ref, u_init: np.ndarray | None = None):
         """Build and solve the QP. Returns ``(ok, status, X (N,3), U (N,2))``."""
         N = self.col.N
         H, g, E, e, G, hc = self.build(Xg, Ug, radii, x0, ref)
         Lv, ll, lu = self.lateral_rows(Ug, radii)
         Lo = self.longitudinal_rows()
-        verdict = "unresolved"
-        if self.certified:
-            verdict, u, lam_x, lam_a = self._solve_certified(H, g, E, e, Lv, ll, lu, Lo)
-        if verdict == "infeasible":
-            st = {"success": False, "return_status": "infeasible (Farkas certificate)"}
-            u = np.full(self.nu, np.nan)
-            ok = False
-        elif verdict == "optimal":
-            st = {"success": True, "return_status": "optimal (certified active set)"}
-            ok = True
-        else:
-            if u_init is None:
-                u_init = Ug.T.ravel()
-            u0 = np.clip(u_init, -self.omega_max, self.omega_max)
-            u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, Lv, ll, lu, Lo, u0, self._lam_x, self._lam_a)
-            st = self._qpfun.stats()
-            ok = self._qpfun.ret == 0 and bool(st.get("success", True)) and bool(np.all(np.isfinite(u)))
-            self.path_counts["plugin"] += 1
-            self._ws = None
+        if u_init is None:
+            u_init = Ug.T.ravel()
+        u0 = np.clip(u_init, -self.omega_max, self.omega_max)
+        ok, st, u, lam_x, lam_a = self.solve_qp(H, g, E, e, Lv, ll, lu, Lo, u0)
         if ok:  # independent feasibility check (solvers differ in what they call success)
             tol = 1e-5 * (1.0 + np.abs(e).max())
             ok = (np.abs(E @ u - e).max() < tol and np.abs(self.Dblk @ u).max() < self.rate_lim * (1 + 1e-6) + 1e-6

@@ -129,6 +129,27 @@ def test_resume_computes_only_missing(tmp_path: Path) -> None:
     assert comparable(second.results).equals(comparable(ref))
 
 
+def test_row_persisted_without_its_log_line_is_logged_once_on_resume(tmp_path: Path) -> None:
+    """A kill between a row's atomic write and its log line (the window a SIGKILL can hit) leaves a
+    row the log does not name; the next invocation neither recomputes it nor leaves it unlogged."""
+    plan = load_study(study(tmp_path))
+    out = tmp_path / "out"
+    first = run_study(plan, out, serial=True, run_fn=fake_run, limit=3, analyse=False)
+    store = StudyStore(out)
+    lost = first.computed[-1]
+    lines = store.log_path.read_text().splitlines()
+    kept = [ln for ln in lines if f'"run_key": "{lost}"' not in ln]
+    assert len(kept) == len(lines) - 1
+    store.log_path.write_text("\n".join(kept) + "\n")
+    second = run_study(plan, out, serial=True, run_fn=fake_run, analyse=False)
+    assert lost not in second.computed and second.already_done == 3 and len(second.computed) == 9
+    runs = [e for e in store.read_log() if e["event"] == "run"]
+    assert sorted(e["run_key"] for e in runs) == sorted(r.key for r in plan.runs)  # each exactly once
+    (rec,) = [e for e in runs if e.get("recovered")]
+    assert rec["run_key"] == lost and rec["invocation"] == first.invocation
+    assert store.reconcile_log() == []  # nothing left to recover
+
+
 def test_failing_runs_become_rows(tmp_path: Path) -> None:
     text = STUDY.replace('values = [{}, { "sensors.yaw_rate_sigma" = 0.01 }]',
                          'values = [{}, { "sensors.speed_sigma" = 0.3 }, { "sensors.speed_sigma" = 0.4 }]')

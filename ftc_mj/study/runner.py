@@ -218,6 +218,7 @@ def run_study(
         if on_row is not None:
             on_row(row)
 
+    store.reconcile_log()  # rows a killed invocation persisted but did not get to log
     kw = {"rrd": rrd, "runs_dir": str(store.runs_dir) if rrd != "none" else None,
           "ts_rate": plan.spec.analysis.timeseries_rate, "run_fn": run_fn}
     with _progress(progress, len(todo), plan.spec.name) as advance:

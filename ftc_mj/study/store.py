@@ -121,6 +121,24 @@ class StudyStore:
             fh.flush()
             os.fsync(fh.fileno())
 
+    def reconcile_log(self) -> list[str]:
+        """Log the persisted rows the log does not know of, from the rows themselves.
+
+        A row is written (atomically) before its ``run`` line is appended, so a process killed
+        between the two leaves a row without a log line. Each such row carries the invocation that
+        computed it; it gets its ``run`` line now, marked ``recovered``, so the log again names
+        exactly one computation per persisted run. Returns the keys it logged (plan order is not
+        known here: sorted).
+        """
+        logged = {e.get("run_key") for e in self.read_log() if e.get("event") == "run"}
+        missing = sorted(self.done_keys() - logged)
+        for key in missing:
+            t = pq.read_table(self.row_path(key), columns=["invocation", "run_index", "status", "worker"])
+            row = t.to_pylist()[0] if t.num_rows else {}
+            self.log("run", invocation=row.get("invocation"), run_key=key, run_index=row.get("run_index"),
+                     status=row.get("status"), worker=row.get("worker"), recovered=True)
+        return missing
+
     def read_log(self) -> list[dict[str, Any]]:
         """Parsed ``log.jsonl`` (a torn last line from a killed process is skipped)."""
         if not self.log_path.is_file():

@@ -35,6 +35,7 @@ import contextlib
 from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -52,10 +53,22 @@ def limit_blas_threads(n: int = 1) -> bool:
     The MPC matrices are ~100x150: multithreaded BLAS only adds synchronisation, and on a loaded
     2-core machine it made an RTI step ~6x slower (15 ms instead of 2.4 ms median). Equivalent to
     ``OPENBLAS_NUM_THREADS=1`` but works after numpy has been imported.
+
+    It also makes runs deterministic: CasADi's bundled OpenBLAS (under IPOPT's MUMPS) with two
+    threads gives round-off that differs from call to call (1e-13 in the first RTI QP after an
+    IPOPT seed, which a saturated closed loop amplifies to different trajectories). CasADi loads
+    that library lazily with its IPOPT plugin, so it is loaded here first; the plugin then shares
+    this (single-threaded) instance.
     """
     import ctypes
 
     ok = False
+    try:
+        bundled = Path(ca.__file__).parent / "libcasadi-tp-openblas.so.0"
+        if bundled.is_file():
+            ctypes.CDLL(str(bundled), mode=ctypes.RTLD_GLOBAL)
+    except OSError:
+        pass
     try:
         with open("/proc/self/maps") as fh:
             libs = {ln.split()[-1] for ln in fh if "openblas" in ln.lower() and "/" in ln}

@@ -55,7 +55,7 @@ def limit_blas_threads(n: int = 1) -> bool:
     ``OPENBLAS_NUM_THREADS=1`` but works after numpy has been imported.
 
     It also makes runs deterministic: CasADi's bundled OpenBLAS (under IPOPT's MUMPS) with two
-    threads gives round-off that differs from call to call (1e-13 in the first RTI QP after an
+    threads gives round-off that differs from call to call (up to 3e-12 in the first RTI QP after an
     IPOPT seed, which a saturated closed loop amplifies to different trajectories). CasADi loads
     that library lazily with its IPOPT plugin, so it is loaded here first; the plugin then shares
     this (single-threaded) instance.

@@ -54,7 +54,7 @@ class OptiController:
         self.failures = 0
         self._plan = None
 
-    def solve(self, t, pose, radii) -> ControlOutput:
+    def solve(self, t, pose, radii, u_applied=None) -> ControlOutput:
         t0 = time.perf_counter()
         ref, psi = reference_at_nodes(self.reference, self.col.times(t), pose[2])
         x0 = np.array([pose[0], pose[1], psi])

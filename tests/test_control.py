@@ -206,13 +206,13 @@ def test_injected_nan_radii_and_pose(solver: str) -> None:
     class Faulty:
         failures = 0
 
-        def solve(self, t, pose, radii):
+        def solve(self, t, pose, radii, u_applied=None):
             k = int(round(t * 10))
             if k in bad:
                 radii = np.array([np.nan, 2.0])
             if k == 20:
                 pose = np.array([np.nan, 0.0, 0.0])
-            return ctl.solve(t, pose, radii)
+            return ctl.solve(t, pose, radii, u_applied)
 
     res = simulate(Faulty(), ref, 5.0, (0.0, 0.0, 0.0))
     fb = [k for k, o in enumerate(res.outputs) if o.fallback]
@@ -277,10 +277,10 @@ def test_wrapped_heading_in_closed_loop(kind: str) -> None:
     class Wrapped:
         failures = 0
 
-        def solve(self, t, pose, radii):
+        def solve(self, t, pose, radii, u_applied=None):
             p = np.array(pose, dtype=float)
             p[2] = (p[2] + np.pi) % (2 * np.pi) - np.pi
-            return ctl.solve(t, p, radii)
+            return ctl.solve(t, p, radii, u_applied)
 
     res = simulate(Wrapped(), ref, 20.0, (0.0, 0.0, 0.0))
     assert res.max_abs_error(0.0, 20.0) < 1e-3

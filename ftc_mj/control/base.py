@@ -28,14 +28,24 @@ class ControlOutput:
     """Times (s, absolute) of the rows of ``predicted``."""
     predicted_omega: np.ndarray | None = field(default=None)
     """Planned wheel rates (K, 2) [omega_R, omega_L] (rad/s) at ``predicted_t``, if any."""
+    telemetry: dict[str, float] = field(default_factory=dict)
+    """Controller-specific values of this sample for the trace, keyed by the names the controller lists
+    in ``telemetry_columns`` (SI units; a name missing here is NaN in that row)."""
 
 
 class Controller(Protocol):
-    """A sampled controller."""
+    """A sampled controller.
+
+    ``telemetry_columns`` names the trace columns the controller fills through
+    :attr:`ControlOutput.telemetry` (empty for most controllers)."""
 
     failures: int
+    telemetry_columns: tuple[str, ...]
 
-    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray) -> ControlOutput:
+    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray,
+              u_applied: np.ndarray | None = None) -> ControlOutput:
         """Compute the command at time ``t`` (s) from the pose [x, y, psi] and the model radii
-        [R_R, R_L] (m) the controller should assume."""
+        [R_R, R_L] (m) the controller should assume. ``u_applied`` is the wheel-rate command
+        [omega_R, omega_L] (rad/s) in force on the plant just before ``t`` (including any excitation
+        added after the previous solve); ``None`` before the first command."""
         ...

@@ -74,11 +74,12 @@ def simulate(
     dt = control_period / substeps
     x = np.array([*initial_pose, *true_radii(0.0)], dtype=float)
     ts, poses, us, outs = [0.0], [x[:3].copy()], [], []
+    u: np.ndarray | None = None
     for k in range(n):
         t = k * control_period
-        out = controller.solve(t, x[:3].copy(), np.asarray(model_radii(t), dtype=float))
+        out = controller.solve(t, x[:3].copy(), np.asarray(model_radii(t), dtype=float), u)
         outs.append(out)
-        u = np.asarray(out.omega, dtype=float)
+        u = np.asarray(out.omega, dtype=float).copy()
         for i in range(substeps):
             ti = t + i * dt
             x[3:] = true_radii(ti)

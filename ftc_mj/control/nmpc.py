@@ -65,6 +65,7 @@ class PlanController:
         self._plan: tuple[float, np.ndarray, np.ndarray] | None = None  # (t0, X (N,3), U (N,2))
         self._last_radii = self.nominal_radii.copy()
         self._consecutive_failures = 0
+        self._u_applied: np.ndarray | None = None
 
     def reset(self) -> None:
         """Forget the plan, the warm start and the counters: a reset controller behaves exactly like a new one."""
@@ -75,15 +76,21 @@ class PlanController:
         self._lam = None
         self._consecutive_failures = 0
         self._reseed_wait = 0
+        self._u_applied = None
         qp = getattr(self, "_qp", None)
         if qp is not None:
             qp.reset()
 
-    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray) -> ControlOutput:
+    telemetry_columns: tuple[str, ...] = ()
+
+    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray,
+              u_applied: np.ndarray | None = None) -> ControlOutput:
         """Command [omega_R, omega_L] (rad/s) at time ``t`` (s) for the measured ``pose``
-        [x, y, psi] (m, m, rad) and the model radii [R_R, R_L] (m)."""
+        [x, y, psi] (m, m, rad) and the model radii [R_R, R_L] (m); ``u_applied`` (rad/s) is the
+        command in force on the plant (``None`` before the first one)."""
         t_start = time.perf_counter()
         self.solves += 1
+        self._u_applied = None if u_applied is None else np.asarray(u_applied, dtype=float).copy()
         try:
             out = self._solve(t, pose, radii, t_start)
         except Exception as exc:  # noqa: BLE001 - a solve must never stop the loop

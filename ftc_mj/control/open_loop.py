@@ -34,5 +34,8 @@ class OpenLoopController:
             w = np.array([np.interp(t, ts, self._sched[:, 1]), np.interp(t, ts, self._sched[:, 2])])
         return np.clip(w, -self._omega_max, self._omega_max)
 
-    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray) -> ControlOutput:
+    telemetry_columns: tuple[str, ...] = ()
+
+    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray,
+              u_applied: np.ndarray | None = None) -> ControlOutput:
         return ControlOutput(omega=self.command(t))

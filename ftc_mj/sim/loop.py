@@ -101,7 +101,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
     n_modes = 0
     if cfg.estimator.kind.startswith("imm"):
         n_modes = cfg.estimator.imm_models
-    cols = {c: np.full(n, np.nan) for c in BASE_COLUMNS}
+    tele_cols = tuple(getattr(controller, "telemetry_columns", ()))
+    cols = {c: np.full(n, np.nan) for c in (*BASE_COLUMNS, *tele_cols)}
     for j in range(n_modes):
         cols[f"mode_prob_{j + 1}"] = np.full(n, np.nan)
 
@@ -116,6 +117,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
     u_prev: np.ndarray | None = None
     out: FilterOutput | None = None
     cmd = ControlOutput(omega=np.zeros(2))
+    applied: np.ndarray | None = None  # the command in force on the plant (after any dither)
     model_radii = np.full(2, R0)
     last_resets = 0
     last_ds = None
@@ -192,13 +194,16 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
                 pose = np.array([tr.x, tr.y, tr.psi])
                 if cfg.sensors.pose_sigma > 0:
                     pose = pose + pose_rng.normal(0.0, cfg.sensors.pose_sigma, 3)
-                cmd = controller.solve(t, pose, model_radii)
+                cmd = controller.solve(t, pose, model_radii, applied)
                 if exc.enabled and suspected:
                     dither = yaw_dither(t, exc.amplitude, exc.period)
                     cmd.omega = dither_wheel_rates(cmd.omega, dither, model_radii, cfg.model_half_track,
                                                    cfg.robot.omega_max)
                     c["excitation"][k] = dither
                 plant.set_command(float(cmd.omega[0]), float(cmd.omega[1]))
+                applied = np.array(cmd.omega, dtype=float)
+                for name in tele_cols:
+                    c[name][k] = cmd.telemetry.get(name, np.nan)
                 c["solve_time_ms"][k] = cmd.solve_time * 1e3
                 c["solver_iterations"][k] = cmd.iterations
                 c["solver_ok"][k] = float(cmd.success and not cmd.fallback)

@@ -177,42 +177,64 @@ def view(run_dir: Annotated[Path, typer.Argument(help="A run directory (or a .rr
         _fail(str(err), code=1)
 
 
+class SeedSet(StrEnum):
+    held_out = "held-out"
+    dev = "dev"
+
+
 @app.command()
 def paper(
-    out: Annotated[Path, typer.Option(help="Output folder: runs/, summary.csv, claims.md, figures/.")] = Path(
-        "runs/out/paper"),
+    out: Annotated[Path, typer.Option(help="Output folder: study/, summary.csv, claims.md, claims.json, "
+                                           "figures/.")] = Path("runs/out/paper"),
     jobs: Annotated[int, typer.Option(help="Parallel worker processes.")] = 2,
+    seeds: Annotated[int | None, typer.Option(help="Seeds per matrix cell (default 10); every check is "
+                                                   "judged over them.")] = None,
+    seed_set: Annotated[SeedSet, typer.Option(help="held-out (1000, 1001, …; the default: where claims are "
+                                                   "judged) or dev (0-9: where tuned parameters are chosen).")]
+    = SeedSet.held_out,
+    quick: Annotated[bool, typer.Option("--quick", help="Single-seed quick look (seed 0): one run per entry, "
+                                                        "pass/fail per check; not a verdict over seeds.")] = False,
+    tune: Annotated[bool, typer.Option("--tune", help="Also run the tuning studies on the development seeds and "
+                                                      "report the value each selection rule chooses.")] = False,
+    baseline: Annotated[Path | None, typer.Option(help="Earlier output folder or claims.json: list what changed "
+                                                       "against its verdicts (claims.md, changes.md).")] = None,
     duration: Annotated[float | None, typer.Option(help="Shorten every run to this many seconds.")] = None,
     only: Annotated[list[str] | None, typer.Option("--only", help="Run only labels matching this glob "
                                                    "(repeatable), e.g. 's2-*' or 's4-imm-ukf5-*'.")] = None,
     extras: Annotated[bool, typer.Option("--extras/--no-extras",
                                          help="Add runs beyond the paper's 38: the literal 'paper' IMM (2) "
                                               "and the reconfiguration-policy axis (18).")] = True,
-    no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write Rerun recordings.")] = False,
-    fresh: Annotated[bool, typer.Option("--fresh", help="Recompute runs even if OUT/runs has them.")] = False,
+    no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Quick look: do not write Rerun recordings.")] = False,
+    fresh: Annotated[bool, typer.Option("--fresh", help="Quick look: recompute runs even if OUT/runs has them.")]
+    = False,
     list_: Annotated[bool, typer.Option("--list", help="Print the matrix labels and exit.")] = False,
-    report_only: Annotated[bool, typer.Option("--report-only", help="Run nothing: rebuild summary, claims and "
-                                              "figures from the newest run of each label in OUT/runs.")] = False,
+    report_only: Annotated[bool, typer.Option("--report-only", help="Run nothing: rebuild the report from the "
+                                              "finished runs (over seeds: of the same selection).")] = False,
 ) -> None:
-    """Run the paper's test matrix (38 runs + 20 extras) and write summary.csv, claims.md and figures/."""
+    """Run the paper's test matrix (38 runs + 20 extras) over seeds and judge every claim's checks with
+    Wilson intervals (or, with --quick, take a single-seed look); write summary.csv, claims.md,
+    claims.json and figures/."""
     from .report.matrix import full_matrix, select
 
     if list_:
         for e in select(full_matrix(extras), only):
             typer.echo(f"{e.label}\t{e.scenario}\t" + " ".join(f"{k}={v}" for k, v in e.overrides.items()))
         return
-    from .report.paper import run_paper
+    from .report.paper import PaperOptions, run_paper
 
+    opts = PaperOptions(jobs=jobs, duration=duration, only=only, extras=extras, rrd=not no_rrd, fresh=fresh,
+                        report_only=report_only, quick=quick, seeds=seeds, seed_set=seed_set.value, tune=tune,
+                        baseline=baseline)
     try:
-        res = run_paper(out, jobs=jobs, duration=duration, only=only, extras=extras, rrd=not no_rrd, fresh=fresh,
-                        echo=lambda s: typer.echo(s, err=True), report_only=report_only)
+        res = run_paper(out, opts, echo=lambda s: typer.echo(s, err=True))
     except BadInput as err:
         _fail(str(err))
         return
     except KeyboardInterrupt:
         typer.echo("ftc-mj: interrupted; finished runs are kept and reused next time", err=True)
         raise typer.Exit(130) from None
-    typer.echo(f"{len(res.rows)} runs in {res.wall_time_s:.1f} s (report {res.report_time_s:.1f} s) → {res.out}")
+    typer.echo(f"{len(res.rows)} runs in {res.wall_time_s:.1f} s (report {res.report_time_s:.1f} s) → {res.out}"
+               + (" [single-seed quick look]" if quick else ""))
     for c in res.claims:
         typer.echo(f"  claim {c.id:>2}: {c.verdict:<15} {c.title}")
     if res.failed:

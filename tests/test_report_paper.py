@@ -1,4 +1,5 @@
-"""``ftc-mj paper`` end to end on a few short real runs (parallel workers, reuse, exit codes)."""
+"""``ftc-mj paper`` end to end on a few short real runs: the single-seed quick look (parallel workers,
+reuse, exit codes) and the verdicts over seeds (study machinery, resume, a failed run)."""
 
 from __future__ import annotations
 
@@ -25,7 +26,10 @@ def test_paper_list_prints_the_matrix() -> None:
 
 def test_paper_bad_input_exits_2_and_writes_nothing(tmp_path: Path) -> None:
     out = tmp_path / "o"
-    for args in (["--jobs", "0"], ["--only", "no-such-label"], ["--duration", "-1"]):
+    for args in (["--jobs", "0"], ["--only", "no-such-label"], ["--duration", "-1"], ["--seeds", "0"],
+                 ["--seed-set", "dev", "--seeds", "11"], ["--quick", "--seeds", "3"], ["--quick", "--tune"],
+                 ["--fresh"], ["--baseline", str(tmp_path / "nothing")],
+                 ["--report-only", "--only", "s2-ukf-fb-nmpc", "--seeds", "2"]):
         res = runner.invoke(app, ["paper", "--out", str(out), *args])
         assert res.exit_code == 2, (args, res.output)
         assert not out.exists()
@@ -36,8 +40,9 @@ def test_paper_bad_input_exits_2_and_writes_nothing(tmp_path: Path) -> None:
 
 def test_paper_smoke_end_to_end(tmp_path: Path) -> None:
     out = tmp_path / "paper"
-    res = runner.invoke(app, ["paper", "--out", str(out), "--duration", "2", "--jobs", "2", *ONLY])
+    res = runner.invoke(app, ["paper", "--quick", "--out", str(out), "--duration", "2", "--jobs", "2", *ONLY])
     assert res.exit_code == 0, res.output
+    assert "single-seed quick look" in res.output
     rows = list(csv.DictReader(open(out / "summary.csv")))
     labels = {r["label"] for r in rows}
     assert labels == {"s2-ukf-nofb-nmpc", "s2-ukf-fb-nmpc", "s2-ukf-fb-lmpc", "s2-imm-ukf-fb-nmpc",
@@ -53,14 +58,16 @@ def test_paper_smoke_end_to_end(tmp_path: Path) -> None:
             assert (run_dir / name).is_file(), (run_dir, name)
         assert run_dir.parent == out / "runs"
     md = (out / "claims.md").read_text()
-    assert "## Verdicts" in md and "## Thresholds" in md
+    assert "## Verdicts" in md and "## Thresholds" in md and "single-seed quick look" in md
+    doc = json.loads((out / "claims.json").read_text())
+    assert doc["mode"] == "single-seed" and doc["seeds"] == [0]
     figs = sorted(p.name for p in (out / "figures").glob("*.png"))
     assert "innovations_s2.png" in figs and "wheel_rates_s2_nmpc_vs_lmpc.png" in figs
     assert "mode_probs_fb.png" in figs and "trajectory_s2.png" in figs
     info = json.loads((out / "paper_run.json").read_text())
     assert info["runs"] == 5 and info["failed"] == [] and info["reused"] == 0
     # a second invocation reuses the finished runs
-    res = runner.invoke(app, ["paper", "--out", str(out), "--duration", "2", "--jobs", "2", *ONLY])
+    res = runner.invoke(app, ["paper", "--quick", "--out", str(out), "--duration", "2", "--jobs", "2", *ONLY])
     assert res.exit_code == 0, res.output
     info = json.loads((out / "paper_run.json").read_text())
     assert info["reused"] == 5
@@ -68,7 +75,7 @@ def test_paper_smoke_end_to_end(tmp_path: Path) -> None:
     assert not list(out.glob(".*.tmp"))
     # the report alone, rebuilt from the run directories
     (out / "claims.md").unlink()
-    res = runner.invoke(app, ["paper", "--out", str(out), "--report-only", *ONLY])
+    res = runner.invoke(app, ["paper", "--quick", "--out", str(out), "--report-only", *ONLY])
     assert res.exit_code == 0, res.output
     assert (out / "claims.md").is_file()
     assert json.loads((out / "paper_run.json").read_text())["report_only"] is True
@@ -82,7 +89,7 @@ def test_a_failed_run_gives_exit_1_and_everything_is_still_written(tmp_path: Pat
     bad = MatrixEntry("s9-ukf-nofb-nmpc", str(tmp_path / "missing.toml"), dict(good.overrides))
     monkeypatch.setattr(paper_mod, "full_matrix", lambda extras=True: [good, bad])
     out = tmp_path / "paper"
-    res = runner.invoke(app, ["paper", "--out", str(out), "--duration", "1", "--jobs", "1"])
+    res = runner.invoke(app, ["paper", "--quick", "--out", str(out), "--duration", "1", "--jobs", "1"])
     assert res.exit_code == 1, res.output
     rows = {r["label"]: r for r in csv.DictReader(open(out / "summary.csv"))}
     assert rows["s2-ukf-nofb-nmpc"]["status"] == "ok"

@@ -96,3 +96,45 @@ def test_a_failed_run_gives_exit_1_and_everything_is_still_written(tmp_path: Pat
     assert rows["s9-ukf-nofb-nmpc"]["status"] == "failed" and "missing.toml" in rows["s9-ukf-nofb-nmpc"]["error"]
     assert (out / "claims.md").is_file()
     assert "s9-ukf-nofb-nmpc" in json.loads((out / "paper_run.json").read_text())["failed"]
+
+
+SEEDED = ["--only", "s2-ukf-nofb-nmpc", "--only", "s2-ukf-fb-nmpc", "--seeds", "2", "--duration", "2", "--jobs", "1"]
+
+
+def test_seeded_paper_judges_over_seeds_resumes_and_fails_a_failed_run(tmp_path: Path, monkeypatch) -> None:
+    from ftc_mj.report import derived
+
+    real = derived.report_metrics
+
+    def broken(cfg, trace):  # a shape bug in one run's metrics: the run fails, it is not a fallback
+        if cfg.seed == 1001 and cfg.reconfiguration.policy == "direct":
+            raise TypeError("broken metric")
+        return real(cfg, trace)
+
+    monkeypatch.setattr(derived, "report_metrics", broken)
+    out = tmp_path / "paper"
+    res = runner.invoke(app, ["paper", "--out", str(out), *SEEDED])
+    assert res.exit_code == 1, res.output
+    assert "s2-ukf-fb-nmpc (seed 1001)" in res.output
+    rows = list(csv.DictReader(open(out / "summary.csv")))
+    assert sorted((r["label"], r["seed"]) for r in rows) == [("s2-ukf-fb-nmpc", "1000"), ("s2-ukf-fb-nmpc", "1001"),
+                                                            ("s2-ukf-nofb-nmpc", "1000"), ("s2-ukf-nofb-nmpc", "1001")]
+    bad = next(r for r in rows if r["label"] == "s2-ukf-fb-nmpc" and r["seed"] == "1001")
+    assert bad["status"] == "failed" and "TypeError: broken metric" in bad["error"]
+    doc = json.loads((out / "claims.json").read_text())
+    assert doc["mode"] == "seeded" and doc["seeds"] == [1000, 1001] and doc["seed_set"] == "held-out"
+    c1 = next(c for c in doc["claims"] if c["id"] == "1")
+    fb = next(ch for ch in c1["checks"] if ch["text"].startswith("UKF fb on declares"))
+    # 2 s runs end before the 10 s puncture: every seed is n/a, except the failed run, which fails
+    assert (fb["passed"], fb["applicable"], fb["na"], fb["failing_seeds"]) == (0, 1, 1, [1001])
+    assert fb["na_reasons"] == {"a fault onset lies after the end of the run": 1}
+    md = (out / "claims.md").read_text()
+    assert "verdicts over seeds" in md and "held-out seeds 1000, 1001" in md and "validation run" in md
+    assert "Not applicable" in md and "| 0/1 |" in md
+    # the same command resumes: nothing is recomputed (the failed row stays failed)
+    monkeypatch.setattr(derived, "report_metrics", real)
+    res = runner.invoke(app, ["paper", "--out", str(out), *SEEDED])
+    assert res.exit_code == 1 and "[1/" not in res.output
+    res = runner.invoke(app, ["paper", "--out", str(out), "--report-only", *SEEDED[:-2]])
+    assert res.exit_code == 1, res.output
+    assert json.loads((out / "paper_run.json").read_text())["mode"] == "seeded"

@@ -36,8 +36,9 @@ AXIS = "run"
 BASE_SCENARIO = "scenario1"
 
 
-def entry_preset(entry: MatrixEntry) -> dict[str, Any]:
-    """Dotted overrides that turn the base scenario into ``entry``'s configuration (seed aside)."""
+def entry_preset(entry: MatrixEntry, duration: float | None = None) -> dict[str, Any]:
+    """Dotted overrides that turn the base scenario into ``entry``'s configuration (seed aside), run
+    for ``duration`` (s) instead of the scenario's when given."""
     from ..study.spec import flatten_dotted
 
     data = read_toml(scenario_path(entry.scenario), "scenario")
@@ -45,17 +46,22 @@ def entry_preset(entry: MatrixEntry) -> dict[str, Any]:
     preset = {"faults.left": [], "faults.right": []}
     preset.update(flatten_dotted(data))
     preset.update(entry.overrides)
+    if duration is not None:
+        preset["duration"] = float(duration)
     return preset
 
 
-def study_data(entries: Sequence[MatrixEntry], seeds: Sequence[int], name: str = "paper-matrix") -> dict[str, Any]:
-    """The study file (as TOML data) of ``entries`` × ``seeds``."""
+def study_data(entries: Sequence[MatrixEntry], seeds: Sequence[int], duration: float | None = None,
+               name: str = "paper-matrix") -> dict[str, Any]:
+    """The study file (as TOML data) of ``entries`` × ``seeds``, each run ``duration`` s long (default:
+    its scenario's)."""
     return {
         "name": name,
         "description": "ftc-mj paper: the matrix over seeds (generated from ftc_mj.report.matrix)",
         "scenario": BASE_SCENARIO,
         "seeds": [int(s) for s in seeds],
-        "axes": [{"name": AXIS, "labels": [e.label for e in entries], "values": [entry_preset(e) for e in entries]}],
+        "axes": [{"name": AXIS, "labels": [e.label for e in entries],
+                  "values": [entry_preset(e, duration) for e in entries]}],
     }
 
 
@@ -66,12 +72,11 @@ def load_matrix_study(entries: Sequence[MatrixEntry], seeds: Sequence[int], dura
     fails with BadInput)."""
     from ..study.spec import load_study
 
-    data = study_data(entries, seeds)
-    extra = {"duration": float(duration)} if duration is not None else None
+    data = study_data(entries, seeds, duration)
     with tempfile.TemporaryDirectory() as tmp:
         probe = Path(tmp) / "matrix.toml"
         write_toml(probe, data)
-        plan = load_study(probe, extra_overrides=extra)
+        plan = load_study(probe)
     final = Path(out) / "study" / plan.study_hash / "matrix.toml"
     if write:
         write_toml(final, data)

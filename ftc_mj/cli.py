@@ -237,6 +237,10 @@ def paper(
                + (" [single-seed quick look]" if quick else ""))
     for c in res.claims:
         typer.echo(f"  claim {c.id:>2}: {c.verdict:<15} {c.title}")
+    for o in res.tuning:
+        typer.echo(f"  tuned {o.tuned.key}: {o.selection.value} (default {o.tuned.default():g}) on development seeds "
+                   f"{', '.join(map(str, o.seeds))}, {o.runs} runs" + (f" in {o.wall_time_s:.1f} s" if o.wall_time_s
+                                                                         else ""))
     if res.failed:
         typer.echo(f"ftc-mj: {len(res.failed)} run(s) failed: {', '.join(res.failed)}", err=True)
         raise typer.Exit(1)

@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from test_report_claims import paper_like_rows
 from test_report_policy_claims import _rows as policy_rows
@@ -240,3 +241,16 @@ def test_matrix_study_configs_equal_the_matrix_entries(tmp_path: Path) -> None:
         e = by_label[r.labels[AXIS]]
         want = load_config(e.scenario, dict(e.overrides, seed=r.seed, duration=12.0))
         assert validate_config(r.config).model_dump() == want.model_dump(), e.label
+
+
+def test_safe_without_hand_over_is_the_none_run() -> None:
+    """R2's precondition: a safe run that never hands over is the none run (speed only: the split is not
+    identified, so nothing is handed over). Kinematic plant, 12 s; every trace column but timings equal."""
+    from ftc_mj.sim.run import execute
+
+    ov = {"plant.kind": "kinematic", "duration": 12.0, "controller.rate_penalty": 1.0}
+    none = execute(load_config("scenario2", {**ov, "reconfiguration.policy": "none"}))
+    safe = execute(load_config("scenario2", {**ov, "reconfiguration.policy": "safe"}))
+    assert safe.metrics["reconfig_handovers"] == 0
+    for col in ("x", "y", "psi", "omega_R_cmd", "omega_L_cmd", "R_R_hat", "R_L_hat", "cross_track_error"):
+        np.testing.assert_array_equal(safe.result.trace[col], none.result.trace[col], err_msg=col)

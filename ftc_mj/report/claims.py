@@ -307,7 +307,7 @@ def _in_domain_check(c: Claim, name: str, lb: str, r: Mapping[str, Any] | None) 
     rd = num(r, "radius_rmse_L_after_fault_in_domain")
     out = num(r, "out_of_domain_fraction_after_fault")
     share = None if out is None else 1.0 - out
-    na = (f"only {share:.0%} of the samples after the onset are in the domain (< {MIN_IN_DOMAIN:.0%})"
+    na = (f"fewer than {MIN_IN_DOMAIN:.0%} of the samples after the onset are in the domain"
           if share is not None and share < MIN_IN_DOMAIN else "")
     c.checks.append(chk(f"{name} succeeds while the plant is in the kinematic model's domain (R_L RMSE ≤ "
                         f"{GOOD_RMSE:g} m over the samples after the onset without a plant flag)", le(rd, GOOD_RMSE),

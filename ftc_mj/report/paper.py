@@ -108,6 +108,8 @@ class PaperResult:
     """Wall time of the runs (s)."""
     report_time_s: float = 0.0
     """Wall time of summary, claims and figures (s)."""
+    tuning: list[Any] = field(default_factory=list)
+    """:class:`~ftc_mj.report.tuning.TuningOutcome` s of ``--tune``."""
 
     @property
     def failed(self) -> list[str]:
@@ -144,6 +146,9 @@ def run_paper(out: Path, opts: PaperOptions, *, show_progress: bool | None = Non
             "finished_at": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "runs": len(res.rows),
             "failed": res.failed, "jobs": opts.jobs, "duration": opts.duration, "only": opts.only,
             "extras": opts.extras, "report_only": opts.report_only, "report_time_s": res.report_time_s,
+            "tuning": {o.tuned.key: {"chosen": o.selection.value, "default": o.tuned.default(), "seeds": o.seeds,
+                                     "runs": o.runs, "failed": o.failed, "wall_time_s": o.wall_time_s}
+                       for o in res.tuning},
             "verdicts": {c.id: c.verdict for c in res.claims}}
     prev = out / "paper_run.json"
     if opts.report_only and prev.is_file():  # keep the wall time of the invocation that computed the runs

@@ -54,12 +54,12 @@ def run_seeded(out: Path, entries: list[MatrixEntry], opts: PaperOptions, show: 
     if opts.report_only and not (plan.path.parent / "rows").is_dir():
         raise BadInput(f"--report-only: no seeded results for this selection in {plan.path.parent}")
     tuning = None
-    t0 = time.perf_counter()
     if opts.tune:
         from .tuning import run_tuning
 
         tuning = run_tuning(out, n_seeds=min(opts.n_seeds, len(DEV_SEEDS)), duration=opts.duration,
                             workers=opts.jobs, progress=show, report_only=opts.report_only)
+    t0 = time.perf_counter()
     res = run_matrix_study(plan, workers=opts.jobs, keep_seed=seeds[0], report_only=opts.report_only,
                            progress=show, on_row=None if show else _echo_rows(echo, len(plan.runs)))
     wall = time.perf_counter() - t0
@@ -79,7 +79,7 @@ def run_seeded(out: Path, entries: list[MatrixEntry], opts: PaperOptions, show: 
             "computed": res.computed, "baseline": f"`{opts.baseline}`"}
     write_report(out, render_seeded(claims, rows_by_seed, meta, tuning, changes), doc, figs,
                  f"Drawn from the runs of seed {seeds[0]} (one seed; the verdicts above use all {len(seeds)}).")
-    return PaperResult(out, rows, claims, figs, wall, time.perf_counter() - t1)
+    return PaperResult(out, rows, claims, figs, wall, time.perf_counter() - t1, tuning or [])
 
 
 def _figures(out: Path, rows: Mapping[str, Mapping[str, Any]], jobs: int) -> list[Path]:

@@ -35,6 +35,7 @@ POLICY_THRESHOLDS: dict[str, tuple[float, str]] = {
                                              "to the end for 'stays on the path'"),
 }
 NO_HANDOVER = "safe never handed radii over: it is the none run by construction"
+INFEASIBLE = "with the true radii the reference needs a wheel rate beyond the limit"
 RAMPS = ("scenario4",)
 """Policy-axis scenarios whose fault is a ramp (hand-over timed from the declaration)."""
 SENSING = (("speed", "speed"), ("yaw", "speed + yaw rate"))
@@ -156,9 +157,9 @@ def claim_safe_in_time(rows: Rows) -> Claim:
         feasible = truthy(r, "reference_feasible_recovered")
         req = num(r, "reference_omega_required_recovered")
         c.checks.append(chk(f"scenario {_n(sc)}: max |cte| from 5 s after the fault ≤ {RECOVERED_ON_PATH:g} m",
-                            le(m, RECOVERED_ON_PATH), f"max |cte| {fmt(m, ' m')}", lb,
-                            na=f"the reference needs {fmt(req, ' rad/s')} of wheel rate with the true radii, beyond "
-                               f"the limit" if feasible is False else ""))
+                            le(m, RECOVERED_ON_PATH), f"max |cte| {fmt(m, ' m')}; the reference needs up to "
+                                                      f"{fmt(req, ' rad/s')} of wheel rate with the true radii", lb,
+                            na=INFEASIBLE if feasible is False else ""))
     return c
 
 

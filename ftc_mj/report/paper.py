@@ -141,8 +141,8 @@ def run_paper(out: Path, opts: PaperOptions, *, show_progress: bool | None = Non
         from .paper_seeded import run_seeded
 
         res = run_seeded(out, entries, opts, show, echo)
-    info = {"command": opts.command(out), "mode": "quick" if opts.quick else "seeded",
-            "started_load_avg": list(load0), "finished_load_avg": list(os.getloadavg()),
+    info = {"command": opts.command(out), "mode": "quick" if opts.quick else "seeded", "commit": source_commit(),
+            "cpus": os.cpu_count(), "started_load_avg": list(load0), "finished_load_avg": list(os.getloadavg()),
             "finished_at": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "runs": len(res.rows),
             "failed": res.failed, "jobs": opts.jobs, "duration": opts.duration, "only": opts.only,
             "extras": opts.extras, "report_only": opts.report_only, "report_time_s": res.report_time_s,
@@ -155,13 +155,29 @@ def run_paper(out: Path, opts: PaperOptions, *, show_progress: bool | None = Non
         import json
 
         try:
-            info["wall_time_s"] = json.loads(prev.read_text()).get("wall_time_s")
+            before = json.loads(prev.read_text())
         except (OSError, ValueError):
-            pass
+            before = {}
+        info["wall_time_s"] = before.get("wall_time_s")
+        info["runs_command"] = before.get("runs_command") or before.get("command")
     info.setdefault("wall_time_s", res.wall_time_s)
     info["reused"] = sum(1 for r in res.rows if r.get("reused"))
     write_json(prev, info)
     return res
+
+
+def source_commit() -> str | None:
+    """``git describe --always --dirty`` of the package's repository, or None outside a git checkout."""
+    import subprocess
+
+    from ..config import REPO_ROOT
+
+    try:
+        res = subprocess.run(["git", "-C", str(REPO_ROOT), "describe", "--always", "--dirty"], capture_output=True,
+                             text=True, timeout=10, check=False)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return res.stdout.strip() or None if res.returncode == 0 else None
 
 
 def write_report(out: Path, md: str, doc: dict[str, Any], figs: list[Path], figs_note: str = "") -> None:

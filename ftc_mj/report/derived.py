@@ -178,6 +178,7 @@ def derived_metrics(trace: Mapping[str, Any], scenario: str, onsets: Mapping[str
     ons = sorted({o for o in (on_R, on_L) if o is not None})
     m["onsets_after_end"] = sum(1 for o in ons if o >= float(t[-1]))
     ons = [o for o in ons if o < float(t[-1])]
+    m["onsets_in_run"] = len(ons)
     t_on = ons[0] if ons else None
     # ---------------------------------------------------------------- radius estimates
     RRh, RLh, RR, RL = (_col(trace, c) for c in ("R_R_hat", "R_L_hat", "R_R", "R_L"))

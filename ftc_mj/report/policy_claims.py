@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..sim.metrics import FAULT_TRANSIENT_S
 from .checks import Claim, Rows, evaluate, fmt, le, num, truthy
 from .claims import chk
 from .matrix import POLICY_RATE_PENALTY, POLICY_SCENARIOS, make_label
@@ -120,6 +121,15 @@ def claim_safe_no_harm(rows: Rows) -> Claim:
             c.checks.append(chk(f"scenario {_n(sc)}, {sname}: safe does not tip the robot where none does not",
                                 None if t0 is None or t1 is None else (not t1 or t0),
                                 f"tipped: safe {fmt(t1)}, none {fmt(t0)}", l0, l1, na=na))
+    excl = []
+    for sc in POLICY_SCENARIOS:
+        r = rows.get(plabel(sc, "none", "yaw"))
+        k, dur = num(r, "onsets_in_run"), num(r, "sim_time_s")
+        if k is not None and dur:
+            excl.append(f"{k * FAULT_TRANSIENT_S / dur:.1%} of scenario {_n(sc)}'s run")
+    if excl:
+        c.notes.append(f"Lift-off is counted outside the {FAULT_TRANSIENT_S:g} s after each onset (the puncture's own "
+                       f"skid and hop), a selection stated in advance; it excludes " + ", ".join(excl) + ".")
     same = [f"scenario {_n(sc)} ({sname})" for sc in POLICY_SCENARIOS for sens, sname in SENSING
             if num(rows.get(plabel(sc, "safe", sens)), "reconfig_handovers") == 0]
     if same:

@@ -75,7 +75,7 @@ def _has_data(row: Mapping[str, Any]) -> bool:
 
 def tuning_section(outcomes: Sequence[TuningOutcome] | None) -> str:
     parts = ["## Data-tuned parameters\n",
-             f"Chosen on the development seeds ({describe(DEV_SEEDS)}) by rules stated before the runs "
+             f"Chosen on {describe(DEV_SEEDS)} by rules stated before the runs "
              f"(`runs/studies/tune_*.toml`, `ftc-mj paper --tune`); the claims above are judged with the configured "
              f"defaults.\n"]
     if not outcomes:

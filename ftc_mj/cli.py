@@ -196,8 +196,9 @@ def paper(
                                                         "pass/fail per check; not a verdict over seeds.")] = False,
     tune: Annotated[bool, typer.Option("--tune", help="Also run the tuning studies on the development seeds and "
                                                       "report the value each selection rule chooses.")] = False,
-    baseline: Annotated[Path | None, typer.Option(help="Earlier output folder or claims.json: list what changed "
-                                                       "against its verdicts (claims.md, changes.md).")] = None,
+    baseline: Annotated[list[Path] | None, typer.Option(help="Earlier output folder, claims.json or claims.md "
+                                                             "(repeatable): list what changed against its verdicts "
+                                                             "(claims.md, changes.md).")] = None,
     duration: Annotated[float | None, typer.Option(help="Shorten every run to this many seconds.")] = None,
     only: Annotated[list[str] | None, typer.Option("--only", help="Run only labels matching this glob "
                                                    "(repeatable), e.g. 's2-*' or 's4-imm-ukf5-*'.")] = None,
@@ -224,7 +225,7 @@ def paper(
 
     opts = PaperOptions(jobs=jobs, duration=duration, only=only, extras=extras, rrd=not no_rrd, fresh=fresh,
                         report_only=report_only, quick=quick, seeds=seeds, seed_set=seed_set.value, tune=tune,
-                        baseline=baseline)
+                        baselines=list(baseline or []))
     try:
         res = run_paper(out, opts, echo=lambda s: typer.echo(s, err=True))
     except BadInput as err:

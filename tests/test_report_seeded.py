@@ -201,6 +201,19 @@ def test_compare_with_a_single_seed_baseline() -> None:
     assert compare(base, base) == []
 
 
+def test_baseline_from_a_rendered_claims_md(tmp_path: Path) -> None:
+    from ftc_mj.report.render import render_claims
+
+    rows = paper_like_rows()
+    rows["s2-ekf-fb-nmpc"]["detection_delay"] = None  # claim 1 partly, the others reproduced
+    claims = cl.evaluate_claims(rows)
+    md = tmp_path / "claims.md"
+    md.write_text(render_claims(claims, rows, {}))
+    base = load_baseline(md)
+    assert {c["id"]: c["verdict"] for c in base["claims"]} == {c.id: c.verdict for c in claims}
+    assert base["claims"][0]["verdict"] == ck.PARTLY
+
+
 def test_baseline_from_an_old_paper_run_json(tmp_path: Path) -> None:
     (tmp_path / "paper_run.json").write_text(json.dumps({"verdicts": {"1": "reproduced", "2": "partly"}}))
     base = load_baseline(tmp_path)

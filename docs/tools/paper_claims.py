@@ -1,7 +1,8 @@
 """Regenerate docs/paper-claims.md (and its figures in docs/figures/) from an ``ftc-mj paper`` output.
 
     .venv/bin/ftc-mj paper --quick --out runs/out/paper-quick         # single-seed verdicts (seed 0)
-    .venv/bin/ftc-mj paper --out runs/out/paper --tune --baseline runs/out/paper-quick
+    .venv/bin/ftc-mj paper --out runs/out/paper --tune --baseline docs/paper-claims.md \
+        --baseline runs/out/paper-quick                                 # the published and today's seed 0
     .venv/bin/python docs/tools/paper_claims.py runs/out/paper
 
 The head note is generated: the command, commit, date and machine load from ``paper_run.json``, which
@@ -35,14 +36,19 @@ def head_note(out: Path) -> str:
              f"{info.get('wall_time_s') or 0:.0f} s + {info.get('report_time_s') or 0:.0f} s report on "
              f"{info.get('cpus')} cores, 1-min load average {load} at start/end). Regenerate with the commands "
              f"in `docs/tools/paper_claims.py`."]
+    doc = json.loads((out / "claims.json").read_text())
+    seeds = doc.get("seeds") or []
+    lines.append(f"> Judged on the {doc.get('seed_set', '?')} seeds {', '.join(map(str, seeds))}; the development "
+                 f"seeds 0–9 are where the data-tuned parameters are chosen (section *Seeds*).")
     for key, t in (info.get("tuning") or {}).items():
         lines.append(f"> Tuned on development seeds {', '.join(map(str, t['seeds']))}: `{key}` chosen "
                      f"{t['chosen']}, configured {t['default']} ({t['runs']} runs, section *Data-tuned parameters*).")
     changes = out / "changes.md"
-    if changes.is_file():
-        verdicts = [ln[2:] for ln in changes.read_text().splitlines() if ln.startswith("- ") and "→" in ln]
-        lines.append("> **What changed against the single-seed verdicts** (mechanical comparison; every changed "
-                     "check is listed in the section *What changed against the baseline*): "
+    for section in changes.read_text().split("## Against ")[1:] if changes.is_file() else []:
+        src, _, rest = section.partition("\n")
+        verdicts = [ln[2:] for ln in rest.splitlines() if ln.startswith("- ") and "→" in ln]
+        lines.append(f"> **What changed against the single-seed verdicts of {src.strip()}** (mechanical comparison; "
+                     f"every changed check is in the section *What changed against {src.strip()}*): "
                      + ("; ".join(verdicts) if verdicts else "no verdict changed") + ".")
     return "\n>\n".join(lines) + "\n"
 

@@ -2,7 +2,8 @@
 claim id and check text.
 
 Both sides are ``claims.json`` documents (:func:`claims_document`), single-seed or over seeds; an
-older output folder that has only ``paper_run.json`` contributes its claim verdicts. A check's
+older output folder that has only ``paper_run.json``, or a rendered ``claims.md`` (e.g. the published
+``docs/paper-claims.md``), contributes its claim verdicts. A check's
 result is reduced to a class before comparing — *yes* (pass, holds), *no* (fail, fails), *?*
 (undecided), *n/a*, *not run* — so a single-seed pass that holds over seeds is no change, and a
 single-seed pass that is undecided over seeds is one.
@@ -11,12 +12,13 @@ single-seed pass that is undecided over seeds is one.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from ..errors import BadInput
-from .checks import FAIL, NA, NOT_RUN, PASS, Claim
+from .checks import FAIL, NA, NOT_EVALUATED, NOT_REPRODUCED, NOT_RUN, PARTLY, PASS, REPRODUCED, Claim
 from .seeded import FAILS, HOLDS, UNDECIDED, SeededClaim
 
 CLASS = {PASS: "yes", HOLDS: "yes", FAIL: "no", FAILS: "no", UNDECIDED: "?", NA: "n/a", NOT_RUN: "not run"}
@@ -39,10 +41,33 @@ def claims_document(claims: Sequence[Claim] | Sequence[SeededClaim], seeds: Sequ
     return {"mode": mode, "seeds": [int(s) for s in seeds], "claims": out}
 
 
+def verdicts_of_markdown(text: str) -> dict[str, str]:
+    """Claim id → verdict from the ``## Verdicts`` table of a rendered ``claims.md`` (or of
+    ``docs/paper-claims.md``): the published verdicts, when no ``claims.json`` was kept."""
+    known = sorted((REPRODUCED, PARTLY, NOT_REPRODUCED, NOT_EVALUATED, "undecided"), key=len, reverse=True)
+    table = text.split("## Verdicts", 1)[-1].split("\n## ", 1)[0]
+    out = {}
+    for line in table.splitlines():
+        cells = [c.strip() for c in re.split(r"(?<!\\)\|", line.strip())[1:-1]]
+        if len(cells) < 3 or cells[0] in ("#", "") or set(cells[0]) <= {"-"}:
+            continue
+        verdict = next((v for v in known if v in cells[2]), None)
+        if verdict is not None:
+            out[cells[0]] = verdict
+    return out
+
+
 def load_baseline(path: Path) -> dict[str, Any]:
-    """A baseline from a ``claims.json`` file, or from an output folder (its ``claims.json``, else the
-    verdicts of its ``paper_run.json``). BadInput if there is none."""
+    """A baseline from a ``claims.json`` file, a rendered ``claims.md`` (its verdict table), or an
+    output folder (its ``claims.json``, else the verdicts of its ``paper_run.json``). BadInput if
+    there is none."""
     p = Path(path)
+    if p.is_file() and p.suffix == ".md":
+        verdicts = verdicts_of_markdown(p.read_text())
+        if not verdicts:
+            raise BadInput(f"--baseline: {p} has no verdict table")
+        return {"mode": "single-seed", "seeds": [], "source": str(p),
+                "claims": [{"id": k, "verdict": v, "checks": None} for k, v in verdicts.items()]}
     cand = [p] if p.is_file() else [p / "claims.json", p / "paper_run.json"]
     for f in cand:
         if not f.is_file():

@@ -6,7 +6,9 @@ Two modes:
   (held-out seeds by default, :mod:`.seeds`) through the study machinery (:mod:`.matrix_study`),
   every check counted over the seeds and judged with a Wilson interval (:mod:`.seeded`);
   ``--tune`` also runs the tuning studies on the development seeds (:mod:`.tuning`);
-  ``--baseline`` compares the verdicts with an earlier result (:mod:`.compare`);
+  ``--baseline`` (repeatable) compares the verdicts with earlier results (:mod:`.compare`), e.g. a
+  ``--quick`` output of the same code (check by check) and the published ``docs/paper-claims.md``
+  (claim verdicts);
 - **single-seed quick look** (``--quick``): one run per entry at the config's seed 0 (a
   development seed), each check pass/fail on that run — labelled as such, not a verdict over seeds.
 
@@ -18,7 +20,7 @@ Layout of ``OUT``::
     OUT/runs/<run-id>/     the quick look's run directories (reused by the next quick look)
     OUT/summary.csv        one row per run (and seed): identity + flattened metrics + report metrics
     OUT/claims.md          the claims, checks, verdicts; OUT/claims.json the same, machine-readable
-    OUT/changes.md         what changed against --baseline
+    OUT/changes.md         what changed against each --baseline
     OUT/figures/*.png      the figures
     OUT/paper_run.json     the invocation, wall times, machine load, verdicts
 
@@ -66,15 +68,16 @@ class PaperOptions:
     """Seeds per cell (default 10); not with ``quick``."""
     seed_set: str = "held-out"
     tune: bool = False
-    baseline: Path | None = None
+    baselines: list[Path] = field(default_factory=list)
 
     def check(self) -> None:
         if self.jobs < 1:
             raise BadInput(f"--jobs: must be ≥ 1 (got {self.jobs})")
         if self.duration is not None and not self.duration > 0:
             raise BadInput(f"--duration: must be > 0 (got {self.duration})")
-        if self.quick and (self.seeds is not None or self.seed_set != "held-out" or self.tune):
-            raise BadInput("--quick: a single-seed look at seed 0; --seeds, --seed-set and --tune need the seeded mode")
+        if self.quick and (self.seeds is not None or self.seed_set != "held-out" or self.tune or self.baselines):
+            raise BadInput("--quick: a single-seed look at seed 0; --seeds, --seed-set, --tune and --baseline need the "
+                           "seeded mode")
         if not self.quick and self.fresh:
             raise BadInput("--fresh: only with --quick (over seeds, finished rows are kept; use another --out)")
         if not self.quick:
@@ -93,7 +96,7 @@ class PaperOptions:
         parts += [flag for flag, on in (("--no-extras", not self.extras), ("--no-rrd", not self.rrd),
                                         ("--fresh", self.fresh), ("--report-only", self.report_only),
                                         ("--tune", self.tune)) if on]
-        parts += [f"--baseline {self.baseline}"] if self.baseline is not None else []
+        parts += [f"--baseline {b}" for b in self.baselines]
         return " ".join(parts)
 
 

@@ -49,7 +49,7 @@ def run_seeded(out: Path, entries: list[MatrixEntry], opts: PaperOptions, show: 
     from .paper import PaperResult, write_report
 
     seeds = seed_set(opts.seed_set, opts.n_seeds)
-    baseline = load_baseline(opts.baseline) if opts.baseline is not None else None
+    baselines = [(b, load_baseline(b)) for b in opts.baselines]
     plan = load_matrix_study(entries, seeds, opts.duration, out, write=not opts.report_only)
     if opts.report_only and not (plan.path.parent / "rows").is_dir():
         raise BadInput(f"--report-only: no seeded results for this selection in {plan.path.parent}")
@@ -71,12 +71,13 @@ def run_seeded(out: Path, entries: list[MatrixEntry], opts: PaperOptions, show: 
     figs = _figures(out, rows_by_seed.get(seeds[0], {}), opts.jobs) if opts.figures else []
     doc = claims_document(claims, seeds, "seeded")
     doc["seed_set"] = opts.seed_set
-    changes = compare(doc, baseline) if baseline is not None else None
-    if changes is not None:
+    changes = [(str(b), compare(doc, base)) for b, base in baselines]
+    if changes:
         with atomic_path(out / "changes.md") as tmp:
-            tmp.write_text("\n".join(changes) + "\n")
+            tmp.write_text("".join(f"## Against `{src}`\n\n" + ("\n".join(lines) or "- nothing") + "\n\n"
+                                   for src, lines in changes))
     meta = {"duration": opts.duration, "wall_time_s": None if opts.report_only else wall, "jobs": opts.jobs,
-            "computed": res.computed, "baseline": f"`{opts.baseline}`"}
+            "computed": res.computed}
     write_report(out, render_seeded(claims, rows_by_seed, meta, tuning, changes), doc, figs,
                  f"Drawn from the runs of seed {seeds[0]} (one seed; the verdicts above use all {len(seeds)}).")
     return PaperResult(out, rows, claims, figs, wall, time.perf_counter() - t1, tuning or [])

@@ -111,7 +111,7 @@ def _claim_section(c: SeededClaim, note_seed: int) -> list[str]:
 
 def render_seeded(claims: Sequence[SeededClaim], rows_by_seed: Mapping[int, Mapping[str, Mapping[str, Any]]],
                   meta: Mapping[str, Any], tuning: Sequence[TuningOutcome] | None = None,
-                  changes: Sequence[str] | None = None) -> str:
+                  changes: Sequence[tuple[str, Sequence[str]]] | None = None) -> str:
     """The whole ``claims.md`` over seeds."""
     seeds = tuple(sorted(rows_by_seed))
     n_runs = sum(len(r) for r in rows_by_seed.values())
@@ -131,11 +131,10 @@ def render_seeded(claims: Sequence[SeededClaim], rows_by_seed: Mapping[int, Mapp
              "## Seeds\n", f"Development seeds: {', '.join(str(s) for s in DEV_SEEDS)} — every earlier study and "
              f"single-seed look used them, and the data-tuned parameters are chosen on them. This report judges on "
              f"{describe(seeds)}.\n"]
-    if changes is not None:
-        parts += ["## What changed against the baseline\n",
-                  f"Compared mechanically with {meta.get('baseline', 'the baseline')} (claims matched by id, checks by "
-                  f"text; a single-seed pass that holds over seeds is no change):\n",
-                  ("\n".join(changes) if changes else "- nothing") + "\n"]
+    for src, lines in changes or []:
+        parts += [f"## What changed against `{src}`\n",
+                  "Compared mechanically (claims matched by id, checks by text; a single-seed pass that holds over "
+                  "seeds is no change):\n", ("\n".join(lines) if lines else "- nothing") + "\n"]
     parts += ["## Verdicts\n", verdict_table(claims), "\n## Thresholds\n", thresholds_table(), "\n" + LABELS_NOTE]
     for c in claims:
         parts += _claim_section(c, seeds[0])

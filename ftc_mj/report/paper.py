@@ -162,7 +162,8 @@ def run_paper(out: Path, opts: PaperOptions, *, show_progress: bool | None = Non
         except (OSError, ValueError):
             before = {}
         info["wall_time_s"] = before.get("wall_time_s")
-        info["runs_command"] = before.get("runs_command") or before.get("command")
+        info["runs_command"] = before.get("runs_command") or (None if before.get("report_only")
+                                                              else before.get("command"))
     info.setdefault("wall_time_s", res.wall_time_s)
     info["reused"] = sum(1 for r in res.rows if r.get("reused"))
     write_json(prev, info)

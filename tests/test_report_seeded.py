@@ -234,6 +234,14 @@ def test_seed_sets() -> None:
             seed_set(*bad)
 
 
+def test_no_study_file_uses_the_held_out_seeds() -> None:
+    from ftc_mj.config import REPO_ROOT
+    from ftc_mj.study.spec import load_study
+
+    for f in sorted((REPO_ROOT / "runs" / "studies").glob("*.toml")):
+        assert max(r.seed for r in load_study(f).runs) < HELD_OUT_START, f.name
+
+
 def test_tuning_studies_run_on_the_development_seeds() -> None:
     import tomllib
 

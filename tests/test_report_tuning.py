@@ -31,7 +31,7 @@ def _dwell_rows(false_alarm_dwells: dict[float, int]) -> pl.DataFrame:
 
 def test_dwell_rule_picks_the_smallest_dwell_without_false_alarms() -> None:
     sel = select_dwell(_dwell_rows({0.1: 5, 0.2: 1}))
-    assert sel.value == 0.3 and sel.why == "no false alarm"
+    assert sel.value == 0.3 and sel.why == "no false alarm or isolation"
     assert [r["false alarms"] for r in sel.table] == ["5/90", "1/90", "0/90", "0/90"]
     # a failed run counts as a false alarm
     df = _dwell_rows({0.1: 5}).with_columns(
@@ -41,6 +41,10 @@ def test_dwell_rule_picks_the_smallest_dwell_without_false_alarms() -> None:
     # no dwell without one: the fewest, the smaller on ties
     sel = select_dwell(_dwell_rows({0.1: 3, 0.2: 2, 0.3: 2, 0.5: 4}))
     assert sel.value == 0.2 and "no dwell without false alarms" in sel.why
+    # a wrong-wheel declaration after the onset disqualifies a dwell like a false alarm
+    wrong = (pl.col("dwell") == 0.2) & (pl.col("seed") == 4) & (pl.col("fault") == "s2")
+    df = _dwell_rows({0.1: 5}).with_columns(pl.when(wrong).then(1).otherwise(0).alias("false_isolations"))
+    assert select_dwell(df).value == 0.3
 
 
 def _growth_rows(worse: dict[str, int], cte: dict[str, float]) -> pl.DataFrame:

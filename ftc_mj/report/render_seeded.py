@@ -20,7 +20,7 @@ from .render import (
     variant_table,
 )
 from .seeded import FAILS, HOLDS, LEVEL, RULE, UNDECIDED, SeededClaim, aggregate_table
-from .seeds import DEV_SEEDS, describe
+from .seeds import DEV_SEEDS, HELD_OUT_START, describe
 from .tuning import TUNED, TuningOutcome
 
 RESULT_ICON = {HOLDS: "✔ holds", FAILS: "✘ fails", UNDECIDED: "❔ undecided", NA: "n/a", NOT_RUN: "not run"}
@@ -128,8 +128,9 @@ def render_seeded(claims: Sequence[SeededClaim], rows_by_seed: Mapping[int, Mapp
              PLANT_NOTE + " Every check below is evaluated on each seed's runs separately (`summary.csv` has "
              "one row per run and seed) with the thresholds below.\n",
              "## Verdict rule\n", RULE + " " + _min_pass(len(seeds)) + "\n",
-             "## Seeds\n", f"Development seeds: {', '.join(str(s) for s in DEV_SEEDS)} — every earlier study and "
-             f"single-seed look used them, and the data-tuned parameters are chosen on them. This report judges on "
+             "## Seeds\n", f"Development seeds: {', '.join(str(s) for s in DEV_SEEDS)} — the single-seed looks at "
+             f"the matrix and the studies that shaped the loop used them, and the data-tuned parameters are chosen on "
+             f"them. Held-out seeds: {HELD_OUT_START} and up, used by no study file. This report judges on "
              f"{describe(seeds)}.\n"]
     for src, lines in changes or []:
         parts += [f"## What changed against `{src}`\n",

@@ -63,6 +63,13 @@ def _bool_list(df: pl.DataFrame, col: str) -> list[bool | None]:
     return [None if v is None else bool(v) for v in df[col].to_list()] if col in df.columns else [None] * df.height
 
 
+def _counts(df: pl.DataFrame, col: str) -> list[int]:
+    """A count column as ints (0 where missing: runs without a fault onset, or metrics without it)."""
+    if col not in df.columns:
+        return [0] * df.height
+    return [int(v) if v is not None else 0 for v in df[col].to_list()]
+
+
 def _floats(df: pl.DataFrame, col: str) -> list[float]:
     if col not in df.columns:
         return []
@@ -70,9 +77,10 @@ def _floats(df: pl.DataFrame, col: str) -> list[float]:
 
 
 # ------------------------------------------------------------------------------------- dwell
-DWELL_RULE = ("the smallest dwell with no false alarm in any development run (a declaration before the first "
-              "onset, any declaration in scenario 1; a failed run counts as one); if every dwell has one, the one "
-              "with the fewest, the smaller on ties")
+DWELL_RULE = ("the smallest dwell with no false alarm and no false isolation in any development run (a false "
+              "alarm: a declaration before the first onset, any declaration in scenario 1; a false isolation: a "
+              "declaration after an onset naming a wheel that is not punctured; a failed run counts as one); if "
+              "every dwell has some, the one with the fewest such runs, the smaller on ties")
 
 
 def select_dwell(df: pl.DataFrame) -> Selection:
@@ -82,19 +90,23 @@ def select_dwell(df: pl.DataFrame) -> Selection:
         part = df.filter(pl.col("dwell") == d)
         fa = [bool(f) or s != "ok" for f, s in zip(_bool_list(part, "false_alarm"), part["status"].to_list(),
                                                         strict=True)]
+        fi = [bool(v) for v in _counts(part, "false_isolations")]
+        bad = [a or b for a, b in zip(fa, fi, strict=True)]
         faulty = part.filter(_ok(part) & (pl.col("fault") != "s1"))
         missed = rate_ci([v for v in _bool_list(faulty, "missed_detection") if v is not None])
         safe_cte = mean_ci(_floats(faulty.filter(pl.col("setup") == "ukf-safe-yaw"), "cross_track_max_recovered"))
         table.append({"dwell [s]": d, "runs": part.height, "false alarms": f"{sum(fa)}/{len(fa)}",
-                      "false-alarm rate [95 % CI]": rate_ci(fa).fmt(pct=True),
+                      "runs with false isolations": f"{sum(fi)}/{len(fi)}",
+                      "false alarm or isolation [95 % CI]": rate_ci(bad).fmt(pct=True),
                       "detection delay [s]": mean_ci(_floats(faulty, "detection_delay")).fmt(),
                       "missed detections": missed.fmt(pct=True),
                       "safe: max |cte| from onset + 5 s [m]": safe_cte.fmt()})
-        scored.append((sum(fa), d))
+        scored.append((sum(bad), d))
     if not scored:
         return Selection(None, table, "no runs")
-    n_fa, best = min(scored)
-    why = "no false alarm" if n_fa == 0 else f"no dwell without false alarms; {n_fa} with this one"
+    n_bad, best = min(scored)
+    why = ("no false alarm or isolation" if n_bad == 0 else
+           f"no dwell without false alarms or isolations; {n_bad} runs with this one")
     return Selection(best, table, why)
 
 

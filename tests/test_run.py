@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow.parquet as pq
+import pytest
 from typer.testing import CliRunner
 
 from ftc_mj.cli import app
@@ -73,15 +74,77 @@ def test_imm_run_has_mode_columns() -> None:
 
 
 def test_killed_run_leaves_no_output_under_final_name(tmp_path: Path) -> None:
+    """Kill the run inside its write window: as soon as the output folder gets its first entry (the
+    temporary directory, or — if the writes were not atomic — the run directory itself), while the
+    files are being written. Nothing may be visible under a final name. (Replacing ``atomic_dir`` by a
+    plain directory makes this test fail: the half-written run directory is left behind.)"""
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    proc = subprocess.Popen([sys.executable, "-m", "ftc_mj.cli", "run", "scenario2", "--duration", "40",
+    proc = subprocess.Popen([sys.executable, "-m", "ftc_mj.cli", "run", "scenario2", "--duration", "10",
                              "--out", str(tmp_path), "-q"], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
-    time.sleep(1.5)
+    deadline = time.monotonic() + 120.0
+    entries: list[Path] = []
+    while not entries and proc.poll() is None and time.monotonic() < deadline:
+        entries = list(tmp_path.iterdir())
+        time.sleep(0.001)
+    alive = proc.poll() is None
     proc.send_signal(signal.SIGKILL)
     proc.wait()
-    visible = [p for p in tmp_path.iterdir() if not p.name.startswith(".")] if tmp_path.exists() else []
+    assert alive and entries, "the run ended (or timed out) before its write window was seen"
+    visible = [p for p in tmp_path.iterdir() if not p.name.startswith(".")]
     assert visible == []
+    assert [p.name.endswith(".partial") for p in tmp_path.iterdir()] == [True]  # killed inside the window
+
+
+def _raise_type_error(self, *args, **kwargs):
+    raise TypeError("unsupported operand type(s) for +: 'NoneType' and 'float'")
+
+
+def test_a_component_exception_fails_the_run_and_is_recorded(tmp_path: Path, monkeypatch) -> None:
+    """A ``TypeError`` inside the NMPC's solve is a bug, not a solver failure: the run fails (exit 1)
+    with the error and where it was raised in ``metrics.json``, and no fallback is counted."""
+    from ftc_mj.control.nmpc import NMPC
+    from ftc_mj.sim.loop import STRICT_ENV
+
+    monkeypatch.setenv(STRICT_ENV, "0")
+    monkeypatch.setattr(NMPC, "_solve", _raise_type_error)
+    res = CliRunner().invoke(app, ["run", "scenario2", "--duration", "1", "--no-rrd", "--out", str(tmp_path), "-q"])
+    assert res.exit_code == 1 and "TypeError" in res.stderr
+    (run_dir,) = list(tmp_path.iterdir())
+    m = json.loads((run_dir / "metrics.json").read_text())
+    assert m["status"] == "failed" and m["error"].startswith("TypeError: unsupported operand")
+    assert "_raise_type_error" in m["error_where"]
+    assert m["exceptions"] == 1 and m["solver_failures"] == 0
+    assert pq.read_table(run_dir / "trace.parquet").num_rows == 0  # failed at the first control sample
+    # strict mode (the suite's default) re-raises instead of recording
+    monkeypatch.setenv(STRICT_ENV, "1")
+    with pytest.raises(TypeError, match="unsupported operand"):
+        execute(load_config("scenario2", {"duration": 1.0}))
+
+
+def test_solver_errors_still_become_fallbacks(monkeypatch) -> None:
+    """An error raised by CasADi inside a solve is a solver failure: the controller falls back to its
+    plan, the run goes on and counts it; a plain ``RuntimeError`` of our own code fails the run."""
+    import casadi as ca
+
+    from ftc_mj.control.nmpc import NMPC
+
+    def casadi_error(self, t, pose, radii, t_start):
+        ca.DM.ones(2, 3) @ ca.DM.ones(2, 3)  # dimension mismatch: CasADi raises RuntimeError
+        raise AssertionError("unreachable")
+
+    monkeypatch.setattr(NMPC, "_solve", casadi_error)
+    out = execute(load_config("scenario2", {"duration": 1.0}))
+    assert out.metrics["status"] == "ok" and out.metrics["exceptions"] == 0
+    assert out.metrics["solver_failures"] == 10  # every sample of 1 s at 10 Hz
+    assert all(s.status.startswith("fallback: solver error: RuntimeError") for s in out.result.solves)
+
+    def own_error(self, t, pose, radii, t_start):
+        raise RuntimeError("a bug of ours")
+
+    monkeypatch.setattr(NMPC, "_solve", own_error)
+    with pytest.raises(RuntimeError, match="a bug of ours"):
+        execute(load_config("scenario2", {"duration": 1.0}))
 
 
 def test_view_bad_run_dir(tmp_path: Path) -> None:

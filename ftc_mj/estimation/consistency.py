@@ -116,12 +116,15 @@ def autocorrelation_time(x: np.ndarray) -> float:
         ``τ ≥ 1`` (steps): the average of ``n`` steps has the variance of ``n / τ`` independent ones.
         The autocorrelation ``ρ`` is pooled over the runs about the overall mean; ``M`` is Sokal's
         window (:data:`SOKAL_WINDOW`), capped at the run length. ``τ`` is never below 1 (a negatively
-        correlated sequence is not credited with more samples than it has). NaN without data.
+        correlated sequence is not credited with more samples than it has); 1 for a constant
+        statistic; NaN with fewer than two values.
     """
     a = np.atleast_2d(np.asarray(x, dtype=float))
     mask = np.isfinite(a)
     if mask.sum() < 2:
         return float("nan")
+    if np.ptp(a[mask]) == 0.0:
+        return 1.0  # a constant statistic: nothing correlates (and round-off must not pretend it does)
     z = np.where(mask, a - a[mask].mean(), 0.0)
     m = mask.astype(float)
     K = a.shape[1]
@@ -130,8 +133,6 @@ def autocorrelation_time(x: np.ndarray) -> float:
     cm = np.fft.irfft(np.abs(np.fft.rfft(m, nfft, axis=1)) ** 2, nfft, axis=1)[:, :K].sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         acov = np.where(cm > 0.5, cz / np.maximum(cm, 1.0), 0.0)
-    if not acov[0] > 0.0:
-        return 1.0  # a constant statistic: no correlation to speak of
     rho = acov / acov[0]
     tau_m = 1.0 + 2.0 * np.cumsum(rho[1:])
     lags = np.arange(1, K)

@@ -16,6 +16,7 @@ from ftc_mj.estimation.consistency import (
     anees_per_step,
     anis,
     autocorrelation_time,
+    combine,
     nees,
     nis,
 )
@@ -201,3 +202,21 @@ def test_mistuned_filter_is_not_consistent(kind: str, case: str, in_model_data) 
     assert not a.inside and not r.inside
     if case.startswith("Q"):
         assert not f.inside
+
+
+def test_combining_runs_equals_pooling_them() -> None:
+    """Pooling runs one by one (:func:`combine` of per-run tests) gives the all-runs average, the summed
+    effective samples, and bounds no wider than for the runs' own number of samples."""
+    rng = np.random.default_rng(5)
+    x = _ar1_chi2(rng, 8, 400, 0.5)
+    per_run = [anees(row, 2) for row in x]
+    c = combine(per_run)
+    assert c.value == pytest.approx(x.mean(), rel=1e-12) and c.samples == 3200
+    assert c.n_eff == pytest.approx(sum(r.n_eff for r in per_run))
+    lo, hi = anees_bounds(c.n_eff, 2)
+    assert (c.lo, c.hi) == pytest.approx((float(lo), float(hi)), rel=1e-12)
+    dims = np.where(np.arange(400) % 50 == 0, 3, 1)
+    v = rng.chisquare(dims, size=(8, 400))
+    cn = combine([anis(row, dims) for row in v], per_dof=True)
+    assert cn.value == pytest.approx(v.sum() / (8 * dims.sum()), rel=1e-12)
+    assert cn.inside and combine([]).samples == 0

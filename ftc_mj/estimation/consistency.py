@@ -20,7 +20,8 @@ average lies, with probability ``1 - alpha``, in ``[χ²_{n·dof}(alpha/2), χ²
 
 * :func:`anees_per_step` — Bar-Shalom's Monte-Carlo test: at each time step, the average over the
   runs (independent by construction), ``n`` = number of runs;
-* :func:`anees` and :func:`anis` — one average over all runs *and* time steps. Successive NEES
+* :func:`anees` and :func:`anis` — one average over all runs *and* time steps (or over one run's
+  steps, pooled over runs afterwards by :func:`combine`). Successive NEES
   values are correlated (a radius error persists), so the steps are not independent samples: the
   number of samples is the effective ``n_eff = n_steps / τ``, with ``τ`` the integrated
   autocorrelation time of the statistic (:func:`autocorrelation_time`, pooled over the runs), and
@@ -32,6 +33,7 @@ average lies, with probability ``1 - alpha``, in ``[χ²_{n·dof}(alpha/2), χ²
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -235,6 +237,38 @@ def anis(nis_values: np.ndarray, dims: np.ndarray, alpha: float = 0.05) -> ChiSq
     s = np.atleast_2d(np.asarray(nis_values, dtype=float))
     d = np.broadcast_to(np.atleast_2d(np.asarray(dims, dtype=float)), s.shape)
     return _pooled(s, d, alpha, per_dof=True)
+
+
+def combine(tests: Sequence[ChiSquareTest], alpha: float = 0.05, *, per_dof: bool = False) -> ChiSquareTest:
+    """Pool the averages of independent runs into one, with χ² bounds for their summed samples.
+
+    Parameters
+    ----------
+    tests : sequence of ChiSquareTest
+        One per run (from :func:`anees`, or :func:`anis` with ``per_dof``); empty ones are skipped.
+    alpha : float
+        Two-sided significance level of the pooled bounds.
+    per_dof : bool
+        The values are averages per degree of freedom (:func:`anis`), else plain means (:func:`anees`).
+
+    Returns
+    -------
+    ChiSquareTest
+        The average over all samples of all runs (weights ``samples · dof``); independent runs add
+        their effective samples, so the bounds are those of χ² with ``Σ n_eff · dof`` degrees of freedom.
+    """
+    ts = [x for x in tests if x.samples > 0 and math.isfinite(x.value) and math.isfinite(x.n_eff)]
+    if not ts:
+        return _EMPTY
+    samples = sum(x.samples for x in ts)
+    total_dof = sum(x.samples * x.dof for x in ts)
+    total = sum(x.value * x.samples * (x.dof if per_dof else 1.0) for x in ts)
+    n_eff = sum(x.n_eff for x in ts)
+    lo, hi = chi2_average_bounds(sum(x.n_eff * x.dof for x in ts), alpha)
+    mean_dof = total_dof / samples
+    scale = 1.0 if per_dof else mean_dof
+    value = total / total_dof if per_dof else total / samples
+    return ChiSquareTest(value, float(lo) * scale, float(hi) * scale, n_eff, samples, samples / n_eff, mean_dof)
 
 
 def anees_per_step(eps: np.ndarray, dof: int, alpha: float = 0.05) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

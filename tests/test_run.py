@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 
 from ftc_mj.cli import app
 from ftc_mj.config import load_config, read_toml, validate_config
+from ftc_mj.estimation.consistency import nees
 from ftc_mj.sim import cache
 from ftc_mj.sim.run import execute
 
@@ -41,6 +42,40 @@ def test_cli_run_writes_all_outputs(tmp_path: Path) -> None:
                 "omega_at_limit_fraction", "solve_time_ms", "solver_failures", "wall_time_s", "realtime_factor"):
         assert key in metrics
     assert set(metrics["solve_time_ms"]) == {"median", "p95", "max"}
+    # consistency with χ² bounds, recomputable from the trace alone (full 2x2 radius covariance)
+    for key in ("radius_nees", "nees", "nis"):
+        assert set(metrics[f"{key}_test"]) == {"lo", "hi", "n_eff", "samples", "tau", "dof"}
+        assert metrics[f"{key}_test"]["lo"] < metrics[f"{key}_test"]["hi"]
+    cols = trace.to_pydict()
+    e = np.stack([np.asarray(cols["R_R_hat"]) - cols["R_R"], np.asarray(cols["R_L_hat"]) - cols["R_L"]], axis=1)
+    sR, sL, c = (np.asarray(cols[k]) for k in ("R_R_std", "R_L_std", "R_RL_cov"))
+    P = np.stack([np.stack([sR**2, c], axis=1), np.stack([c, sL**2], axis=1)], axis=1)
+    assert np.nanmean(nees(e, P)) == pytest.approx(metrics["radius_nees_mean"], rel=1e-9)
+    assert metrics["exceptions"] == 0 and metrics["error"] is None
+    # the scenario's puncture at 10 s lies after the end of this 2 s run
+    assert metrics["onsets"] == [{"wheel": "left", "time": 10.0, "status": "after end"}]
+    assert metrics["missed_detection"] is None
+
+
+def test_cli_says_a_fault_after_the_end_is_neither_detected_nor_missed(tmp_path: Path) -> None:
+    res = CliRunner().invoke(app, ["run", "scenario2", "--duration", "1", "--no-rrd", "--out", str(tmp_path),
+                                   "--controller", "open-loop"])
+    assert res.exit_code == 0, res.output
+    text = " ".join(res.output.split())
+    assert "fault onset: left at t = 10 s: after the end of the run (1 s), neither detected nor missed" in text
+
+
+def test_scenario3_run_reports_both_onsets() -> None:
+    out = execute(load_config("scenario3", {"duration": 12.0, "plant.kind": "kinematic",
+                                            "sensors.yaw_rate_sigma": 0.01}))
+    m = out.metrics
+    assert [(e["wheel"], e["time"], e["status"]) for e in m["onsets"]] == [("left", 5.0, "in run"),
+                                                                         ("right", 10.0, "in run")]
+    print({k: [e[k] for e in m["onsets"]] for k in ("detection_delay", "time_to_correct_isolation",
+                                                     "false_isolations", "declared_at_onset")})
+    for e in m["onsets"]:
+        assert {"detection_delay", "time_to_correct_isolation", "false_isolations", "missed_detection"} <= set(e)
+    assert m["detection_delay"] == m["onsets"][0]["detection_delay"]
 
 
 def test_second_run_never_overwrites(tmp_path: Path) -> None:

@@ -167,6 +167,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
     last_resets = 0
     last_ds = None
     detected_before = False
+    anomaly_before = False
     suspected = False
     reset_since_solve = False
     flags_seen = 0
@@ -222,6 +223,10 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
                     events.append(Event(t, "warn", f"fault declared: {ds.wheel} wheel, severity "
                                                    f"R {ds.severity_R:.0%} / L {ds.severity_L:.0%}"))
                 detected_before = ds.detected
+                if ds.anomaly and not anomaly_before:
+                    events.append(Event(t, "warn", "radius anomaly: an estimate lies above nominal "
+                                                   "(not a puncture, not declared)"))
+                anomaly_before = ds.anomaly
                 resets = estimator.resets
                 if resets != last_resets:
                     reset_since_solve = True

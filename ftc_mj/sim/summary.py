@@ -58,6 +58,6 @@ def print_run_summary(outcome: RunOutcome) -> None:
     console = Console()
     console.print(table)
     for line in onset_lines(m):
-        console.print(line)
+        console.print(line, soft_wrap=True)
     if outcome.run_dir is not None:
         console.print(f"written: {outcome.run_dir}")

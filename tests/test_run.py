@@ -174,6 +174,14 @@ def test_solver_errors_still_become_fallbacks(monkeypatch) -> None:
     assert out.metrics["solver_failures"] == 10  # every sample of 1 s at 10 Hz
     assert all(s.status.startswith("fallback: solver error: RuntimeError") for s in out.result.solves)
 
+    def lapack_error(self, t, pose, radii, t_start):
+        np.linalg.cholesky(-np.eye(2))  # LinAlgError: not positive definite
+
+    monkeypatch.setattr(NMPC, "_solve", lapack_error)
+    out = execute(load_config("scenario2", {"duration": 0.5}))
+    assert out.metrics["status"] == "ok" and out.metrics["solver_failures"] == 5
+    assert out.result.solves[0].status.startswith("fallback: solver error: LinAlgError")
+
     def own_error(self, t, pose, radii, t_start):
         raise RuntimeError("a bug of ours")
 

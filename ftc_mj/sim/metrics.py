@@ -19,9 +19,10 @@ Consistency (:mod:`ftc_mj.estimation.consistency`, Bar-Shalom §5.4), averaged o
     of tens to hundreds of steps), so one run is few samples; pool runs with
     :func:`~ftc_mj.estimation.consistency.combine`.
 Fault decision (runs with an estimator; the trace's ``fault_detected`` and ``declared_wheel``)
-    A wheel is faulty from its scheduled onset (:func:`fault_onsets`) on. An onset at or after the
-    end of the run is *after the end*: listed in ``onsets`` with ``status = "after end"`` and
-    neither detected nor missed. Onsets at the same time form one onset (wheel ``both``).
+    A wheel is faulty from its scheduled onset (:func:`fault_onsets`) on. An onset after the run's
+    last step is *after the end*: listed in ``onsets`` with ``status = "after end"`` and neither
+    detected nor missed (it counts for no other key either). Onsets at the same time form one
+    onset (wheel ``both``).
     ``onsets``: one dict per onset, in time order, with ``wheel``, ``time``, ``status`` (``in run`` /
     ``after end``) and, for onsets in the run, over its *window* (from the onset to the next onset or
     the end of the run):
@@ -50,10 +51,40 @@ Fault decision (runs with an estimator; the trace's ``fault_detected`` and ``dec
     a fault); ``first_declaration_time`` (any declaration, None if none); ``declarations`` (count
     of declarations); ``radius_anomaly_s``: time a radius estimate spent above nominal beyond the
     decision's thresholds (not a puncture, never declared).
+    ``severity_R/L`` (fractional radius loss 0..1 of the last decision) are added by
+    :func:`~ftc_mj.sim.run.run_metrics`. Without an estimator only ``onsets`` (no detection keys).
+Tracking (m, the cross-track error is positive left of the path)
+    ``cross_track_rms``, ``cross_track_max`` (of |error|), ``cross_track_final`` over the whole run;
+    ``*_settled`` from ``settle_time`` (5 s) on; ``cross_track_rms_after_fault``,
+    ``cross_track_max_after_fault`` from the first onset in the run, ``cross_track_max_recovered``
+    from :data:`RECOVERY_S` after it (NaN if the run ends before; all three absent without a fault).
+Actuation
+    ``omega_at_limit_fraction`` (fraction of steps with a wheel-rate command within
+    :data:`LIMIT_TOL` of ``omega_max``) and ``omega_at_limit_s`` (s); ``command_total_variation_per_s``
+    (Σ |Δ command| of both wheels per second of run, rad/s²: the chatter metric).
+Solver
+    ``solve_time_ms`` {``median``, ``p95``, ``max``} (wall clock, ms; NaN without solves);
+    ``solves_over_period`` (solves longer than the control period); ``solver_iterations_median``;
+    ``solver_failures``: solver fallbacks (failed, over-budget or erroring solves, non-finite
+    inputs), which do not end a run.
+Plant (the MuJoCo plant's flags of leaving the kinematic model's domain)
+    ``plant_out_of_domain_fraction`` (fraction of steps with a flag), ``plant_flags`` (bit set of
+    all flags seen), ``tipped``, ``liftoff_time_s`` (s with a wheel off the ground),
+    ``liftoff_time_post_transient_s`` (the same without the :data:`FAULT_TRANSIENT_S` after each
+    onset), ``max_abs_roll_deg`` (°), ``max_abs_slip`` (largest |longitudinal slip speed| of a tyre, m/s).
+Reconfiguration (trace ``reconfig_state``)
+    ``reconfig_handovers``, ``reconfig_holds``, ``reconfig_reverts`` (entries into each state),
+    ``reconfig_first_handover_time`` (s, None if none), ``reconfig_handover_delay`` (from the first
+    onset, s; None without a fault, a hand-over, or for a hand-over before the fault),
+    ``reconfig_handed_fraction`` (fraction of steps handed over).
 Failures
     ``exceptions``: exceptions of a component that ended the run (0 or 1; the run's ``status`` is
-    then ``failed`` and ``error`` says why) — counted apart from ``solver_failures`` (solver
-    fallbacks: failed, over-budget or erroring solves, non-finite inputs), which do not end a run.
+    then ``failed`` and ``error``/``error_where`` say what and where, added by
+    :func:`~ftc_mj.sim.run.run_metrics`) — counted apart from ``solver_failures``.
+Run
+    ``sim_time_s`` (simulated time, s); :func:`~ftc_mj.sim.run.run_metrics` adds the run's identity
+    (``run_id``, ``scenario``, ``estimator``, ``controller``, ``policy``, ``sensing``, ``seed``, …),
+    ``status``, ``wall_time_s`` and ``realtime_factor``.
 """
 
 from __future__ import annotations

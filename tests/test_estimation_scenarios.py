@@ -171,7 +171,7 @@ def test_speed_only_identifiability() -> None:
         assert v_err < 0.25
         # the other direction is a random walk driven by Q (0.02 m per step and radius): lost
         assert d_err > 10 * v_err and max(rr_err, rl_err) > 0.3
-    # UKF and EKF agree (the radii enter linearly; BASELINES §1)
+    # UKF and EKF agree: the radii enter the speed linearly, so the EKF linearisation is exact there
     np.testing.assert_allclose(results["UKF"], results["EKF"], rtol=1e-6)
     # the hypothesis IMM still isolates the left wheel from speed alone here, because after the
     # puncture the wheel rates are strongly asymmetric (ω_L ≈ 2 ω_R) and the 50 % right / 50 % left

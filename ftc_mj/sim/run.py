@@ -1,4 +1,4 @@
-"""One run from a resolved config to its output directory (DESIGN §6).
+"""One run from a resolved config to its output directory.
 
 ``DIR/<run-id>/`` receives ``config.toml`` (fully resolved), ``trace.parquet``, ``metrics.json`` and
 ``run.rrd``. The directory is assembled under a temporary name and renamed into place at the end,

@@ -111,8 +111,8 @@ def _run_state(rows: Rows, label: str) -> str:
 
 
 def onset_after_end(row: Mapping[str, Any] | None) -> bool:
-    """A fault onset of the run's schedule lies at or after the end of the run (``onsets_after_end``
-    of :func:`~ftc_mj.report.derived.derived_metrics`)."""
+    """A fault onset of the run's schedule lies after the run's last step (``onsets_after_end`` of
+    :func:`~ftc_mj.report.derived.derived_metrics`; the ``after end`` onsets of ``metrics.json``)."""
     v = num(row, "onsets_after_end")
     return v is not None and v > 0
 

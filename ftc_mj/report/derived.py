@@ -176,8 +176,8 @@ def derived_metrics(trace: Mapping[str, Any], scenario: str, onsets: Mapping[str
         return m
     on_R, on_L = onsets.get("right"), onsets.get("left")
     ons = sorted({o for o in (on_R, on_L) if o is not None})
-    m["onsets_after_end"] = sum(1 for o in ons if o >= float(t[-1]))
-    ons = [o for o in ons if o < float(t[-1])]
+    m["onsets_after_end"] = sum(1 for o in ons if o > float(t[-1]))  # as the run metrics' "after end"
+    ons = [o for o in ons if o <= float(t[-1])]
     m["onsets_in_run"] = len(ons)
     t_on = ons[0] if ons else None
     # ---------------------------------------------------------------- radius estimates

@@ -105,8 +105,9 @@ class PlanController:
         t_start = time.perf_counter()
         self.solves += 1
         self._u_applied = None if u_applied is None else np.asarray(u_applied, dtype=float).copy()
-        self._u_prev = self._u_applied if self.spec.rate_bound_from_applied else None
-        self._box = first_input_bounds(self.spec, self._u_prev)
+        anchor = self._u_applied if self.spec.rate_bound_from_applied else None
+        self._box = first_input_bounds(self.spec, anchor)  # raises for a non-finite anchor
+        self._u_prev = None if anchor is None else np.clip(anchor, -self.spec.omega_max, self.spec.omega_max)
         try:
             out = self._solve(t, pose, radii, t_start)
         except Exception as exc:  # noqa: BLE001 - a solve must never stop the loop
@@ -340,8 +341,10 @@ class NMPC(PlanController):
 class OptiNMPC:
     """The same NLP written plainly with ``casadi.Opti`` + IPOPT (verification and benchmark only).
 
-    ``solve(x0, radii, ref, X_init, U_init)`` returns ``(X (N,3), U (N,2), iterations)``;
-    primal and dual warm start from the previous call.
+    ``solve(x0, radii, ref, X_init, U_init, u_prev=None)`` returns ``(X (N,3), U (N,2), iterations)``;
+    ``u_prev`` (rad/s) is the input in force before ``t0`` (first-step bound and penalty, written here
+    as a bounded constraint on ``U(t0)`` and a plain penalty term); primal and dual warm start from
+    the previous call.
     """
 
     def __init__(self, spec: ProblemSpec) -> None:
@@ -354,6 +357,7 @@ class OptiNMPC:
         x0 = opti.parameter(3)
         r = opti.parameter(2)
         ref = opti.parameter(5, N)
+        u_prev, lo, hi, on = opti.parameter(2), opti.parameter(2), opti.parameter(2), opti.parameter()
         D = ca.DM(col.D)
         f = col.model.casadi_derivative()
         rates = col.model.casadi_rates()
@@ -371,15 +375,34 @@ class OptiNMPC:
         opti.subject_to(opti.bounded(-spec.omega_max, U, spec.omega_max))
         rate = spec.omega_rate_max * h
         opti.subject_to(opti.bounded(-rate, ca.mtimes(U, D.T), rate))
+        opti.subject_to(opti.bounded(lo, U[:, 0], hi))
+        if spec.rate_penalty > 0:  # rate_penalty T_s |(U(t0) - u_prev)/T_s|^2 (on = 0 without u_prev)
+            Ts = spec.sample_time
+            J += on * spec.rate_penalty * Ts * ca.sumsqr((U[:, 0] - u_prev) / Ts)
         opti.minimize(J)
         opti.solver("ipopt", {"print_time": False, "expand": True},
                     {"print_level": 0, "sb": "yes", "tol": 1e-8, "warm_start_init_point": "yes", "mu_init": 1e-4})
         self.opti, self.X, self.U, self.x0, self.r, self.ref = opti, X, U, x0, r, ref
+        self._first = (u_prev, lo, hi, on)
+        self.spec = spec
         self._lam = None
 
-    def solve(self, x0: np.ndarray, radii: np.ndarray, ref: np.ndarray, X_init: np.ndarray, U_init: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray, int]:
+    def solve(self, x0: np.ndarray, radii: np.ndarray, ref: np.ndarray, X_init: np.ndarray, U_init: np.ndarray,
+              u_prev: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
         o = self.opti
+        u_p, lo, hi, on = self._first
+        om, step = self.spec.omega_max, self.spec.omega_rate_max * self.spec.sample_time
+        if u_prev is None:
+            o.set_value(u_p, np.zeros(2))
+            o.set_value(on, 0.0)
+            o.set_value(lo, np.full(2, -om))
+            o.set_value(hi, np.full(2, om))
+        else:
+            ua = np.clip(u_prev, -om, om)
+            o.set_value(u_p, ua)
+            o.set_value(on, 1.0)
+            o.set_value(lo, np.maximum(ua - step, -om))
+            o.set_value(hi, np.minimum(ua + step, om))
         o.set_value(self.x0, x0)
         o.set_value(self.r, radii)
         o.set_value(self.ref, ref)

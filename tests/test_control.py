@@ -396,7 +396,8 @@ def test_certified_qp_equals_plugin_on_saturated_loop(case: str) -> None:
     """The certified active-set path and the CasADi daqp plugin give the same QP solutions (and the
     same infeasibility verdicts) on QPs recorded from loops that saturate the wheels: the model is
     told the wrong radii, so the plan keeps hitting the rate and wheel-rate bounds (up to ~97 of the
-    100 inputs' constraints active)."""
+    100 inputs' constraints active), and the first-step bound from the command in force (the two
+    first inputs' box, tightened to ±2 rad/s about it) is active in most of them."""
     spec = {"lateral": ProblemSpec(max_lateral_accel=1.5),
             "longitudinal": ProblemSpec(max_longitudinal_accel=1.0)}.get(case, ProblemSpec())
     if case == "wrong-radii":
@@ -405,8 +406,8 @@ def test_certified_qp_equals_plugin_on_saturated_loop(case: str) -> None:
         ctl, rec = _record_qps(spec, lambda t: (1.0, 2.0), lambda t: (2.0, 1.0))
     qp = ctl._qp
     qp.reset()
-    n = qp.nu
-    errs, n_active, verdicts = [], [], []
+    n, N = qp.nu, qp.col.N
+    errs, n_active, verdicts, first_active = [], [], [], 0
     for H, g, E, e, Lv, ll, lu, Lo, lbx, ubx in rec:
         u_ref, _, _, _ = qp._qpfun(H, g, E, e, Lv, ll, lu, Lo, lbx, ubx, np.zeros(n), np.zeros(n),
                                    np.zeros(qp._lam_a.size))
@@ -445,12 +446,15 @@ def test_certified_qp_equals_plugin_on_saturated_loop(case: str) -> None:
         assert cost >= cost_ref - 1e-6 * (1 + abs(cost_ref))  # nor better than tolerance allows
         errs.append(np.abs(u - u_ref).max())
         n_active.append(int(np.count_nonzero(qp._ws)))
+        tight = (lbx[[0, N]] > -qp.omega_max) & (ubx[[0, N]] < qp.omega_max)
+        first_active += bool(np.any(tight & (qp._ws[[0, N]] != 0)))
     errs_a = np.array(errs)
     counts = {v: verdicts.count(v) for v in set(verdicts)}
     print(f"\n[ctl] certified vs plugin QP ({case}): {len(rec)} QPs {counts}; active bounds/rows median "
-          f"{np.median(n_active):.0f} max {max(n_active)}; max|du| median {np.median(errs_a):.1e} "
-          f"max {errs_a.max():.1e} rad/s")
+          f"{np.median(n_active):.0f} max {max(n_active)}; first-step bound active in {first_active}; "
+          f"max|du| median {np.median(errs_a):.1e} max {errs_a.max():.1e} rad/s")
     assert counts.get("optimal", 0) >= 0.85 * len(rec)
+    assert first_active >= 0.5 * len(errs)
     assert max(n_active) >= (80 if case in ("swapped", "wrong-radii") else 20)
     assert np.median(errs_a) < 1e-8
     assert errs_a.max() < 1e-3  # ill-conditioned H (cond ~1e7): DAQP versions differ by up to ~5e-4 here

@@ -186,7 +186,12 @@ class PlanController:
                                   t_start, radii, iterations)
         om = self.spec.omega_max
         U = np.clip(U, -om, om)
-        U[0] = np.clip(U[0], *self._box)  # solvers meet the bound to their tolerance (~1e-7); exact here
+        lo, hi = self._box
+        tol = 1e-6 * (1.0 + om)  # solvers meet bounds to ~1e-7 (IPOPT's bound relaxation, DAQP's 1e-6)
+        if np.any(U[0] < lo - tol) or np.any(U[0] > hi + tol):
+            return self._fallback(t, f"first input outside the first-step bound ({status})", t_start, radii,
+                                  iterations)
+        U[0] = np.clip(U[0], lo, hi)  # exact within the solver's tolerance
         self._plan = (t, X.copy(), U.copy())
         self._last_radii = radii.copy()
         return ControlOutput(

@@ -172,3 +172,26 @@ def test_dithered_mujoco_run_meets_the_bound() -> None:
     steps = _steps(cmd)
     assert steps.max() <= STEP + TOL
     assert np.sum(dithered[1:] & (steps >= STEP - TOL)) >= 3
+
+
+def test_command_step_metrics() -> None:
+    """``command_step_max`` and ``command_at_rate_limit_s`` on a held (100 Hz) command trace: steps of
+    2.0 (the bound), 1.0 and 5.0 rad/s at three controller samples -> max 5.0 rad/s, two periods (0.2 s)
+    at or beyond the bound."""
+    from ftc_mj.sim.columns import BASE_COLUMNS
+    from ftc_mj.sim.metrics import compute_metrics, fault_onsets
+
+    cfg = load_config("scenario1", {"duration": 2.0})
+    n = 200
+    tr = {c: np.zeros(n) for c in BASE_COLUMNS}
+    tr["t"] = np.arange(n) * 0.01
+    for c in ("R_R", "R_L", "R_R_hat", "R_L_hat"):
+        tr[c][:] = 2.0
+    tr["innovation_std"][:] = 1.0
+    tr["solve_time_ms"][:] = np.nan
+    tr["omega_R_cmd"][50:] += 2.0
+    tr["omega_L_cmd"][100:] -= 1.0
+    tr["omega_R_cmd"][150:] += 5.0
+    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    assert m["command_step_max"] == pytest.approx(5.0)
+    assert m["command_at_rate_limit_s"] == pytest.approx(0.2)

@@ -132,6 +132,13 @@ def compute_metrics(
     dur = max(float(t[-1] - t[0]), 1e-9) if t.size > 1 else 1.0
     tv = np.nansum(np.abs(np.diff(cmdR))) + np.nansum(np.abs(np.diff(cmdL)))
     m["command_total_variation_per_s"] = float(tv / dur)
+    # command steps between controller samples (the trace holds each command): largest, and time (s) in
+    # controller periods that began with a step at (or, with the first input free, beyond) the MPC's
+    # rate bound omega_rate_max / rate
+    steps = np.fmax(np.abs(np.diff(cmdR)), np.abs(np.diff(cmdL)))
+    step_lim = cfg.controller.omega_rate_max / cfg.controller.rate
+    m["command_step_max"] = _nanstat(steps, np.max)
+    m["command_at_rate_limit_s"] = float(np.sum(steps >= step_lim * (1 - LIMIT_TOL)) / cfg.controller.rate)
     # ---------------------------------------------------------------- solver
     st = trace["solve_time_ms"]
     st = st[np.isfinite(st)]

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from ftc_mj.config import RunConfig, load_config
 from ftc_mj.control import NMPC, LinearMPC, ProblemSpec, build_reference
-from ftc_mj.control.collocation import Collocation, first_input_bounds, reference_at_nodes
+from ftc_mj.control.collocation import Collocation, first_input_bounds, first_step_penalty, reference_at_nodes
 from ftc_mj.control.excitation import dither_wheel_rates
 from ftc_mj.control.kinsim import simulate as kin_simulate
 from ftc_mj.sim.loop import simulate
@@ -44,6 +44,11 @@ def test_first_input_bounds() -> None:
     for bad in (np.array([np.nan, 0.0]), np.array([1.0, 2.0, 3.0])):
         with pytest.raises(ValueError, match="u_applied"):
             first_input_bounds(spec, bad)
+    # the step penalty rate_penalty T_s |Δ/T_s|² = (rate_penalty / T_s) |Δ|²: 1 / 0.1 s = 10 per (rad/s)²
+    u = np.array([1.0, 2.0])
+    assert first_step_penalty(ProblemSpec(rate_penalty=1.0), u) == pytest.approx(10.0)
+    assert first_step_penalty(ProblemSpec(rate_penalty=1.0, rate_penalty_first_step=False), u) == 0.0
+    assert first_step_penalty(ProblemSpec(rate_penalty=1.0), None) == 0.0 == first_step_penalty(spec, u)
     ctl = NMPC(spec, build_reference(RunConfig()), solver="rti-daqp", time_budget=None, cold_time_budget=None)
     with pytest.raises(ValueError, match="u_applied"):  # a caller's bug fails the run, it is no fallback
         ctl.solve(0.0, np.zeros(3), np.array([2.0, 2.0]), np.array([np.inf, 0.0]))

@@ -115,6 +115,7 @@ class ProblemSpec:
     max_longitudinal_accel: float | None = None  # m/s^2; None = no bound
     sample_time: float = 0.1  # s, controller period T_s (the command is held that long)
     rate_bound_from_applied: bool = True  # |U(t0) - u_prev| <= omega_rate_max T_s; False = free first input
+    rate_penalty_first_step: bool = True  # rate_penalty also covers U(t0) - u_prev (with the bound on)
 
 
 def first_input_bounds(spec: ProblemSpec, u_prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
@@ -139,8 +140,8 @@ def first_input_bounds(spec: ProblemSpec, u_prev: np.ndarray | None) -> tuple[np
 def first_step_penalty(spec: ProblemSpec, u_prev: np.ndarray | None) -> float:
     """Weight ``c`` of the first-step penalty ``c ‖U(t0) − u_prev‖²`` (rad/s)⁻² per unit cost:
     ``rate_penalty T_s ‖(U(t0) − u_prev)/T_s‖² = (rate_penalty / T_s) ‖U(t0) − u_prev‖²``; 0 without
-    ``u_prev`` or without the rate penalty."""
-    return 0.0 if u_prev is None else spec.rate_penalty / spec.sample_time
+    ``u_prev``, without the rate penalty or with ``rate_penalty_first_step`` off."""
+    return 0.0 if u_prev is None or not spec.rate_penalty_first_step else spec.rate_penalty / spec.sample_time
 
 
 class Collocation:

@@ -28,6 +28,7 @@ def problem_spec(cfg: RunConfig) -> ProblemSpec:
         max_longitudinal_accel=c.max_longitudinal_accel,
         sample_time=1.0 / c.rate,
         rate_bound_from_applied=c.rate_bound_from_applied,
+        rate_penalty_first_step=c.rate_penalty_first_step,
     )
 
 

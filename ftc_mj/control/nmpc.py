@@ -405,7 +405,7 @@ class OptiNMPC:
         else:
             ua = np.clip(u_prev, -om, om)
             o.set_value(u_p, ua)
-            o.set_value(on, 1.0)
+            o.set_value(on, 1.0 if self.spec.rate_penalty_first_step else 0.0)
             o.set_value(lo, np.maximum(ua - step, -om))
             o.set_value(hi, np.minimum(ua + step, om))
         o.set_value(self.x0, x0)

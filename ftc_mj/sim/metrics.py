@@ -167,6 +167,11 @@ def compute_metrics(
         m["reconfig_first_handover_time"] = t_hand
         m["reconfig_handover_delay"] = (None if t_hand is None or t_on_any is None or t_hand < t_on_any
                                         else t_hand - t_on_any)
+        if cfg.reconfiguration.policy in ("direct", "truth") and t_on_any is not None:
+            # radii are handed over at every controller sample: the first sample at or after the onset
+            sample = np.isfinite(trace["solve_time_ms"]) if "solve_time_ms" in trace else np.ones(st.size, bool)
+            t_next = _first((st == 2) & sample & (t >= t_on_any - 1e-9), t)
+            m["reconfig_handover_delay"] = None if t_next is None else max(t_next - t_on_any, 0.0)
         m["reconfig_handed_fraction"] = float(np.mean(st == 2))
     m["max_abs_roll_deg"] = float(np.degrees(_nanstat(np.abs(trace["roll"]), np.max)))
     m["max_abs_slip"] = _nanstat(np.abs(np.concatenate([trace["slip_R"], trace["slip_L"]])), np.max)

@@ -520,6 +520,17 @@ def _fmt_loc(loc: tuple[Any, ...]) -> str:
     return ".".join(str(p) for p in loc if not isinstance(p, int)) or "<root>"
 
 
+def shown_value(v: Any, width: int = 40) -> str:
+    """A value as the user wrote it in TOML (``true``, ``"yes"``, ``[1, 2]``), cut to ``width`` characters."""
+    if isinstance(v, bool):
+        text = "true" if v else "false"
+    elif isinstance(v, str):
+        text = '"' + v.encode("unicode_escape").decode() + '"'
+    else:
+        text = repr(v)
+    return text if len(text) <= width else text[: width - 1] + "…"
+
+
 def _one_line(err: ValidationError) -> str:
     e = err.errors()[0]
     loc = _fmt_loc(tuple(e["loc"]))
@@ -527,6 +538,8 @@ def _one_line(err: ValidationError) -> str:
     if e["type"] == "extra_forbidden":
         msg = "unknown key"
     msg = msg.removeprefix("Value error, ")
+    if e["type"] not in ("value_error", "extra_forbidden", "missing") and "input" in e:
+        msg += f", got {shown_value(e['input'])}"
     extra = f" (and {err.error_count() - 1} more)" if err.error_count() > 1 else ""
     if loc == "<root>" and ": " in msg:  # model-level checks name their field themselves
         return f"{msg}{extra}"

@@ -84,7 +84,6 @@ import os
 import shutil
 import subprocess
 import sys
-import tempfile
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -94,6 +93,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from ftc_mj.errors import BadInput, RunFailed
+from ftc_mj.io import atomic_path
 
 __all__ = [
     "Event",
@@ -447,26 +447,16 @@ def write_rrd(path: Path, trace: Mapping[str, np.ndarray], *, run_id: str, app_i
 def recording_file(path: Path, app_id: str, recording_id: str, blueprint: rrb.Blueprint
                    ) -> Iterator[rr.RecordingStream]:
     """A recording stream of its own with a file sink and ``blueprint``, writing a temporary file beside
-    ``path`` (``.<name>.<pid>.<random>.tmp``) that is renamed onto ``path`` once the stream is flushed and
-    closed; on any error the temporary is removed and nothing appears under ``path``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    tmp = Path(name)
-    rec = rr.RecordingStream(app_id, recording_id=recording_id)
-    try:
-        rec.save(tmp, default_blueprint=blueprint)
-        yield rec
-        rec.flush()
-        rec.disconnect()
-        os.replace(tmp, path)
-    except BaseException:
+    ``path`` (:func:`ftc_mj.io.atomic_path`) that is renamed onto ``path`` once the stream is flushed and
+    closed; on any error nothing appears under ``path``."""
+    with atomic_path(Path(path)) as tmp:
+        rec = rr.RecordingStream(app_id, recording_id=recording_id)
         try:
-            rec.disconnect()
+            rec.save(tmp, default_blueprint=blueprint)
+            yield rec
+            rec.flush()
         finally:
-            tmp.unlink(missing_ok=True)
-        raise
+            rec.disconnect()
 
 
 def _log_all(rec: rr.RecordingStream, trace: Mapping[str, np.ndarray], n: int, solves: list[Solve],

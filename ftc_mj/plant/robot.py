@@ -166,6 +166,11 @@ class Plant:
         self._qvel_good = np.empty(m.nv)
         self._act_good = np.empty(m.na)
         self.reset()
+        # trial steps (0.05 s, the robot settling on its tyres and caster) from the initial state on the
+        # scratch data: a model whose arena cannot hold a step's contacts and constraints fails here, as
+        # bad input, instead of in the middle of a run
+        np.copyto(self._scratch.qpos, self.data.qpos)
+        mujoco.mj_step(m, self._scratch, max(1, round(0.05 / self.dt)))
 
     # ------------------------------------------------------------------ state
     def reset(self) -> None:

@@ -433,7 +433,7 @@ def write_study_comparison(plan: StudyPlan, results: pl.DataFrame, out: Path) ->
 
 
 def _interrupted_msg(report: StudyReport, plan: StudyPlan) -> str:
-    done = report.already_done + len(report.computed)
+    done = len(StudyStore(report.out).done_keys() & {r.key for r in plan.runs})
     return (f"interrupted: {done} of {len(plan.runs)} runs persisted in {report.out}; "
             "re-run the same command to finish the rest")
 

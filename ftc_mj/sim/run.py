@@ -141,24 +141,13 @@ def check_output_root(out_root: Path | str, run_id: str, need_bytes: int = 0) ->
     if not text.strip() or "\0" in text:
         raise BadInput(f"--out: expected a folder path, got {text[:60]!r}")
     p = Path(text).absolute()
+    _check_lengths(p, run_id)
     existing = p
-    name_max, path_max = _limits(Path("/"))
-    for part in p.parts[1:]:
-        if len(os.fsencode(part)) > name_max:
-            raise BadInput(f"--out: a path component is longer than {name_max} bytes ({part[:40]}…)")
     try:
         while not existing.exists():
             existing = existing.parent
     except OSError as err:  # e.g. a folder on the way that may not be searched
         raise BadInput(f"--out: cannot use {text[:80]}: {err.strerror}") from None
-    name_max, path_max = _limits(existing)
-    temp_leaf = f".{run_id}-99.{os.getpid()}.abcdefgh.partial"
-    if len(os.fsencode(temp_leaf)) > name_max:
-        raise BadInput(f"--out: the run's folder name would exceed {name_max} bytes; use a shorter name")
-    longest = p / temp_leaf / f".trace.parquet.{os.getpid()}.abcdefgh.tmp"
-    if len(os.fsencode(str(longest))) >= path_max:
-        raise BadInput(f"--out: the path is too long ({len(os.fsencode(str(p)))} bytes; the run's files need "
-                       f"under {path_max - len(os.fsencode(str(longest))) + len(os.fsencode(str(p)))})")
     if not existing.is_dir():
         raise BadInput(f"--out: {existing} is a file, not a folder")
     try:
@@ -170,6 +159,21 @@ def check_output_root(out_root: Path | str, run_id: str, need_bytes: int = 0) ->
     free = shutil.disk_usage(existing).free
     if free < need_bytes:
         raise BadInput(f"--out: {free / 1e6:.1f} MB free in {existing}; the run needs about {need_bytes / 1e6:.1f} MB")
+
+
+def _check_lengths(p: Path, run_id: str) -> None:
+    """Path components and the longest path a run writes (its temporaries) within NAME_MAX/PATH_MAX."""
+    name_max, path_max = _limits(Path("/"))
+    for part in p.parts[1:]:
+        if len(os.fsencode(part)) > name_max:
+            raise BadInput(f"--out: a path component is longer than {name_max} bytes ({part[:40]}…)")
+    temp_leaf = f".{run_id}-99.{os.getpid()}.abcdefgh.partial"
+    if len(os.fsencode(temp_leaf)) > name_max:
+        raise BadInput(f"--out: the run's folder name would exceed {name_max} bytes; use a shorter name")
+    extra = len(os.fsencode(f"/{temp_leaf}/.trace.parquet.{os.getpid()}.abcdefgh.tmp"))
+    if len(os.fsencode(str(p))) + extra >= path_max:
+        raise BadInput(f"--out: the path is too long ({len(os.fsencode(str(p)))} bytes; the run's files need it "
+                       f"under {path_max - extra})")
 
 
 def execute(

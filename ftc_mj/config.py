@@ -62,9 +62,14 @@ def ranged(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False
     return Annotated[float, Strict(), AfterValidator(check)]
 
 
+def _plain_int(v: Any) -> Any:
+    """A numpy integer as a Python int (callers computing seeds or sizes with numpy); anything else as is."""
+    return int(v) if hasattr(v, "dtype") and getattr(v.dtype, "kind", "") in "iu" and v.shape == () else v
+
+
 def ranged_int(lo: int, hi: int) -> Any:
-    """A strict integer type in ``[lo, hi]`` (a float or boolean is not an integer)."""
-    return Annotated[int, Strict(), Field(ge=lo, le=hi)]
+    """A strict integer type in ``[lo, hi]`` (a float or boolean is not an integer; a numpy integer is)."""
+    return Annotated[int, BeforeValidator(_plain_int), Strict(), Field(ge=lo, le=hi)]
 
 
 PosFloat = ranged(0.0, FLOAT_BOUND, lo_open=True)

@@ -131,6 +131,14 @@ def test_claim_comparisons(runs: list[Path], tmp_path: Path) -> None:
     assert found == [("1", ["s2-ukf-nofb-nmpc", "s2-ukf-nofb-nmpc-rp"], runs), ("2", [], [])]
     path = write_comparison(found[0][2], tmp_path / "claim-1.rrd", found[0][1])
     assert {f"/runs/{entity_token(lb)}/path" for lb in found[0][1]} <= entities(path)
+    # what ``paper --rrd compare`` does with a finished matrix: one file per claim with two or more runs
+    from types import SimpleNamespace
+
+    from ftc_mj.cli import _claim_comparisons
+
+    paths = _claim_comparisons(SimpleNamespace(claims=claims, rows=rows), tmp_path / "compare")
+    assert paths == [tmp_path / "compare" / "claim-1.rrd"]
+    assert RrdReader(str(paths[0])).recordings()[0].recording_id == "claim-1"
 
 
 def test_study_rrd_compare(tmp_path: Path) -> None:

@@ -171,6 +171,7 @@ class Plant:
         # bad input, instead of in the middle of a run
         np.copyto(self._scratch.qpos, self.data.qpos)
         mujoco.mj_step(m, self._scratch, max(1, round(0.05 / self.dt)))
+        mujoco.mj_resetData(m, self._scratch)  # the scratch data is back to what mj_setConst expects
 
     # ------------------------------------------------------------------ state
     def reset(self) -> None:

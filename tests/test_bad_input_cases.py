@@ -91,7 +91,7 @@ def test_run_names_never_leave_out(tmp_path: Path, monkeypatch: pytest.MonkeyPat
 
 # ------------------------------------------------------------------------------------------ unstable physics
 def test_blown_up_physics_is_not_success(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The issue's example: 1000 m/s on a 1 mm circle. MuJoCo's state blows up in the first steps."""
+    """1000 m/s on a 1 mm circle (reported as status ok before): MuJoCo's state blows up in the first steps."""
     monkeypatch.chdir(tmp_path)
     res = CliRunner().invoke(app, ["run", "scenario2", "--set", "reference.speed=1000", "--set",
                                    "reference.radius=0.001", "--duration", "0.3", "--out", "out", "-q"])

@@ -167,7 +167,7 @@ def cwd(inputs: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
     monkeypatch.chdir(inputs)
 
-    def sentinel(cfg: RunConfig, progress: Any = None) -> Any:
+    def sentinel(cfg: RunConfig, progress: Any = None, **kw: Any) -> Any:
         plant_for(cfg)  # model files are compiled (and rejected) here, before the first step
         raise AssertionError("bad input reached the simulation")
 

@@ -1,4 +1,4 @@
-"""One run from a resolved config to its output directory (DESIGN §6).
+"""One run from a resolved config to its output directory.
 
 ``DIR/<run-id>/`` receives ``config.toml`` (fully resolved), ``trace.parquet``, ``metrics.json`` and
 ``run.rrd``. The directory is assembled under a temporary name and renamed into place at the end,
@@ -78,6 +78,7 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "seed": cfg.seed,
         "status": "failed" if res.error else "ok",
         "error": res.error,
+        "error_where": res.error_where,
     }
     m.update(compute_metrics(cfg, res.trace, fault_onsets(cfg), res.counters))
     # the radii the controller used departed from nominal at some sample (not just: a feeding policy)
@@ -90,11 +91,8 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
                       "MuJoCo state); the plant froze there, so these metrics are not results")
     ds = res.decision
     if ds is not None:
-        m["isolated_wheel"] = getattr(ds, "wheel", None)
         m["severity_R"] = getattr(ds, "severity_R", None)
         m["severity_L"] = getattr(ds, "severity_L", None)
-        true_w = m.get("true_fault_wheel")
-        m["isolation_correct"] = (m["isolated_wheel"] == true_w) if true_w is not None else None
     m["wall_time_s"] = res.wall_time
     m["realtime_factor"] = m["sim_time_s"] / res.wall_time if res.wall_time > 0 else float("nan")
     return m
@@ -182,18 +180,21 @@ def execute(
     *,
     rrd: bool | None = None,
     progress: Callable[[float], None] | None = None,
+    strict: bool | None = None,
 ) -> RunOutcome:
     """Simulate ``cfg``; if ``out_root`` is given, write ``out_root/<run-id>/`` atomically.
 
-    ``rrd`` overrides ``cfg.output.rrd``. A failed run still writes its metrics (status ``failed``
-    and the reason) and trace up to the failure. ``out_root`` is checked before simulating
-    (:func:`check_output_root`, :class:`BadInput`); if writing fails anyway, :class:`OutputError` and
-    nothing is left (temporaries that killed runs left in ``out_root`` are removed first).
+    ``rrd`` overrides ``cfg.output.rrd``; ``strict`` is :func:`~ftc_mj.sim.loop.simulate`'s. A failed
+    run (a component raised; status ``failed``, ``error`` and ``error_where`` say what and where)
+    still writes its metrics and its trace up to the failure. ``out_root`` is checked before
+    simulating (:func:`check_output_root`, :class:`BadInput`); if writing fails anyway,
+    :class:`OutputError` and nothing is left (temporaries that killed runs left in ``out_root`` are
+    removed first).
     """
     want_rrd = cfg.output.rrd if rrd is None else rrd
     if out_root is not None:
         check_output_root(out_root, run_id_for(cfg), output_bytes(cfg, want_rrd))
-    res = simulate(cfg, progress)
+    res = simulate(cfg, progress, strict=strict)
     metrics = run_metrics(cfg, res)
     run_id = metrics["run_id"]
     if out_root is None:

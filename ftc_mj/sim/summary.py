@@ -1,6 +1,7 @@
 """The short summary table printed after a run: each metric with its unit, radii shown as truth and
-estimate at the end of the run, errors signed as estimate − truth, and a note when the ``safe``
-policy kept the nominal radii because the split between the radii was not identified."""
+estimate at the end of the run, errors signed as estimate − truth; then one line per fault onset
+(detected, missed, or after the end of the run) and a note when the ``safe`` policy kept the
+nominal radii because the split between the radii was not identified."""
 
 from __future__ import annotations
 
@@ -19,10 +20,16 @@ SUMMARY_ROWS: tuple[tuple[str, str, str], ...] = (
     ("radius_rmse_R", "R_R RMSE", "m"),
     ("radius_rmse_L", "R_L RMSE", "m"),
     ("innovation_in_2sigma", "speed innovations inside ±2σ", "fraction"),
+    ("nis_mean", "NIS per measurement dimension (mean; 1 if consistent)", ""),
+    ("radius_nees_mean", "radius NEES (mean; 2 if consistent)", ""),
     ("detection_time", "fault declared at", "s"),
     ("detection_delay", "detection delay after the onset", "s"),
+    ("time_to_correct_isolation", "correct isolation after the onset", "s"),
     ("isolated_wheel", "isolated wheel", ""),
     ("false_alarm", "false alarm", ""),
+    ("false_alarms", "false alarms", "count"),
+    ("false_isolations", "false isolations", "count"),
+    ("missed_detections", "missed detections", "count"),
     ("cross_track_rms", "cross-track RMS", "m"),
     ("cross_track_max", "cross-track max |e|", "m"),
     ("cross_track_final", "cross-track final (+ = left of the path)", "m"),
@@ -34,6 +41,7 @@ SUMMARY_ROWS: tuple[tuple[str, str, str], ...] = (
     ("tipped", "tipped over", ""),
     ("solve_time_ms", "solve time median / p95 / max", "ms"),
     ("solver_failures", "solver failures", ""),
+    ("exceptions", "exceptions in the loop", "count"),
     ("filter_resets", "filter divergence resets", ""),
     ("plant_out_of_domain_fraction", "time outside the kinematic model's domain", "fraction"),
     ("wall_time_s", "wall time", "s"),
@@ -50,6 +58,21 @@ def _fmt(v: Any) -> str:
     if isinstance(v, dict):
         return " / ".join(_fmt(x) for x in v.values())
     return str(v)
+
+
+def onset_lines(metrics: dict[str, Any]) -> list[str]:
+    """One line per fault onset: its detection and isolation, or that it lies after the end of the run."""
+    lines = []
+    for e in metrics.get("onsets") or []:
+        head = f"fault onset: {e['wheel']} at t = {e['time']:g} s"
+        if e.get("status") == "after end":
+            lines.append(f"{head}: after the end of the run ({_fmt(metrics.get('sim_time_s'))} s), "
+                         "neither detected nor missed")
+        elif "detection_time" in e:
+            lines.append(f"{head}: detection delay {_fmt(e['detection_delay'])} s, correct isolation after "
+                         f"{_fmt(e['time_to_correct_isolation'])} s, {e['false_isolations']} false isolation(s)"
+                         + (" — missed" if e["missed_detection"] else ""))
+    return lines
 
 
 def _final(trace: dict[str, np.ndarray], col: str) -> float | None:
@@ -103,6 +126,8 @@ def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None) -> No
                 table.add_row(*row)
     console = Console()
     console.print(table)
+    for line in onset_lines(m):
+        console.print(line, soft_wrap=True)
     note = nominal_hold_note(m, trace, max_sigma)
     if note:
         console.print(note)

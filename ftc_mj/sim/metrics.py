@@ -79,7 +79,8 @@ Plant (the MuJoCo plant's flags of leaving the kinematic model's domain)
 Reconfiguration (trace ``reconfig_state``)
     ``reconfig_handovers``, ``reconfig_holds``, ``reconfig_reverts`` (entries into each state),
     ``reconfig_first_handover_time`` (s, None if none), ``reconfig_handover_delay`` (from the first
-    onset, s; None without a fault, a hand-over, or for a hand-over before the fault),
+    onset, s; None without a fault, a hand-over, or for a hand-over before the fault; for ``direct`` and
+    ``truth``, which hand radii over at every controller sample: to the first sample at or after it),
     ``reconfig_handed_fraction`` (fraction of steps handed over).
 Failures
     ``exceptions``: exceptions of a component that ended the run (0 or 1; the run's ``status`` is
@@ -396,6 +397,11 @@ def compute_metrics(
         m["reconfig_first_handover_time"] = t_hand
         m["reconfig_handover_delay"] = (None if t_hand is None or t_on_any is None or t_hand < t_on_any
                                         else t_hand - t_on_any)
+        if cfg.reconfiguration.policy in ("direct", "truth") and t_on_any is not None:
+            # radii are handed over at every controller sample: the first sample at or after the onset
+            sample = np.isfinite(trace["solve_time_ms"]) if "solve_time_ms" in trace else np.ones(st.size, bool)
+            t_next = _first((st == 2) & sample & (t >= t_on_any - 1e-9), t)
+            m["reconfig_handover_delay"] = None if t_next is None else max(t_next - t_on_any, 0.0)
         m["reconfig_handed_fraction"] = float(np.mean(st == 2))
     m["max_abs_roll_deg"] = float(np.degrees(_nanstat(np.abs(trace["roll"]), np.max)))
     m["max_abs_slip"] = _nanstat(np.abs(np.concatenate([trace["slip_R"], trace["slip_L"]])), np.max)

@@ -117,7 +117,7 @@ def test_nmpc_rti_converges_to_ipopt(rate_penalty: float, first_step: str) -> No
     bound ``|U(t0) − u_applied| ≤ omega_rate_max T_s`` = 2 rad/s allows, so it is active (with the
     rate penalty, the penalty on that step acts too)."""
     ref = build_reference(RunConfig())
-    spec = ProblemSpec(rate_penalty=rate_penalty)
+    spec = ProblemSpec(rate_penalty=rate_penalty, rate_penalty_first_step=True)
     rti = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)  # no wall-clock rules:
     ip = NMPC(spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None)  # a loaded machine must not matter
     R = np.array(NOMINAL)

@@ -46,9 +46,10 @@ def test_first_input_bounds() -> None:
             first_input_bounds(spec, bad)
     # the step penalty rate_penalty T_s |Δ/T_s|² = (rate_penalty / T_s) |Δ|²: 1 / 0.1 s = 10 per (rad/s)²
     u = np.array([1.0, 2.0])
-    assert first_step_penalty(ProblemSpec(rate_penalty=1.0), u) == pytest.approx(10.0)
-    assert first_step_penalty(ProblemSpec(rate_penalty=1.0, rate_penalty_first_step=False), u) == 0.0
-    assert first_step_penalty(ProblemSpec(rate_penalty=1.0), None) == 0.0 == first_step_penalty(spec, u)
+    on = ProblemSpec(rate_penalty=1.0, rate_penalty_first_step=True)
+    assert first_step_penalty(on, u) == pytest.approx(10.0)
+    assert first_step_penalty(ProblemSpec(rate_penalty=1.0), u) == 0.0  # off by default
+    assert first_step_penalty(on, None) == 0.0 == first_step_penalty(spec, u)
     ctl = NMPC(spec, build_reference(RunConfig()), solver="rti-daqp", time_budget=None, cold_time_budget=None)
     with pytest.raises(ValueError, match="u_applied"):  # a caller's bug fails the run, it is no fallback
         ctl.solve(0.0, np.zeros(3), np.array([2.0, 2.0]), np.array([np.inf, 0.0]))

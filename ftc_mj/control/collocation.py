@@ -115,7 +115,7 @@ class ProblemSpec:
     max_longitudinal_accel: float | None = None  # m/s^2; None = no bound
     sample_time: float = 0.1  # s, controller period T_s (the command is held that long)
     rate_bound_from_applied: bool = True  # |U(t0) - u_prev| <= omega_rate_max T_s; False = free first input
-    rate_penalty_first_step: bool = True  # rate_penalty also covers U(t0) - u_prev (with the bound on)
+    rate_penalty_first_step: bool = False  # rate_penalty also covers U(t0) - u_prev (with the bound on)
 
 
 def first_input_bounds(spec: ProblemSpec, u_prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:

@@ -28,7 +28,7 @@ def test_paper_bad_input_exits_2_and_writes_nothing(tmp_path: Path) -> None:
     out = tmp_path / "o"
     for args in (["--jobs", "0"], ["--only", "no-such-label"], ["--duration", "-1"], ["--seeds", "0"],
                  ["--seed-set", "dev", "--seeds", "11"], ["--quick", "--seeds", "3"], ["--quick", "--tune"],
-                 ["--quick", "--baseline", "docs"],
+                 ["--quick", "--baseline", "docs"], ["--rrd", "compare"],
                  ["--fresh"], ["--baseline", str(tmp_path / "nothing")],
                  ["--report-only", "--only", "s2-ukf-fb-nmpc", "--seeds", "2"]):
         res = runner.invoke(app, ["paper", "--out", str(out), *args])

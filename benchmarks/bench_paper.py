@@ -1,5 +1,5 @@
 """Wall time of the paper's runs: one 40 s closed-loop run per estimator (NMPC, feedback on, with the
-Rerun recording) and the whole ``ftc-mj paper`` matrix with 2 jobs.
+Rerun recording) and the whole single-seed ``ftc-mj paper --quick`` matrix with 2 jobs.
 
     .venv/bin/python benchmarks/bench_paper.py              # per-estimator runs; matrix time from the
                                                             # last recorded runs/out/paper/paper_run.json
@@ -104,11 +104,11 @@ def _bench_runs_once(out: Path, cases: list[tuple[str, str, dict[str, object], f
 
 
 def bench_matrix(jobs: int = 2) -> dict[str, object]:
-    from ftc_mj.report.paper import run_paper
+    from ftc_mj.report.paper import PaperOptions, run_paper
 
     with tempfile.TemporaryDirectory(prefix="bench_paper_") as d:
         t0 = time.perf_counter()
-        res = run_paper(Path(d), jobs=jobs, extras=False, fresh=True, show_progress=False)
+        res = run_paper(Path(d), PaperOptions(jobs=jobs, extras=False, fresh=True, quick=True), show_progress=False)
         return {"runs": len(res.rows), "failed": len(res.failed), "runs wall [s]": res.wall_time_s,
                 "report [s]": res.report_time_s, "total [s]": time.perf_counter() - t0, "source": "measured now"}
 

@@ -112,7 +112,9 @@ def test_killed_run_leaves_no_output_under_final_name(tmp_path: Path) -> None:
     """Kill the run inside its write window: as soon as the output folder gets its first entry (the
     temporary directory, or — if the writes were not atomic — the run directory itself), while the
     files are being written. Nothing may be visible under a final name. (Replacing ``atomic_dir`` by a
-    plain directory makes this test fail: the half-written run directory is left behind.)"""
+    plain directory makes this test fail: the half-written run directory is left behind.) The
+    preflight's writability probe (``.ftc-mj-probe.*``, created and deleted before any work) is not
+    the write window and is skipped."""
     env = dict(os.environ, OMP_NUM_THREADS="1")
     proc = subprocess.Popen([sys.executable, "-m", "ftc_mj.cli", "run", "scenario2", "--duration", "10",
                              "--out", str(tmp_path), "-q"], env=env, stdout=subprocess.DEVNULL,
@@ -120,7 +122,7 @@ def test_killed_run_leaves_no_output_under_final_name(tmp_path: Path) -> None:
     deadline = time.monotonic() + 120.0
     entries: list[Path] = []
     while not entries and proc.poll() is None and time.monotonic() < deadline:
-        entries = list(tmp_path.iterdir())
+        entries = [p for p in tmp_path.iterdir() if not p.name.startswith(".ftc-mj-probe.")]
         time.sleep(0.001)
     alive = proc.poll() is None
     proc.send_signal(signal.SIGKILL)
@@ -128,7 +130,8 @@ def test_killed_run_leaves_no_output_under_final_name(tmp_path: Path) -> None:
     assert alive and entries, "the run ended (or timed out) before its write window was seen"
     visible = [p for p in tmp_path.iterdir() if not p.name.startswith(".")]
     assert visible == []
-    assert [p.name.endswith(".partial") for p in tmp_path.iterdir()] == [True]  # killed inside the window
+    left = [p for p in tmp_path.iterdir() if not p.name.startswith(".ftc-mj-probe.")]
+    assert [p.name.endswith(".partial") for p in left] == [True]  # killed inside the window
 
 
 def _raise_type_error(self, *args, **kwargs):

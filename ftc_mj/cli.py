@@ -244,7 +244,8 @@ class StudyRrd(StrEnum):
 
 @app.command()
 def study(
-    study_file: Annotated[str, typer.Argument(help="Study file (runs/studies/*.toml).", metavar="STUDY_FILE",
+    study_file: Annotated[str, typer.Argument(help="Built-in study name (see 'ftc-mj studies') or a study TOML file.",
+                                              metavar="STUDY_FILE",
                                               show_default=False)],
     out: Annotated[str | None, typer.Option(help="Study output folder. [default: runs/out/studies/<name>]",
                                             show_default=False)] = None,
@@ -269,12 +270,11 @@ def study(
     """Sweep a study on dask.distributed: every finished run is persisted at once under
     OUT/rows/; re-running the same command computes only the missing runs; OUT/results.parquet,
     OUT/summary.md and OUT/figures/ are written at the end."""
-    from .config import existing_file
     from .study.runner import StudyInterruptedError, run_study, validate_address, validate_dashboard
-    from .study.spec import load_study
+    from .study.spec import load_study, study_path
 
     try:
-        path = existing_file(study_file, "STUDY_FILE")
+        path = study_path(study_file)
         if address is not None:
             validate_address(address)
         validate_dashboard(dashboard)
@@ -461,6 +461,17 @@ def scenarios() -> None:
 
     for name in BUILTIN_SCENARIOS:
         typer.echo(f"{name}: {load_config(name).description}")
+
+
+@app.command()
+def studies() -> None:
+    """List the built-in studies (run one with 'ftc-mj study NAME')."""
+    from .config import read_toml
+    from .resources import builtin_studies, study_file
+
+    for name in builtin_studies():
+        desc = str(read_toml(study_file(name), "study").get("description", "")).split("\n")[0]
+        typer.echo(f"{name}: {desc}")
 
 
 def main() -> None:  # pragma: no cover - console entry point

@@ -22,10 +22,11 @@ import pytest
 from pydantic import BaseModel
 from typer.testing import CliRunner
 
+from ftc_mj import resources
 from ftc_mj.cli import app
 from ftc_mj.config import RunConfig
 
-MODEL = Path(__file__).resolve().parents[1] / "models" / "diffdrive.xml"
+MODEL = resources.resource_path("models", "diffdrive.xml")
 
 
 # ------------------------------------------------------------------------------------------ schema

@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from ftc_mj import resources
 from ftc_mj.cli import app
 from ftc_mj.config import load_config
 from ftc_mj.errors import EXIT_UNSTABLE, BadInput
@@ -34,7 +35,7 @@ from ftc_mj.study.runner import run_study
 from ftc_mj.study.spec import load_study
 
 ROOT = Path(__file__).resolve().parents[1]
-MODEL = ROOT / "models" / "diffdrive.xml"
+MODEL = resources.resource_path("models", "diffdrive.xml")
 QUICK = ["--duration", "0.5", "--controller", "open-loop", "--no-rrd", "-q"]
 
 

@@ -6,14 +6,19 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig
-from ftc_mj.estimation import FaultDecision, FilterOutput
+from ftc_mj.estimation import FaultDecision, FilterOutput, Hypothesis
+from ftc_mj.estimation.imm import BANK_4, BANK_5
 
 
-def out(RR: float, RL: float, sigma: float = 0.02, mu: list[float] | None = None) -> FilterOutput:
+def out(RR: float, RL: float, sigma: float = 0.02, mu: list[float] | None = None,
+        bank: tuple[Hypothesis, ...] | None = None) -> FilterOutput:
+    """An estimator output; with ``mu``, an IMM's, declaring ``bank`` (default: the paper's bank of that size)."""
     P = np.diag([1.0, 1.0, 0.01, sigma**2, sigma**2])
+    hyps = None if mu is None else bank if bank is not None else (BANK_4 if len(mu) == 4 else BANK_5)
     return FilterOutput(
         x=np.array([0.0, 0.0, 0.0, RR, RL]), P=P, innovation=np.zeros(1), S=np.eye(1), nis=0.0,
         speed_innovation=0.0, speed_innovation_std=0.5, mode_probs=None if mu is None else np.array(mu),
+        hypotheses=hyps,
     )
 
 

@@ -14,8 +14,6 @@ its metrics describe a frozen or reset robot and must not be read as results.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import os
 import shutil
 import tempfile
@@ -29,6 +27,7 @@ import numpy as np
 
 from ..config import RunConfig, config_to_toml_dict
 from ..errors import BadInput, OutputError
+from ..identity import run_id
 from ..io import atomic_dir, remove_stale_temporaries, unique_dir, write_json, write_parquet, write_toml
 from ..plant import NAN, UNSTABLE
 from .columns import trace_schema_metadata
@@ -36,21 +35,9 @@ from .loop import SimResult, simulate
 from .metrics import compute_metrics, fault_onsets
 
 
-def config_hash(cfg: RunConfig) -> str:
-    """Short stable hash of the resolved config (output settings excluded)."""
-    d = config_to_toml_dict(cfg)
-    d.pop("output", None)
-    return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()[:8]
-
-
 def run_id_for(cfg: RunConfig) -> str:
-    """``<name>_<estimator>[-M]_<controller>_<policy>_s<seed>_<hash>`` (policy: reconfiguration policy)."""
-    est = cfg.estimator.kind
-    if est.startswith("imm"):
-        est += f"{cfg.estimator.imm_models}"
-        if cfg.estimator.imm_variant == "paper":
-            est += "p"
-    return f"{cfg.name}_{est}_{cfg.controller.kind}_{cfg.reconfiguration.policy}_s{cfg.seed}_{config_hash(cfg)}"
+    """The run's folder name (:func:`ftc_mj.identity.run_id`)."""
+    return run_id(cfg)
 
 
 @dataclass

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -296,7 +297,7 @@ class DecisionConfig(_Strict):
     max_split_sigma: PosFloat = 0.15
     """Sigma rule: a wheel is isolated only when the σ (m) of the radius split along the direction
     the speed cannot observe is at most this; otherwise the declared wheel is ``'unknown'``."""
-    options: Options = Field(default_factory=dict)
+    options: Options = Field(default_factory=dict, validate_default=True)
     """Settings of a plug-in rule (its registered settings model); built-in rules take none."""
 
     _options = options_of("decision_rules", "rule")
@@ -359,7 +360,7 @@ class EstimatorConfig(_Strict):
     reset_inflation: PosFloat = 10.0
     """Covariance inflation factor on a divergence reset."""
     decision: DecisionConfig = Field(default_factory=DecisionConfig)
-    options: Options = Field(default_factory=dict)
+    options: Options = Field(default_factory=dict, validate_default=True)
     """Settings of a plug-in estimator (its registered settings model); built-in estimators take none."""
 
     _options = options_of("estimators", "kind")
@@ -432,7 +433,7 @@ class ControllerConfig(_Strict):
     open_loop_schedule: Annotated[list[tuple[FiniteFloat, FiniteFloat, FiniteFloat]], Field(max_length=10_000)] = Field(
         default_factory=list)
     """Optional ``[t, omega_R, omega_L]`` breakpoints (piecewise-linear) for the open-loop controller."""
-    options: Options = Field(default_factory=dict)
+    options: Options = Field(default_factory=dict, validate_default=True)
     """Settings of a plug-in controller (its registered settings model); built-in controllers take none."""
 
     _options = options_of("controllers", "kind")
@@ -490,7 +491,7 @@ class ReconfigurationConfig(_Strict):
     """On a revert, the last trusted radii are those handed over at least this long (s) before the
     filter reported trouble (its estimate may already have been drifting)."""
     excitation: ExcitationConfig = Field(default_factory=ExcitationConfig)
-    options: Options = Field(default_factory=dict)
+    options: Options = Field(default_factory=dict, validate_default=True)
     """Settings of a plug-in policy (its registered settings model); built-in policies take none."""
 
     _options = options_of("policies", "policy")
@@ -507,7 +508,7 @@ class ReferenceConfig(_Strict):
     speed: PosFloat = 10.0
     """Speed along the path (m/s)."""
     direction: Literal["ccw", "cw"] = "ccw"
-    options: Options = Field(default_factory=dict)
+    options: Options = Field(default_factory=dict, validate_default=True)
     """Settings of a plug-in reference (its registered settings model); built-in references take none."""
 
     _options = options_of("references", "kind")
@@ -688,6 +689,20 @@ def section(model: type[BaseModel], value: Any, where: str) -> Any:
         raise BadInput(f"{where}: expected a table of settings, got {type(value).__name__}") from None
 
 
+def from_sections(**sections: Any) -> RunConfig:
+    """A run config holding the given sections (instances, plain tables or ``None``; the rest the
+    defaults), for a component built from its own settings: ``from_sections(plant={"kind":
+    "kinematic"}, robot=None)``. :class:`BadInput` naming ``<section>.<field>``."""
+    models = {name: f.annotation for name, f in RunConfig.model_fields.items()
+              if isinstance(f.annotation, type) and issubclass(f.annotation, BaseModel)}
+    data = {}
+    for name, value in sections.items():
+        if name not in models:
+            raise BadInput(f"{name}: not a config section (sections: {', '.join(models)})")
+        data[name] = section(models[name], value, name)
+    return RunConfig.model_validate(data)
+
+
 def scenario_path(name_or_path: str | Path) -> Path:
     """Resolve a built-in scenario name or a TOML path."""
     s = str(name_or_path)
@@ -768,8 +783,10 @@ def set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
     node[parts[-1]] = value
 
 
-def load_config(scenario: str | Path, overrides: dict[str, Any] | None = None) -> RunConfig:
-    """Load a scenario (built-in name or TOML path), apply dotted overrides, validate."""
+def load_config(scenario: str | Path, overrides: Mapping[str, Any] | None = None, *,
+                plugins: Iterable[str] = ()) -> RunConfig:
+    """Load a scenario (built-in name or TOML path), apply dotted overrides, add the plug-in modules
+    ``plugins`` to its ``plugins`` list (``--plugin``), validate."""
     path = scenario_path(scenario)
     data = read_toml(path, "scenario")
     if "name" not in data:
@@ -779,6 +796,10 @@ def load_config(scenario: str | Path, overrides: dict[str, Any] | None = None) -
         data["name"] = path.stem
     for key, value in (overrides or {}).items():
         set_dotted(data, key, value)
+    extra = list(plugins)
+    if extra:
+        given = data.get("plugins", [])
+        data["plugins"] = list(dict.fromkeys([*(given if isinstance(given, list) else [given]), *extra]))
     return validate_config(data)
 
 

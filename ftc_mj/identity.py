@@ -46,11 +46,12 @@ def run_digest(cfg: RunConfig, n: int = 16) -> str:
 
 
 def run_id(cfg: RunConfig) -> str:
-    """``<name>_<estimator>[M[p]]_<controller>_<policy>_s<seed>_<digest>``: readable settings and 8 hex
-    digits of :func:`run_digest` (``M`` the IMM bank size, ``p`` the paper variant)."""
+    """``<name>_<estimator>[M[c][p]]_<controller>_<policy>_s<seed>_<digest>``: readable settings and 8
+    hex digits of :func:`run_digest` (``M`` the IMM bank size, ``c`` a custom bank, ``p`` the paper
+    variant)."""
     est = cfg.estimator.kind
     if est.startswith("imm"):
-        est += f"{cfg.estimator.imm_models}"
+        est += f"{cfg.estimator.bank_size}" + ("c" if cfg.estimator.imm_bank is not None else "")
         if cfg.estimator.imm_variant == "paper":
             est += "p"
     return f"{cfg.name}_{est}_{cfg.controller.kind}_{cfg.reconfiguration.policy}_s{cfg.seed}_{run_digest(cfg, 8)}"

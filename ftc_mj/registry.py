@@ -109,6 +109,15 @@ class Registry:
         except KeyError:
             raise KeyError(self.unknown(name)) from None
 
+    def peek(self, name: str) -> Entry | None:
+        """The entry of ``name`` if it is registered already, without loading the registry."""
+        return self._entries.get(name)
+
+    @property
+    def loaded(self) -> bool:
+        """The built-ins and entry points have been loaded."""
+        return self._state == "loaded"
+
     def check(self, name: str) -> str:
         """``name`` if it is registered, else ``ValueError`` listing the registered names."""
         self._ensure()
@@ -186,7 +195,10 @@ def check_options(registry: Registry, name: str, options: Mapping[str, Any]) -> 
     """``options`` validated by the ``settings`` model ``name`` was registered with (as plain data, the
     settings' defaults filled in); ``ValueError`` ``<key>: why`` if they do not fit, or if the
     component takes none."""
-    settings = registry.get(name).settings
+    # empty options of a registry not loaded yet (a default config): nothing to fill in, and the
+    # components' modules stay unimported (a given name has loaded the registry when it was checked)
+    entry = registry.get(name) if options or registry.loaded else registry.peek(name)
+    settings = entry.settings if entry is not None else None
     if settings is None:
         if options:
             raise ValueError(f"{registry.kind} {name!r} takes no options (got {', '.join(map(str, options))})")

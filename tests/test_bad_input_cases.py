@@ -307,12 +307,15 @@ def test_huge_grid_is_refused_at_once(tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------------------ messages
 def test_usage_errors_are_one_line_exit_2() -> None:
     for args, msg in ((["run", "scenario1", "--bogus"], "No such option: --bogus"),
-                      (["run", "scenario1", "--estimator", "kalman"], "Invalid value for '--estimator'"),
                       (["run", "scenario1", "--seed", "abc"], "Invalid value for '--seed'"),
                       (["runn"], "No such command 'runn'")):
         res = CliRunner().invoke(app, args)
         assert res.exit_code == 2 and msg in one_error_line(res) and "--help" in res.stderr
         assert "╭" not in res.stderr and "Usage" not in res.stderr
+    # a component name is checked against the registry (plug-ins included), naming the flag
+    res = CliRunner().invoke(app, ["run", "scenario1", "--estimator", "kalman"])
+    assert res.exit_code == 2
+    assert "--estimator: unknown estimator 'kalman'; registered: ekf, imm-ekf, imm-ukf, none" in one_error_line(res)
 
 
 def test_imm_flags_and_contradicting_sets_are_errors(tmp_path: Path) -> None:

@@ -7,7 +7,9 @@ and the simulation keeps one built solver per process and structure).
 
 from __future__ import annotations
 
-from ..config import RunConfig
+from typing import Any
+
+from ..config import RunConfig, from_sections
 from ..registry import BUILTIN, controllers
 from .base import Controller
 from .collocation import ProblemSpec
@@ -57,6 +59,16 @@ def nmpc(cfg: RunConfig, reference: object) -> NMPC:
     R0 = cfg.model_wheel_radius
     return NMPC(problem_spec(cfg), reference, solver=c.solver, max_iter=c.max_iter, time_budget=c.time_budget,
                 nominal_radii=(R0, R0), cold_time_budget=c.cold_time_budget)
+
+
+def controller_from_settings(controller: Any, reference: object, *, robot: Any = None,
+                             model: Any = None) -> Controller:
+    """The controller built from its own settings, without a run config: the ``[controller]`` section
+    (its ``kind`` names the registered controller), the ``[robot]`` (input limits) and ``[model]``
+    (geometry the controller assumes) sections — objects, plain tables or ``None`` = the defaults;
+    :class:`~ftc_mj.errors.BadInput` naming the field — and the reference to track."""
+    cfg = from_sections(controller=controller, robot=robot, model=model)
+    return build_controller(cfg, reference)
 
 
 def build_controller(cfg: RunConfig, reference: object) -> Controller:

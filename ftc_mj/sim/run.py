@@ -1,10 +1,11 @@
 """One run from a resolved config to its output directory.
 
-``DIR/<run-id>/`` receives ``config.toml`` (fully resolved), ``trace.parquet``, ``metrics.json`` and
-``run.rrd``. The directory is assembled under a temporary name and renamed into place at the end,
-so a killed run leaves no half-written output under its final name; an existing run directory is
-never overwritten (a suffix is added). Before simulating, :func:`check_output_root` makes sure the
-folder can take the run (a usage error otherwise); a write that still fails raises
+``DIR/<run-id>/`` receives ``config.toml`` (fully resolved), ``trace.parquet``, ``metrics.json``,
+``events.json`` (the run's events: ``t`` in s, ``level``, ``text``) and ``run.rrd``. The directory
+is assembled under a temporary name and renamed into place at the end, so a killed run leaves no
+half-written output under its final name; an existing run directory is never overwritten (a
+suffix is added). Before simulating, :func:`check_output_root` makes sure the folder can take the
+run (a usage error otherwise); a write that still fails raises
 :class:`~ftc_mj.errors.OutputError` and leaves nothing behind.
 
 A run's ``status`` is ``ok``, ``failed`` (an exception ended it; ``error`` says which) or
@@ -54,7 +55,7 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "run_id": run_id_for(cfg),
         "scenario": cfg.name,
         "estimator": cfg.estimator.kind,
-        "imm_models": cfg.estimator.imm_models if cfg.estimator.kind.startswith("imm") else None,
+        "imm_models": res.n_modes or None,
         "imm_variant": cfg.estimator.imm_variant if cfg.estimator.kind.startswith("imm") else None,
         "controller": cfg.controller.kind,
         "feedback": cfg.feedback,
@@ -214,3 +215,4 @@ def _write_run(final: Path, cfg: RunConfig, res: SimResult, metrics: dict[str, A
             metrics["rrd_write_s"] = time.perf_counter() - t0
         metrics["total_wall_time_s"] = res.wall_time + metrics.get("rrd_write_s", 0.0)
         write_json(tmp / "metrics.json", metrics)
+        write_json(tmp / "events.json", [{"t": e.t, "level": e.level, "text": e.text} for e in res.events])

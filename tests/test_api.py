@@ -79,20 +79,29 @@ def test_ukf_from_its_own_settings_steps_to_the_estimates_of_a_run() -> None:
     run = ftc_mj.run("scenario2", overrides={**SHORT, **{f"estimator.{k}": v for k, v in est.items()}})
     tr = run.trace
     ukf = UKF.from_settings(est, {"yaw_rate_sigma": 0.01}, wheel_radius=2.0, half_track=1.0)
-    u = np.stack([tr["omega_R_meas"].to_numpy(), tr["omega_L_meas"].to_numpy()], axis=1)
-    x_hat = np.empty((tr.height, 5))
-    std = np.empty((tr.height, 5))
-    for k in range(tr.height):
-        z = Measurement(speed=float(tr["v_meas"][k]), yaw_rate=float(tr["yaw_rate_meas"][k]))
-        out = ukf.step(u[k - 1] if k else u[0], z)  # the loop predicts with the previous step's rates
-        x_hat[k], std[k] = out.x, np.sqrt(np.diag(out.P))
+    x_hat, std = _step_on(ukf, tr)
     for i, name in enumerate(("x", "y", "psi", "R_R", "R_L")):
         np.testing.assert_array_equal(x_hat[:, i], tr[f"{name}_hat"].to_numpy(), err_msg=name)
         np.testing.assert_array_equal(std[:, i], tr[f"{name}_std"].to_numpy(), err_msg=name)
+    # and the settings are used: the paper's Q and P0, or no gyro, give other estimates
+    for other in (UKF.from_settings(None, {"yaw_rate_sigma": 0.01}), UKF.from_settings(est, None)):
+        assert not np.array_equal(_step_on(other, tr)[0][:, 4], tr["R_L_hat"].to_numpy())
     with pytest.raises(BadInput, match=r"^estimator.q_rate: "):
         UKF.from_settings({"q_rate": [1.0]})
     with pytest.raises(BadInput, match=r"^sensors.speed_sigma: "):
         UKF.from_settings(None, {"speed_sigma": 0.0})
+
+
+def _step_on(flt: UKF, tr: pl.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Estimates and σ (n, 5) of ``flt`` stepped as the loop steps it on the run's measured wheel rates
+    (those of the previous step) and sensor readings (speed and, if the filter has one, the gyro)."""
+    u = np.stack([tr["omega_R_meas"].to_numpy(), tr["omega_L_meas"].to_numpy()], axis=1)
+    x_hat, std = np.empty((tr.height, 5)), np.empty((tr.height, 5))
+    for k in range(tr.height):
+        z = Measurement(speed=float(tr["v_meas"][k]), yaw_rate=float(tr["yaw_rate_meas"][k]))
+        out = flt.step(u[k - 1] if k else u[0], z)
+        x_hat[k], std[k] = out.x, np.sqrt(np.diag(out.P))
+    return x_hat, std
 
 
 def test_imm_from_its_own_settings_declares_its_bank() -> None:

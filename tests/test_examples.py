@@ -43,3 +43,13 @@ def test_custom_policy_study_on_a_local_cluster(tmp_path: Path) -> None:
     for policy in ("none", "safe", "late-handover"):
         assert f"│ {policy} " in out, out
     assert (tmp_path / "study" / "results.parquet").is_file()
+
+
+def test_readme_python_section_fits_in_15_lines() -> None:
+    readme = (ROOT / "README.md").read_text()
+    section = readme.split("\n## Python\n", 1)[1]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    assert 5 <= len(code.strip().splitlines()) <= 15
+    for name in ("load_config", "run(", "load_run", "register_estimator", "run_study", "load_study", ".trace",
+                 ".metrics", ".events", ".path"):
+        assert name in code, name

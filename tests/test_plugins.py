@@ -156,3 +156,24 @@ def test_study_on_local_cluster_carries_plugin_components(my_components: str, tm
     # the plug-in's runs are real estimates: the puncture at 1 s is seen in the left radius
     assert (df.filter(df["estimator"] == "textbook-ekf")["radius_final_error_L"].abs() < 0.3).all()
     assert ftc_mj.load_study(tmp_path / "out").results.height == 4
+
+
+def test_a_study_sweeps_a_plugin_setting(my_components: str, tmp_path: Path) -> None:
+    study = tmp_path / "q.toml"
+    study.write_text(textwrap.dedent("""
+        name = "q"
+        scenario = "scenario1"
+        [base]
+        plugins = ["my_components"]
+        "estimator.kind" = "textbook-ekf"
+        [[axes]]
+        key = "estimator.options.q_scale"
+        values = [1.0, 4.0]
+    """))
+    plan = ftc_mj.plan_study(study)
+    assert [r.config["estimator"]["options"] for r in plan.runs] == [{"q_scale": 1.0}, {"q_scale": 4.0}]
+    assert len({r.key for r in plan.runs}) == 2
+    bad = study.read_text().replace("4.0]", "-4.0]")
+    study.write_text(bad)
+    with pytest.raises(BadInput, match=r"estimator.options.q_scale: Input should be greater than 0"):
+        ftc_mj.plan_study(study)

@@ -4,7 +4,7 @@ The policy axis (:func:`~ftc_mj.report.matrix.policy_runs`) runs scenarios 2–4
 NMPC with the actuation-rate term, under the policies ``none`` / ``direct`` / ``safe``, with speed
 only and with speed + yaw rate — one seed each. The claims are the paper's own about feedback
 (restated for the physical plant) and the safety property asked of the ``safe`` policy. The
-10-seed version of the same comparison is the study ``runs/studies/reconfiguration.toml``.
+10-seed version of the same comparison is the built-in study ``reconfiguration``.
 """
 
 from __future__ import annotations

@@ -53,6 +53,7 @@ import itertools
 import json
 import math
 import re
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -282,6 +283,10 @@ def key_error(key: str) -> str | None:
             return f"unknown key {part!r} in {where}"
         ann = fields[part].annotation
         sub = ann if isinstance(ann, type) and issubclass(ann, BaseModel) else None
+        if typing.get_origin(ann) is typing.Annotated:
+            ann = typing.get_args(ann)[0]
+        if typing.get_origin(ann) is dict:  # a component's options: its own settings check the keys
+            return None
         if i < len(parts) - 1:
             if sub is None:
                 return f"{'.'.join(parts[: i + 1])} is not a table"

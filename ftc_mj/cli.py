@@ -396,27 +396,47 @@ class PaperRrd(StrEnum):
     compare = "compare"
 
 
+class SeedSet(StrEnum):
+    held_out = "held-out"
+    dev = "dev"
+
+
 @app.command()
 def paper(
-    out: Annotated[str, typer.Option(help="Output folder: runs/, summary.csv, claims.md, figures/.")
-                   ] = "runs/out/paper",
+    out: Annotated[str, typer.Option(help="Output folder: study/ (over seeds) or runs/ (--quick), summary.csv, "
+                                          "claims.md, claims.json, figures/.")] = "runs/out/paper",
     jobs: Annotated[int, typer.Option(help="Parallel worker processes.")] = 2,
+    seeds: Annotated[int | None, typer.Option(help="Seeds per matrix cell (default 10); every check is "
+                                                   "judged over them.")] = None,
+    seed_set: Annotated[SeedSet, typer.Option(help="held-out (1000, 1001, …; the default: where claims are "
+                                                   "judged) or dev (0-9: where tuned parameters are chosen).")]
+    = SeedSet.held_out,
+    quick: Annotated[bool, typer.Option("--quick", help="Single-seed quick look (seed 0): one run per entry, "
+                                                        "pass/fail per check; not a verdict over seeds.")] = False,
+    tune: Annotated[bool, typer.Option("--tune", help="Also run the tuning studies on the development seeds and "
+                                                      "report the value each selection rule chooses.")] = False,
+    baseline: Annotated[list[Path] | None, typer.Option(help="Earlier output folder, claims.json or claims.md "
+                                                             "(repeatable): list what changed against its verdicts "
+                                                             "(claims.md, changes.md).")] = None,
     duration: Annotated[float | None, typer.Option(help="Shorten every run to this many seconds.")] = None,
     only: Annotated[list[str] | None, typer.Option("--only", help="Run only labels matching this glob "
                                                    "(repeatable), e.g. 's2-*' or 's4-imm-ukf5-*'.")] = None,
     extras: Annotated[bool, typer.Option("--extras/--no-extras",
                                          help="Add runs beyond the paper's 38: the literal 'paper' IMM (2) "
                                               "and the reconfiguration-policy axis (18).")] = True,
-    rrd: Annotated[PaperRrd, typer.Option(help="Recordings: runs (one per run), none, or compare (also "
-                                               "OUT/compare/claim-<id>.rrd overlaying each claim's runs).")
-                   ] = PaperRrd.runs,
+    rrd: Annotated[PaperRrd, typer.Option(help="Quick look: recordings runs (one per run), none, or compare (also "
+                                               "OUT/compare/claim-<id>.rrd overlaying each claim's runs). Over seeds "
+                                               "no recordings are written.")] = PaperRrd.runs,
     no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Same as --rrd none.")] = False,
-    fresh: Annotated[bool, typer.Option("--fresh", help="Recompute runs even if OUT/runs has them.")] = False,
+    fresh: Annotated[bool, typer.Option("--fresh", help="Quick look: recompute runs even if OUT/runs has them.")]
+    = False,
     list_: Annotated[bool, typer.Option("--list", help="Print the matrix labels and exit.")] = False,
-    report_only: Annotated[bool, typer.Option("--report-only", help="Run nothing: rebuild summary, claims and "
-                                              "figures from the newest run of each label in OUT/runs.")] = False,
+    report_only: Annotated[bool, typer.Option("--report-only", help="Run nothing: rebuild the report from the "
+                                              "finished runs (over seeds: of the same selection).")] = False,
 ) -> None:
-    """Run the paper's test matrix (38 runs + 20 extras) and write summary.csv, claims.md and figures/."""
+    """Run the paper's test matrix (38 runs + 20 extras) over seeds and judge every claim's checks with
+    Wilson intervals (or, with --quick, take a single-seed look); write summary.csv, claims.md,
+    claims.json and figures/."""
     from .report.matrix import full_matrix, select
 
     if list_:
@@ -424,18 +444,23 @@ def paper(
             typer.echo(f"{e.label}\t{e.scenario}\t" + " ".join(f"{k}={v}" for k, v in e.overrides.items()))
         return
     from .io import remove_stale_temporaries
-    from .report.paper import run_paper
+    from .report.paper import PaperOptions, run_paper
 
     try:
         if no_rrd and rrd != PaperRrd.runs and rrd != PaperRrd.none:
             raise BadInput(f"--no-rrd: contradicts --rrd {rrd.value}")
         mode = PaperRrd.none if no_rrd else rrd
+        if mode == PaperRrd.compare and not quick:
+            raise BadInput("--rrd compare: only with --quick (over seeds no recordings are written)")
         out_dir = _folder(out)
         assert out_dir is not None
+        opts = PaperOptions(jobs=jobs, duration=duration, only=only, extras=extras, rrd=mode != PaperRrd.none,
+                            fresh=fresh, report_only=report_only, quick=quick, seeds=seeds, seed_set=seed_set.value,
+                            tune=tune, baselines=list(baseline or []))
+        opts.check()
         for d in (out_dir, out_dir / "runs", out_dir / "figures", out_dir / "compare"):
             remove_stale_temporaries(d)
-        res = run_paper(out_dir, jobs=jobs, duration=duration, only=only, extras=extras, rrd=mode != PaperRrd.none,
-                        fresh=fresh, echo=lambda s: typer.echo(s, err=True), report_only=report_only)
+        res = run_paper(out_dir, opts, echo=lambda s: typer.echo(s, err=True))
         compared = _claim_comparisons(res, out_dir / "compare") if mode == PaperRrd.compare else []
     except BadInput as err:
         _fail(str(err))
@@ -443,9 +468,14 @@ def paper(
     except KeyboardInterrupt:
         _interrupted("interrupted; finished runs are kept and reused next time")
         return
-    typer.echo(f"{len(res.rows)} runs in {res.wall_time_s:.1f} s (report {res.report_time_s:.1f} s) → {res.out}")
+    typer.echo(f"{len(res.rows)} runs in {res.wall_time_s:.1f} s (report {res.report_time_s:.1f} s) → {res.out}"
+               + (" [single-seed quick look]" if quick else ""))
     for c in res.claims:
         typer.echo(f"  claim {c.id:>2}: {c.verdict:<15} {c.title}")
+    for o in res.tuning:
+        typer.echo(f"  tuned {o.tuned.key}: {o.selection.value} (default {o.tuned.default():g}) on development seeds "
+                   f"{', '.join(map(str, o.seeds))}, {o.runs} runs" + (f" in {o.wall_time_s:.1f} s" if o.wall_time_s
+                                                                         else ""))
     for p in compared:
         typer.echo(f"  comparison: {p}")
     if res.failed:

@@ -400,6 +400,21 @@ class ControllerConfig(_Strict):
     """Weight on the squared wheel acceleration (rad/s^2)^2 in the cost; 0 = the paper's cost."""
     omega_rate_max: PosFloat = 20.0
     """Input-rate bound |d omega / dt| (rad/s^2)."""
+    rate_bound_from_applied: Flag = True
+    """Bound the first input of every NMPC/LMPC plan relative to the command in force on the plant:
+    ``|U(t0) − u_applied| ≤ omega_rate_max / rate`` per wheel (and, with ``rate_penalty``, penalise that
+    step like the in-plan rates), so consecutive commands differ by at most that much (with the
+    excitation dither on, the dithered command is clipped to the same step). ``False`` reproduces the
+    earlier formulation, where the rate bound held only inside each plan and the command could jump
+    between the wheel-rate limits from one sample to the next."""
+    rate_penalty_first_step: Flag = False
+    """With ``rate_penalty > 0`` and ``rate_bound_from_applied``: the rate penalty also covers the step
+    from the command in force, weighted as that step spread over one controller period,
+    ``rate_penalty T_s ‖(U(t0) − u_applied)/T_s‖²`` (the in-plan term is ``rate_penalty ∫ ‖dU/dt‖² dt``).
+    ``False`` (default) keeps the bound and penalises the rates inside the plan only. The step penalty
+    pulls ``U(t0)`` towards the command in force, i.e. it gives the command inertia (phase lag in the
+    loop): on the MuJoCo robot, at this weight, it destabilises the rate-penalised loop even without a
+    fault (measured in docs/findings.md), so it is off unless asked for."""
     max_lateral_accel: PosFloat | None = None
     """Bound (m/s²) on the lateral acceleration ``V ψ̇`` the NMPC may plan at every node; ``None`` =
     the paper's problem (no bound). The MuJoCo robot (2 m wheels, 1 m half track, centre of mass about

@@ -161,7 +161,9 @@ decision_rules = Registry("decision rule", "ftc_mj.decision_rules", "ftc_mj.esti
 """``factory(cfg: RunConfig) -> DecisionRule``."""
 controllers = Registry("controller", "ftc_mj.controllers", "ftc_mj.control.factory", "controller.kind")
 """``factory(cfg: RunConfig, reference: Reference) -> Controller``; meta ``reusable=True``: the
-controller has ``reset()`` and is cached per process and structure (MPC solvers)."""
+controller has ``reset()`` and is cached per process and structure (MPC solvers);
+``rate_bounded=True``: its first input stays within ``controller.omega_rate_max / rate`` of the
+command in force (the loop clips a dither to that bound)."""
 policies = Registry("policy", "ftc_mj.policies", "ftc_mj.sim.reconfig", "reconfiguration.policy")
 """``factory(cfg: RunConfig) -> ReconfigurationPolicy``; meta ``needs_estimator=False``: used even
 in runs without a filter (otherwise such runs use ``none``)."""

@@ -193,11 +193,16 @@ def test_verdicts_flip_with_the_numbers() -> None:
         if lb.startswith(("s2-", "s3-")):
             r["cross_track_max_after_fault"] = 30.0
     assert _by_id(bad)["2"].verdict == cl.NOT_REPRODUCED
-    # no filter detects scenario 2
+    # no filter detects scenario 2: the declarations fail, the innovation peaks still pass
     bad = copy.deepcopy(rows)
     for lb, r in bad.items():
         if lb.startswith("s2-"):
             r["detection_delay"] = None
+    assert _by_id(bad)["1"].verdict == cl.PARTLY
+    # ... and without a peak in the innovations at the fault nothing of claim 1 holds
+    for lb, r in bad.items():
+        if lb.startswith("s2-"):
+            r["innovation_peak_z_1"] = cl.PEAK_Z - 3.0
     assert _by_id(bad)["1"].verdict == cl.NOT_REPRODUCED
     # one filter detects late -> partly
     bad = copy.deepcopy(rows)

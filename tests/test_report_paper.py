@@ -1,4 +1,5 @@
-"""``ftc-mj paper`` end to end on a few short real runs (parallel workers, reuse, exit codes)."""
+"""``ftc-mj paper`` end to end on a few short real runs: the single-seed quick look (parallel workers,
+reuse, exit codes) and the verdicts over seeds (study machinery, resume, a failed run)."""
 
 from __future__ import annotations
 
@@ -25,7 +26,11 @@ def test_paper_list_prints_the_matrix() -> None:
 
 def test_paper_bad_input_exits_2_and_writes_nothing(tmp_path: Path) -> None:
     out = tmp_path / "o"
-    for args in (["--jobs", "0"], ["--only", "no-such-label"], ["--duration", "-1"]):
+    for args in (["--jobs", "0"], ["--only", "no-such-label"], ["--duration", "-1"], ["--seeds", "0"],
+                 ["--seed-set", "dev", "--seeds", "11"], ["--quick", "--seeds", "3"], ["--quick", "--tune"],
+                 ["--quick", "--baseline", "docs"], ["--rrd", "compare"],
+                 ["--fresh"], ["--baseline", str(tmp_path / "nothing")],
+                 ["--report-only", "--only", "s2-ukf-fb-nmpc", "--seeds", "2"]):
         res = runner.invoke(app, ["paper", "--out", str(out), *args])
         assert res.exit_code == 2, (args, res.output)
         assert not out.exists()
@@ -36,8 +41,9 @@ def test_paper_bad_input_exits_2_and_writes_nothing(tmp_path: Path) -> None:
 
 def test_paper_smoke_end_to_end(tmp_path: Path) -> None:
     out = tmp_path / "paper"
-    res = runner.invoke(app, ["paper", "--out", str(out), "--duration", "2", "--jobs", "2", *ONLY])
+    res = runner.invoke(app, ["paper", "--quick", "--out", str(out), "--duration", "2", "--jobs", "2", *ONLY])
     assert res.exit_code == 0, res.output
+    assert "single-seed quick look" in res.output
     rows = list(csv.DictReader(open(out / "summary.csv")))
     labels = {r["label"] for r in rows}
     assert labels == {"s2-ukf-nofb-nmpc", "s2-ukf-fb-nmpc", "s2-ukf-fb-lmpc", "s2-imm-ukf-fb-nmpc",
@@ -53,14 +59,16 @@ def test_paper_smoke_end_to_end(tmp_path: Path) -> None:
             assert (run_dir / name).is_file(), (run_dir, name)
         assert run_dir.parent == out / "runs"
     md = (out / "claims.md").read_text()
-    assert "## Verdicts" in md and "## Thresholds" in md
+    assert "## Verdicts" in md and "## Thresholds" in md and "single-seed quick look" in md
+    doc = json.loads((out / "claims.json").read_text())
+    assert doc["mode"] == "single-seed" and doc["seeds"] == [0]
     figs = sorted(p.name for p in (out / "figures").glob("*.png"))
     assert "innovations_s2.png" in figs and "wheel_rates_s2_nmpc_vs_lmpc.png" in figs
     assert "mode_probs_fb.png" in figs and "trajectory_s2.png" in figs
     info = json.loads((out / "paper_run.json").read_text())
     assert info["runs"] == 5 and info["failed"] == [] and info["reused"] == 0
     # a second invocation reuses the finished runs
-    res = runner.invoke(app, ["paper", "--out", str(out), "--duration", "2", "--jobs", "2", *ONLY])
+    res = runner.invoke(app, ["paper", "--quick", "--out", str(out), "--duration", "2", "--jobs", "2", *ONLY])
     assert res.exit_code == 0, res.output
     info = json.loads((out / "paper_run.json").read_text())
     assert info["reused"] == 5
@@ -68,7 +76,7 @@ def test_paper_smoke_end_to_end(tmp_path: Path) -> None:
     assert not list(out.glob(".*.tmp"))
     # the report alone, rebuilt from the run directories
     (out / "claims.md").unlink()
-    res = runner.invoke(app, ["paper", "--out", str(out), "--report-only", *ONLY])
+    res = runner.invoke(app, ["paper", "--quick", "--out", str(out), "--report-only", *ONLY])
     assert res.exit_code == 0, res.output
     assert (out / "claims.md").is_file()
     assert json.loads((out / "paper_run.json").read_text())["report_only"] is True
@@ -82,10 +90,52 @@ def test_a_failed_run_gives_exit_1_and_everything_is_still_written(tmp_path: Pat
     bad = MatrixEntry("s9-ukf-nofb-nmpc", str(tmp_path / "missing.toml"), dict(good.overrides))
     monkeypatch.setattr(paper_mod, "full_matrix", lambda extras=True: [good, bad])
     out = tmp_path / "paper"
-    res = runner.invoke(app, ["paper", "--out", str(out), "--duration", "1", "--jobs", "1"])
+    res = runner.invoke(app, ["paper", "--quick", "--out", str(out), "--duration", "1", "--jobs", "1"])
     assert res.exit_code == 1, res.output
     rows = {r["label"]: r for r in csv.DictReader(open(out / "summary.csv"))}
     assert rows["s2-ukf-nofb-nmpc"]["status"] == "ok"
     assert rows["s9-ukf-nofb-nmpc"]["status"] == "failed" and "missing.toml" in rows["s9-ukf-nofb-nmpc"]["error"]
     assert (out / "claims.md").is_file()
     assert "s9-ukf-nofb-nmpc" in json.loads((out / "paper_run.json").read_text())["failed"]
+
+
+SEEDED = ["--only", "s2-ukf-nofb-nmpc", "--only", "s2-ukf-fb-nmpc", "--seeds", "2", "--duration", "2", "--jobs", "1"]
+
+
+def test_seeded_paper_judges_over_seeds_resumes_and_fails_a_failed_run(tmp_path: Path, monkeypatch) -> None:
+    from ftc_mj.report import derived
+
+    real = derived.report_metrics
+
+    def broken(cfg, trace):  # a shape bug in one run's metrics: the run fails, it is not a fallback
+        if cfg.seed == 1001 and cfg.reconfiguration.policy == "direct":
+            raise TypeError("broken metric")
+        return real(cfg, trace)
+
+    monkeypatch.setattr(derived, "report_metrics", broken)
+    out = tmp_path / "paper"
+    res = runner.invoke(app, ["paper", "--out", str(out), *SEEDED])
+    assert res.exit_code == 1, res.output
+    assert "s2-ukf-fb-nmpc (seed 1001)" in res.output
+    rows = list(csv.DictReader(open(out / "summary.csv")))
+    assert sorted((r["label"], r["seed"]) for r in rows) == [("s2-ukf-fb-nmpc", "1000"), ("s2-ukf-fb-nmpc", "1001"),
+                                                            ("s2-ukf-nofb-nmpc", "1000"), ("s2-ukf-nofb-nmpc", "1001")]
+    bad = next(r for r in rows if r["label"] == "s2-ukf-fb-nmpc" and r["seed"] == "1001")
+    assert bad["status"] == "failed" and "TypeError: broken metric" in bad["error"]
+    doc = json.loads((out / "claims.json").read_text())
+    assert doc["mode"] == "seeded" and doc["seeds"] == [1000, 1001] and doc["seed_set"] == "held-out"
+    c1 = next(c for c in doc["claims"] if c["id"] == "1")
+    fb = next(ch for ch in c1["checks"] if ch["text"].startswith("UKF fb on declares"))
+    # 2 s runs end before the 10 s puncture: every seed is n/a, except the failed run, which fails
+    assert (fb["passed"], fb["applicable"], fb["na"], fb["failing_seeds"]) == (0, 1, 1, [1001])
+    assert fb["na_reasons"] == {"a fault onset lies after the end of the run": 1}
+    md = (out / "claims.md").read_text()
+    assert "verdicts over seeds" in md and "held-out seeds 1000, 1001" in md and "validation run" in md
+    assert "Not applicable" in md and "| 0/1 |" in md
+    # the same command resumes: nothing is recomputed (the failed row stays failed)
+    monkeypatch.setattr(derived, "report_metrics", real)
+    res = runner.invoke(app, ["paper", "--out", str(out), *SEEDED])
+    assert res.exit_code == 1 and "[1/" not in res.output
+    res = runner.invoke(app, ["paper", "--out", str(out), "--report-only", *SEEDED[:-2]])
+    assert res.exit_code == 1, res.output
+    assert json.loads((out / "paper_run.json").read_text())["mode"] == "seeded"

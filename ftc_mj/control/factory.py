@@ -2,7 +2,9 @@
 
 Every factory takes the run config and the reference and returns a
 :class:`~ftc_mj.control.base.Controller`; MPCs are registered ``reusable`` (they have ``reset()``
-and the simulation keeps one built solver per process and structure).
+and the simulation keeps one built solver per process and structure) and ``rate_bounded`` (their
+first input stays within ``omega_rate_max / rate`` of the command in force, so the loop clips an
+excitation dither to that bound).
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ from .open_loop import OpenLoopController
 
 
 def problem_spec(cfg: RunConfig) -> ProblemSpec:
-    """The MPC problem numbers of ``cfg`` (model half track, robot input limits, controller weights)."""
+    """The MPC problem numbers of ``cfg`` (model half track, robot input limits, controller weights and
+    period)."""
     c = cfg.controller
     return ProblemSpec(
         nodes=c.nodes,
@@ -33,6 +36,9 @@ def problem_spec(cfg: RunConfig) -> ProblemSpec:
         rate_penalty=c.rate_penalty,
         max_lateral_accel=c.max_lateral_accel,
         max_longitudinal_accel=c.max_longitudinal_accel,
+        sample_time=1.0 / c.rate,
+        rate_bound_from_applied=c.rate_bound_from_applied,
+        rate_penalty_first_step=c.rate_penalty_first_step,
     )
 
 
@@ -43,7 +49,7 @@ def open_loop(cfg: RunConfig, reference: object) -> OpenLoopController:
     return OpenLoopController(c.open_loop_omega, c.open_loop_schedule or None, cfg.robot.omega_max)
 
 
-@controllers.register("lmpc", origin=BUILTIN, reusable=True)
+@controllers.register("lmpc", origin=BUILTIN, reusable=True, rate_bounded=True)
 def linear_mpc(cfg: RunConfig, reference: object) -> LinearMPC:
     """The linear MPC on :func:`problem_spec` (QP solver ``controller.lmpc_qpsol``)."""
     c = cfg.controller
@@ -52,7 +58,7 @@ def linear_mpc(cfg: RunConfig, reference: object) -> LinearMPC:
                      nominal_radii=(R0, R0))
 
 
-@controllers.register("nmpc", origin=BUILTIN, reusable=True)
+@controllers.register("nmpc", origin=BUILTIN, reusable=True, rate_bounded=True)
 def nmpc(cfg: RunConfig, reference: object) -> NMPC:
     """The LGL pseudospectral NMPC on :func:`problem_spec` (solver ``controller.solver``)."""
     c = cfg.controller

@@ -10,9 +10,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..config import RunConfig
 
 SETTLE_TOL = 0.1
 """A radius estimate has settled when its error stays within this (m) ..."""
@@ -173,6 +176,9 @@ def derived_metrics(trace: Mapping[str, Any], scenario: str, onsets: Mapping[str
         return m
     on_R, on_L = onsets.get("right"), onsets.get("left")
     ons = sorted({o for o in (on_R, on_L) if o is not None})
+    m["onsets_after_end"] = sum(1 for o in ons if o > float(t[-1]))  # as the run metrics' "after end"
+    ons = [o for o in ons if o <= float(t[-1])]
+    m["onsets_in_run"] = len(ons)
     t_on = ons[0] if ons else None
     # ---------------------------------------------------------------- radius estimates
     RRh, RLh, RR, RL = (_col(trace, c) for c in ("R_R_hat", "R_L_hat", "R_R", "R_L"))
@@ -297,3 +303,46 @@ def onsets_of_config(cfg_dict: Mapping[str, Any]) -> dict[str, float | None]:
     plant = cfg_dict.get("plant", {}) or {}
     R0 = float(plant.get("wheel_radius") or robot.get("wheel_radius", 2.0))
     return onsets_from_faults(list(faults.get("right", [])), list(faults.get("left", [])), R0)
+
+
+def required_wheel_rate(V: np.ndarray, psidot: np.ndarray, R_R: np.ndarray, R_L: np.ndarray,
+                        b: float) -> np.ndarray:
+    """Largest |wheel rate| (rad/s) with which the kinematic model follows speed ``V`` (m/s) and yaw
+    rate ``psidot`` (rad/s) on wheels of radii ``R_R``, ``R_L`` (m), half track ``b`` (m):
+    ``max(|V + b ψ̇| / R_R, |V − b ψ̇| / R_L)`` per sample."""
+    from ..model.kinematics import inverse_rates
+
+    wR, wL = inverse_rates(V, psidot, R_R, R_L, b)
+    return np.maximum(np.abs(wR), np.abs(wL))
+
+
+def reference_feasibility(cfg: RunConfig, trace: Mapping[str, Any], t_from: float | None) -> dict[str, Any]:
+    """Whether the reference can be followed within the wheel-rate limit with the *true* radii at
+    every sample from ``t_from`` (s) on: ``reference_omega_required_recovered`` (rad/s, the largest
+    rate :func:`required_wheel_rate` asks for) and ``reference_feasible_recovered`` (bool); empty when
+    ``t_from`` is None or after the end."""
+    from ..control.reference import build_reference
+
+    t = _col(trace, "t")
+    R_R, R_L = _col(trace, "R_R"), _col(trace, "R_L")
+    if t_from is None or t is None or R_R is None or R_L is None or not (t >= t_from).any():
+        return {}
+    win = t >= t_from
+    ref = build_reference(cfg).at(t[win])
+    req = float(np.max(required_wheel_rate(ref.V, ref.psidot, R_R[win], R_L[win], cfg.plant_half_track)))
+    return {"reference_omega_required_recovered": req,
+            "reference_feasible_recovered": bool(req <= cfg.robot.omega_max)}
+
+
+def report_metrics(cfg: RunConfig, trace: Mapping[str, Any]) -> dict[str, Any]:
+    """Every report metric of one run: :func:`derived_metrics` and, for the window of
+    ``cross_track_max_recovered`` (from ``RECOVERY_S`` after the first onset), :func:`reference_feasibility`."""
+    from ..sim.metrics import RECOVERY_S, fault_onsets
+
+    est = cfg.estimator.kind
+    n_modes = cfg.estimator.bank_size if est.startswith("imm") else 0
+    onsets = fault_onsets(cfg)
+    m = derived_metrics(trace, cfg.name, onsets, n_modes, cfg.robot.omega_max)
+    first = min((o for o in onsets.values() if o is not None), default=None)
+    m.update(reference_feasibility(cfg, trace, None if first is None else first + RECOVERY_S))
+    return m

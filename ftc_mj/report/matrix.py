@@ -1,4 +1,4 @@
-"""The paper's test matrix (paper §4, DESIGN §6 ``ftc-mj paper``) as a list of (label, overrides).
+"""The paper's test matrix (paper §4, the matrix of ``ftc-mj paper``) as a list of (label, overrides).
 
 - scenarios 1–4 × {EKF, UKF, IMM-EKF, IMM-UKF (4 models)} × feedback {off, on}, NMPC — 32 runs;
 - scenario 4 with the 5-model IMM-EKF and IMM-UKF, feedback off and on — 4 runs;
@@ -8,7 +8,7 @@
 That is the paper's 38 runs ("feedback off/on" = reconfiguration policy ``none``/``direct``).
 Beyond the paper (``extra``): :data:`EXTRA_RUNS`, the IMM as literally printed (variant ``paper``,
 which collapses) beside the default ``hypothesis`` variant; and :func:`policy_runs`, the
-reconfiguration-policy axis (issue 7): scenarios 2–4, UKF, NMPC, policies none / direct / safe ×
+reconfiguration-policy axis: scenarios 2–4, UKF, NMPC, policies none / direct / safe ×
 speed only / speed + yaw rate, with the NMPC's actuation-rate term (``controller.rate_penalty``
 = :data:`POLICY_RATE_PENALTY`) — with the paper's cost the loop on the MuJoCo robot breaks under
 any realisable policy (docs/findings.md), which would leave nothing to compare.
@@ -133,7 +133,7 @@ YAW_RATE_SIGMA = 0.01
 
 
 def policy_runs() -> list[MatrixEntry]:
-    """The reconfiguration-policy axis (issue 7): scenarios 2–4 × {none, direct, safe} × {speed,
+    """The reconfiguration-policy axis: scenarios 2–4 × {none, direct, safe} × {speed,
     speed + yaw rate}, UKF + NMPC with the actuation-rate term — 18 runs."""
     out = []
     for sc in POLICY_SCENARIOS:

@@ -1,18 +1,36 @@
-"""``ftc-mj paper``: run the paper's matrix, then write ``summary.csv``, ``claims.md``, ``figures/``.
+"""``ftc-mj paper``: run the paper's matrix and judge its claims.
+
+Two modes:
+
+- **over seeds** (the default): every matrix entry on ``--seeds N`` seeds of ``--seed-set``
+  (held-out seeds by default, :mod:`.seeds`) through the study machinery (:mod:`.matrix_study`),
+  every check counted over the seeds and judged with a Wilson interval (:mod:`.seeded`);
+  ``--tune`` also runs the tuning studies on the development seeds (:mod:`.tuning`);
+  ``--baseline`` (repeatable) compares the verdicts with earlier results (:mod:`.compare`), e.g. a
+  ``--quick`` output of the same code (check by check) and the published ``docs/paper-claims.md``
+  (claim verdicts);
+- **single-seed quick look** (``--quick``): one run per entry at the config's seed 0 (a
+  development seed), each check pass/fail on that run — labelled as such, not a verdict over seeds.
 
 Layout of ``OUT``::
 
-    OUT/runs/<run-id>/{config.toml,trace.parquet,metrics.json,run.rrd}
-    OUT/summary.csv        one row per run (identity + flattened metrics + derived metrics)
-    OUT/claims.md          the paper's §4 claims with our numbers and verdicts
+    OUT/study/<hash>/      the seeded matrix as a study (rows/, log.jsonl, results.parquet, matrix.toml,
+                           runs/ of the first seed for the figures)
+    OUT/tuning/<study>/<hash>/   the tuning studies (--tune)
+    OUT/runs/<run-id>/     the quick look's run directories (reused by the next quick look)
+    OUT/summary.csv        one row per run (and seed): identity + flattened metrics + report metrics
+    OUT/claims.md          the claims, checks, verdicts; OUT/claims.json the same, machine-readable
+    OUT/changes.md         what changed against each --baseline
     OUT/figures/*.png      the figures
-    OUT/paper_run.json     wall times, jobs, the invocation
+    OUT/paper_run.json     the invocation, wall times, machine load, verdicts
 
-Everything is written atomically; runs already finished in ``OUT/runs`` are reused.
+Everything is written atomically; finished runs are reused (quick look: ``OUT/runs``; over seeds:
+the study's persisted rows).
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from collections.abc import Callable
@@ -22,34 +40,161 @@ from typing import Any
 
 from ..errors import BadInput
 from ..io import atomic_path, write_json
-from .claims import Claim, evaluate_claims
-from .matrix import full_matrix, make_label, select
+from .checks import Claim
+from .claims import evaluate_claims
+from .compare import claims_document
+from .matrix import MatrixEntry, full_matrix, select
 from .policy_claims import evaluate_policy_claims
 from .render import render_claims
-from .runner import RunTask, row_from_run_dir, run_tasks
+from .runner import RunTask, collect_existing, run_tasks
+from .seeds import seed_set
 from .summary import write_summary_csv
+
+
+@dataclass
+class PaperOptions:
+    """Everything an invocation of ``ftc-mj paper`` asks for (validated by :meth:`check`)."""
+
+    jobs: int = 2
+    duration: float | None = None
+    only: list[str] | None = None
+    extras: bool = True
+    rrd: bool = True
+    fresh: bool = False
+    figures: bool = True
+    report_only: bool = False
+    quick: bool = False
+    seeds: int | None = None
+    """Seeds per cell (default 10); not with ``quick``."""
+    seed_set: str = "held-out"
+    tune: bool = False
+    baselines: list[Path] = field(default_factory=list)
+
+    def check(self) -> None:
+        if self.jobs < 1:
+            raise BadInput(f"--jobs: must be ≥ 1 (got {self.jobs})")
+        if self.duration is not None and not self.duration > 0:
+            raise BadInput(f"--duration: must be > 0 (got {self.duration})")
+        if self.quick and (self.seeds is not None or self.seed_set != "held-out" or self.tune or self.baselines):
+            raise BadInput("--quick: a single-seed look at seed 0; --seeds, --seed-set, --tune and --baseline need the "
+                           "seeded mode")
+        if not self.quick and self.fresh:
+            raise BadInput("--fresh: only with --quick (over seeds, finished rows are kept; use another --out)")
+        if not self.quick:
+            seed_set(self.seed_set, self.n_seeds)
+
+    @property
+    def n_seeds(self) -> int:
+        return 10 if self.seeds is None else self.seeds
+
+    def command(self, out: Path) -> str:
+        """The equivalent command line."""
+        parts = ["ftc-mj paper", f"--out {out}", f"--jobs {self.jobs}"]
+        parts += ["--quick"] if self.quick else [f"--seeds {self.n_seeds}", f"--seed-set {self.seed_set}"]
+        parts += [f"--duration {self.duration:g}"] if self.duration is not None else []
+        parts += [f"--only '{p}'" for p in self.only or []]
+        parts += [flag for flag, on in (("--no-extras", not self.extras), ("--no-rrd", not self.rrd),
+                                        ("--fresh", self.fresh), ("--report-only", self.report_only),
+                                        ("--tune", self.tune)) if on]
+        parts += [f"--baseline {b}" for b in self.baselines]
+        return " ".join(parts)
 
 
 @dataclass
 class PaperResult:
     out: Path
     rows: list[dict[str, Any]]
-    claims: list[Claim]
+    claims: list[Any]
+    """:class:`~ftc_mj.report.checks.Claim` (quick look) or :class:`~ftc_mj.report.seeded.SeededClaim`."""
     figures: list[Path] = field(default_factory=list)
     wall_time_s: float = 0.0
     """Wall time of the runs (s)."""
     report_time_s: float = 0.0
     """Wall time of summary, claims and figures (s)."""
+    tuning: list[Any] = field(default_factory=list)
+    """:class:`~ftc_mj.report.tuning.TuningOutcome` s of ``--tune``."""
 
     @property
     def failed(self) -> list[str]:
-        return [r["label"] for r in self.rows if r.get("status") != "ok"]
+        return [r["label"] + (f" (seed {r['seed']})" if r.get("seed") is not None else "")
+                for r in self.rows if r.get("status") != "ok"]
 
     @property
     def exit_code(self) -> int:
         return 1 if self.failed else 0
 
 
+def run_paper(out: Path, opts: PaperOptions, *, show_progress: bool | None = None,
+              echo: Callable[[str], None] | None = None) -> PaperResult:
+    """Run the matrix into ``out`` and write the report. Raises :class:`BadInput` for bad arguments
+    (before anything is written)."""
+    opts.check()
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise BadInput(f"--out: {out} exists and is not a directory")
+    entries = select(full_matrix(opts.extras), opts.only)
+    if not entries:
+        raise BadInput(f"--only: no matrix label matches {', '.join(opts.only or [])} (e.g. 's2-*', "
+                       f"'s4-imm-ukf5-fb-nmpc')")
+    show = sys.stderr.isatty() if show_progress is None else show_progress
+    load0 = os.getloadavg()
+    if opts.quick:
+        res = run_quick(out, entries, opts, show, echo)
+    else:
+        from .paper_seeded import run_seeded
+
+        res = run_seeded(out, entries, opts, show, echo)
+    info = {"command": opts.command(out), "mode": "quick" if opts.quick else "seeded", "commit": source_commit(),
+            "cpus": os.cpu_count(), "started_load_avg": list(load0), "finished_load_avg": list(os.getloadavg()),
+            "finished_at": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "runs": len(res.rows),
+            "failed": res.failed, "jobs": opts.jobs, "duration": opts.duration, "only": opts.only,
+            "extras": opts.extras, "report_only": opts.report_only, "report_time_s": res.report_time_s,
+            "tuning": {o.tuned.key: {"chosen": o.selection.value, "default": o.tuned.default(), "seeds": o.seeds,
+                                     "runs": o.runs, "failed": o.failed, "wall_time_s": o.wall_time_s}
+                       for o in res.tuning},
+            "verdicts": {c.id: c.verdict for c in res.claims}}
+    prev = out / "paper_run.json"
+    if opts.report_only and prev.is_file():  # keep the wall time of the invocation that computed the runs
+        import json
+
+        try:
+            before = json.loads(prev.read_text())
+        except (OSError, ValueError):
+            before = {}
+        info["wall_time_s"] = before.get("wall_time_s")
+        info["runs_command"] = before.get("runs_command") or (None if before.get("report_only")
+                                                              else before.get("command"))
+    info.setdefault("wall_time_s", res.wall_time_s)
+    info["reused"] = sum(1 for r in res.rows if r.get("reused"))
+    write_json(prev, info)
+    return res
+
+
+def source_commit() -> str | None:
+    """``git describe --always --dirty`` of the checkout the package is imported from, or None when it is
+    not in one (an installed wheel)."""
+    import subprocess
+
+    checkout = Path(__file__).resolve().parents[2]
+    try:
+        res = subprocess.run(["git", "-C", str(checkout), "describe", "--always", "--dirty"], capture_output=True,
+                             text=True, timeout=10, check=False)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return res.stdout.strip() or None if res.returncode == 0 else None
+
+
+def write_report(out: Path, md: str, doc: dict[str, Any], figs: list[Path], figs_note: str = "") -> None:
+    """``claims.md`` (with the figure list) and ``claims.json``, atomically."""
+    if figs:
+        links = "\n".join(f"- [`figures/{p.name}`](figures/{p.name})" for p in figs)
+        md += "\n## Figures\n\n" + (figs_note + "\n\n" if figs_note else "") + links + "\n"
+    with atomic_path(out / "claims.md") as tmp:
+        tmp.write_text(md)
+    write_json(out / "claims.json", doc)
+
+
+# ------------------------------------------------------------------------------------- quick look
 def _progress_callbacks(n: int, show: bool, echo: Callable[[str], None] | None
                         ) -> tuple[Callable[[dict[str, Any], int, int], None], Callable[[], None]]:
     """(on_done, close) for a rich progress bar when ``show``, else plain lines via ``echo``."""
@@ -77,111 +222,29 @@ def _progress_callbacks(n: int, show: bool, echo: Callable[[str], None] | None
     return done_plain, lambda: None
 
 
-def label_of_run(run_dir: Path) -> str | None:
-    """The matrix label of a finished run directory, from its ``metrics.json`` identity."""
-    import json
-
-    try:
-        m = json.loads((run_dir / "metrics.json").read_text())
-    except (OSError, ValueError):
-        return None
-    est = m.get("estimator")
-    if not isinstance(est, str) or not isinstance(m.get("scenario"), str):
-        return None
-    policy = m.get("policy") or ("direct" if m.get("feedback") else "none")
-    return make_label(m["scenario"], est, str(policy), str(m.get("controller")),
-                      int(m.get("imm_models") or 4), str(m.get("imm_variant") or "hypothesis"),
-                      str(m.get("sensing") or "speed"), float(m.get("rate_penalty") or 0.0))
-
-
-def collect_existing(runs_dir: Path, tasks: list[RunTask]) -> list[dict[str, Any]]:
-    """Rows for ``tasks`` from the newest finished run of each label found in ``runs_dir`` (whatever its
-    config hash); labels without a run get a row with status ``missing``."""
-    newest: dict[str, tuple[float, Path]] = {}
-    if runs_dir.is_dir():
-        for d in runs_dir.iterdir():
-            if d.is_dir() and (d / "metrics.json").is_file() and (d / "trace.parquet").is_file():
-                lb = label_of_run(d)
-                if lb is not None:
-                    mt = (d / "metrics.json").stat().st_mtime
-                    if lb not in newest or mt > newest[lb][0]:
-                        newest[lb] = (mt, d)
-    rows = []
-    for task in tasks:
-        if task.label in newest:
-            rows.append(row_from_run_dir(task, newest[task.label][1], reused=True))
-        else:
-            rows.append(dict(task.identity, status="missing", error="no finished run in " + str(runs_dir)))
-    return rows
-
-
-def run_paper(out: Path, *, jobs: int = 2, duration: float | None = None, only: list[str] | None = None,
-              extras: bool = True, rrd: bool = True, fresh: bool = False, figures: bool = True,
-              show_progress: bool | None = None, echo: Callable[[str], None] | None = None,
-              report_only: bool = False) -> PaperResult:
-    """Run the matrix into ``out`` and write the report. Raises :class:`BadInput` for bad arguments
-    (before anything is written)."""
-    if jobs < 1:
-        raise BadInput(f"--jobs: must be ≥ 1 (got {jobs})")
-    if duration is not None and not duration > 0:
-        raise BadInput(f"--duration: must be > 0 (got {duration})")
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise BadInput(f"--out: {out} exists and is not a directory")
-    entries = select(full_matrix(extras), only)
-    if not entries:
-        raise BadInput(f"--only: no matrix label matches {', '.join(only or [])} (e.g. 's2-*', 's4-imm-ukf5-fb-nmpc')")
+def run_quick(out: Path, entries: list[MatrixEntry], opts: PaperOptions, show: bool,
+              echo: Callable[[str], None] | None) -> PaperResult:
+    """The single-seed quick look: one run per entry (seed 0), reused from ``OUT/runs``."""
     runs_dir = out / "runs"
-    tasks = [RunTask.of(e, runs_dir, duration, rrd, fresh) for e in entries]
-    show = sys.stderr.isatty() if show_progress is None else show_progress
+    tasks = [RunTask.of(e, runs_dir, opts.duration, opts.rrd, opts.fresh) for e in entries]
     on_done, close = _progress_callbacks(len(tasks), show, echo)
     t0 = time.perf_counter()
-    if report_only:
+    try:
+        rows = collect_existing(runs_dir, tasks) if opts.report_only else run_tasks(tasks, opts.jobs, on_done)
+    finally:
         close()
-        rows = collect_existing(runs_dir, tasks)
-    else:
-        try:
-            rows = run_tasks(tasks, jobs, on_done)
-        finally:
-            close()
     wall = time.perf_counter() - t0
-
-    prev_wall: float | None = None
-    prev_reused: int | None = None
-    if report_only:  # keep the wall time of the matrix run that produced these runs
-        import json
-
-        try:
-            prev = json.loads((out / "paper_run.json").read_text())
-            prev_wall = prev.get("wall_time_s")
-            jobs = int(prev.get("jobs") or jobs)
-            prev_reused = prev.get("reused")
-        except (OSError, ValueError):
-            pass
     t1 = time.perf_counter()
     write_summary_csv(out / "summary.csv", rows)
     by_label = {r["label"]: r for r in rows}
-    claims = evaluate_claims(by_label) + evaluate_policy_claims(by_label)
+    claims: list[Claim] = evaluate_claims(by_label) + evaluate_policy_claims(by_label)
     figs: list[Path] = []
-    if figures:
+    if opts.figures:
         from .figures import make_figures
 
         figs = make_figures({r["label"]: (Path(r["run_dir"]) if r.get("run_dir") else None) for r in rows},
-                            out / "figures", jobs=jobs)
-    matrix_wall = prev_wall if report_only else wall
-    meta = {"duration": duration, "wall_time_s": matrix_wall, "jobs": jobs,
-            "reused": prev_reused if report_only else sum(1 for r in rows if r.get("reused"))}
-    md = render_claims(claims, by_label, meta)
-    if figs:
-        md += "\n## Figures\n\n" + "\n".join(f"- [`figures/{p.name}`](figures/{p.name})" for p in figs) + "\n"
-    with atomic_path(out / "claims.md") as tmp:
-        tmp.write_text(md)
-    report_time = time.perf_counter() - t1
-    write_json(out / "paper_run.json", {
-        "runs": len(rows), "failed": [r["label"] for r in rows if r.get("status") != "ok"],
-        "reused": meta["reused"], "jobs": jobs, "duration": duration, "only": only, "extras": extras,
-        "wall_time_s": matrix_wall, "report_only": report_only, "report_time_s": report_time,
-        "run_wall_time_s": {r["label"]: r.get("wall_time_s") for r in rows},
-        "verdicts": {c.id: c.verdict for c in claims},
-    })
-    return PaperResult(out, rows, claims, figs, wall, report_time)
+                            out / "figures", jobs=opts.jobs)
+    md = render_claims(claims, by_label, {"duration": opts.duration, "wall_time_s": None if opts.report_only
+                                          else wall, "jobs": opts.jobs, "seed": 0})
+    write_report(out, md, claims_document(claims, [0], "single-seed"), figs)
+    return PaperResult(out, rows, claims, figs, wall, time.perf_counter() - t1)

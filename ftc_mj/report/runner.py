@@ -19,11 +19,14 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from .derived import derived_metrics, onsets_of_config, read_trace
-from .matrix import MatrixEntry
+from .derived import read_trace, report_metrics
+from .matrix import MatrixEntry, make_label
 from .summary import flatten
+
+if TYPE_CHECKING:
+    from ..config import RunConfig
 
 THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
@@ -93,15 +96,14 @@ def existing_run(runs_dir: Path, run_id: str) -> Path | None:
 
 def row_from_run_dir(task: RunTask, run_dir: Path, reused: bool) -> dict[str, Any]:
     """A summary row from a finished run directory (metrics.json + derived metrics from the trace)."""
-    import tomllib
+    from ..config import read_toml, validate_config
 
     metrics = json.loads((run_dir / "metrics.json").read_text())
-    cfg = tomllib.loads((run_dir / "config.toml").read_text())
-    trace = read_trace(run_dir / "trace.parquet")
-    return _row(task, metrics, cfg, trace, run_dir, reused)
+    cfg = validate_config(read_toml(run_dir / "config.toml"))
+    return _row(task, metrics, cfg, read_trace(run_dir / "trace.parquet"), run_dir, reused)
 
 
-def _row(task: RunTask, metrics: dict[str, Any], cfg: dict[str, Any], trace: Any, run_dir: Path | None,
+def _row(task: RunTask, metrics: dict[str, Any], cfg: RunConfig, trace: Any, run_dir: Path | None,
          reused: bool) -> dict[str, Any]:
     row: dict[str, Any] = dict(task.identity)
     flat = flatten(metrics)
@@ -109,11 +111,7 @@ def _row(task: RunTask, metrics: dict[str, Any], cfg: dict[str, Any], trace: Any
               "rate_penalty"):
         flat.pop(k, None)  # the identity columns come from the matrix entry
     row.update(flat)
-    n_modes = int(task.identity.get("imm_models") or 0) if str(task.identity.get("estimator", "")).startswith("imm") \
-        else 0
-    omega_max = float((cfg.get("robot") or {}).get("omega_max", 17.453292519943293))
-    scen = str(cfg.get("name", task.scenario))
-    row.update(derived_metrics(trace, scen, onsets_of_config(cfg), n_modes, omega_max))
+    row.update(report_metrics(cfg, trace))
     row["run_dir"] = str(run_dir) if run_dir is not None else None
     row["reused"] = reused
     return row
@@ -124,7 +122,7 @@ def execute_task(task: RunTask) -> dict[str, Any]:
     _set_thread_env()
     t0 = time.perf_counter()
     try:
-        from ..config import config_to_toml_dict, load_config
+        from ..config import load_config
         from ..sim.run import execute, run_id_for
 
         cfg = load_config(task.scenario, task.overrides)
@@ -134,7 +132,7 @@ def execute_task(task: RunTask) -> dict[str, Any]:
             if prev is not None:
                 return row_from_run_dir(task, prev, reused=True)
         outcome = execute(cfg, runs_dir, rrd=task.rrd)
-        row = _row(task, outcome.metrics, config_to_toml_dict(cfg), outcome.result.trace, outcome.run_dir, False)
+        row = _row(task, outcome.metrics, cfg, outcome.result.trace, outcome.run_dir, False)
     except Exception as exc:  # noqa: BLE001 - one broken run must not stop the matrix
         row = dict(task.identity)
         row.update(status="failed", error=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc(limit=5))
@@ -195,3 +193,41 @@ def run_tasks(tasks: Sequence[RunTask], jobs: int = 1,
         raise
     pool.shutdown(wait=True)
     return [r if r is not None else _failed_row(t, RuntimeError("not run")) for r, t in zip(rows, tasks, strict=True)]
+
+
+def label_of_run(run_dir: Path) -> str | None:
+    """The matrix label of a finished run directory, from its ``metrics.json`` identity."""
+    import json
+
+    try:
+        m = json.loads((run_dir / "metrics.json").read_text())
+    except (OSError, ValueError):
+        return None
+    est = m.get("estimator")
+    if not isinstance(est, str) or not isinstance(m.get("scenario"), str):
+        return None
+    policy = m.get("policy") or ("direct" if m.get("feedback") else "none")
+    return make_label(m["scenario"], est, str(policy), str(m.get("controller")),
+                      int(m.get("imm_models") or 4), str(m.get("imm_variant") or "hypothesis"),
+                      str(m.get("sensing") or "speed"), float(m.get("rate_penalty") or 0.0))
+
+
+def collect_existing(runs_dir: Path, tasks: list[RunTask]) -> list[dict[str, Any]]:
+    """Rows for ``tasks`` from the newest finished run of each label found in ``runs_dir`` (whatever its
+    config hash); labels without a run get a row with status ``missing``."""
+    newest: dict[str, tuple[float, Path]] = {}
+    if runs_dir.is_dir():
+        for d in runs_dir.iterdir():
+            if d.is_dir() and (d / "metrics.json").is_file() and (d / "trace.parquet").is_file():
+                lb = label_of_run(d)
+                if lb is not None:
+                    mt = (d / "metrics.json").stat().st_mtime
+                    if lb not in newest or mt > newest[lb][0]:
+                        newest[lb] = (mt, d)
+    rows = []
+    for task in tasks:
+        if task.label in newest:
+            rows.append(row_from_run_dir(task, newest[task.label][1], reused=True))
+        else:
+            rows.append(dict(task.identity, status="missing", error="no finished run in " + str(runs_dir)))
+    return rows

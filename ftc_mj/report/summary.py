@@ -11,7 +11,7 @@ from typing import Any
 
 from ..io import atomic_path
 
-ID_COLUMNS = ("label", "scenario", "estimator", "imm_models", "imm_variant", "feedback", "policy", "sensing",
+ID_COLUMNS = ("label", "seed", "scenario", "estimator", "imm_models", "imm_variant", "feedback", "policy", "sensing",
               "rate_penalty", "controller", "extra",
               "status", "error", "run_id", "run_dir")
 

@@ -36,6 +36,7 @@ from ..estimation.base import FilterOutput, Measurement
 from ..estimation.decision import FaultDecision
 from ..estimation.factory import build_estimator
 from ..plant import Sensors
+from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
 from .cache import controller_for, plant_for
 from .columns import BASE_COLUMNS, COVARIANCE_COLUMNS, STATE, WHEEL_CODES
@@ -113,6 +114,18 @@ def robot_geometry(plant: object, cfg: RunConfig) -> RobotGeometry:
         chassis_offset_x=float(box.pos[0]),
         chassis_height=z_body + float(box.pos[2]),
     )
+
+
+def step_bound(cfg: RunConfig, applied: np.ndarray | None) -> tuple[np.ndarray | None, float]:
+    """``(previous, max_step)`` for :func:`~ftc_mj.control.excitation.dither_wheel_rates`: the command in
+    force and the MPC's bound ``omega_rate_max / rate`` (rad/s) on the next step, or no bound (a controller
+    not registered ``rate_bounded``, e.g. the open loop; ``controller.rate_bound_from_applied`` off; no
+    command yet)."""
+    c = cfg.controller
+    bounded = controllers.get(c.kind).meta.get("rate_bounded", False)
+    if applied is None or not bounded or not c.rate_bound_from_applied:
+        return None, np.inf
+    return applied, c.omega_rate_max / c.rate
 
 
 def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
@@ -241,7 +254,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
                 if exc.enabled and suspected:
                     dither = yaw_dither(t, exc.amplitude, exc.period)
                     cmd.omega = dither_wheel_rates(cmd.omega, dither, model_radii, cfg.model_half_track,
-                                                   cfg.robot.omega_max)
+                                                   cfg.robot.omega_max, *step_bound(cfg, applied))
                     c["excitation"][k] = dither
                 plant.set_command(float(cmd.omega[0]), float(cmd.omega[1]))
                 applied = np.array(cmd.omega, dtype=float)

@@ -61,7 +61,11 @@ Tracking (m, the cross-track error is positive left of the path)
 Actuation
     ``omega_at_limit_fraction`` (fraction of steps with a wheel-rate command within
     :data:`LIMIT_TOL` of ``omega_max``) and ``omega_at_limit_s`` (s); ``command_total_variation_per_s``
-    (Σ |Δ command| of both wheels per second of run, rad/s²: the chatter metric).
+    (Σ |Δ command| of both wheels per second of run, rad/s²: the chatter metric);
+    ``command_step_max`` (rad/s, the largest change of either wheel's command between consecutive
+    controller samples; the MPCs bound it by ``omega_rate_max / rate`` when
+    ``controller.rate_bound_from_applied``) and ``command_at_rate_limit_s`` (s, controller periods that
+    began with a step within :data:`LIMIT_TOL` of that bound or beyond it).
 Solver
     ``solve_time_ms`` {``median``, ``p95``, ``max``} (wall clock, ms; NaN without solves);
     ``solves_over_period`` (solves longer than the control period); ``solver_iterations_median``;
@@ -351,6 +355,13 @@ def compute_metrics(
     dur = max(float(t[-1] - t[0]), 1e-9) if t.size > 1 else 1.0
     tv = np.nansum(np.abs(np.diff(cmdR))) + np.nansum(np.abs(np.diff(cmdL)))
     m["command_total_variation_per_s"] = float(tv / dur)
+    # command steps between controller samples (the trace holds each command): largest, and time (s) in
+    # controller periods that began with a step at (or, with the first input free, beyond) the MPC's
+    # rate bound omega_rate_max / rate
+    steps = np.fmax(np.abs(np.diff(cmdR)), np.abs(np.diff(cmdL)))
+    step_lim = cfg.controller.omega_rate_max / cfg.controller.rate
+    m["command_step_max"] = _nanstat(steps, np.max)
+    m["command_at_rate_limit_s"] = float(np.sum(steps >= step_lim * (1 - LIMIT_TOL)) / cfg.controller.rate)
     # ---------------------------------------------------------------- solver
     st = trace["solve_time_ms"]
     st = st[np.isfinite(st)]

@@ -1,0 +1,227 @@
+"""Checks and claims: the data model of ``ftc-mj paper``'s verdicts, and the rules that settle a check.
+
+A :class:`Check` is one yes/no test of a paper sentence on the summary rows of one seed (label →
+flattened metrics). It names the runs it reads (:attr:`Check.runs`), and :func:`settle` turns its
+raw result into one of four outcomes by rules stated here, before any number is looked at:
+
+- ``fail`` — any run it reads has failed (status other than ``ok``): a failed run fails its checks;
+- ``not run`` — a run it reads is not part of this invocation (``--only``);
+- ``n/a`` — its precondition does not hold: a fault onset of a run it reads lies after the end of
+  the run, the check itself declared a precondition false (``na``, e.g. "feedback off makes the two
+  runs identical by construction"), or a value it needs is missing;
+- ``pass`` / ``fail`` — otherwise, the test's own result.
+
+``n/a`` and ``not run`` are never counted as passes. A claim's single-seed verdict
+(:func:`verdict_of`) uses only the passes and fails: all pass → *reproduced*, none → *not
+reproduced*, otherwise *partly*; no pass or fail → *not evaluated*. The verdict over seeds is in
+:mod:`.seeded`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+REPRODUCED = "reproduced"
+PARTLY = "partly"
+NOT_REPRODUCED = "not reproduced"
+NOT_EVALUATED = "not evaluated"
+
+PASS, FAIL, NA, NOT_RUN = "pass", "fail", "n/a", "not run"
+OUTCOMES = (PASS, FAIL, NA, NOT_RUN)
+
+Rows = Mapping[str, Mapping[str, Any]]
+
+
+@dataclass
+class Check:
+    """One yes/no test of a claim on the rows of one seed."""
+
+    text: str
+    """What is tested (independent of the numbers, so that seeds can be matched check by check)."""
+    passed: bool | None
+    """The test's result; ``None`` = not applicable or not run (see :attr:`na`)."""
+    detail: str = ""
+    """The numbers behind the result."""
+    runs: tuple[str, ...] = ()
+    """Labels of the runs the check reads."""
+    na: str = ""
+    """Why the check is not applicable (or :data:`NOT_RUN`), when ``passed`` is ``None``."""
+
+    @property
+    def outcome(self) -> str:
+        """``pass``, ``fail``, ``n/a`` or ``not run``."""
+        if self.passed is not None:
+            return PASS if self.passed else FAIL
+        return NOT_RUN if self.na == NOT_RUN else NA
+
+
+@dataclass
+class Claim:
+    """One sentence (or a few) of the paper, its checks, the evidence and the interpretation."""
+
+    id: str
+    title: str
+    paper: str
+    """What the paper says (quoted or closely paraphrased, with its section)."""
+    checks: list[Check] = field(default_factory=list)
+    table: list[dict[str, Any]] = field(default_factory=list)
+    """Evidence rows (label + the numbers the checks use)."""
+    notes: list[str] = field(default_factory=list)
+    """Interpretation: why the verdict comes out as it does."""
+
+    def count(self, outcome: str) -> int:
+        return sum(1 for c in self.checks if c.outcome == outcome)
+
+    @property
+    def verdict(self) -> str:
+        return verdict_of([c.outcome for c in self.checks])
+
+    @property
+    def n_passed(self) -> int:
+        return self.count(PASS)
+
+    @property
+    def n_evaluated(self) -> int:
+        """Checks that passed or failed (n/a and not-run ones excluded)."""
+        return self.count(PASS) + self.count(FAIL)
+
+
+def verdict_of(outcomes: Iterable[str | bool | None]) -> str:
+    """Single-seed verdict from check outcomes (``True``/``False``/``None`` are read as pass/fail/n/a):
+    all passes → reproduced; no pass → not reproduced; else partly; no pass or fail → not evaluated."""
+    ev = [o in (PASS, True) for o in outcomes if o in (PASS, FAIL, True, False)]
+    if not ev:
+        return NOT_EVALUATED
+    if all(ev):
+        return REPRODUCED
+    if not any(ev):
+        return NOT_REPRODUCED
+    return PARTLY
+
+
+# ------------------------------------------------------------------------------------- settling
+def _run_state(rows: Rows, label: str) -> str:
+    r = rows.get(label)
+    if r is None or r.get("status") == "missing":
+        return NOT_RUN
+    return "ok" if r.get("status") == "ok" else FAIL
+
+
+def onset_after_end(row: Mapping[str, Any] | None) -> bool:
+    """A fault onset of the run's schedule lies after the run's last step (``onsets_after_end`` of
+    :func:`~ftc_mj.report.derived.derived_metrics`; the ``after end`` onsets of ``metrics.json``)."""
+    v = num(row, "onsets_after_end")
+    return v is not None and v > 0
+
+
+def settle(ch: Check, rows: Rows) -> Check:
+    """Apply the outcome rules of the module docstring to ``ch`` (in place) and return it."""
+    states = {lb: _run_state(rows, lb) for lb in ch.runs}
+    failed = [lb for lb, s in states.items() if s == FAIL]
+    if failed:
+        errs = "; ".join(f"{lb}: {rows[lb].get('status')} ({rows[lb].get('error') or 'no reason'})" for lb in failed)
+        ch.passed, ch.na, ch.detail = False, "", f"run failed — {errs}"
+    elif any(s == NOT_RUN for s in states.values()):
+        ch.passed, ch.na = None, NOT_RUN
+    elif any(onset_after_end(rows.get(lb)) for lb in ch.runs):
+        ch.passed, ch.na = None, "a fault onset lies after the end of the run"
+    elif ch.na:
+        ch.passed = None
+    elif ch.passed is None:
+        ch.na = "a value it needs is missing"
+    return ch
+
+
+def evaluate(fns: Iterable[Callable[[Rows], Claim]], rows: Rows) -> list[Claim]:
+    """Evaluate the claim functions on ``rows`` and settle every check."""
+    out = []
+    for fn in fns:
+        c = fn(rows)
+        for ch in c.checks:
+            settle(ch, rows)
+        out.append(c)
+    return out
+
+
+# ------------------------------------------------------------------------------------- helpers
+def num(row: Mapping[str, Any] | None, key: str) -> float | None:
+    """A finite float from a row, else None (missing run, missing key, null, NaN, non-numeric)."""
+    if row is None:
+        return None
+    v = row.get(key)
+    if v is None or v == "":
+        return None
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
+
+
+def truthy(row: Mapping[str, Any] | None, key: str) -> bool | None:
+    if row is None:
+        return None
+    v = row.get(key)
+    if v is None or v == "" or (isinstance(v, float) and math.isnan(v)):
+        return None
+    if isinstance(v, str):
+        return v.strip().lower() in ("true", "1", "yes")
+    return bool(v)
+
+
+def fmt(v: Any, unit: str = "", digits: int = 3) -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (int, float)):
+        if isinstance(v, float) and not math.isfinite(v):
+            return "—"
+        return f"{v:.{digits}g}{unit}"
+    return str(v)
+
+
+def cmp(a: float | None, op: Callable[[float, float], bool], b: float | None) -> bool | None:
+    if a is None or b is None:
+        return None
+    return bool(op(a, b))
+
+
+def lt(a: float | None, b: float | None) -> bool | None:
+    return cmp(a, lambda x, y: x < y, b)
+
+
+def le(a: float | None, b: float | None) -> bool | None:
+    return cmp(a, lambda x, y: x <= y, b)
+
+
+def gt(a: float | None, b: float | None) -> bool | None:
+    return cmp(a, lambda x, y: x > y, b)
+
+
+def ge(a: float | None, b: float | None) -> bool | None:
+    return cmp(a, lambda x, y: x >= y, b)
+
+
+def all_of(*vals: bool | None) -> bool | None:
+    if any(v is False for v in vals):
+        return False
+    if any(v is None for v in vals):
+        return None
+    return True
+
+
+def any_of(*vals: bool | None) -> bool | None:
+    if any(v is True for v in vals):
+        return True
+    if any(v is None for v in vals):
+        return None
+    return False
+
+
+def absmax(*vals: float | None) -> float | None:
+    v = [abs(x) for x in vals if x is not None]
+    return max(v) if v else None

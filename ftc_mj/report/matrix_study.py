@@ -1,0 +1,135 @@
+"""The matrix over seeds, run by the study machinery (:mod:`ftc_mj.study`: Dask, one persisted row
+per run, resumable).
+
+The matrix entries become one preset axis ``run`` of a generated study file (labels = matrix
+labels; each value sets the entry's scenario — name, description, duration, both fault schedules —
+and its overrides), crossed with the seeds. Each worker runs
+:func:`run_with_report_metrics`: the run plus the report's trace-derived metrics
+(:func:`~ftc_mj.report.derived.report_metrics`), so the persisted rows carry everything the claims
+read. The runs of one seed (``keep_seed``) also keep their run directory (config, trace, metrics;
+no recording) for the figures.
+
+The study folder is ``OUT/study/<study hash>``: the same invocation resumes there and computes only
+the runs without a row; another selection, seed list or duration is another study.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import tempfile
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ..config import read_toml, scenario_path
+from ..io import write_toml
+from .matrix import MatrixEntry
+
+if TYPE_CHECKING:
+    from ..config import RunConfig
+    from ..study.spec import StudyPlan
+
+AXIS = "run"
+"""Name of the study axis holding the matrix labels."""
+BASE_SCENARIO = "scenario1"
+
+
+def entry_preset(entry: MatrixEntry, duration: float | None = None) -> dict[str, Any]:
+    """Dotted overrides that turn the base scenario into ``entry``'s configuration (seed aside), run
+    for ``duration`` (s) instead of the scenario's when given."""
+    from ..study.spec import flatten_dotted
+
+    data = read_toml(scenario_path(entry.scenario), "scenario")
+    data.setdefault("name", scenario_path(entry.scenario).stem)
+    preset = {"faults.left": [], "faults.right": []}
+    preset.update(flatten_dotted(data))
+    preset.update(entry.overrides)
+    if duration is not None:
+        preset["duration"] = float(duration)
+    return preset
+
+
+def study_data(entries: Sequence[MatrixEntry], seeds: Sequence[int], duration: float | None = None,
+               name: str = "paper-matrix") -> dict[str, Any]:
+    """The study file (as TOML data) of ``entries`` × ``seeds``, each run ``duration`` s long (default:
+    its scenario's)."""
+    return {
+        "name": name,
+        "description": "ftc-mj paper: the matrix over seeds (generated from ftc_mj.report.matrix)",
+        "scenario": BASE_SCENARIO,
+        "seeds": [int(s) for s in seeds],
+        "axes": [{"name": AXIS, "labels": [e.label for e in entries],
+                  "values": [entry_preset(e, duration) for e in entries]}],
+    }
+
+
+def load_matrix_study(entries: Sequence[MatrixEntry], seeds: Sequence[int], duration: float | None,
+                      out: Path, *, write: bool = True) -> StudyPlan:
+    """Validate the generated study and return its plan, whose study file is
+    ``out/study/<hash>/matrix.toml`` (written when ``write``; nothing is written when validation
+    fails with BadInput)."""
+    from ..study.spec import load_study
+
+    data = study_data(entries, seeds, duration)
+    with tempfile.TemporaryDirectory() as tmp:
+        probe = Path(tmp) / "matrix.toml"
+        write_toml(probe, data)
+        plan = load_study(probe)
+    final = Path(out) / "study" / plan.study_hash / "matrix.toml"
+    if write:
+        write_toml(final, data)
+    return dataclasses.replace(plan, path=final)
+
+
+def run_with_report_metrics(cfg: RunConfig, out_root: Path | None, rrd: bool, *, keep_seed: int | None = None,
+                            runs_dir: str | None = None) -> Any:
+    """A study ``run_fn``: :func:`~ftc_mj.sim.run.execute`, then the report metrics added to the
+    outcome's metrics. Runs of ``keep_seed`` are written under ``runs_dir`` (no recording)."""
+    from ..sim.run import execute
+    from .derived import report_metrics
+
+    keep = Path(runs_dir) if runs_dir is not None and cfg.seed == keep_seed else None
+    outcome = execute(cfg, keep, rrd=False)
+    outcome.metrics.update(report_metrics(cfg, outcome.result.trace))
+    return outcome
+
+
+@dataclass
+class MatrixResult:
+    """The rows of one invocation, by seed and label."""
+
+    plan: StudyPlan
+    folder: Path
+    rows: list[dict[str, Any]]
+    computed: int
+    wall_time_s: float
+
+    def by_seed(self) -> dict[int, dict[str, dict[str, Any]]]:
+        """``{seed: {label: row}}``."""
+        out: dict[int, dict[str, dict[str, Any]]] = {}
+        for r in self.rows:
+            out.setdefault(int(r["seed"]), {})[str(r[AXIS])] = r
+        return out
+
+
+def run_matrix_study(plan: StudyPlan, *, workers: int, keep_seed: int | None, report_only: bool = False,
+                     progress: bool = False, on_row: Callable[[dict[str, Any]], None] | None = None) -> MatrixResult:
+    """Compute the plan's missing runs (none with ``report_only``) and collect all its rows; one
+    worker runs them in this process (no Dask cluster)."""
+    from ..study.runner import run_study
+    from ..study.store import StudyStore
+
+    folder = plan.path.parent
+    store = StudyStore(folder)
+    store.check(plan)
+    if report_only:
+        df = store.collect(plan)
+        return MatrixResult(plan, folder, df.to_dicts() if df.height else [], 0, 0.0)
+    fn = functools.partial(run_with_report_metrics, keep_seed=keep_seed, runs_dir=str(store.runs_dir))
+    rep = run_study(plan, folder, workers=workers, serial=workers == 1, run_fn=fn, analyse=False, progress=progress,
+                    on_row=on_row)
+    df = rep.results
+    rows = df.to_dicts() if df is not None and df.height else []
+    return MatrixResult(plan, folder, rows, len(rep.computed), rep.wall_time_s)

@@ -84,7 +84,9 @@ class ImmVariant(StrEnum):
 
 
 PLUGIN_HELP = ("Module to import first (repeatable): the estimators, decision rules, controllers, policies and "
-               "references it registers can then be named; added to the config's plugins.")
+               "references it registers can then be named; added to the config's plugins (Dask workers import it "
+               "too).")
+Plugins = Annotated[list[str] | None, typer.Option("--plugin", metavar="MODULE", help=PLUGIN_HELP)]
 
 
 def _fail(msg: str, code: int = EXIT_BAD_INPUT) -> None:
@@ -151,21 +153,22 @@ def run(
     scenario: Annotated[str, typer.Argument(help="Built-in scenario (scenario1..scenario4) or a TOML file.",
                                             metavar="SCENARIO", show_default=False)],
     estimator: Annotated[str | None, typer.Option(
-        help="FDI filter: a registered estimator (built-in ekf, ukf, imm-ekf, imm-ukf, none; 'ftc-mj components' "
-             f"lists all). [default: the scenario's estimator.kind, else {_D.estimator.kind}]")] = None,
+        metavar="NAME", help="FDI filter: a registered estimator (built-in ekf, ukf, imm-ekf, imm-ukf, none; "
+             "'ftc-mj components' lists all). "
+             f"[default: the scenario's estimator.kind, else {_D.estimator.kind}]")] = None,
     imm_models: Annotated[ImmModels | None, typer.Option(
         help=f"IMM bank size (imm-ekf/imm-ukf only). [default: {_D.estimator.imm_models}]")] = None,
     imm_variant: Annotated[ImmVariant | None, typer.Option(
         help=f"IMM variant (imm-ekf/imm-ukf only). [default: {_D.estimator.imm_variant}]")] = None,
     reconfig: Annotated[str | None, typer.Option(
-        help="Reconfiguration policy, registered: built-in none (nominal radii), direct (latest estimate, the "
-             "paper's feedback), safe (gated, clamped, rate-limited hand-over), truth (oracle). "
+        metavar="NAME", help="Reconfiguration policy, registered: built-in none (nominal radii), direct (latest "
+             "estimate, the paper's feedback), safe (gated, clamped, rate-limited hand-over), truth (oracle). "
              f"[default: the scenario's reconfiguration.policy, else {_D.reconfiguration.policy}]")] = None,
     feedback: Annotated[bool | None, typer.Option("--feedback/--no-feedback",
                                                   help="Aliases of --reconfig direct / --reconfig none.",
                                                   show_default=False)] = None,
     controller: Annotated[str | None, typer.Option(
-        help="Tracking controller, registered: built-in nmpc, lmpc, open-loop. "
+        metavar="NAME", help="Tracking controller, registered: built-in nmpc, lmpc, open-loop. "
              f"[default: the scenario's controller.kind, else {_D.controller.kind}]")] = None,
     seed: Annotated[int | None, typer.Option(help=f"Random seed of the noise. [default: {_D.seed}]")] = None,
     duration: Annotated[float | None, typer.Option(
@@ -174,13 +177,13 @@ def run(
                                             show_default=False)] = None,
     set_: Annotated[list[str] | None, typer.Option("--set", help="Override any config key: dotted.key=value "
                                                    "(the value is read as TOML, else as a string).")] = None,
-    plugin: Annotated[list[str] | None, typer.Option("--plugin", help=PLUGIN_HELP)] = None,
+    plugin: Plugins = None,
     no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write the Rerun recording.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary table (the run folder "
                                                               "is still printed).")] = False,
 ) -> None:
     """Run one closed-loop simulation and write OUT/<run-id>/ (config.toml, trace.parquet,
-    metrics.json, run.rrd).
+    metrics.json, events.json, run.rrd).
 
     Exit codes: 0 ok; 1 the run failed (reason in metrics.json) or could not be written; 2 bad input
     (one line naming the field, nothing written); 3 the physics became unstable (status unstable: the
@@ -268,8 +271,7 @@ def study(
     limit: Annotated[int | None, typer.Option(help="Compute at most N of the missing runs now, chosen to cover "
                                                    "every axis value first (the rest on a later call).")] = None,
     seeds: Annotated[int | None, typer.Option(help="Replace the study's seed count (part of its identity).")] = None,
-    plugin: Annotated[list[str] | None, typer.Option("--plugin", help=PLUGIN_HELP + " Workers import it too.")
-                      ] = None,
+    plugin: Plugins = None,
     set_: Annotated[list[str] | None, typer.Option("--set", help="Extra base override dotted.key=value "
                                                    "(part of the study's identity).")] = None,
     retry_failed: Annotated[bool, typer.Option("--retry-failed", help="Recompute runs whose row failed.")] = False,
@@ -504,7 +506,7 @@ def scenarios() -> None:
 
 
 @app.command()
-def components(plugin: Annotated[list[str] | None, typer.Option("--plugin", help=PLUGIN_HELP)] = None) -> None:
+def components(plugin: Plugins = None) -> None:
     """List the registered estimators, decision rules, controllers, policies and references (built-in,
     from installed packages' entry points and from --plugin modules)."""
     from .registry import REGISTRIES, load_plugins

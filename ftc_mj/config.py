@@ -148,7 +148,7 @@ class RobotConfig(_Strict):
     wheel_radius: Length = 2.0
     """Nominal wheel radius R0 (m)."""
     half_track: Length = 1.0
-    """Half track b (m): wheel centre to axle midpoint; track width is 2b (DESIGN §1)."""
+    """Half track b (m): wheel centre to axle midpoint; track width is 2b."""
     omega_max: ranged(0.0, 1.0e4, lo_open=True, unit="rad/s") = OMEGA_MAX
     """Wheel-rate limit (rad/s), symmetric."""
 
@@ -245,7 +245,7 @@ def _check_schedule(v: Breakpoints) -> Breakpoints:
 
 
 class FaultConfig(_Strict):
-    """Piecewise-linear wheel-radius schedules (DESIGN §2): lists of ``[t, radius]`` breakpoints.
+    """Piecewise-linear wheel-radius schedules: lists of ``[t, radius]`` breakpoints.
 
     Before the first breakpoint the radius is the nominal one; after the last it is held. A step is
     two breakpoints at the same time. Empty = no fault on that wheel.
@@ -382,7 +382,7 @@ class EstimatorConfig(_Strict):
 
 
 class ControllerConfig(_Strict):
-    """Trajectory-tracking controller (paper §3, DESIGN §5)."""
+    """Trajectory-tracking controller (paper §3)."""
 
     kind: component("controllers") = "nmpc"
     """A registered controller (:data:`ftc_mj.registry.controllers`). Built-in: ``nmpc``, ``lmpc``,
@@ -536,7 +536,8 @@ class OutputConfig(_Strict):
 
 
 class RunConfig(_Strict):
-    """A complete run. Keys that scripts rely on: DESIGN §6."""
+    """A complete run. The keys scripts rely on keep their names: ``duration``, ``seed``, ``feedback``,
+    ``sensors.*``, ``estimator.kind``, ``controller.kind``."""
 
     name: SafeName = "run"
     """Names the run's output folder: one plain file-name component (:data:`NAME_RE`)."""

@@ -2,7 +2,7 @@
 
 The simulation loop buffers its telemetry in arrays and calls :func:`write_rrd` **once** at the end
 of a run. Every entity is sent with ``RecordingStream.send_columns`` (one call per entity, never a
-per-step ``log()``), which costs a few milliseconds for a 40 s run instead of seconds (DESIGN §8).
+per-step ``log()``), which costs a few milliseconds for a 40 s run instead of seconds.
 
 Each run gets its own ``rr.RecordingStream(app_id, recording_id=run_id)`` (never the global stream,
 so parallel runs cannot mix) with a file sink; the blueprint is saved in the same file. The file is
@@ -14,7 +14,7 @@ Timelines
 ---------
 ``sim_time``
     duration, integer nanoseconds (``timedelta64[ns]``; float seconds are rounded differently by
-    different Rerun calls, TECHNOTES §1.1 pitfall).
+    different Rerun calls: ``set_time`` and ``TimeColumn`` gave 2050000000 and 2049999999 ns for 2.05 s).
 ``step``
     sequence, the estimator-step index (row of the trace). Solves and events get the index of the
     last trace row at or before their time.
@@ -113,7 +113,7 @@ REQUIRED_COLUMNS: tuple[str, ...] = (
     "innovation", "innovation_std", "omega_R", "omega_L", "omega_R_cmd", "omega_L_cmd",
     "cross_track_error",
 )
-"""Trace columns :func:`write_rrd` needs (DESIGN §6 ``trace.parquet`` minimum)."""
+"""Trace columns :func:`write_rrd` needs (the minimum columns of ``trace.parquet``)."""
 
 PATH_RATE_HZ = 2.0
 """Rows per second of the growing ``/world/path`` strip."""

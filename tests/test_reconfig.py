@@ -1,4 +1,4 @@
-"""Reconfiguration policies (issue 7): what the controller's model is handed, and why.
+"""Reconfiguration policies: what the controller's model is handed, and why.
 
 The ``safe`` policy's rules are checked one by one against hand-made filter outputs and decisions;
 the closed-loop behaviour (revert after an injected divergence) is in test_reconfig_loop.py.

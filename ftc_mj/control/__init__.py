@@ -1,4 +1,4 @@
-"""Trajectory-tracking controllers (paper §3, DESIGN §5): LGL pseudospectral NMPC, linear MPC,
+"""Trajectory-tracking controllers (paper §3): LGL pseudospectral NMPC, linear MPC,
 open loop; the reference paths; LGL helpers."""
 
 from .base import Controller, ControlOutput

@@ -15,7 +15,7 @@ The maths is filterpy 2.0.0's, operation for operation, so that the tests can co
 
 * UKF (``UnscentedKalmanFilter`` + ``JulierSigmaPoints``): sigma points ``x ± rows of U`` with
   ``UᵀU = (n+κ)P``; predict = unscented transform of the Euler step plus ``Q``; the update
-  *regenerates* the sigma points from the prior ``(x⁻, P⁻)`` (filterpy 2.0 behaviour, TECHNOTES §3.1);
+  *regenerates* the sigma points from the prior ``(x⁻, P⁻)`` (filterpy 2.0 behaviour);
   ``S = Σ W (h-ẑ)(h-ẑ)ᵀ + R``, ``K = Pxz S⁻¹``, ``P⁺ = P⁻ - K S Kᵀ``.
 * EKF (``ExtendedKalmanFilter`` with ``predict_x`` = Euler step and ``F`` = AD Jacobian at the
   posterior): ``P⁻ = F P Fᵀ + Q``; Joseph-form update ``P⁺ = (I-KH)P⁻(I-KH)ᵀ + K R Kᵀ``.

@@ -20,7 +20,7 @@ diagonal, 0.01 elsewhere; 5 models add a linear left-wheel deflation at ``estima
 ``paper``
     Literal: every member is the same filter (free radii, the paper's ``Q``), the models differ only
     in their *initial* radii. Mixing merges them within a few hundred steps (spread of radii → 0,
-    ``μ`` stays uniform): kept so that the reproduction can show this collapse (BASELINES §1).
+    ``μ`` stays uniform): kept so that the reproduction can show this collapse.
 
 ``hypothesis`` (default)
     Each member's *process model* encodes its hypothesis, so mixing cannot erase it:

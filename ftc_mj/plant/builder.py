@@ -6,7 +6,7 @@ The MJCF (``plant.model_file``; by default ``builtin:diffdrive.xml``, the robot 
 spec, then it is compiled once. Runtime changes (punctures) never recompile: they edit ``geom_size`` in place
 (see :meth:`ftc_mj.plant.robot.Plant.set_wheel_radius`).
 
-Every element is looked up by name (DESIGN §2); the names are listed in :data:`REQUIRED_NAMES`.
+Every element is looked up by name; the names are listed in :data:`REQUIRED_NAMES`.
 """
 
 from __future__ import annotations

@@ -281,8 +281,8 @@ def study(
     """Sweep a study on dask.distributed: every finished run is persisted at once under
     OUT/rows/; re-running the same command computes only the missing runs; OUT/results.parquet,
     OUT/summary.md and OUT/figures/ are written at the end."""
-    from .api import plan_study
-    from .study.runner import StudyInterruptedError, run_study, validate_address, validate_dashboard
+    from .api import plan_study, run_study
+    from .study.runner import StudyInterruptedError, validate_address, validate_dashboard
     from .study.spec import study_path
 
     try:
@@ -298,7 +298,7 @@ def study(
         out_dir = _folder(out) or Path("runs/out/studies") / plan.spec.name
         report = run_study(plan, out_dir, workers=workers, address=address, serial=serial, rrd=rrd.value,
                            limit=limit, retry_failed=retry_failed, progress=not quiet and sys.stderr.isatty(),
-                           dashboard=dashboard, echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True))
+                           dashboard=dashboard, echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True)).report
     except BadInput as err:
         _fail(str(err))
         return

@@ -177,3 +177,31 @@ def test_a_study_sweeps_a_plugin_setting(my_components: str, tmp_path: Path) -> 
     study.write_text(bad)
     with pytest.raises(BadInput, match=r"estimator.options.q_scale: Input should be greater than 0"):
         ftc_mj.plan_study(study)
+
+
+class LeftBelow:
+    """A plug-in decision rule: the left wheel once its estimate is below ``level`` (m), after 0.1 s."""
+
+    dwell = 0.1
+
+    def __init__(self, level: float) -> None:
+        self.level = level
+
+    def candidate(self, step: ftc_mj.estimation.DecisionStep) -> str | None:
+        return "left" if step.out.x[4] < self.level else None
+
+
+def test_a_plugin_decision_rule_decides_a_run() -> None:
+    ftc_mj.register_decision_rule("left-below", lambda cfg: LeftBelow(0.8 * cfg.model_wheel_radius))
+    try:
+        run = ftc_mj.run("scenario2", overrides={
+            "duration": 3.0, "plant.kind": "kinematic", "sensors.yaw_rate_sigma": 0.01,
+            "faults.left": [[1.0, 2.0], [1.0, 1.0]], "estimator.decision.rule": "left-below"})
+    finally:
+        registry.decision_rules.unregister("left-below")
+    m = run.metrics
+    assert m["status"] == "ok" and m["isolated_wheel"] == "left"
+    t_decl = m["detection_time"]
+    # declared the 0.1 s dwell after the estimate first fell below 1.6 m (trace times are exact steps)
+    t_below = float(run.trace.filter(run.trace["R_L_hat"] < 1.6)["t"][0])
+    assert abs(t_decl - (t_below + 0.1)) < 1e-6, (t_decl, t_below)

@@ -7,7 +7,7 @@ Every estimator's ``step(u, z)`` returns a :class:`FilterOutput`.
 
 from ._core import FilterSetup
 from .base import Estimator, FilterOutput, Hypothesis, Measurement
-from .decision import DecisionRule, DecisionState, FaultDecision
+from .decision import DecisionRule, DecisionState, DecisionStep, FaultDecision
 from .ekf import EKF
 from .factory import build_estimator
 from .imm import IMM
@@ -19,6 +19,7 @@ __all__ = [
     "UKF",
     "DecisionRule",
     "DecisionState",
+    "DecisionStep",
     "Estimator",
     "FaultDecision",
     "FilterOutput",

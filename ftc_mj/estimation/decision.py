@@ -28,9 +28,9 @@ Rules (``estimator.decision.rule``):
     ``mode`` when the output declares hypotheses, else ``sigma``.
 
 Rules are registered by name (:data:`ftc_mj.registry.decision_rules`): a rule's factory takes the
-run config and returns an object with a ``dwell`` (s) and ``candidate(t, out, dirs)`` giving the
-wheel it would declare now (``None``: no fault evident); :class:`FaultDecision` adds the dwell,
-change and clear logic, the severity and the anomaly flag around it.
+run config and returns an object with a ``dwell`` (s) and ``candidate(step)`` giving the wheel it
+would declare from this :class:`DecisionStep` (``None``: no fault evident); :class:`FaultDecision`
+adds the dwell, change and clear logic, the severity and the anomaly flag around it.
 
 A declared fault is cleared when the condition has been false for ``dwell`` seconds, and its
 isolated wheel changes only when the new candidate has held for ``dwell`` seconds. Every
@@ -89,16 +89,30 @@ class DecisionState:
     """All declaration / change / clear events so far (shared list, oldest first)."""
 
 
+@dataclass(frozen=True)
+class DecisionStep:
+    """What a rule sees at one estimator step."""
+
+    t: float
+    """Time (s) of the estimator output."""
+    out: FilterOutput
+    """The estimator's output of this step."""
+    omega: np.ndarray | None
+    """Wheel rates [omega_R, omega_L] (rad/s) the output was predicted with (``None`` if not given)."""
+    dirs: RadiusDirections
+    """The observed and unobservable-split radius directions at those rates, with the filter's σ (m)
+    along each (:mod:`.observability`)."""
+
+
 class DecisionRule(Protocol):
     """What :class:`FaultDecision` needs of a rule."""
 
     dwell: float
     """Time (s) a candidate must hold before it is declared, changed or cleared."""
 
-    def candidate(self, t: float, out: FilterOutput, dirs: RadiusDirections) -> Wheel | None:
-        """The wheel a fault would be declared on from the estimator output of time ``t`` (s) alone
-        (``None``: no fault evident); ``dirs``: the observed and split radius directions at the wheel
-        rates of this step."""
+    def candidate(self, step: DecisionStep) -> Wheel | None:
+        """The wheel a fault would be declared on from this step alone (``None``: no fault evident;
+        ``'unknown'``: a fault is evident, not which wheel)."""
         ...
 
 
@@ -124,7 +138,8 @@ class SigmaRule:
         self.dwell = d.dwell
         self.k_sigma, self.min_drop, self.max_split_sigma, self.R0 = d.k_sigma, d.min_drop, d.max_split_sigma, R0
 
-    def candidate(self, t: float, out: FilterOutput, dirs: RadiusDirections) -> Wheel | None:
+    def candidate(self, step: DecisionStep) -> Wheel | None:
+        out, dirs = step.out, step.dirs
         sus_R, sus_L = departures(out, self.R0, self.k_sigma, self.min_drop)[0]
         if (sus_R or sus_L) and dirs.split_std <= self.max_split_sigma:
             return "both" if sus_R and sus_L else "right" if sus_R else "left"
@@ -147,7 +162,8 @@ class ModeRule:
         self.dwell = d.dwell
         self.mode_threshold, self.min_drop, self.R0 = d.mode_threshold, d.min_drop, R0
 
-    def candidate(self, t: float, out: FilterOutput, dirs: RadiusDirections) -> Wheel | None:
+    def candidate(self, step: DecisionStep) -> Wheel | None:
+        out = step.out
         if out.mode_probs is None or out.hypotheses is None:
             raise ValueError("decision rule 'mode' needs an estimator that declares the hypotheses of its mode "
                              "probabilities (FilterOutput.hypotheses)")
@@ -169,9 +185,9 @@ class AutoRule:
         self.dwell = d.dwell
         self.mode, self.sigma = ModeRule(d, R0), SigmaRule(d, R0)
 
-    def candidate(self, t: float, out: FilterOutput, dirs: RadiusDirections) -> Wheel | None:
-        rule = self.mode if out.hypotheses is not None else self.sigma
-        return rule.candidate(t, out, dirs)
+    def candidate(self, step: DecisionStep) -> Wheel | None:
+        rule = self.mode if step.out.hypotheses is not None else self.sigma
+        return rule.candidate(step)
 
 
 def _from_config(rule: type[SigmaRule | ModeRule | AutoRule]) -> Callable[[RunConfig], DecisionRule]:
@@ -211,7 +227,7 @@ class FaultDecision:
         predicted with (they set which radius combination is observable); returns the decision."""
         dirs = radius_directions(out.P, omega)
         above = departures(out, self.R0, self.k_sigma, self.min_drop)[1]
-        cand = self.rule_impl.candidate(t, out, dirs)
+        cand = self.rule_impl.candidate(DecisionStep(t, out, omega, dirs))
         eps = 1e-9
         if cand is not None:
             self._clear_since = None

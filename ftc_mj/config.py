@@ -156,7 +156,8 @@ class RobotConfig(_Strict):
 class PlantConfig(_Strict):
     """Truth plant (MuJoCo). ``None`` means: take the value from ``robot``."""
 
-    model_file: Annotated[str, Strict()] = DEFAULT_MODEL_FILE
+    model_file: Annotated[str, BeforeValidator(lambda v: str(v) if isinstance(v, Path) else v), Strict()] = (
+        DEFAULT_MODEL_FILE)
     """The MJCF robot: ``builtin:<name>`` for a model shipped in the package (the same robot on every
     machine, :mod:`ftc_mj.resources`), else a file path, stored absolute (relative paths are taken from
     the working directory) so that a resolved config re-runs from any directory."""

@@ -53,8 +53,17 @@ app = typer.Typer(add_completion=False, pretty_exceptions_enable=False, cls=OneL
                   rich_markup_mode=None, help="Active fault-tolerant control of a MuJoCo differential-drive robot.")
 
 
+def _version(value: bool) -> None:
+    if value:
+        from . import __version__
+
+        typer.echo(f"ftc-mj {__version__}")
+        raise typer.Exit(0)
+
+
 @app.callback(invoke_without_command=True)
-def _top(ctx: typer.Context) -> None:
+def _top(ctx: typer.Context, version: Annotated[bool, typer.Option(
+        "--version", callback=_version, is_eager=True, help="Print the version and exit.")] = False) -> None:
     """Active fault-tolerant control of a MuJoCo differential-drive robot.
 
     Exit codes: 0 success; 1 a run failed or could not be written; 2 bad input (one line naming the
@@ -62,14 +71,6 @@ def _top(ctx: typer.Context) -> None:
     """
     if ctx.invoked_subcommand is None:
         typer.echo(ctx.get_help())
-
-
-class EstimatorKind(StrEnum):
-    ekf = "ekf"
-    ukf = "ukf"
-    imm_ekf = "imm-ekf"
-    imm_ukf = "imm-ukf"
-    none = "none"
 
 
 class ImmModels(StrEnum):
@@ -82,17 +83,10 @@ class ImmVariant(StrEnum):
     paper = "paper"
 
 
-class ReconfigPolicy(StrEnum):
-    none = "none"
-    direct = "direct"
-    safe = "safe"
-    truth = "truth"
-
-
-class ControllerKind(StrEnum):
-    nmpc = "nmpc"
-    lmpc = "lmpc"
-    open_loop = "open-loop"
+PLUGIN_HELP = ("Module to import first (repeatable): the estimators, decision rules, controllers, policies and "
+               "references it registers can then be named; added to the config's plugins (Dask workers import it "
+               "too).")
+Plugins = Annotated[list[str] | None, typer.Option("--plugin", metavar="MODULE", help=PLUGIN_HELP)]
 
 
 def _fail(msg: str, code: int = EXIT_BAD_INPUT) -> None:
@@ -133,6 +127,15 @@ def _defaults() -> Any:
 _D = _defaults()
 
 
+def _named_by_flag(err: BadInput, flags: list[tuple[str, str, Any]]) -> BadInput:
+    """``err`` about a config key that a given flag set, reworded to name the flag."""
+    msg = str(err)
+    for flag, key, val in flags:
+        if val is not None and msg.startswith(f"{key}: "):
+            return BadInput(f"{flag}: {msg[len(key) + 2:]}")
+    return err
+
+
 def _flag_overrides(ov: dict[str, Any], flags: list[tuple[str, str, Any]]) -> dict[str, Any]:
     """Add each given flag's value under its config key; a ``--set`` of the same key with another value is
     a contradiction (BadInput naming the flag)."""
@@ -149,21 +152,24 @@ def _flag_overrides(ov: dict[str, Any], flags: list[tuple[str, str, Any]]) -> di
 def run(
     scenario: Annotated[str, typer.Argument(help="Built-in scenario (scenario1..scenario4) or a TOML file.",
                                             metavar="SCENARIO", show_default=False)],
-    estimator: Annotated[EstimatorKind | None, typer.Option(
-        help=f"FDI filter. [default: the scenario's estimator.kind, else {_D.estimator.kind}]")] = None,
+    estimator: Annotated[str | None, typer.Option(
+        metavar="NAME", help="FDI filter: a registered estimator (built-in ekf, ukf, imm-ekf, imm-ukf, none; "
+             "'ftc-mj components' lists all). "
+             f"[default: the scenario's estimator.kind, else {_D.estimator.kind}]")] = None,
     imm_models: Annotated[ImmModels | None, typer.Option(
         help=f"IMM bank size (imm-ekf/imm-ukf only). [default: {_D.estimator.imm_models}]")] = None,
     imm_variant: Annotated[ImmVariant | None, typer.Option(
         help=f"IMM variant (imm-ekf/imm-ukf only). [default: {_D.estimator.imm_variant}]")] = None,
-    reconfig: Annotated[ReconfigPolicy | None, typer.Option(
-        help="Reconfiguration policy: none (nominal radii), direct (latest estimate, the paper's feedback), "
-             "safe (gated, clamped, rate-limited hand-over), truth (oracle). "
+    reconfig: Annotated[str | None, typer.Option(
+        metavar="NAME", help="Reconfiguration policy, registered: built-in none (nominal radii), direct (latest "
+             "estimate, the paper's feedback), safe (gated, clamped, rate-limited hand-over), truth (oracle). "
              f"[default: the scenario's reconfiguration.policy, else {_D.reconfiguration.policy}]")] = None,
     feedback: Annotated[bool | None, typer.Option("--feedback/--no-feedback",
                                                   help="Aliases of --reconfig direct / --reconfig none.",
                                                   show_default=False)] = None,
-    controller: Annotated[ControllerKind | None, typer.Option(
-        help=f"Tracking controller. [default: the scenario's controller.kind, else {_D.controller.kind}]")] = None,
+    controller: Annotated[str | None, typer.Option(
+        metavar="NAME", help="Tracking controller, registered: built-in nmpc, lmpc, open-loop. "
+             f"[default: the scenario's controller.kind, else {_D.controller.kind}]")] = None,
     seed: Annotated[int | None, typer.Option(help=f"Random seed of the noise. [default: {_D.seed}]")] = None,
     duration: Annotated[float | None, typer.Option(
         help=f"Simulated time (s), at most 3600. [default: the scenario's, else {_D.duration:g}]")] = None,
@@ -171,32 +177,37 @@ def run(
                                             show_default=False)] = None,
     set_: Annotated[list[str] | None, typer.Option("--set", help="Override any config key: dotted.key=value "
                                                    "(the value is read as TOML, else as a string).")] = None,
+    plugin: Plugins = None,
     no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write the Rerun recording.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary table (the run folder "
                                                               "is still printed).")] = False,
 ) -> None:
     """Run one closed-loop simulation and write OUT/<run-id>/ (config.toml, trace.parquet,
-    metrics.json, run.rrd).
+    metrics.json, events.json, run.rrd).
 
     Exit codes: 0 ok; 1 the run failed (reason in metrics.json) or could not be written; 2 bad input
     (one line naming the field, nothing written); 3 the physics became unstable (status unstable: the
     robot froze where MuJoCo's state blew up, so its metrics are not results).
     """
-    from .config import load_config
+    from . import api
 
+    flags = [
+        ("--estimator", "estimator.kind", estimator),
+        ("--imm-models", "estimator.imm_models", int(imm_models.value) if imm_models else None),
+        ("--imm-variant", "estimator.imm_variant", imm_variant.value if imm_variant else None),
+        ("--feedback/--no-feedback", "feedback", feedback),
+        ("--reconfig", "reconfiguration.policy", reconfig),
+        ("--controller", "controller.kind", controller),
+        ("--seed", "seed", seed), ("--duration", "duration", duration)]
     try:
         ov = _overrides(set_ or [])
         if reconfig is not None and feedback is not None:
             raise BadInput("--feedback/--no-feedback: give either it or --reconfig, not both")
-        _flag_overrides(ov, [
-            ("--estimator", "estimator.kind", estimator.value if estimator else None),
-            ("--imm-models", "estimator.imm_models", int(imm_models.value) if imm_models else None),
-            ("--imm-variant", "estimator.imm_variant", imm_variant.value if imm_variant else None),
-            ("--feedback/--no-feedback", "feedback", feedback),
-            ("--reconfig", "reconfiguration.policy", reconfig.value if reconfig else None),
-            ("--controller", "controller.kind", controller.value if controller else None),
-            ("--seed", "seed", seed), ("--duration", "duration", duration)])
-        cfg = load_config(scenario, ov)
+        _flag_overrides(ov, flags)
+        try:
+            cfg = api.load_config(scenario, ov, plugins=plugin or [])
+        except BadInput as err:
+            raise _named_by_flag(err, [*flags, ("--plugin", "plugins", plugin)]) from None
         if not cfg.estimator.kind.startswith("imm"):
             for flag, key in (("--imm-models", "estimator.imm_models"), ("--imm-variant", "estimator.imm_variant")):
                 if key in ov:
@@ -207,12 +218,11 @@ def run(
         _fail(str(err))
         return
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    from .sim.progress import run_with_progress
     from .sim.summary import print_run_summary
 
     show = cfg.output.progress and not quiet and sys.stderr.isatty()
     try:
-        outcome = run_with_progress(cfg, out_root, rrd=not no_rrd and cfg.output.rrd, show=show)
+        outcome = api.run(cfg, out_root, rrd=not no_rrd and cfg.output.rrd, progress=show).outcome
     except BadInput as err:  # an unwritable --out, a model MuJoCo cannot simulate: nothing has been written
         _fail(str(err))
         return
@@ -244,7 +254,8 @@ class StudyRrd(StrEnum):
 
 @app.command()
 def study(
-    study_file: Annotated[str, typer.Argument(help="Study file (runs/studies/*.toml).", metavar="STUDY_FILE",
+    study_file: Annotated[str, typer.Argument(help="Built-in study name (see 'ftc-mj studies') or a study TOML file.",
+                                              metavar="STUDY_FILE",
                                               show_default=False)],
     out: Annotated[str | None, typer.Option(help="Study output folder. [default: runs/out/studies/<name>]",
                                             show_default=False)] = None,
@@ -260,6 +271,7 @@ def study(
     limit: Annotated[int | None, typer.Option(help="Compute at most N of the missing runs now, chosen to cover "
                                                    "every axis value first (the rest on a later call).")] = None,
     seeds: Annotated[int | None, typer.Option(help="Replace the study's seed count (part of its identity).")] = None,
+    plugin: Plugins = None,
     set_: Annotated[list[str] | None, typer.Option("--set", help="Extra base override dotted.key=value "
                                                    "(part of the study's identity).")] = None,
     retry_failed: Annotated[bool, typer.Option("--retry-failed", help="Recompute runs whose row failed.")] = False,
@@ -269,12 +281,12 @@ def study(
     """Sweep a study on dask.distributed: every finished run is persisted at once under
     OUT/rows/; re-running the same command computes only the missing runs; OUT/results.parquet,
     OUT/summary.md and OUT/figures/ are written at the end."""
-    from .config import existing_file
-    from .study.runner import StudyInterruptedError, run_study, validate_address, validate_dashboard
-    from .study.spec import load_study
+    from .api import plan_study, run_study
+    from .study.runner import StudyInterruptedError, validate_address, validate_dashboard
+    from .study.spec import study_path
 
     try:
-        path = existing_file(study_file, "STUDY_FILE")
+        path = study_path(study_file)
         if address is not None:
             validate_address(address)
         validate_dashboard(dashboard)
@@ -282,11 +294,11 @@ def study(
             raise BadInput("--workers: must be >= 1")
         if limit is not None and limit < 0:
             raise BadInput("--limit: must be >= 0")
-        plan = load_study(path, extra_overrides=_overrides(set_ or []), seeds=seeds)
+        plan = plan_study(path, overrides=_overrides(set_ or []), seeds=seeds, plugins=plugin or [])
         out_dir = _folder(out) or Path("runs/out/studies") / plan.spec.name
         report = run_study(plan, out_dir, workers=workers, address=address, serial=serial, rrd=rrd.value,
                            limit=limit, retry_failed=retry_failed, progress=not quiet and sys.stderr.isatty(),
-                           dashboard=dashboard, echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True))
+                           dashboard=dashboard, echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True)).report
     except BadInput as err:
         _fail(str(err))
         return
@@ -491,6 +503,31 @@ def scenarios() -> None:
 
     for name in BUILTIN_SCENARIOS:
         typer.echo(f"{name}: {load_config(name).description}")
+
+
+@app.command()
+def components(plugin: Plugins = None) -> None:
+    """List the registered estimators, decision rules, controllers, policies and references (built-in,
+    from installed packages' entry points and from --plugin modules)."""
+    from .registry import REGISTRIES, load_plugins
+
+    try:
+        load_plugins(plugin or [])
+        for reg in REGISTRIES.values():
+            typer.echo(f"{reg.config_key}: {', '.join(reg.names())}")
+    except BadInput as err:
+        _fail(str(err))
+
+
+@app.command()
+def studies() -> None:
+    """List the built-in studies (run one with 'ftc-mj study NAME')."""
+    from .config import read_toml
+    from .resources import builtin_studies, study_file
+
+    for name in builtin_studies():
+        desc = str(read_toml(study_file(name), "study").get("description", "")).split("\n")[0]
+        typer.echo(f"{name}: {desc}")
 
 
 def main() -> None:  # pragma: no cover - console entry point

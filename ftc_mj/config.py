@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -29,13 +30,11 @@ from pydantic import (
     model_validator,
 )
 
+from . import registry, resources
 from .errors import BadInput
 
-PACKAGE_ROOT = Path(__file__).resolve().parent
-REPO_ROOT = PACKAGE_ROOT.parent
-SCENARIO_DIR = REPO_ROOT / "runs" / "scenarios"
-MODELS_DIR = REPO_ROOT / "models"
-DEFAULT_MODEL_FILE = MODELS_DIR / "diffdrive.xml"
+DEFAULT_MODEL_FILE = resources.DEFAULT_MODEL
+"""``plant.model_file`` default: the robot shipped in the package (``builtin:diffdrive.xml``)."""
 
 OMEGA_MAX = math.radians(1000.0)  # rad/s, the paper's wheel-rate limit (±1000 deg/s)
 
@@ -113,6 +112,30 @@ def _path_text(v: Any) -> Any:
 PathText = Annotated[Path, BeforeValidator(_path_text)]
 
 
+def component(name: str) -> Any:
+    """A strict string type naming a component registered in :data:`ftc_mj.registry.REGISTRIES` ``[name]``;
+    the error of an unknown name lists the registered ones."""
+    def check(v: str) -> str:
+        return registry.REGISTRIES[name].check(v)
+
+    return Annotated[str, Strict(), AfterValidator(check)]
+
+
+Options = Annotated[dict[str, Any], Strict(), Field(max_length=100)]
+"""A component's own settings (a TOML table), checked against the ``settings`` model the component was
+registered with (:func:`ftc_mj.registry.check_options`); built-ins take none."""
+
+
+def options_of(registry_name: str, kind_field: str) -> Any:
+    """A field validator of ``options``: validated for the component named in ``kind_field`` (fields are
+    validated in order, so the name is known), returned with the settings' defaults filled in."""
+    def check(cls: type, v: dict[str, Any], info: Any) -> dict[str, Any]:
+        kind = info.data.get(kind_field)
+        return v if kind is None else registry.check_options(registry.REGISTRIES[registry_name], kind, v)
+
+    return field_validator("options")(classmethod(check))  # type: ignore[arg-type]
+
+
 class _Strict(BaseModel):
     """Base: unknown keys are errors, assignments are validated."""
 
@@ -125,7 +148,7 @@ class RobotConfig(_Strict):
     wheel_radius: Length = 2.0
     """Nominal wheel radius R0 (m)."""
     half_track: Length = 1.0
-    """Half track b (m): wheel centre to axle midpoint; track width is 2b (DESIGN §1)."""
+    """Half track b (m): wheel centre to axle midpoint; track width is 2b."""
     omega_max: ranged(0.0, 1.0e4, lo_open=True, unit="rad/s") = OMEGA_MAX
     """Wheel-rate limit (rad/s), symmetric."""
 
@@ -133,7 +156,11 @@ class RobotConfig(_Strict):
 class PlantConfig(_Strict):
     """Truth plant (MuJoCo). ``None`` means: take the value from ``robot``."""
 
-    model_file: PathText = DEFAULT_MODEL_FILE
+    model_file: Annotated[str, BeforeValidator(lambda v: str(v) if isinstance(v, Path) else v), Strict()] = (
+        DEFAULT_MODEL_FILE)
+    """The MJCF robot: ``builtin:<name>`` for a model shipped in the package (the same robot on every
+    machine, :mod:`ftc_mj.resources`), else a file path, stored absolute (relative paths are taken from
+    the working directory) so that a resolved config re-runs from any directory."""
     variant: Literal["suspended", "rigid"] = "suspended"
     timestep: ranged(1.0e-5, 0.05, unit="s") = 0.001
     """Physics step (s)."""
@@ -172,17 +199,21 @@ class PlantConfig(_Strict):
 
     @field_validator("model_file")
     @classmethod
-    def _model_exists(cls, v: Path) -> Path:
+    def _model_exists(cls, v: str) -> str:
+        if not v.strip() or "\0" in v:
+            raise ValueError("must be a non-empty path without NUL bytes (or builtin:<name>)")
+        if resources.is_builtin_model(v):
+            resources.model_path(v)  # ValueError naming the built-in models
+            return v
         p = Path(v)
         try:
-            if not p.is_absolute() and not p.exists():
-                p = REPO_ROOT / p
+            p = p.absolute()
             found = p.is_file()
         except OSError as err:  # e.g. a name too long for the file system
             raise ValueError(f"cannot use {str(v)[:80]}: {err.strerror}") from None
         if not found:
             raise ValueError(f"model file not found: {v}")
-        return p
+        return str(p)
 
 
 class ModelConfig(_Strict):
@@ -215,7 +246,7 @@ def _check_schedule(v: Breakpoints) -> Breakpoints:
 
 
 class FaultConfig(_Strict):
-    """Piecewise-linear wheel-radius schedules (DESIGN §2): lists of ``[t, radius]`` breakpoints.
+    """Piecewise-linear wheel-radius schedules: lists of ``[t, radius]`` breakpoints.
 
     Before the first breakpoint the radius is the nominal one; after the last it is held. A step is
     two breakpoints at the same time. Empty = no fault on that wheel.
@@ -250,10 +281,12 @@ class SensorConfig(_Strict):
 class DecisionConfig(_Strict):
     """Fault-decision rule on top of the estimator."""
 
-    rule: Literal["sigma", "mode", "auto"] = "auto"
-    """``sigma``: a radius departs from nominal by ``k_sigma`` standard deviations and by at least
-    ``min_drop`` for ``dwell`` seconds; ``mode``: an IMM fault-mode probability above
-    ``mode_threshold`` for ``dwell`` seconds; ``auto``: ``mode`` for IMMs, else ``sigma``."""
+    rule: component("decision_rules") = "auto"
+    """A registered decision rule (:data:`ftc_mj.registry.decision_rules`). Built-in: ``sigma``: a radius
+    departs from nominal by ``k_sigma`` standard deviations and by at least ``min_drop`` for ``dwell``
+    seconds; ``mode``: the probability of a fault class of an IMM bank's declared hypotheses above
+    ``mode_threshold`` for ``dwell`` seconds; ``auto``: ``mode`` for an estimator that declares
+    hypotheses (IMMs), else ``sigma``."""
     k_sigma: PosFloat = 3.0
     min_drop: NonNegFloat = 0.1
     """Minimum radius departure (m) for the sigma rule (guards against tiny-σ false alarms)."""
@@ -265,15 +298,43 @@ class DecisionConfig(_Strict):
     max_split_sigma: PosFloat = 0.15
     """Sigma rule: a wheel is isolated only when the σ (m) of the radius split along the direction
     the speed cannot observe is at most this; otherwise the declared wheel is ``'unknown'``."""
+    options: Options = Field(default_factory=dict, validate_default=True)
+    """Settings of a plug-in rule (its registered settings model); built-in rules take none."""
+
+    _options = options_of("decision_rules", "rule")
+
+
+class HypothesisConfig(_Strict):
+    """One member of a custom IMM bank (``estimator.imm_bank``): what it assumes about the wheel radii."""
+
+    name: Annotated[str, Strict(), Field(min_length=1, max_length=60)]
+    """Shown in events and figures, e.g. ``"left 30 %"``."""
+    frac_R: ranged(0.0, 1.0, lo_open=True) = 1.0
+    """Right radius as a fraction of nominal (1 = healthy; a puncture makes a radius smaller)."""
+    frac_L: ranged(0.0, 1.0, lo_open=True) = 1.0
+    """Left radius as a fraction of nominal."""
+    ramp: Flag = False
+    """The left radius deflates linearly at ``estimator.ramp_rate`` from the bank's estimate (a ramp
+    hypothesis; ``frac_L`` is then not used) instead of a step to ``frac_L``."""
 
 
 class EstimatorConfig(_Strict):
     """The FDI filter (paper §3). Defaults are exactly the paper's values."""
 
-    kind: Literal["ekf", "ukf", "imm-ekf", "imm-ukf", "none"] = "ukf"
+    kind: component("estimators") = "ukf"
+    """A registered estimator (:data:`ftc_mj.registry.estimators`). Built-in: ``ekf``, ``ukf``,
+    ``imm-ekf``, ``imm-ukf`` (IMM banks of EKF/UKF members), ``none`` (no filter)."""
     rate: Rate = 100.0
     """Filter rate (Hz); dt = 1/rate."""
     imm_models: Literal[4, 5] = 4
+    """The paper's IMM bank: 4 models (no fault, 50 % right, 50 % left, both 50 %) or 5 (plus a left
+    ramp). Not used with ``imm_bank``."""
+    imm_bank: Annotated[list[HypothesisConfig], Field(min_length=2, max_length=12)] | None = None
+    """A custom IMM bank: its members' hypotheses, in order (``None`` = the paper's bank of
+    ``imm_models`` members). The decision layer reads the hypotheses, whatever their number and order."""
+    p_stay: Fraction | None = None
+    """Diagonal of a custom bank's transition matrix (the rest shared equally); ``None`` =
+    ``p_stay_4`` for banks of up to 4 members, else ``p_stay_5``."""
     imm_variant: Literal["hypothesis", "paper"] = "hypothesis"
     kappa: ranged(-5.0, 1.0e3, lo_open=True) = 0.001
     """Julier sigma-point parameter."""
@@ -300,12 +361,33 @@ class EstimatorConfig(_Strict):
     reset_inflation: PosFloat = 10.0
     """Covariance inflation factor on a divergence reset."""
     decision: DecisionConfig = Field(default_factory=DecisionConfig)
+    options: Options = Field(default_factory=dict, validate_default=True)
+    """Settings of a plug-in estimator (its registered settings model); built-in estimators take none."""
+
+    _options = options_of("estimators", "kind")
+
+    @model_validator(mode="after")
+    def _bank(self) -> EstimatorConfig:
+        if self.imm_bank is not None:
+            if "imm_models" in self.model_fields_set:
+                raise ValueError("imm_models: give either imm_models (the paper's banks) or imm_bank, not both")
+            names = [h.name for h in self.imm_bank]
+            if len(set(names)) != len(names):
+                raise ValueError("imm_bank: hypothesis names must differ")
+        return self
+
+    @property
+    def bank_size(self) -> int:
+        """Members of the IMM bank (``imm_bank`` if given, else ``imm_models``)."""
+        return len(self.imm_bank) if self.imm_bank is not None else self.imm_models
 
 
 class ControllerConfig(_Strict):
-    """Trajectory-tracking controller (paper §3, DESIGN §5)."""
+    """Trajectory-tracking controller (paper §3)."""
 
-    kind: Literal["nmpc", "lmpc", "open-loop"] = "nmpc"
+    kind: component("controllers") = "nmpc"
+    """A registered controller (:data:`ftc_mj.registry.controllers`). Built-in: ``nmpc``, ``lmpc``,
+    ``open-loop``."""
     rate: ranged(0.0, 1.0e3, lo_open=True, unit="Hz") = 10.0
     """Control rate (Hz); commands are held (zero-order hold) between solves."""
     nodes: ranged_int(4, 200) = 50
@@ -367,6 +449,10 @@ class ControllerConfig(_Strict):
     open_loop_schedule: Annotated[list[tuple[FiniteFloat, FiniteFloat, FiniteFloat]], Field(max_length=10_000)] = Field(
         default_factory=list)
     """Optional ``[t, omega_R, omega_L]`` breakpoints (piecewise-linear) for the open-loop controller."""
+    options: Options = Field(default_factory=dict, validate_default=True)
+    """Settings of a plug-in controller (its registered settings model); built-in controllers take none."""
+
+    _options = options_of("controllers", "kind")
 
 
 class ExcitationConfig(_Strict):
@@ -386,11 +472,12 @@ class ExcitationConfig(_Strict):
 
 
 class ReconfigurationConfig(_Strict):
-    """How the estimated radii reach the controller's model (DESIGN §3, §9; issue 7)."""
+    """How the estimated radii reach the controller's model (:mod:`ftc_mj.sim.reconfig`)."""
 
-    policy: Literal["none", "direct", "safe", "truth"] = "safe"
-    """``none``: nominal radii (the paper's "feedback off"). ``direct``: the latest estimate at every
-    solve (the paper's "feedback on"). ``safe``: hand radii over only after the fault decision has
+    policy: component("policies") = "safe"
+    """A registered reconfiguration policy (:data:`ftc_mj.registry.policies`). Built-in: ``none``:
+    nominal radii (the paper's "feedback off"). ``direct``: the latest estimate at every solve (the
+    paper's "feedback on"). ``safe``: hand radii over only after the fault decision has
     declared and isolated a fault and the estimate is identified (σ of each radius and of the
     unobservable split below ``max_sigma``, innovations consistent); clamped to
     [``min_radius``, nominal], rate-limited to ``max_rate``; reverts to the last trusted values on
@@ -420,17 +507,27 @@ class ReconfigurationConfig(_Strict):
     """On a revert, the last trusted radii are those handed over at least this long (s) before the
     filter reported trouble (its estimate may already have been drifting)."""
     excitation: ExcitationConfig = Field(default_factory=ExcitationConfig)
+    options: Options = Field(default_factory=dict, validate_default=True)
+    """Settings of a plug-in policy (its registered settings model); built-in policies take none."""
+
+    _options = options_of("policies", "policy")
 
 
 class ReferenceConfig(_Strict):
     """Reference path and its time law."""
 
-    kind: Literal["circle", "line", "figure8"] = "circle"
+    kind: component("references") = "circle"
+    """A registered reference path (:data:`ftc_mj.registry.references`). Built-in: ``circle``, ``line``,
+    ``figure8``."""
     radius: PosFloat = 50.0
     """Circle radius (m) (figure-eight: lobe radius)."""
     speed: PosFloat = 10.0
     """Speed along the path (m/s)."""
     direction: Literal["ccw", "cw"] = "ccw"
+    options: Options = Field(default_factory=dict, validate_default=True)
+    """Settings of a plug-in reference (its registered settings model); built-in references take none."""
+
+    _options = options_of("references", "kind")
 
 
 class OutputConfig(_Strict):
@@ -440,10 +537,15 @@ class OutputConfig(_Strict):
 
 
 class RunConfig(_Strict):
-    """A complete run. Keys that scripts rely on: DESIGN §6."""
+    """A complete run. The keys scripts rely on keep their names: ``duration``, ``seed``, ``feedback``,
+    ``sensors.*``, ``estimator.kind``, ``controller.kind``."""
 
     name: SafeName = "run"
     """Names the run's output folder: one plain file-name component (:data:`NAME_RE`)."""
+    plugins: Annotated[list[Annotated[str, Strict()]], Field(max_length=50)] = Field(default_factory=list)
+    """Modules to import before the rest is validated (``["my_pkg.filters"]``): importing them registers
+    the components they define (:func:`ftc_mj.registry.load_plugins`), in every process that validates
+    the config — Dask workers included."""
     description: Annotated[str, Strict(), Field(max_length=2000)] = ""
     duration: ranged(0.0, 3600.0, lo_open=True, unit="s") = 40.0
     """Simulated time (s); an hour is 360 000 trace rows (about 130 MB in memory)."""
@@ -458,6 +560,15 @@ class RunConfig(_Strict):
     reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
     reference: ReferenceConfig = Field(default_factory=ReferenceConfig)
     output: OutputConfig = Field(default_factory=OutputConfig)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _plugins_first(cls, data: Any) -> Any:
+        """Import the ``plugins`` modules before any component name is checked."""
+        mods = data.get("plugins") if isinstance(data, dict) else None
+        if isinstance(mods, list) and all(isinstance(m, str) for m in mods):
+            registry.load_plugins(mods)
+        return data
 
     @model_validator(mode="before")
     @classmethod
@@ -531,7 +642,8 @@ class RunConfig(_Strict):
 
 
 # ---------------------------------------------------------------------------- loading
-BUILTIN_SCENARIOS = ("scenario1", "scenario2", "scenario3", "scenario4")
+BUILTIN_SCENARIOS = resources.builtin_scenarios()
+"""Names of the scenarios shipped in the package (``scenario1`` … ``scenario4``)."""
 MAX_TOML_BYTES = 4 * 2**20
 """Largest scenario or study file read (bytes): config files are a few kB."""
 
@@ -563,6 +675,9 @@ def _one_line(err: ValidationError) -> str:
     extra = f" (and {err.error_count() - 1} more)" if err.error_count() > 1 else ""
     if loc == "<root>" and ": " in msg:  # model-level checks name their field themselves
         return f"{msg}{extra}"
+    named = re.match(r"^([A-Za-z_][\w.]*): (.*)$", msg)
+    if named and e["type"] == "value_error":  # a section's check naming its field: estimator.imm_models
+        return f"{loc}.{named.group(1)}: {named.group(2)}{extra}"
     return f"{loc}: {msg}{extra}"
 
 
@@ -576,11 +691,40 @@ def validate_config(data: dict[str, Any]) -> RunConfig:
         raise BadInput("config: values nested too deeply") from None
 
 
+def section(model: type[BaseModel], value: Any, where: str) -> Any:
+    """One config section from an instance of ``model``, a plain table or ``None`` (the defaults), for
+    components built without a run config; :class:`BadInput` naming ``<where>.<field>``."""
+    if isinstance(value, model):
+        return value
+    try:
+        return model.model_validate({} if value is None else dict(value))
+    except ValidationError as err:
+        line = _one_line(err)
+        raise BadInput(f"{where}: {line.removeprefix('<root>: ')}" if line.startswith("<root>")
+                       else f"{where}.{line}") from None
+    except TypeError:
+        raise BadInput(f"{where}: expected a table of settings, got {type(value).__name__}") from None
+
+
+def from_sections(**sections: Any) -> RunConfig:
+    """A run config holding the given sections (instances, plain tables or ``None``; the rest the
+    defaults), for a component built from its own settings: ``from_sections(plant={"kind":
+    "kinematic"}, robot=None)``. :class:`BadInput` naming ``<section>.<field>``."""
+    models = {name: f.annotation for name, f in RunConfig.model_fields.items()
+              if isinstance(f.annotation, type) and issubclass(f.annotation, BaseModel)}
+    data = {}
+    for name, value in sections.items():
+        if name not in models:
+            raise BadInput(f"{name}: not a config section (sections: {', '.join(models)})")
+        data[name] = section(models[name], value, name)
+    return RunConfig.model_validate(data)
+
+
 def scenario_path(name_or_path: str | Path) -> Path:
     """Resolve a built-in scenario name or a TOML path."""
     s = str(name_or_path)
     if s in BUILTIN_SCENARIOS:
-        return SCENARIO_DIR / f"{s}.toml"
+        return resources.scenario_file(s)
     return existing_file(s, "scenario", "no such built-in scenario or file")
 
 
@@ -656,8 +800,10 @@ def set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
     node[parts[-1]] = value
 
 
-def load_config(scenario: str | Path, overrides: dict[str, Any] | None = None) -> RunConfig:
-    """Load a scenario (built-in name or TOML path), apply dotted overrides, validate."""
+def load_config(scenario: str | Path, overrides: Mapping[str, Any] | None = None, *,
+                plugins: Iterable[str] = ()) -> RunConfig:
+    """Load a scenario (built-in name or TOML path), apply dotted overrides, add the plug-in modules
+    ``plugins`` to its ``plugins`` list (``--plugin``), validate."""
     path = scenario_path(scenario)
     data = read_toml(path, "scenario")
     if "name" not in data:
@@ -667,6 +813,10 @@ def load_config(scenario: str | Path, overrides: dict[str, Any] | None = None) -
         data["name"] = path.stem
     for key, value in (overrides or {}).items():
         set_dotted(data, key, value)
+    extra = list(plugins)
+    if extra:
+        given = data.get("plugins", [])
+        data["plugins"] = list(dict.fromkeys([*(given if isinstance(given, list) else [given]), *extra]))
     return validate_config(data)
 
 

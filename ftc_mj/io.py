@@ -69,7 +69,7 @@ def _finite(o: Any) -> Any:
     return o
 
 
-def write_json(path: Path, data: dict[str, Any]) -> None:
+def write_json(path: Path, data: dict[str, Any] | list[Any]) -> None:
     """Write ``data`` as indented JSON atomically (NaN/inf become null)."""
     with atomic_path(path) as tmp:
         tmp.write_text(json.dumps(_finite(data), indent=2, default=_json_default) + "\n")

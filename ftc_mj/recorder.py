@@ -2,7 +2,7 @@
 
 The simulation loop buffers its telemetry in arrays and calls :func:`write_rrd` **once** at the end
 of a run. Every entity is sent with ``RecordingStream.send_columns`` (one call per entity, never a
-per-step ``log()``), which costs a few milliseconds for a 40 s run instead of seconds (DESIGN §8).
+per-step ``log()``), which costs a few milliseconds for a 40 s run instead of seconds.
 
 Each run gets its own ``rr.RecordingStream(app_id, recording_id=run_id)`` (never the global stream,
 so parallel runs cannot mix) with a file sink; the blueprint is saved in the same file. The file is
@@ -14,7 +14,7 @@ Timelines
 ---------
 ``sim_time``
     duration, integer nanoseconds (``timedelta64[ns]``; float seconds are rounded differently by
-    different Rerun calls, TECHNOTES §1.1 pitfall).
+    different Rerun calls: ``set_time`` and ``TimeColumn`` gave 2050000000 and 2049999999 ns for 2.05 s).
 ``step``
     sequence, the estimator-step index (row of the trace). Solves and events get the index of the
     last trace row at or before their time.
@@ -85,8 +85,8 @@ import shutil
 import subprocess
 import sys
 from collections.abc import Iterable, Iterator, Mapping
-from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import rerun as rr
@@ -94,6 +94,7 @@ import rerun.blueprint as rrb
 
 from ftc_mj.errors import BadInput, RunFailed
 from ftc_mj.io import atomic_path
+from ftc_mj.telemetry import Event, RobotGeometry, Solve
 
 __all__ = [
     "Event",
@@ -112,7 +113,7 @@ REQUIRED_COLUMNS: tuple[str, ...] = (
     "innovation", "innovation_std", "omega_R", "omega_L", "omega_R_cmd", "omega_L_cmd",
     "cross_track_error",
 )
-"""Trace columns :func:`write_rrd` needs (DESIGN §6 ``trace.parquet`` minimum)."""
+"""Trace columns :func:`write_rrd` needs (the minimum columns of ``trace.parquet``)."""
 
 PATH_RATE_HZ = 2.0
 """Rows per second of the growing ``/world/path`` strip."""
@@ -123,8 +124,6 @@ WHEEL_RATE_HZ = 10.0
 WHEEL_RADIUS_TOL = 1e-4
 """Radius change (m) that triggers a new wheel-cylinder row."""
 
-_OK_STATUSES = frozenset({"ok", "success", "succeeded", "solve_succeeded", "solved_to_acceptable_level",
-                          "solved", "converged", "optimal"})
 TEXT_LEVELS = {"info": rr.TextLogLevel.INFO, "warn": rr.TextLogLevel.WARN, "warning": rr.TextLogLevel.WARN,
            "error": rr.TextLogLevel.ERROR, "debug": rr.TextLogLevel.DEBUG}
 
@@ -137,65 +136,6 @@ _CMD = [240, 110, 40]
 _LIMIT = [220, 40, 40]
 _MODE_COLORS = [[31, 119, 180], [255, 127, 14], [44, 160, 44], [214, 39, 40], [148, 103, 189],
                 [140, 86, 75], [227, 119, 194], [127, 127, 127]]
-
-
-@dataclass(frozen=True)
-class Solve:
-    """One NMPC solve as the recorder sees it.
-
-    ``predicted`` is the predicted state trajectory ``(K, 3)`` of ``[x, y, psi]`` (m, m, rad);
-    ``status`` is the solver's return status (``"ok"``/``"Solve_Succeeded"``… count as converged);
-    ``fallback`` is True when the controller fell back (e.g. to the previous plan) after a failure.
-    """
-
-    t: float
-    predicted: np.ndarray
-    solve_time_ms: float
-    iterations: int
-    status: str
-    fallback: bool = False
-    success: bool | None = None
-    """The controller's own verdict; ``None`` = judge from ``status``."""
-
-    @property
-    def ok(self) -> bool:
-        """True if the solve converged and no fallback was used."""
-        if self.fallback:
-            return False
-        if self.success is not None:
-            return self.success
-        return self.status.strip().lower() in _OK_STATUSES
-
-
-@dataclass(frozen=True)
-class Event:
-    """A discrete event shown in the text log: fault onsets, decisions, solver failures, filter
-    resets, plant domain flags. ``level`` is ``'info'``, ``'warn'`` or ``'error'``."""
-
-    t: float
-    level: str
-    text: str
-
-
-@dataclass(frozen=True)
-class RobotGeometry:
-    """Sizes (m) used to draw the robot; the robot frame is x forward, y left, z up.
-
-    Without a ``z`` trace column the robot frame sits on the ground under the axle midpoint, and each
-    wheel is drawn touching the ground (centre height = its current radius); the chassis box centre is
-    at ``(chassis_offset_x, 0, chassis_height)`` (``chassis_height`` ``None`` = the nominal radius).
-    With a ``z`` column the robot frame is the chassis body frame at height ``z`` and the wheel
-    centres are at ``(0, ∓half_track, axle_offset_z)`` in it (the chassis box at
-    ``(chassis_offset_x, 0, 0)``).
-    """
-
-    half_track: float = 1.0
-    wheel_width: float = 0.3
-    chassis_half_sizes: tuple[float, float, float] = (1.2, 0.7, 0.25)
-    nominal_radius: float = 2.0
-    chassis_offset_x: float = 0.0
-    chassis_height: float | None = None
-    axle_offset_z: float = 0.0
 
 
 # ------------------------------------------------------------------------------------------------
@@ -254,13 +194,20 @@ def series_style(color: tuple[int, ...], name: str, width: float) -> rr.SeriesLi
     return rr.SeriesLines(colors=[list(color)], names=[name], widths=[width])
 
 
+@functools.cache
+def _strip_type() -> Any:
+    """Arrow type of Rerun's ``LineStrip3D`` component, read off a one-strip batch (public API)."""
+    from rerun.components import LineStrip3DBatch
+
+    return LineStrip3DBatch([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]]).as_arrow_array().type
+
+
 def strips_column(strips: list[np.ndarray]) -> rr.ComponentColumnList:
     """``LineStrips3D`` columns, one strip per row, built as one Arrow array (30x faster than letting
     Rerun convert a list of arrays strip by strip)."""
     import pyarrow as pa
-    from rerun.components import LineStrip3DBatch
 
-    typ = LineStrip3DBatch._ARROW_DATATYPE
+    typ = _strip_type()
     flat = np.ascontiguousarray(np.concatenate(strips).astype(np.float32, copy=False).ravel())
     offsets = np.zeros(len(strips) + 1, dtype=np.int32)
     np.cumsum([len(s) for s in strips], out=offsets[1:])

@@ -22,10 +22,11 @@ import pytest
 from pydantic import BaseModel
 from typer.testing import CliRunner
 
+from ftc_mj import resources
 from ftc_mj.cli import app
 from ftc_mj.config import RunConfig
 
-MODEL = Path(__file__).resolve().parents[1] / "models" / "diffdrive.xml"
+MODEL = resources.resource_path("models", "diffdrive.xml")
 
 
 # ------------------------------------------------------------------------------------------ schema
@@ -67,6 +68,8 @@ def _kind(t: Any) -> str:
         return "float"
     if t is str:
         return "str"
+    if origin is dict:
+        return "dict"
     if isinstance(t, type) and issubclass(t, Path):
         return "path"
     raise AssertionError(f"untested config type {t!r}")
@@ -81,6 +84,7 @@ BAD_VALUES: dict[str, list[str]] = {
     "list": ["3", "[[1.0]]", '[["a", 1.0]]', "[[inf, 1.0]]"],
     "path": ['""', "true", '"no/such/file.xml"'],
     "str": ["1", "true"],
+    "dict": ["3", '"x"', "{ a = 1 }"],
 }
 """TOML literals that no leaf of each kind may accept."""
 
@@ -94,6 +98,10 @@ def schema_cases() -> list[tuple[str, list[str], str]]:
             values = ['""', "true"]  # any non-empty path is a folder name
         if key == "description":
             values = ["1", "true", '"' + "d" * 2001 + '"']
+        if key.endswith((".kind", ".rule", ".policy")) and kind == "str":
+            values.append('"bogus"')  # a component name no registry knows
+        if key == "plugins":
+            values += ['["no_such_module_xyz"]', '["1bad"]']
         if key == "name":
             values = ['"../../../x"', '"/abs/x"', '".hidden"', '"a/b"', '""', '"' + "n" * 101 + '"', "1",
                       '"a\\u0000b"']
@@ -281,7 +289,7 @@ HAND_CASES: list[tuple[str, list[str], str]] = [
     ("cli:out-nul", ["run", "scenario1", "--out", "a\0b"], "--out"),
     ("cli:output-dir-empty", [*RUN[:2], "--set", "output.dir=''"], "output.dir"),
     # studies
-    ("study:missing", ["study", "none.toml", "--out", "sout"], "STUDY_FILE: no such file"),
+    ("study:missing", ["study", "none.toml", "--out", "sout"], "STUDY_FILE: no such built-in study or file"),
     ("study:directory", ["study", "models", "--out", "sout"], "STUDY_FILE"),
     ("study:syntax", ["study", "badsyntax.study.toml", "--out", "sout"], "invalid TOML"),
     ("study:nested", ["study", "nested.study.toml", "--out", "sout"], "nested too deeply"),

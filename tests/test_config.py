@@ -32,7 +32,7 @@ def test_scenario_faults_match_paper() -> None:
     assert load_config("scenario2").faults.left == [(10.0, 2.0), (10.0, 1.0)]
     s3 = load_config("scenario3").faults
     assert s3.left == [(5.0, 2.0), (5.0, 1.0)] and s3.right == [(10.0, 2.0), (10.0, 1.0)]
-    # DESIGN §2: R_L(t) = 2 - 0.1 (t - 10) reaches 0.1 m at t = 29 s
+    # scenario 4: R_L(t) = 2 - 0.1 (t - 10) reaches 0.1 m at t = 29 s
     (t0, r0), (t1, r1) = load_config("scenario4").faults.left
     assert (r0 - r1) / (t1 - t0) == pytest.approx(0.1)
 

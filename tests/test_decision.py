@@ -6,14 +6,19 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig
-from ftc_mj.estimation import FaultDecision, FilterOutput
+from ftc_mj.estimation import FaultDecision, FilterOutput, Hypothesis
+from ftc_mj.estimation.imm import BANK_4, BANK_5
 
 
-def out(RR: float, RL: float, sigma: float = 0.02, mu: list[float] | None = None) -> FilterOutput:
+def out(RR: float, RL: float, sigma: float = 0.02, mu: list[float] | None = None,
+        bank: tuple[Hypothesis, ...] | None = None) -> FilterOutput:
+    """An estimator output; with ``mu``, an IMM's, declaring ``bank`` (default: the paper's bank of that size)."""
     P = np.diag([1.0, 1.0, 0.01, sigma**2, sigma**2])
+    hyps = None if mu is None else bank if bank is not None else (BANK_4 if len(mu) == 4 else BANK_5)
     return FilterOutput(
         x=np.array([0.0, 0.0, 0.0, RR, RL]), P=P, innovation=np.zeros(1), S=np.eye(1), nis=0.0,
         speed_innovation=0.0, speed_innovation_std=0.5, mode_probs=None if mu is None else np.array(mu),
+        hypotheses=hyps,
     )
 
 
@@ -145,3 +150,36 @@ def test_an_upward_radius_drift_is_an_anomaly_not_a_puncture() -> None:
         assert s.detected is fault
     s = feed(FaultDecision(RunConfig()), 0.0, 3.0, out(2.0, 1.5))
     assert s.detected and s.wheel == "left" and not s.anomaly
+
+
+def test_mode_rule_reads_the_declared_hypotheses_not_the_bank_size() -> None:
+    """A 4-member bank of 30 % punctures in another order than the paper's, and a 3-member bank: the
+    class probabilities come from each member's hypothesis. (Guessing the paper's bank from the size
+    would read member 1 of the permuted bank, ``left 30 %``, as the right wheel.)"""
+    bank4 = (Hypothesis("both 30%", 0.7, 0.7), Hypothesis("left 30%", 1.0, 0.7), Hypothesis("no fault", 1.0, 1.0),
+             Hypothesis("right 30%", 0.7, 1.0))
+    cfg = RunConfig.model_validate({"estimator": {"kind": "imm-ukf", "decision": {"rule": "mode"}}})
+    s = feed(FaultDecision(cfg), 0.0, 1.0, out(2.0, 1.4, mu=[0.02, 0.95, 0.02, 0.01], bank=bank4))
+    assert s.detected and s.wheel == "left" and s.active_mode == 1
+    s = feed(FaultDecision(cfg), 0.0, 1.0, out(1.4, 1.4, mu=[0.93, 0.03, 0.02, 0.02], bank=bank4))
+    assert s.detected and s.wheel == "both"
+    bank3 = (Hypothesis("no fault", 1.0, 1.0), Hypothesis("right 30%", 0.7, 1.0), Hypothesis("left 30%", 1.0, 0.7))
+    s = feed(FaultDecision(cfg), 0.0, 1.0, out(1.4, 2.0, mu=[0.04, 0.95, 0.01], bank=bank3))
+    assert s.detected and s.wheel == "right"
+    s = feed(FaultDecision(cfg), 0.0, 1.0, out(1.4, 1.4, mu=[0.98, 0.01, 0.01], bank=bank3))
+    assert not s.detected  # no member hypothesises both wheels: that class has probability 0
+    # several members of one class add up: two left severities of 0.5 each exceed the 0.9 threshold
+    two_left = (Hypothesis("no fault", 1.0, 1.0), Hypothesis("left 30%", 1.0, 0.7), Hypothesis("left 60%", 1.0, 0.4))
+    s = feed(FaultDecision(cfg), 0.0, 1.0, out(2.0, 1.0, mu=[0.06, 0.47, 0.47], bank=two_left))
+    assert s.detected and s.wheel == "left"
+
+
+def test_mode_rule_refuses_mode_probabilities_without_hypotheses() -> None:
+    cfg = RunConfig.model_validate({"estimator": {"kind": "imm-ukf", "decision": {"rule": "mode"}}})
+    o = out(2.0, 1.0, mu=[0.1, 0.0, 0.9, 0.0])
+    o.hypotheses = None
+    with pytest.raises(ValueError, match="needs an estimator that declares the hypotheses"):
+        FaultDecision(cfg).update(0.0, o)
+    # auto reads such an output with the sigma rule (it says nothing about what its modes mean)
+    s = feed(FaultDecision(RunConfig.model_validate({"estimator": {"kind": "imm-ukf"}})), 0.0, 1.0, o)
+    assert s.detected and s.wheel == "left" and s.active_mode == 2

@@ -1,4 +1,4 @@
-"""The yaw-rate dither (issue 7): it changes the model's yaw rate by exactly δψ̇ and not its speed."""
+"""The yaw-rate dither: it changes the model's yaw rate by exactly δψ̇ and not its speed."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""RadiusSchedule: piecewise-linear tyre radius profiles (DESIGN §2)."""
+"""RadiusSchedule: piecewise-linear tyre radius profiles."""
 
 from __future__ import annotations
 

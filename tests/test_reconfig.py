@@ -1,4 +1,4 @@
-"""Reconfiguration policies (issue 7): what the controller's model is handed, and why.
+"""Reconfiguration policies: what the controller's model is handed, and why.
 
 The ``safe`` policy's rules are checked one by one against hand-made filter outputs and decisions;
 the closed-loop behaviour (revert after an injected divergence) is in test_reconfig_loop.py.
@@ -16,7 +16,7 @@ from ftc_mj.errors import BadInput
 from ftc_mj.estimation.base import FilterOutput
 from ftc_mj.estimation.decision import DecisionState
 from ftc_mj.estimation.observability import radius_directions
-from ftc_mj.sim.reconfig import RadiusFeedback, ReconfigState
+from ftc_mj.sim.reconfig import ReconfigState, ReconfigurationPolicy, build_policy
 
 OMEGA = np.array([5.0, 5.0])
 TRUTH = (2.0, 1.0)
@@ -34,12 +34,12 @@ def _dec(wheel: str | None) -> DecisionState:
                          severity_R=0.0, severity_L=0.0)
 
 
-def _fb(policy: str, **kw: object) -> RadiusFeedback:
-    return RadiusFeedback(load_config("scenario2", {"reconfiguration.policy": policy,
+def _fb(policy: str, **kw: object) -> ReconfigurationPolicy:
+    return build_policy(load_config("scenario2", {"reconfiguration.policy": policy,
                                                     **{f"reconfiguration.{k}": v for k, v in kw.items()}}))
 
 
-def _step(fb: RadiusFeedback, t: float, out: FilterOutput, wheel: str | None, reset: bool = False) -> np.ndarray:
+def _step(fb: ReconfigurationPolicy, t: float, out: FilterOutput, wheel: str | None, reset: bool = False) -> np.ndarray:
     fb.observe(out)
     return fb.radii(t, out, _dec(wheel), reset, OMEGA, TRUTH)
 

@@ -1,4 +1,4 @@
-"""The ``safe`` reconfiguration policy in the closed loop on the MuJoCo robot (issue 7, acceptance 4).
+"""The ``safe`` reconfiguration policy in the closed loop on the MuJoCo robot.
 
 Scenario 2 (left tyre 2 m -> 1 m at t = 10 s), UKF with speed + yaw-rate sensing, NMPC with the
 actuation-rate term. At t = 20 s the filter is sabotaged: its left-radius estimate is forced to

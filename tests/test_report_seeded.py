@@ -235,10 +235,10 @@ def test_seed_sets() -> None:
 
 
 def test_no_study_file_uses_the_held_out_seeds() -> None:
-    from ftc_mj.config import REPO_ROOT
+    from ftc_mj.resources import resource_path
     from ftc_mj.study.spec import load_study
 
-    for f in sorted((REPO_ROOT / "runs" / "studies").glob("*.toml")):
+    for f in sorted(resource_path("studies").glob("*.toml")):
         assert max(r.seed for r in load_study(f).runs) < HELD_OUT_START, f.name
 
 

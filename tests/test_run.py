@@ -26,7 +26,8 @@ def test_cli_run_writes_all_outputs(tmp_path: Path) -> None:
     res = CliRunner().invoke(app, ["run", "scenario2", "--duration", "2", "--out", str(tmp_path), "-q"])
     assert res.exit_code == 0, res.output + res.stderr
     (run_dir,) = [p for p in tmp_path.iterdir()]
-    assert sorted(p.name for p in run_dir.iterdir()) == ["config.toml", "metrics.json", "run.rrd", "trace.parquet"]
+    assert sorted(p.name for p in run_dir.iterdir()) == ["config.toml", "events.json", "metrics.json", "run.rrd",
+                                                         "trace.parquet"]
     # config.toml is the fully resolved config: it reloads to the same run
     cfg = validate_config(read_toml(run_dir / "config.toml"))
     assert cfg == load_config("scenario2", {"duration": 2.0})

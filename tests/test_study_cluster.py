@@ -23,12 +23,13 @@ import polars as pl
 import pytest
 import tomli_w
 
+from ftc_mj import resources
 from ftc_mj.study.runner import open_client, run_study, wall_columns
 from ftc_mj.study.spec import load_study
 from ftc_mj.study.store import StudyStore
 
 ROOT = Path(__file__).resolve().parents[1]
-STUDIES = ROOT / "runs" / "studies"
+STUDIES = resources.resource_path("studies")
 
 SMALL = """
 name = "small"

@@ -13,13 +13,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
+from ftc_mj import resources
 from ftc_mj.cli import app
 from ftc_mj.errors import BadInput
 from ftc_mj.study.analysis import mean_ci, rate_ci
 from ftc_mj.study.runner import flatten_metrics, validate_address
 from ftc_mj.study.spec import key_error, load_study
 
-STUDIES = Path(__file__).resolve().parents[1] / "runs" / "studies"
+STUDIES = resources.resource_path("studies")
 
 
 def write(tmp_path: Path, text: str, name: str = "s.toml") -> Path:
@@ -113,7 +114,7 @@ def test_shipped_studies_validate(name: str) -> None:
     ('[[axes]]\nkey = "sensors.yaw_rat"\nvalues = [0.1]', "axes[0].key (sensors.yaw_rat): unknown key 'yaw_rat'"),
     ('[[axes]]\nkey = "sensors.yaw_rate_sigma"\nvalues = []', "axes[0].values: empty axis"),
     ('[[axes]]\nkey = "sensors.speed_sigma"\nvalues = [-1.0]', "sensors.speed_sigma: must be a finite number in (0"),
-    ('[[axes]]\nkey = "estimator.kind"\nvalues = ["kalman"]', "estimator.kind: Input should be"),
+    ('[[axes]]\nkey = "estimator.kind"\nvalues = ["kalman"]', "estimator.kind: unknown estimator 'kalman'; registered"),
     ('bogus = 1', "bogus: unknown key"),
     ('[base]\n"plant.frction" = 1.0', "base.plant.frction: unknown key 'frction'"),
     ('[[axes]]\nname = "a"\nvalues = [{ "sensors.yaw_rate_sigma" = 0.1 }, { "sensors.yaw" = 1 }]',

@@ -4,7 +4,7 @@
 
 Scenario 2, UKF, NMPC, 40 s, seed 0: plant (MuJoCo, kinematic) × sensing (speed, speed + yaw rate)
 × NMPC cost (paper, actuation-rate term 1) × feedback (policy none, direct); prints Markdown rows.
-The same runs as ``runs/studies/physical_plant.toml`` (which keeps only down-sampled series).
+The same runs as the built-in study ``physical_plant`` (which keeps only down-sampled series).
 """
 
 from __future__ import annotations

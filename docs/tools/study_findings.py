@@ -1,7 +1,7 @@
 """Copy the generated findings of the shipped studies into docs/studies.md (between the GENERATED
 FINDINGS markers), verbatim from each ``runs/out/studies/<name>/summary.md``.
 
-    .venv/bin/python docs/tools/study_findings.py      # after `ftc-mj study runs/studies/<name>.toml`
+    .venv/bin/python docs/tools/study_findings.py      # after `ftc-mj study <name>`
 """
 
 from __future__ import annotations

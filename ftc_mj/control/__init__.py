@@ -1,9 +1,9 @@
-"""Trajectory-tracking controllers (paper §3, DESIGN §5): LGL pseudospectral NMPC, linear MPC,
+"""Trajectory-tracking controllers (paper §3): LGL pseudospectral NMPC, linear MPC,
 open loop; the reference paths; LGL helpers."""
 
 from .base import Controller, ControlOutput
 from .collocation import ProblemSpec
-from .factory import build_controller, problem_spec
+from .factory import build_controller, controller_from_settings, problem_spec
 from .lgl import (
     barycentric_interpolate,
     barycentric_weights,
@@ -34,6 +34,7 @@ __all__ = [
     "barycentric_weights",
     "build_controller",
     "build_reference",
+    "controller_from_settings",
     "differentiation_matrix",
     "interpolation_matrix",
     "lgl",

@@ -17,6 +17,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 
 from ..config import RunConfig
+from ..registry import BUILTIN, references
 
 
 class RefSample(NamedTuple):
@@ -169,12 +170,18 @@ class FigureEightReference:
         return np.stack(self.at(np.linspace(0, self.period, n))[:2], axis=1)
 
 
-def build_reference(cfg: RunConfig) -> CircleReference | LineReference | FigureEightReference:
-    """The reference of ``cfg.reference``, starting at ``cfg.plant.initial_pose``."""
-    r = cfg.reference
-    pose = tuple(cfg.plant.initial_pose)
-    if r.kind == "circle":
-        return CircleReference(r.radius, r.speed, r.direction, pose)
-    if r.kind == "line":
-        return LineReference(r.speed, pose)
-    return FigureEightReference(r.radius, r.speed, r.direction, pose)
+def _start(cfg: RunConfig) -> tuple[float, float, float]:
+    return tuple(cfg.plant.initial_pose)  # type: ignore[return-value]
+
+
+references.register("circle", lambda cfg: CircleReference(cfg.reference.radius, cfg.reference.speed,
+                                                           cfg.reference.direction, _start(cfg)), origin=BUILTIN)
+references.register("line", lambda cfg: LineReference(cfg.reference.speed, _start(cfg)), origin=BUILTIN)
+references.register("figure8", lambda cfg: FigureEightReference(cfg.reference.radius, cfg.reference.speed,
+                                                                cfg.reference.direction, _start(cfg)), origin=BUILTIN)
+
+
+def build_reference(cfg: RunConfig) -> Reference:
+    """The reference ``cfg.reference.kind`` names (``circle``, ``line``, ``figure8`` or a registered
+    plug-in's), starting at ``cfg.plant.initial_pose``."""
+    return references.build(cfg.reference.kind, cfg)

@@ -1,24 +1,29 @@
 """FDI filters (paper §3): EKF, UKF and IMM over [x, y, psi, R_R, R_L], plus the fault-decision layer.
 
-Entry points: :func:`build_estimator` (from a :class:`~ftc_mj.config.RunConfig`) and
-:class:`FaultDecision`. Every estimator's ``step(u, z)`` returns a :class:`FilterOutput`.
+Entry points: :func:`build_estimator` (from a :class:`~ftc_mj.config.RunConfig`), the filters'
+``from_settings`` (from their own settings, without a run config) and :class:`FaultDecision`.
+Every estimator's ``step(u, z)`` returns a :class:`FilterOutput`.
 """
 
-from .base import Estimator, FilterOutput, Measurement
-from .decision import DecisionState, FaultDecision
+from ._core import FilterSetup
+from .base import Estimator, FilterOutput, Hypothesis, Measurement
+from .decision import DecisionRule, DecisionState, DecisionStep, FaultDecision
 from .ekf import EKF
 from .factory import build_estimator
-from .imm import IMM, Hypothesis
+from .imm import IMM
 from .ukf import UKF
 
 __all__ = [
     "EKF",
     "IMM",
     "UKF",
+    "DecisionRule",
     "DecisionState",
+    "DecisionStep",
     "Estimator",
     "FaultDecision",
     "FilterOutput",
+    "FilterSetup",
     "Hypothesis",
     "Measurement",
     "build_estimator",

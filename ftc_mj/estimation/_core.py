@@ -15,7 +15,7 @@ The maths is filterpy 2.0.0's, operation for operation, so that the tests can co
 
 * UKF (``UnscentedKalmanFilter`` + ``JulierSigmaPoints``): sigma points ``x ± rows of U`` with
   ``UᵀU = (n+κ)P``; predict = unscented transform of the Euler step plus ``Q``; the update
-  *regenerates* the sigma points from the prior ``(x⁻, P⁻)`` (filterpy 2.0 behaviour, TECHNOTES §3.1);
+  *regenerates* the sigma points from the prior ``(x⁻, P⁻)`` (filterpy 2.0 behaviour);
   ``S = Σ W (h-ẑ)(h-ẑ)ᵀ + R``, ``K = Pxz S⁻¹``, ``P⁺ = P⁻ - K S Kᵀ``.
 * EKF (``ExtendedKalmanFilter`` with ``predict_x`` = Euler step and ``F`` = AD Jacobian at the
   posterior): ``P⁻ = F P Fᵀ + Q``; Joseph-form update ``P⁺ = (I-KH)P⁻(I-KH)ᵀ + K R Kᵀ``.
@@ -27,12 +27,13 @@ once to numpy (:func:`ftc_mj.model.kinematics.casadi_to_numpy`), so no equation 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from numpy.linalg import _umath_linalg
 
-from ..config import RunConfig
+from ..config import EstimatorConfig, RunConfig, SensorConfig, section
 from ..model.kinematics import (
     KinematicModel,
     body_rates,
@@ -82,7 +83,7 @@ def resolve_backend(backend: str | None) -> str:
 
 @dataclass(frozen=True)
 class FilterSetup:
-    """Resolved filter parameters (SI units) taken from a :class:`RunConfig`."""
+    """Resolved parameters (SI units) of one filter, from a :class:`RunConfig` or its own settings."""
 
     model: KinematicModel
     dt: float
@@ -105,22 +106,44 @@ class FilterSetup:
 
     @classmethod
     def from_config(cls, cfg: RunConfig) -> FilterSetup:
-        """Resolve the paper's defaults (DESIGN §4) and the sensor set of ``cfg``."""
-        est = cfg.estimator
+        """The filter of a run: ``cfg.estimator``, ``cfg.sensors``, the model's nominal wheel radius and
+        half track, starting at ``cfg.plant.initial_pose``."""
+        return cls.from_settings(cfg.estimator, cfg.sensors, wheel_radius=cfg.model_wheel_radius,
+                                 half_track=cfg.model_half_track, initial_pose=cfg.plant.initial_pose)
+
+    @classmethod
+    def from_settings(cls, estimator: EstimatorConfig | Mapping[str, Any] | None = None,
+                      sensors: SensorConfig | Mapping[str, Any] | None = None, *, wheel_radius: float = 2.0,
+                      half_track: float = 1.0, initial_pose: Sequence[float] = (0.0, 0.0, 0.0)) -> FilterSetup:
+        """A filter from its own settings, without a run config.
+
+        Parameters
+        ----------
+        estimator, sensors
+            The ``[estimator]`` and ``[sensors]`` sections (objects or plain tables, validated with
+            their one-line errors; ``None`` = the paper's values: the paper's ``Q`` and ``P0``, speed
+            σ 0.5 m/s, no gyro, no position fix).
+        wheel_radius, half_track
+            Nominal wheel radius ``R0`` and half track ``b`` of the kinematic model (m).
+        initial_pose
+            ``(x, y, psi)`` the estimate starts from (m, m, rad).
+        """
+        est = section(EstimatorConfig, estimator, "estimator")
+        sen = section(SensorConfig, sensors, "sensors")
         dt = 1.0 / est.rate
-        R0 = cfg.model_wheel_radius
+        R0 = float(wheel_radius)
         radii = est.initial_radii if est.initial_radii is not None else (R0, R0)
-        x0 = np.array([*cfg.plant.initial_pose, radii[0], radii[1]], dtype=float)
+        x0 = np.array([*initial_pose, radii[0], radii[1]], dtype=float)
         return cls(
-            model=KinematicModel(b=cfg.model_half_track, dt=dt),
+            model=KinematicModel(b=float(half_track), dt=dt),
             dt=dt,
             x0=x0,
             P0=np.diag(np.square(np.asarray(est.p0_sigma, float))),
             Q=np.diag(np.square(np.asarray(est.q_rate, float) * dt)),
             nominal_radius=R0,
-            speed_sigma=cfg.sensors.speed_sigma,
-            yaw_rate_sigma=cfg.sensors.yaw_rate_sigma,
-            position_sigma=cfg.sensors.position_sigma,
+            speed_sigma=sen.speed_sigma,
+            yaw_rate_sigma=sen.yaw_rate_sigma,
+            position_sigma=sen.position_sigma,
             kappa=est.kappa,
             nis_gate=est.nis_gate,
             divergence_nis=est.divergence_nis,
@@ -295,12 +318,25 @@ def gaussian_terms(y: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def chol(A: np.ndarray) -> np.ndarray:
-    """Batched lower Cholesky factor without ``np.linalg.cholesky``'s per-call overhead.
+    """Lower Cholesky factors of ``A`` (..., n, n); a matrix that is not positive definite gives NaNs
+    (checked by the caller) instead of an exception.
 
-    Calls numpy's LAPACK gufunc directly; a matrix that is not positive definite gives NaNs (checked
-    by the caller, with a RuntimeWarning) instead of an exception. Same LAPACK routine, same numbers.
+    One batched :func:`numpy.linalg.cholesky` call (LAPACK ``potrf``); only when it refuses the batch
+    are the matrices factored one by one, so that the positive definite ones keep their factor and
+    the others become NaN.
     """
-    return _umath_linalg.cholesky_lo(A, signature="d->d")
+    try:
+        return np.linalg.cholesky(A)
+    except np.linalg.LinAlgError:
+        pass
+    flat = A.reshape(-1, *A.shape[-2:])
+    L = np.full(flat.shape, np.nan)
+    for i, Ai in enumerate(flat):
+        try:
+            L[i] = np.linalg.cholesky(Ai)
+        except np.linalg.LinAlgError:
+            continue
+    return L.reshape(A.shape)
 
 
 # ---------------------------------------------------------------------------- batched filter maths

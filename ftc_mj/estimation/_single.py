@@ -17,10 +17,12 @@ default) or the numpy reference code below (``backend="numpy"``); both work on t
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
+from typing import Any, Self
 
 import numpy as np
 
-from ..config import RunConfig
+from ..config import EstimatorConfig, RunConfig, SensorConfig
 from ._core import (
     SPEED,
     Counter,
@@ -52,9 +54,11 @@ class SingleFilter(HealthCounters):
 
     member = "ukf"
 
-    def __init__(self, cfg: RunConfig, setup: FilterSetup | None = None, *, backend: str | None = None) -> None:
-        self.cfg = cfg
-        self.setup = setup if setup is not None else FilterSetup.from_config(cfg)
+    def __init__(self, cfg: RunConfig | None = None, setup: FilterSetup | None = None, *,
+                 backend: str | None = None) -> None:
+        if setup is None and cfg is None:
+            raise TypeError(f"{type(self).__name__}: give a run config or a FilterSetup (or use from_settings)")
+        self.setup = setup if setup is not None else FilterSetup.from_config(cfg)  # type: ignore[arg-type]
         self.backend = resolve_backend(backend)
         self.core: UKFCore | EKFCore = UKFCore(self.setup) if self.member == "ukf" else EKFCore(self.setup)
         self._st = FilterBuffers(self.setup, 1, self.member)
@@ -65,6 +69,20 @@ class SingleFilter(HealthCounters):
         self._u_last = np.zeros(2)
         # the UKF's next Cholesky repairs a non-PD covariance itself; the EKF checks every step
         self._check_pd = isinstance(self.core, EKFCore)
+
+    @classmethod
+    def from_settings(cls, estimator: EstimatorConfig | Mapping[str, Any] | None = None,
+                      sensors: SensorConfig | Mapping[str, Any] | None = None, *, wheel_radius: float = 2.0,
+                      half_track: float = 1.0, initial_pose: Sequence[float] = (0.0, 0.0, 0.0),
+                      backend: str | None = None) -> Self:
+        """The filter built from its own settings, without a run config: the ``[estimator]`` and
+        ``[sensors]`` sections (objects or plain tables; ``None`` = the paper's values), the model's
+        nominal wheel radius and half track (m) and the initial pose (m, m, rad); see
+        :meth:`FilterSetup.from_settings`. It gives the same estimates as the filter of a run with
+        those settings."""
+        setup = FilterSetup.from_settings(estimator, sensors, wheel_radius=wheel_radius, half_track=half_track,
+                                          initial_pose=initial_pose)
+        return cls(setup=setup, backend=backend)
 
     # ---------------------------------------------------------------- state access
     @property

@@ -1,4 +1,15 @@
-"""What every estimator returns at each step, and the interface the simulation loop relies on."""
+"""What every estimator returns at each step, and the interface the simulation loop relies on.
+
+The protocol (the loop calls ``step`` once per estimator period, after reading the sensors):
+
+- ``step(u, z) -> FilterOutput``: predict over one period ``dt = 1 / estimator.rate`` with the
+  wheel rates ``u = [omega_R, omega_L]`` (rad/s) measured at the previous step, then update with
+  the measurement ``z`` (:class:`Measurement`, SI units) of this step;
+- optional counters ``resets`` and ``rejections`` (ints; 0 if absent) end up in ``metrics.json``;
+- a multiple-model estimator declares its ``hypotheses`` (:class:`Hypothesis`, one per mode, in the
+  order of ``FilterOutput.mode_probs``) and puts them on every output, so that a decision rule reads
+  what its modes mean instead of guessing from their number.
+"""
 
 from __future__ import annotations
 
@@ -18,6 +29,33 @@ class Measurement:
     """Measured yaw rate (rad/s)."""
     position: np.ndarray | None = None
     """Measured (x, y) position fix (m)."""
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """What one member of a multiple-model bank assumes about the wheel radii.
+
+    ``frac_R``/``frac_L``: radius as a fraction of nominal (a step to that radius; 1 = healthy);
+    ``ramp``: instead, the left radius deflates linearly (at ``estimator.ramp_rate``).
+    """
+
+    name: str
+    frac_R: float
+    frac_L: float
+    ramp: bool = False
+
+    @property
+    def wheel(self) -> str | None:
+        """Faulty wheel(s) under this hypothesis: ``None``, ``'right'``, ``'left'`` or ``'both'``."""
+        r = self.frac_R < 1.0
+        left = self.frac_L < 1.0 or self.ramp
+        if r and left:
+            return "both"
+        if r:
+            return "right"
+        if left:
+            return "left"
+        return None
 
 
 @dataclass
@@ -41,6 +79,8 @@ class FilterOutput:
     speed_innovation_std: float
     mode_probs: np.ndarray | None = None
     """IMM mode probabilities (M,), else None."""
+    hypotheses: tuple[Hypothesis, ...] | None = None
+    """What each mode of ``mode_probs`` assumes (same order), else None."""
     model_x: np.ndarray | None = None
     """IMM per-model estimates (M, 5), else None."""
     rejected: bool = False
@@ -50,10 +90,7 @@ class FilterOutput:
 
 
 class Estimator(Protocol):
-    """A recursive estimator stepped at the filter rate."""
-
-    resets: int
-    rejections: int
+    """A recursive estimator stepped at the filter rate (see the module docstring)."""
 
     def step(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         """Predict with wheel rates ``u`` = [omega_R, omega_L] (rad/s) and update with ``z``."""

@@ -13,15 +13,24 @@ Rules (``estimator.decision.rule``):
     is evident, which wheel is not. A fault is declared when a candidate has held for ``dwell``
     seconds; the isolated wheel is the set of suspect wheels (``'both'`` if both) or ``'unknown'``.
 ``mode``
-    For an IMM: the probability of a fault *class* — the sum of the mode probabilities of the
-    members hypothesising that wheel (``right``; ``left`` = 50 % left + left ramp; ``both``) —
-    above ``mode_threshold`` for ``dwell`` seconds, **and** the combined radius estimate of the
-    implicated wheel(s) below nominal by more than ``min_drop``. With the 4-model bank every class
-    has exactly one member, i.e. this is "a fault-mode probability above the threshold" (the radius
-    condition then holds by construction: the member pins a 50 % radius). The radius condition
-    matters for the ramp member, which can also explain a small constant offset of the left radius.
+    For an estimator that declares its hypotheses (an IMM bank, ``FilterOutput.hypotheses``): the
+    probability of a fault *class* — the sum of the mode probabilities of the members whose
+    hypothesis makes that wheel faulty (``right``; ``left``, e.g. 50 % left + left ramp; ``both``),
+    read from the hypotheses, whatever their number, order or severities — above
+    ``mode_threshold`` for ``dwell`` seconds, **and** the combined radius estimate of the
+    implicated wheel(s) below nominal by more than ``min_drop``. With the paper's 4-model bank every
+    class has exactly one member, i.e. this is "a fault-mode probability above the threshold" (the
+    radius condition then holds by construction: the member pins a 50 % radius). The radius
+    condition matters for the ramp member, which can also explain a small constant offset of the
+    left radius. An estimator with mode probabilities but no hypotheses cannot be read by this rule
+    (the run fails saying so).
 ``auto``
-    ``mode`` when the output carries IMM mode probabilities, else ``sigma``.
+    ``mode`` when the output declares hypotheses, else ``sigma``.
+
+Rules are registered by name (:data:`ftc_mj.registry.decision_rules`): a rule's factory takes the
+run config and returns an object with a ``dwell`` (s) and ``candidate(step)`` giving the wheel it
+would declare from this :class:`DecisionStep` (``None``: no fault evident); :class:`FaultDecision`
+adds the dwell, change and clear logic, the severity and the anomaly flag around it.
 
 A declared fault is cleared when the condition has been false for ``dwell`` seconds, and its
 isolated wheel changes only when the new candidate has held for ``dwell`` seconds. Every
@@ -37,14 +46,15 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, Protocol
 
 import numpy as np
 
-from ..config import RunConfig
-from .base import FilterOutput
-from .imm import BANK_4, BANK_5
+from ..config import DecisionConfig, RunConfig
+from ..registry import BUILTIN, decision_rules
+from .base import FilterOutput, Hypothesis
 from .observability import RadiusDirections, radius_directions
 
 Wheel = Literal["right", "left", "both", "unknown"]
@@ -79,17 +89,128 @@ class DecisionState:
     """All declaration / change / clear events so far (shared list, oldest first)."""
 
 
-class FaultDecision:
-    """Stateful fault-decision layer: ``FaultDecision(cfg).update(t, out) -> DecisionState``."""
+@dataclass(frozen=True)
+class DecisionStep:
+    """What a rule sees at one estimator step."""
 
-    def __init__(self, cfg: RunConfig) -> None:
+    t: float
+    """Time (s) of the estimator output."""
+    out: FilterOutput
+    """The estimator's output of this step."""
+    omega: np.ndarray | None
+    """Wheel rates [omega_R, omega_L] (rad/s) the output was predicted with (``None`` if not given)."""
+    dirs: RadiusDirections
+    """The observed and unobservable-split radius directions at those rates, with the filter's σ (m)
+    along each (:mod:`.observability`)."""
+
+
+class DecisionRule(Protocol):
+    """What :class:`FaultDecision` needs of a rule."""
+
+    dwell: float
+    """Time (s) a candidate must hold before it is declared, changed or cleared."""
+
+    def candidate(self, step: DecisionStep) -> Wheel | None:
+        """The wheel a fault would be declared on from this step alone (``None``: no fault evident;
+        ``'unknown'``: a fault is evident, not which wheel)."""
+        ...
+
+
+def departures(out: FilterOutput, R0: float, k_sigma: float, min_drop: float
+               ) -> tuple[tuple[bool, bool], tuple[bool, bool]]:
+    """Per wheel (right, left): the radius estimate significantly below nominal ``R0`` (m), i.e. by
+    more than ``k_sigma`` σ and ``min_drop`` (puncture-like), and significantly above it (anomaly)."""
+    below, above = [], []
+    for i in (3, 4):
+        dep = float(out.x[i]) - R0
+        std = math.sqrt(max(float(out.P[i, i]), 0.0))
+        sig = math.isfinite(dep) and abs(dep) > k_sigma * std and abs(dep) > min_drop
+        below.append(sig and dep < 0.0)
+        above.append(sig and dep > 0.0)
+    return (below[0], below[1]), (above[0], above[1])
+
+
+class SigmaRule:
+    """``sigma``: a radius below nominal by ``k_sigma`` σ and ``min_drop``, isolated when the split is
+    identified (module docstring)."""
+
+    def __init__(self, d: DecisionConfig, R0: float) -> None:
+        self.dwell = d.dwell
+        self.k_sigma, self.min_drop, self.max_split_sigma, self.R0 = d.k_sigma, d.min_drop, d.max_split_sigma, R0
+
+    def candidate(self, step: DecisionStep) -> Wheel | None:
+        out, dirs = step.out, step.dirs
+        sus_R, sus_L = departures(out, self.R0, self.k_sigma, self.min_drop)[0]
+        if (sus_R or sus_L) and dirs.split_std <= self.max_split_sigma:
+            return "both" if sus_R and sus_L else "right" if sus_R else "left"
+        if sus_R or sus_L:
+            return "unknown"
+        # the observed combination c = w·(R - R0) alone: a puncture-like departure is one that a smaller
+        # radius of some wheel i produces, i.e. c·w_i < 0
+        c = dirs.w[0] * (float(out.x[3]) - self.R0) + dirs.w[1] * (float(out.x[4]) - self.R0)
+        big = math.isfinite(c) and abs(c) > self.k_sigma * dirs.sum_std and abs(c) > self.min_drop
+        if big and (c * dirs.w[0] < 0.0 or c * dirs.w[1] < 0.0):
+            return "unknown"
+        return None
+
+
+class ModeRule:
+    """``mode``: the most probable fault class of the declared hypotheses above ``mode_threshold``,
+    with the implicated radii dropped by ``min_drop`` (module docstring)."""
+
+    def __init__(self, d: DecisionConfig, R0: float) -> None:
+        self.dwell = d.dwell
+        self.mode_threshold, self.min_drop, self.R0 = d.mode_threshold, d.min_drop, R0
+
+    def candidate(self, step: DecisionStep) -> Wheel | None:
+        out = step.out
+        if out.mode_probs is None or out.hypotheses is None:
+            raise ValueError("decision rule 'mode' needs an estimator that declares the hypotheses of its mode "
+                             "probabilities (FilterOutput.hypotheses)")
+        m = np.asarray(out.mode_probs, float).tolist()
+        probs = {c: float(sum(m[i] for i in idx)) for c, idx in class_members(tuple(out.hypotheses))}
+        best = max(_CLASSES, key=lambda c: probs[c])
+        if probs[best] <= self.mode_threshold:
+            return None
+        drop_R = self.R0 - float(out.x[3]) > self.min_drop
+        drop_L = self.R0 - float(out.x[4]) > self.min_drop
+        ok = {"right": drop_R, "left": drop_L, "both": drop_R and drop_L}[best]
+        return best if ok else None
+
+
+class AutoRule:
+    """``auto``: :class:`ModeRule` for outputs that declare hypotheses, else :class:`SigmaRule`."""
+
+    def __init__(self, d: DecisionConfig, R0: float) -> None:
+        self.dwell = d.dwell
+        self.mode, self.sigma = ModeRule(d, R0), SigmaRule(d, R0)
+
+    def candidate(self, step: DecisionStep) -> Wheel | None:
+        rule = self.mode if step.out.hypotheses is not None else self.sigma
+        return rule.candidate(step)
+
+
+def _from_config(rule: type[SigmaRule | ModeRule | AutoRule]) -> Callable[[RunConfig], DecisionRule]:
+    """The factory of a built-in rule: its settings are ``estimator.decision``, ``R0`` the model's."""
+    return lambda cfg: rule(cfg.estimator.decision, cfg.model_wheel_radius)
+
+
+decision_rules.register("sigma", _from_config(SigmaRule), origin=BUILTIN)
+decision_rules.register("mode", _from_config(ModeRule), origin=BUILTIN)
+decision_rules.register("auto", _from_config(AutoRule), origin=BUILTIN)
+
+
+class FaultDecision:
+    """Stateful fault-decision layer: ``FaultDecision(cfg).update(t, out) -> DecisionState``; the rule
+    is the registered ``estimator.decision.rule`` (or ``rule``, an object as :class:`DecisionRule`)."""
+
+    def __init__(self, cfg: RunConfig, rule: DecisionRule | None = None) -> None:
         d = cfg.estimator.decision
         self.rule = d.rule
-        self.k_sigma = d.k_sigma
+        self.rule_impl: DecisionRule = rule if rule is not None else decision_rules.build(d.rule, cfg)
+        self.dwell = self.rule_impl.dwell
+        self.k_sigma = d.k_sigma  # the anomaly flag's thresholds (any rule)
         self.min_drop = d.min_drop
-        self.dwell = d.dwell
-        self.mode_threshold = d.mode_threshold
-        self.max_split_sigma = d.max_split_sigma
         self.R0 = cfg.model_wheel_radius
         self.events: list[tuple[float, str]] = []
         self.declared: Wheel | None = None
@@ -100,60 +221,13 @@ class FaultDecision:
         self._change_cand: Wheel | None = None
         self._change_since = 0.0
 
-    # ---------------------------------------------------------------- candidate wheel per rule
-    def _departs(self, dep: float, std: float) -> bool:
-        """``dep`` (m) exceeds both ``k_sigma`` σ and ``min_drop`` in magnitude."""
-        return math.isfinite(dep) and abs(dep) > self.k_sigma * std and abs(dep) > self.min_drop
-
-    def _radius_departures(self, out: FilterOutput) -> tuple[tuple[bool, bool], tuple[bool, bool]]:
-        """Per wheel (right, left): significantly below nominal (puncture-like), and above it (anomaly)."""
-        below, above = [], []
-        for i in (3, 4):
-            dep = float(out.x[i]) - self.R0
-            sig = self._departs(dep, math.sqrt(max(float(out.P[i, i]), 0.0)))
-            below.append(sig and dep < 0.0)
-            above.append(sig and dep > 0.0)
-        return (below[0], below[1]), (above[0], above[1])
-
-    def _sigma_candidate(self, out: FilterOutput, dirs: RadiusDirections, below: tuple[bool, bool]) -> Wheel | None:
-        sus_R, sus_L = below
-        if (sus_R or sus_L) and dirs.split_std <= self.max_split_sigma:
-            return "both" if sus_R and sus_L else "right" if sus_R else "left"
-        if sus_R or sus_L:
-            return "unknown"
-        # the observed combination c = w·(R - R0) alone: a puncture-like departure is one that a smaller
-        # radius of some wheel i produces, i.e. c·w_i < 0
-        c = dirs.w[0] * (float(out.x[3]) - self.R0) + dirs.w[1] * (float(out.x[4]) - self.R0)
-        if self._departs(c, dirs.sum_std) and (c * dirs.w[0] < 0.0 or c * dirs.w[1] < 0.0):
-            return "unknown"
-        return None
-
-    def _mode_candidate(self, out: FilterOutput) -> Wheel | None:
-        mu = np.asarray(out.mode_probs, float)
-        members = _class_members(mu.size)
-        if members is None:
-            return None
-        m = mu.tolist()
-        probs = {c: float(sum(m[i] for i in idx)) for c, idx in members}
-        best = max(_CLASSES, key=lambda c: probs[c])
-        if probs[best] <= self.mode_threshold:
-            return None
-        drop_R = self.R0 - float(out.x[3]) > self.min_drop
-        drop_L = self.R0 - float(out.x[4]) > self.min_drop
-        ok = {"right": drop_R, "left": drop_L, "both": drop_R and drop_L}[best]
-        return best if ok else None
-
     # ---------------------------------------------------------------- update
     def update(self, t: float, out: FilterOutput, omega: np.ndarray | None = None) -> DecisionState:
         """Feed the estimator output of time ``t`` (s) and the wheel rates ``omega`` (rad/s) it was
         predicted with (they set which radius combination is observable); returns the decision."""
         dirs = radius_directions(out.P, omega)
-        below, above = self._radius_departures(out)
-        use_mode = self.rule == "mode" or (self.rule == "auto" and out.mode_probs is not None)
-        if use_mode and out.mode_probs is not None:
-            cand = self._mode_candidate(out)
-        else:
-            cand = self._sigma_candidate(out, dirs, below)
+        above = departures(out, self.R0, self.k_sigma, self.min_drop)[1]
+        cand = self.rule_impl.candidate(DecisionStep(t, out, omega, dirs))
         eps = 1e-9
         if cand is not None:
             self._clear_since = None
@@ -195,13 +269,10 @@ class FaultDecision:
 
 
 @functools.cache
-def _class_members(n: int) -> tuple[tuple[Wheel, tuple[int, ...]], ...] | None:
-    """For the 4- or 5-model bank: each fault class with the indices of the members hypothesising it
-    (computed once: the decision runs at every filter step); ``None`` for other bank sizes."""
-    bank = BANK_4 if n == 4 else BANK_5 if n == 5 else None
-    if bank is None:
-        return None
-    return tuple((c, tuple(i for i, h in enumerate(bank) if h.wheel == c)) for c in _CLASSES)
+def class_members(hypotheses: tuple[Hypothesis, ...]) -> tuple[tuple[Wheel, tuple[int, ...]], ...]:
+    """Each fault class (``right``, ``left``, ``both``) with the indices of the members whose hypothesis
+    makes that wheel faulty (computed once per bank: the decision runs at every filter step)."""
+    return tuple((c, tuple(i for i, h in enumerate(hypotheses) if h.wheel == c)) for c in _CLASSES)
 
 
 def _loss(r: float, R0: float) -> float:

@@ -20,7 +20,7 @@ diagonal, 0.01 elsewhere; 5 models add a linear left-wheel deflation at ``estima
 ``paper``
     Literal: every member is the same filter (free radii, the paper's ``Q``), the models differ only
     in their *initial* radii. Mixing merges them within a few hundred steps (spread of radii → 0,
-    ``μ`` stays uniform): kept so that the reproduction can show this collapse (BASELINES §1).
+    ``μ`` stays uniform): kept so that the reproduction can show this collapse.
 
 ``hypothesis`` (default)
     Each member's *process model* encodes its hypothesis, so mixing cannot erase it:
@@ -62,11 +62,12 @@ default) or the numpy reference code below (``backend="numpy"``); both work on t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
-from ..config import RunConfig
+from ..config import EstimatorConfig, RunConfig, SensorConfig, section
 from ._core import (
     SPEED,
     BufferView,
@@ -81,35 +82,7 @@ from ._core import (
     resolve_backend,
 )
 from ._kernels import C_HYP, MU_FLOOR, P_RAMP_STEP, imm_step
-from .base import FilterOutput, Measurement
-
-
-@dataclass(frozen=True)
-class Hypothesis:
-    """What one IMM member assumes about the wheel radii.
-
-    ``frac_R``/``frac_L``: radius as a fraction of nominal (pinned in the ``hypothesis`` variant;
-    only the initial value in the ``paper`` variant); ``ramp``: the left radius deflates linearly.
-    """
-
-    name: str
-    frac_R: float
-    frac_L: float
-    ramp: bool = False
-
-    @property
-    def wheel(self) -> str | None:
-        """Faulty wheel(s) under this hypothesis: ``None``, ``'right'``, ``'left'`` or ``'both'``."""
-        r = self.frac_R < 1.0
-        left = self.frac_L < 1.0 or self.ramp
-        if r and left:
-            return "both"
-        if r:
-            return "right"
-        if left:
-            return "left"
-        return None
-
+from .base import FilterOutput, Hypothesis, Measurement
 
 BANK_4: tuple[Hypothesis, ...] = (
     Hypothesis("no fault", 1.0, 1.0),
@@ -126,11 +99,28 @@ def transition_matrix(n: int, p_stay: float) -> np.ndarray:
     return np.full((n, n), off) + np.eye(n) * (p_stay - off)
 
 
+def configured_bank(est: EstimatorConfig) -> tuple[Hypothesis, ...]:
+    """The bank ``est`` asks for: ``est.imm_bank`` in its order, else the paper's of ``imm_models`` members."""
+    if est.imm_bank is not None:
+        return tuple(Hypothesis(h.name, h.frac_R, h.frac_L, h.ramp) for h in est.imm_bank)
+    return BANK_4 if est.imm_models == 4 else BANK_5
+
+
+def configured_transition(est: EstimatorConfig, n: int) -> np.ndarray:
+    """Transition matrix of an ``n``-member bank: ``est.p_stay`` on the diagonal if set, else ``p_stay_4``
+    for 4 members and ``p_stay_5`` otherwise."""
+    p = est.p_stay if est.p_stay is not None else (est.p_stay_4 if n == 4 else est.p_stay_5)
+    return transition_matrix(n, p)
+
+
 class IMM(HealthCounters):
     """IMM over EKF or UKF members: ``IMM(cfg, member="ukf").step(u, z) -> FilterOutput``.
 
-    ``hypotheses``/``transition``/``variant`` default to the configured bank (4 or 5 models);
-    they can be given explicitly (e.g. a 2-model bank in tests). ``backend``: ``"numba"`` (compiled
+    ``hypotheses``/``transition``/``variant`` default to the configured bank (``estimator.imm_bank``,
+    else the paper's 4 or 5 models); they can be given explicitly (e.g. a 2-model bank in tests).
+    The bank's :attr:`hypotheses` travel on every output (``FilterOutput.hypotheses``), so the
+    decision layer knows what each mode probability means. ``settings``: the ``[estimator]``
+    section when there is no run config (:meth:`from_settings`). ``backend``: ``"numba"`` (compiled
     step) or ``"numpy"`` (reference); default :data:`._core.DEFAULT_BACKEND`.
 
     ``X`` (M, 5), ``P`` (M, 5, 5), ``mu`` (M,), ``loglik`` (M,), ``x`` (5,) and ``P_comb`` (5, 5) are
@@ -139,7 +129,7 @@ class IMM(HealthCounters):
 
     def __init__(
         self,
-        cfg: RunConfig,
+        cfg: RunConfig | None = None,
         member: str = "ukf",
         *,
         hypotheses: tuple[Hypothesis, ...] | None = None,
@@ -147,19 +137,21 @@ class IMM(HealthCounters):
         variant: str | None = None,
         setup: FilterSetup | None = None,
         backend: str | None = None,
+        settings: EstimatorConfig | None = None,
     ) -> None:
-        est = cfg.estimator
-        self.cfg = cfg
-        self.setup = setup if setup is not None else FilterSetup.from_config(cfg)
+        if cfg is None and (setup is None or settings is None):
+            raise TypeError("IMM: give a run config, or a FilterSetup and the estimator settings "
+                            "(or use from_settings)")
+        est = settings if settings is not None else cfg.estimator  # type: ignore[union-attr]
+        self.setup = setup if setup is not None else FilterSetup.from_config(cfg)  # type: ignore[arg-type]
         self.backend = resolve_backend(backend)
         self.member = member
         self.core: UKFCore | EKFCore = UKFCore(self.setup) if member == "ukf" else EKFCore(self.setup)
-        if hypotheses is None:
-            hypotheses = BANK_4 if est.imm_models == 4 else BANK_5
-        self.hypotheses = tuple(hypotheses)
+        self.hypotheses: tuple[Hypothesis, ...] = tuple(hypotheses) if hypotheses is not None else configured_bank(est)
+        """What each member assumes, in the order of the mode probabilities."""
         n = len(self.hypotheses)
         if transition is None:
-            transition = transition_matrix(n, est.p_stay_4 if n == 4 else est.p_stay_5)
+            transition = configured_transition(est, n)
         self.Pi = np.asarray(transition, float)
         self.variant = variant if variant is not None else est.imm_variant
         R0 = self.setup.nominal_radius
@@ -208,6 +200,23 @@ class IMM(HealthCounters):
         st.keep[:], st.reset_var[:], st.ramp[:] = self._keep, self._reset_var, self._ramp
         st.prm[P_RAMP_STEP] = self._ramp_step
         st.cnt[C_HYP] = hyp
+
+    @classmethod
+    def from_settings(cls, member: str = "ukf", estimator: EstimatorConfig | Mapping[str, Any] | None = None,
+                      sensors: SensorConfig | Mapping[str, Any] | None = None, *, wheel_radius: float = 2.0,
+                      half_track: float = 1.0, initial_pose: Sequence[float] = (0.0, 0.0, 0.0),
+                      backend: str | None = None) -> IMM:
+        """The IMM built from its own settings, without a run config (the bank, transition matrix and
+        variant from ``estimator``; the rest as :meth:`FilterSetup.from_settings`)."""
+        est = section(EstimatorConfig, estimator, "estimator")
+        setup = FilterSetup.from_settings(est, sensors, wheel_radius=wheel_radius, half_track=half_track,
+                                          initial_pose=initial_pose)
+        return cls(member=member, setup=setup, settings=est, backend=backend)
+
+    @property
+    def n_modes(self) -> int:
+        """Members of the bank."""
+        return len(self.hypotheses)
 
     # ---------------------------------------------------------------- state (views of the buffers)
     X = BufferView("X", "Member estimates (M, 5) (m, m, rad, m, m).")
@@ -260,7 +269,7 @@ class IMM(HealthCounters):
         return FilterOutput(
             x=st.x.copy(), P=st.Pc.copy(), innovation=st.y_of[m].copy(), S=st.S_of[m].copy(),
             nis=nis, speed_innovation=sp_innov, speed_innovation_std=sp_std,
-            mode_probs=st.mu.copy(), model_x=st.X.copy(), rejected=rejected, reset=reset,
+            mode_probs=st.mu.copy(), hypotheses=self.hypotheses, model_x=st.X.copy(), rejected=rejected, reset=reset,
         )
 
     def _step_numpy(self, u: np.ndarray, z: Measurement) -> FilterOutput:
@@ -321,7 +330,8 @@ class IMM(HealthCounters):
         return FilterOutput(
             x=self.x.copy(), P=self.P_comb.copy(), innovation=np.array(y, float), S=np.array(S, float),
             nis=nis, speed_innovation=sp_innov, speed_innovation_std=sp_std,
-            mode_probs=self.mu.copy(), model_x=self.X.copy(), rejected=rejected, reset=reset,
+            mode_probs=self.mu.copy(), hypotheses=self.hypotheses, model_x=self.X.copy(), rejected=rejected,
+            reset=reset,
         )
 
     def _check_divergence(self, X: np.ndarray, P: np.ndarray, nis: float) -> bool:

@@ -2,7 +2,7 @@
 prediction through the kinematic model, all 11 sigma points propagated in one vectorised call.
 
 The maths is that of filterpy 2.0.0's ``UnscentedKalmanFilter`` with ``JulierSigmaPoints(5, kappa)``,
-including 2.0's regeneration of the sigma points from the prior before the update (TECHNOTES §3.1),
+including 2.0's regeneration of the sigma points from the prior before the update,
 so a test compares the two to round-off. See :mod:`._core` for the shared maths and
 :mod:`._single` for the numerical-health rules (gating, symmetrising, resets).
 A step runs as one compiled call (:mod:`._kernels`, numba); ``backend="numpy"`` runs the numpy

@@ -1,7 +1,7 @@
 """The kinematic model of the differential-drive robot, defined once.
 
 State ``x = [x, y, psi, R_R, R_L]`` (m, m, rad, m, m), input ``u = [omega_R, omega_L]`` (rad/s),
-parameter ``b`` = half track (m, wheel centre to axle midpoint; DESIGN §1)::
+parameter ``b`` = half track (m, wheel centre to axle midpoint)::
 
     V      = (R_R omega_R + R_L omega_L) / 2
     psidot = (R_R omega_R - R_L omega_L) / (2 b)

@@ -3,6 +3,7 @@
 Public API::
 
     plant = build_plant(cfg)            # Plant (MuJoCo) or KinematicPlant, by cfg.plant.kind
+    plant = plant_from_settings({"kind": "kinematic"}, robot=None, faults={"left": [[10, 2], [10, 1]]})
     sensors = Sensors(cfg.sensors, seed=cfg.seed)
     plant.set_command(wR, wL); plant.advance(10); tr = plant.truth(); z = sensors.read(tr)
 """
@@ -11,7 +12,7 @@ from __future__ import annotations
 
 from .builder import build_model, load_spec
 from .faults import RadiusSchedule
-from .kinematic import KinematicPlant, build_plant
+from .kinematic import KinematicPlant, build_plant, plant_from_settings
 from .robot import Plant
 from .sensors import SensorReading, Sensors
 from .truth import (
@@ -48,4 +49,5 @@ __all__ = [
     "build_plant",
     "flag_names",
     "load_spec",
+    "plant_from_settings",
 ]

@@ -1,11 +1,12 @@
 """Build the compiled MuJoCo model of the truth plant from the MJCF file and the run config.
 
-The MJCF (``models/diffdrive.xml``) is loaded through :class:`mujoco.MjSpec`; static edits from the config
+The MJCF (``plant.model_file``; by default ``builtin:diffdrive.xml``, the robot shipped in
+``ftc_mj/data/models/``, :mod:`ftc_mj.resources`) is loaded through :class:`mujoco.MjSpec`; static edits from the config
 (variant, wheel radius, half track, masses, friction, actuator gain, rate limit, timestep) are applied to the
 spec, then it is compiled once. Runtime changes (punctures) never recompile: they edit ``geom_size`` in place
 (see :meth:`ftc_mj.plant.robot.Plant.set_wheel_radius`).
 
-Every element is looked up by name (DESIGN §2); the names are listed in :data:`REQUIRED_NAMES`.
+Every element is looked up by name; the names are listed in :data:`REQUIRED_NAMES`.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import numpy as np
 
 from ..config import PlantConfig, RobotConfig
 from ..errors import BadInput
+from ..resources import model_path
 
 GRAVITY = 9.81
 """Standard gravity (m/s^2) used for the spring preload; the MJCF's ``option/gravity`` must agree."""
@@ -38,8 +40,12 @@ def _bad(path: Path, why: str) -> BadInput:
 
 
 def load_spec(path: Path | str) -> mujoco.MjSpec:
-    """Parse the MJCF file into an ``MjSpec``; a missing or unparsable file raises :class:`BadInput`."""
-    p = Path(path)
+    """Parse the MJCF file (a path, or ``builtin:<name>`` for a shipped model) into an ``MjSpec``; a
+    missing or unparsable file raises :class:`BadInput`."""
+    try:
+        p = model_path(str(path))
+    except ValueError as err:
+        raise _bad(Path(str(path)), str(err)) from None
     if not p.is_file():
         raise _bad(p, "file not found")
     try:

@@ -1,4 +1,4 @@
-"""Tyre-puncture fault profiles: piecewise-linear wheel radius against time (DESIGN §2).
+"""Tyre-puncture fault profiles: piecewise-linear wheel radius against time.
 
 A schedule is a list of ``(t, r)`` breakpoints (s, m). Before the first breakpoint the radius is the nominal one;
 between breakpoints it is interpolated linearly; after the last it is held. Two breakpoints at the same time make a

@@ -14,10 +14,11 @@ windows where a fault schedule changes, each physics step is one RK4 step of
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
-from ..config import RunConfig
+from ..config import RunConfig, from_sections
 from ..model.kinematics import body_rates, inverse_rates, pose_rates
 from .faults import RadiusSchedule
 from .robot import _EPS_T, Plant, wheel_index
@@ -177,3 +178,10 @@ def build_plant(cfg: RunConfig) -> Plant | KinematicPlant:
     if cfg.plant.kind == "kinematic":
         return KinematicPlant(cfg)
     return Plant(cfg)
+
+
+def plant_from_settings(plant: Any = None, robot: Any = None, faults: Any = None) -> Plant | KinematicPlant:
+    """The truth plant built from its own settings, without a run config: the ``[plant]``, ``[robot]`` and
+    ``[faults]`` sections (objects, plain tables or ``None`` = the defaults; :class:`~ftc_mj.errors.BadInput`
+    naming the field). The same plant a run with these sections gets."""
+    return build_plant(from_sections(plant=plant, robot=robot, faults=faults))

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
-# Bit flags of Truth.flags: "the plant left the kinematic model's domain" (DESIGN §2). They describe the state at
+# Bit flags of Truth.flags: "the plant left the kinematic model's domain". They describe the state at
 # the time of the Truth, except NAN, UNSTABLE and PHYSICS_WARNING, which are sticky (once raised they stay raised).
 LIFTOFF = 1 << 0
 """A drive tyre has no contact with the floor."""

@@ -340,7 +340,7 @@ def report_metrics(cfg: RunConfig, trace: Mapping[str, Any]) -> dict[str, Any]:
     from ..sim.metrics import RECOVERY_S, fault_onsets
 
     est = cfg.estimator.kind
-    n_modes = cfg.estimator.imm_models if est.startswith("imm") else 0
+    n_modes = cfg.estimator.bank_size if est.startswith("imm") else 0
     onsets = fault_onsets(cfg)
     m = derived_metrics(trace, cfg.name, onsets, n_modes, cfg.robot.omega_max)
     first = min((o for o in onsets.values() if o is not None), default=None)

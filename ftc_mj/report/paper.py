@@ -171,13 +171,13 @@ def run_paper(out: Path, opts: PaperOptions, *, show_progress: bool | None = Non
 
 
 def source_commit() -> str | None:
-    """``git describe --always --dirty`` of the package's repository, or None outside a git checkout."""
+    """``git describe --always --dirty`` of the checkout the package is imported from, or None when it is
+    not in one (an installed wheel)."""
     import subprocess
 
-    from ..config import REPO_ROOT
-
+    checkout = Path(__file__).resolve().parents[2]
     try:
-        res = subprocess.run(["git", "-C", str(REPO_ROOT), "describe", "--always", "--dirty"], capture_output=True,
+        res = subprocess.run(["git", "-C", str(checkout), "describe", "--always", "--dirty"], capture_output=True,
                              text=True, timeout=10, check=False)
     except (OSError, subprocess.SubprocessError):
         return None

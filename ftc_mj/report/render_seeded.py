@@ -76,10 +76,10 @@ def _has_data(row: Mapping[str, Any]) -> bool:
 def tuning_section(outcomes: Sequence[TuningOutcome] | None) -> str:
     parts = ["## Data-tuned parameters\n",
              f"Chosen on {describe(DEV_SEEDS)} by rules stated before the runs "
-             f"(`runs/studies/tune_*.toml`, `ftc-mj paper --tune`); the claims above are judged with the configured "
+             f"(the built-in studies `tune_*`, `ftc-mj paper --tune`); the claims above are judged with the configured "
              f"defaults.\n"]
     if not outcomes:
-        parts.append(md_table([{"parameter": t.key, "default": t.default(), "study": f"runs/studies/{t.study}.toml",
+        parts.append(md_table([{"parameter": t.key, "default": t.default(), "study": f"built-in {t.study}",
                                 "rule": t.rule} for t in TUNED]))
         parts.append("\n_The tuning studies were not part of this invocation (`ftc-mj paper --tune`)._\n")
         return "\n".join(parts)

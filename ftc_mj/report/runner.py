@@ -170,6 +170,7 @@ def run_tasks(tasks: Sequence[RunTask], jobs: int = 1,
     except ValueError:  # pragma: no cover - platforms without forkserver
         ctx = mp.get_context("spawn")
     order = sorted(range(n), key=lambda i: -tasks[i].cost)
+    before = {p.pid for p in mp.active_children()}
     pool = ProcessPoolExecutor(max_workers=min(jobs, n), mp_context=ctx)
     try:
         futs: dict[Future[dict[str, Any]], int] = {pool.submit(execute_task, tasks[i]): i for i in order}
@@ -185,9 +186,8 @@ def run_tasks(tasks: Sequence[RunTask], jobs: int = 1,
     except BaseException:
         # Ctrl-C (or any error here): drop the queue and stop our workers now instead of waiting for
         # their runs to finish; finished runs stay on disk (atomic) and are reused next time.
-        procs = list((getattr(pool, "_processes", None) or {}).values())
-        for proc in procs:
-            if proc.is_alive():
+        for proc in mp.active_children():  # this process's children: the pool's workers are the new ones
+            if proc.pid not in before:
                 proc.terminate()
         pool.shutdown(wait=False, cancel_futures=True)
         raise

@@ -3,7 +3,7 @@
 Two parameters of the loop were set by looking at runs: the fault decision's dwell
 (``estimator.decision.dwell``) and the safe policy's growth limit
 (``reconfiguration.max_growth_rate``). Each has a study over the development seeds
-(``runs/studies/tune_dwell.toml``, ``tune_growth.toml``, whose headers state the rule) and a
+(the built-in studies ``tune_dwell`` and ``tune_growth``, whose headers state the rule) and a
 selection function here that applies the rule to the study's results. ``ftc-mj paper --tune`` runs
 both and reports the chosen value next to the configured default; the claims are judged on the
 held-out seeds (:mod:`.seeds`) with the defaults. A default that differs from the choice is
@@ -22,11 +22,13 @@ from typing import Any
 
 import polars as pl
 
-from ..config import REPO_ROOT, RunConfig
+from ..config import RunConfig
+from ..resources import resource_path
 from ..study.analysis import mean_ci, rate_ci
 from .policy_claims import POLICY_TOL
 
-STUDY_DIR = REPO_ROOT / "runs" / "studies"
+STUDY_DIR = resource_path("studies")
+"""Where the built-in studies are (package data)."""
 
 
 @dataclass

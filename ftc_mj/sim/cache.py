@@ -12,9 +12,11 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from ..config import RunConfig, config_to_toml_dict
-from ..control import build_controller
+from ..config import RunConfig
+from ..control.factory import build_controller
+from ..identity import run_identity
 from ..plant import build_plant
+from ..registry import controllers
 
 _MAX_ENTRIES = 16
 _plants: dict[str, Any] = {}
@@ -23,7 +25,8 @@ stats = {"plant_builds": 0, "plant_hits": 0, "controller_builds": 0, "controller
 
 
 def _key(cfg: RunConfig, sections: tuple[str, ...], extra: tuple[Any, ...] = ()) -> str:
-    d = config_to_toml_dict(cfg)
+    """The identity (:func:`~ftc_mj.identity.run_identity`: the model by its contents) of ``sections``."""
+    d = run_identity(cfg)
     return json.dumps([{s: d.get(s) for s in sections}, list(extra)], sort_keys=True, default=str)
 
 
@@ -48,8 +51,9 @@ def plant_for(cfg: RunConfig) -> Any:
 
 
 def controller_for(cfg: RunConfig, reference: Any) -> Any:
-    """A controller for ``cfg``, reset (MPCs are cached per structure; the open-loop one is rebuilt)."""
-    if cfg.controller.kind == "open-loop":
+    """A controller for ``cfg``, reset: one registered ``reusable`` (MPCs) is cached per structure,
+    any other is built anew."""
+    if not controllers.get(cfg.controller.kind).meta.get("reusable", False):
         return build_controller(cfg, reference)
     key = _key(cfg, ("controller", "reference", "robot", "model"), (tuple(cfg.plant.initial_pose),))
     ctrl = _controllers.get(key)

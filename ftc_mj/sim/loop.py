@@ -29,17 +29,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..config import RunConfig
-from ..control import build_reference
 from ..control.base import ControlOutput
 from ..control.excitation import dither_wheel_rates, yaw_dither
-from ..estimation import FaultDecision, build_estimator
+from ..control.reference import build_reference
 from ..estimation.base import FilterOutput, Measurement
+from ..estimation.decision import FaultDecision
+from ..estimation.factory import build_estimator
 from ..plant import Sensors
-from ..recorder import Event, RobotGeometry, Solve
+from ..registry import controllers
+from ..telemetry import Event, RobotGeometry, Solve
 from .cache import controller_for, plant_for
 from .columns import BASE_COLUMNS, COVARIANCE_COLUMNS, STATE, WHEEL_CODES
 from .metrics import fault_onsets
-from .reconfig import RadiusFeedback
+from .reconfig import build_policy
 
 
 @dataclass
@@ -116,10 +118,12 @@ def robot_geometry(plant: object, cfg: RunConfig) -> RobotGeometry:
 
 def step_bound(cfg: RunConfig, applied: np.ndarray | None) -> tuple[np.ndarray | None, float]:
     """``(previous, max_step)`` for :func:`~ftc_mj.control.excitation.dither_wheel_rates`: the command in
-    force and the MPC's bound ``omega_rate_max / rate`` (rad/s) on the next step, or no bound (open loop,
-    ``controller.rate_bound_from_applied`` off, or no command yet)."""
+    force and the MPC's bound ``omega_rate_max / rate`` (rad/s) on the next step, or no bound (a controller
+    not registered ``rate_bounded``, e.g. the open loop; ``controller.rate_bound_from_applied`` off; no
+    command yet)."""
     c = cfg.controller
-    if applied is None or c.kind == "open-loop" or not c.rate_bound_from_applied:
+    bounded = controllers.get(c.kind).meta.get("rate_bounded", False)
+    if applied is None or not bounded or not c.rate_bound_from_applied:
         return None, np.inf
     return applied, c.omega_rate_max / c.rate
 
@@ -141,9 +145,9 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
     sensors = Sensors(cfg.sensors, cfg.seed)
     reference = build_reference(cfg)
     controller = controller_for(cfg, reference)
-    estimator = build_estimator(cfg) if cfg.estimator.kind != "none" else None
+    estimator = build_estimator(cfg)
     decision = FaultDecision(cfg) if estimator is not None else None
-    feedback = RadiusFeedback(cfg)
+    feedback = build_policy(cfg, with_estimator=estimator is not None)
     exc = cfg.reconfiguration.excitation
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
@@ -153,9 +157,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
     dt = 1.0 / cfg.estimator.rate
     phys_per_est = cfg.physics_per_estimator
     est_per_ctl = cfg.estimator_per_controller
-    n_modes = 0
-    if cfg.estimator.kind.startswith("imm"):
-        n_modes = cfg.estimator.imm_models
+    n_modes = len(getattr(estimator, "hypotheses", None) or ())
     tele_cols = tuple(getattr(controller, "telemetry_columns", ()))
     cols = {c: np.full(n, np.nan) for c in (*BASE_COLUMNS, *tele_cols)}
     for j in range(n_modes):
@@ -237,7 +239,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
                     events.append(Event(t, "warn", "radius anomaly: an estimate lies above nominal "
                                                    "(not a puncture, not declared)"))
                 anomaly_before = ds.anomaly
-                resets = estimator.resets
+                resets = getattr(estimator, "resets", 0)
                 if resets != last_resets:
                     reset_since_solve = True
                     events.append(Event(t, "error", f"filter divergence: reset #{resets}"))
@@ -261,7 +263,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
                 c["solve_time_ms"][k] = cmd.solve_time * 1e3
                 c["solver_iterations"][k] = cmd.iterations
                 c["solver_ok"][k] = float(cmd.success and not cmd.fallback)
-                if cfg.controller.kind != "open-loop":
+                if cmd.predicted is not None:  # a controller that plans (not open loop)
                     solves.append(Solve(t=t, predicted=cmd.predicted, solve_time_ms=cmd.solve_time * 1e3,
                                         iterations=cmd.iterations, status=cmd.status, fallback=cmd.fallback,
                                         success=cmd.success))

@@ -307,7 +307,7 @@ def compute_metrics(
     dt = 1.0 / cfg.estimator.rate
     t_end = float(t[-1] + dt) if t.size else 0.0
     onsets_in_run = {w: (o if o is not None and t.size and o <= t[-1] else None) for w, o in onsets.items()}
-    has_est = cfg.estimator.kind != "none" and np.any(np.isfinite(trace["R_R_hat"]))
+    has_est = bool(np.any(np.isfinite(trace["R_R_hat"])))  # a run with a filter (none: NaN estimates)
     # ---------------------------------------------------------------- estimation
     if has_est:
         eR = trace["R_R_hat"] - trace["R_R"]
@@ -397,8 +397,8 @@ def compute_metrics(
         m["reconfig_first_handover_time"] = t_hand
         m["reconfig_handover_delay"] = (None if t_hand is None or t_on_any is None or t_hand < t_on_any
                                         else t_hand - t_on_any)
-        if cfg.reconfiguration.policy in ("direct", "truth") and t_on_any is not None:
-            # radii are handed over at every controller sample: the first sample at or after the onset
+        if bool(np.all(st == 2)) and t_on_any is not None:
+            # radii handed over at every controller sample (direct, truth): the first sample at or after the onset
             sample = np.isfinite(trace["solve_time_ms"]) if "solve_time_ms" in trace else np.ones(st.size, bool)
             t_next = _first((st == 2) & sample & (t >= t_on_any - 1e-9), t)
             m["reconfig_handover_delay"] = None if t_next is None else max(t_next - t_on_any, 0.0)

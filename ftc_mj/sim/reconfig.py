@@ -1,11 +1,13 @@
 """Which wheel radii the controller's model uses at each solve: the reconfiguration policy
-(``reconfiguration.policy``; DESIGN §3, §9; issue 7).
+(``reconfiguration.policy``, a name registered in :data:`ftc_mj.registry.policies`).
+
+Built-in policies:
 
 ``none``
     Nominal radii for ever (the paper's "feedback off").
 ``direct``
     The latest filter estimate at every solve, floored at a positive radius (the paper's
-    "feedback on"). On a physical plant this can run away (DESIGN §9): a wrong estimate makes the
+    "feedback on"). On a physical plant this can run away (docs/findings.md): a wrong estimate makes the
     controller drive the robot somewhere the kinematic model no longer holds, which makes the
     estimate worse.
 ``safe``
@@ -26,8 +28,13 @@
 ``truth``
     The true radii (an oracle: the best any policy could do with this controller).
 
-Every change of the ``safe`` policy's state is an :class:`~ftc_mj.recorder.Event`, and the state
+Every change of the ``safe`` policy's state is an :class:`~ftc_mj.telemetry.Event`, and the state
 is a trace column (``reconfig_state``: 0 nominal, 1 hold, 2 handed over, 3 reverted).
+
+A policy (built-in or plug-in) is a :class:`ReconfigurationPolicy`: the loop calls ``observe`` at
+every estimator step and ``radii`` at every controller sample, logs ``state`` and collects
+``events``. A run without an estimator uses ``none`` unless its policy is registered with
+``needs_estimator=False`` (``truth``).
 """
 
 from __future__ import annotations
@@ -41,7 +48,8 @@ from ..config import RunConfig
 from ..estimation.base import FilterOutput
 from ..estimation.decision import DecisionState
 from ..estimation.observability import radius_directions
-from ..recorder import Event
+from ..registry import BUILTIN, policies
+from ..telemetry import Event
 
 
 class ReconfigState(IntEnum):
@@ -56,18 +64,82 @@ class ReconfigState(IntEnum):
 _ISOLATED = {"right": (True, False), "left": (False, True), "both": (True, True)}
 
 
-class RadiusFeedback:
-    """Turns filter outputs and fault decisions into the radii [R_R, R_L] (m) handed to the controller.
+class ReconfigurationPolicy:
+    """Base of the policies: turns filter outputs and fault decisions into the radii [R_R, R_L] (m)
+    handed to the controller.
 
-    Call :meth:`observe` at every estimator step (it keeps the innovation-consistency window) and
-    :meth:`radii` at every controller sample.
+    :meth:`observe` is called at every estimator step (after the filter and the decision), and
+    :meth:`radii` at every controller sample; ``state`` (a :class:`ReconfigState` value) is logged in
+    the ``reconfig_state`` column at every step and ``events`` (:class:`~ftc_mj.telemetry.Event`)
+    are the run's events. Subclasses override :meth:`radii` (and :meth:`observe` if they keep a
+    history); ``self.nominal`` (the model's nominal radii) and ``self.floor`` (the estimator's
+    ``min_radius``, m) are set here from the run config.
     """
 
+    initial_state = ReconfigState.NOMINAL
+
     def __init__(self, cfg: RunConfig) -> None:
-        rc = cfg.reconfiguration
-        self.policy = rc.policy if cfg.estimator.kind != "none" or rc.policy == "truth" else "none"
         self.nominal = np.full(2, cfg.model_wheel_radius)
         self.floor = cfg.estimator.min_radius
+        self.state: int = self.initial_state
+        self.events: list[Event] = []
+
+    def observe(self, out: FilterOutput) -> None:
+        """This estimator step's output (the base keeps nothing)."""
+
+    def radii(self, t: float, out: FilterOutput | None, decision: DecisionState | None, filter_reset: bool,
+              omega: np.ndarray, truth: tuple[float, float]) -> np.ndarray:
+        """Radii (m) for the solve at ``t`` (s) from the latest filter output ``out`` and decision
+        (``None`` before the first filter step or without a filter). ``filter_reset``: the filter reset
+        itself since the last solve; ``omega``: wheel rates (rad/s) measured at this sample (they set
+        which radius combination the speed observes); ``truth``: the plant's true radii (m; only an
+        oracle may use them)."""
+        raise NotImplementedError
+
+
+class NominalPolicy(ReconfigurationPolicy):
+    """``none``: the nominal radii for ever (the paper's "feedback off")."""
+
+    def radii(self, t: float, out: FilterOutput | None, decision: DecisionState | None, filter_reset: bool,
+              omega: np.ndarray, truth: tuple[float, float]) -> np.ndarray:
+        return self.nominal.copy()
+
+
+class DirectPolicy(ReconfigurationPolicy):
+    """``direct``: the latest finite estimate at every solve, floored at ``estimator.min_radius``."""
+
+    initial_state = ReconfigState.HANDED
+
+    def __init__(self, cfg: RunConfig) -> None:
+        super().__init__(cfg)
+        self._current = self.nominal.copy()
+
+    def radii(self, t: float, out: FilterOutput | None, decision: DecisionState | None, filter_reset: bool,
+              omega: np.ndarray, truth: tuple[float, float]) -> np.ndarray:
+        if out is None:
+            return self.nominal.copy()
+        est = np.asarray(out.x[3:5], dtype=float)
+        if np.all(np.isfinite(est)):
+            self._current = np.maximum(est, self.floor)
+        return self._current.copy()
+
+
+class TruthPolicy(ReconfigurationPolicy):
+    """``truth``: the true radii, floored at ``estimator.min_radius`` (an oracle)."""
+
+    initial_state = ReconfigState.HANDED
+
+    def radii(self, t: float, out: FilterOutput | None, decision: DecisionState | None, filter_reset: bool,
+              omega: np.ndarray, truth: tuple[float, float]) -> np.ndarray:
+        return np.maximum(np.asarray(truth, dtype=float), self.floor)
+
+
+class SafePolicy(ReconfigurationPolicy):
+    """``safe``: gated, clamped, rate-limited hand-over with holds and reverts (module docstring)."""
+
+    def __init__(self, cfg: RunConfig) -> None:
+        super().__init__(cfg)
+        rc = cfg.reconfiguration
         self.min_radius = rc.min_radius
         self.max_sigma = rc.max_sigma
         self.max_nis_ratio = rc.max_nis_ratio
@@ -80,15 +152,11 @@ class RadiusFeedback:
         self._recent_max = 0.0
         self._current = self.nominal.copy()
         self._trusted: list[tuple[float, np.ndarray]] = []
-        self.state = ReconfigState.HANDED if self.policy in ("direct", "truth") else ReconfigState.NOMINAL
-        self.events: list[Event] = []
         self._why = "nominal"
 
     # ---------------------------------------------------------------- estimator rate
     def observe(self, out: FilterOutput) -> None:
         """Record this step's NIS per measurement (rejected measurements count as inconsistent)."""
-        if self.policy != "safe":
-            return
         m = max(int(np.size(out.innovation)), 1)
         r = float(out.nis) / m if np.isfinite(out.nis) and not out.rejected else 1e3
         if len(self._nis) == self._nis.maxlen:
@@ -105,21 +173,10 @@ class RadiusFeedback:
     # ---------------------------------------------------------------- controller rate
     def radii(self, t: float, out: FilterOutput | None, decision: DecisionState | None, filter_reset: bool,
               omega: np.ndarray, truth: tuple[float, float]) -> np.ndarray:
-        """Radii (m) for the solve at ``t`` (s). ``filter_reset``: the filter reset itself since the
-        last solve; ``omega``: wheel rates (rad/s) measured at this sample (they set which radius
-        combination the speed observes); ``truth``: the
-        plant's true radii (used by the ``truth`` policy only)."""
-        if self.policy == "none" or (out is None and self.policy != "truth"):
+        if out is None:
             return self.nominal.copy()
-        if self.policy == "truth":
-            return np.maximum(np.asarray(truth, dtype=float), self.floor)
-        assert out is not None
         recent, self._recent_max = self._recent_max, 0.0
         est = np.asarray(out.x[3:5], dtype=float)
-        if self.policy == "direct":
-            if np.all(np.isfinite(est)):
-                self._current = np.maximum(est, self.floor)
-            return self._current.copy()
         return self._safe(t, out, est, decision, filter_reset, omega, recent)
 
     def _safe(self, t: float, out: FilterOutput, est: np.ndarray, decision: DecisionState | None,
@@ -185,3 +242,18 @@ class RadiusFeedback:
             if t_acc <= t - self.trust_lag:
                 return r
         return self.nominal
+
+
+policies.register("none", NominalPolicy, origin=BUILTIN)
+policies.register("direct", DirectPolicy, origin=BUILTIN)
+policies.register("safe", SafePolicy, origin=BUILTIN)
+policies.register("truth", TruthPolicy, origin=BUILTIN, needs_estimator=False)
+
+
+def build_policy(cfg: RunConfig, with_estimator: bool = True) -> ReconfigurationPolicy:
+    """The policy ``cfg.reconfiguration.policy`` names; in a run without an estimator
+    (``with_estimator=False``) ``none`` unless the policy is registered with ``needs_estimator=False``."""
+    name = cfg.reconfiguration.policy
+    if not with_estimator and policies.get(name).meta.get("needs_estimator", True):
+        name = "none"
+    return policies.build(name, cfg)

@@ -1,10 +1,11 @@
 """One run from a resolved config to its output directory.
 
-``DIR/<run-id>/`` receives ``config.toml`` (fully resolved), ``trace.parquet``, ``metrics.json`` and
-``run.rrd``. The directory is assembled under a temporary name and renamed into place at the end,
-so a killed run leaves no half-written output under its final name; an existing run directory is
-never overwritten (a suffix is added). Before simulating, :func:`check_output_root` makes sure the
-folder can take the run (a usage error otherwise); a write that still fails raises
+``DIR/<run-id>/`` receives ``config.toml`` (fully resolved), ``trace.parquet``, ``metrics.json``,
+``events.json`` (the run's events: ``t`` in s, ``level``, ``text``) and ``run.rrd``. The directory
+is assembled under a temporary name and renamed into place at the end, so a killed run leaves no
+half-written output under its final name; an existing run directory is never overwritten (a
+suffix is added). Before simulating, :func:`check_output_root` makes sure the folder can take the
+run (a usage error otherwise); a write that still fails raises
 :class:`~ftc_mj.errors.OutputError` and leaves nothing behind.
 
 A run's ``status`` is ``ok``, ``failed`` (an exception ended it; ``error`` says which) or
@@ -14,8 +15,6 @@ its metrics describe a frozen or reset robot and must not be read as results.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import os
 import shutil
 import tempfile
@@ -29,6 +28,7 @@ import numpy as np
 
 from ..config import RunConfig, config_to_toml_dict
 from ..errors import BadInput, OutputError
+from ..identity import run_id
 from ..io import atomic_dir, remove_stale_temporaries, unique_dir, write_json, write_parquet, write_toml
 from ..plant import NAN, UNSTABLE
 from .columns import trace_schema_metadata
@@ -36,21 +36,9 @@ from .loop import SimResult, simulate
 from .metrics import compute_metrics, fault_onsets
 
 
-def config_hash(cfg: RunConfig) -> str:
-    """Short stable hash of the resolved config (output settings excluded)."""
-    d = config_to_toml_dict(cfg)
-    d.pop("output", None)
-    return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()[:8]
-
-
 def run_id_for(cfg: RunConfig) -> str:
-    """``<name>_<estimator>[-M]_<controller>_<policy>_s<seed>_<hash>`` (policy: reconfiguration policy)."""
-    est = cfg.estimator.kind
-    if est.startswith("imm"):
-        est += f"{cfg.estimator.imm_models}"
-        if cfg.estimator.imm_variant == "paper":
-            est += "p"
-    return f"{cfg.name}_{est}_{cfg.controller.kind}_{cfg.reconfiguration.policy}_s{cfg.seed}_{config_hash(cfg)}"
+    """The run's folder name (:func:`ftc_mj.identity.run_id`)."""
+    return run_id(cfg)
 
 
 @dataclass
@@ -67,7 +55,7 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "run_id": run_id_for(cfg),
         "scenario": cfg.name,
         "estimator": cfg.estimator.kind,
-        "imm_models": cfg.estimator.imm_models if cfg.estimator.kind.startswith("imm") else None,
+        "imm_models": res.n_modes or None,
         "imm_variant": cfg.estimator.imm_variant if cfg.estimator.kind.startswith("imm") else None,
         "controller": cfg.controller.kind,
         "feedback": cfg.feedback,
@@ -227,3 +215,4 @@ def _write_run(final: Path, cfg: RunConfig, res: SimResult, metrics: dict[str, A
             metrics["rrd_write_s"] = time.perf_counter() - t0
         metrics["total_wall_time_s"] = res.wall_time + metrics.get("rrd_write_s", 0.0)
         write_json(tmp / "metrics.json", metrics)
+        write_json(tmp / "events.json", [{"t": e.t, "level": e.level, "text": e.text} for e in res.events])

@@ -1,4 +1,5 @@
-"""Study files (``runs/studies/*.toml``): a base scenario plus axes to sweep, expanded to a plan.
+"""Study files: a base scenario plus axes to sweep, expanded to a plan. A study is a TOML file or
+the name of a built-in study (``ftc_mj/data/studies/*.toml``: ``observability``, ``severity``, …).
 
 A study file names a base scenario (built-in name or TOML path, relative paths resolved against
 the study file's folder), base overrides, the axes to sweep and the Monte-Carlo seeds::
@@ -48,11 +49,11 @@ message naming the study field.
 
 from __future__ import annotations
 
-import hashlib
 import itertools
 import json
 import math
 import re
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -63,13 +64,15 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from ..config import (
     RunConfig,
     SafeName,
-    config_to_toml_dict,
+    existing_file,
     read_toml,
     scenario_path,
     set_dotted,
     validate_config,
 )
 from ..errors import BadInput
+from ..identity import canonical_hash, run_digest
+from ..resources import builtin_studies, study_file
 
 Scalar = str | int | float | bool
 PLACEHOLDER = re.compile(r"^\{([A-Za-z_][A-Za-z0-9_]*)\}$")
@@ -280,6 +283,10 @@ def key_error(key: str) -> str | None:
             return f"unknown key {part!r} in {where}"
         ann = fields[part].annotation
         sub = ann if isinstance(ann, type) and issubclass(ann, BaseModel) else None
+        if typing.get_origin(ann) is typing.Annotated:
+            ann = typing.get_args(ann)[0]
+        if typing.get_origin(ann) is dict:  # a component's options: its own settings check the keys
+            return None
         if i < len(parts) - 1:
             if sub is None:
                 return f"{'.'.join(parts[: i + 1])} is not a table"
@@ -423,27 +430,19 @@ def _label_of(v: Any) -> Scalar:
     return json.dumps(v)
 
 
-def canonical_hash(obj: Any, n: int = 16) -> str:
-    """Stable short hash of plain data (sorted keys, floats by repr)."""
-    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:n]
-
-
 def run_key(cfg: RunConfig) -> str:
-    """Stable key of a resolved run config: a hash of everything except output settings.
+    """Stable key of a resolved run config: 16 hex digits of :func:`ftc_mj.identity.run_digest` (the
+    config without output settings, the model named by its contents), the same from any location."""
+    return run_digest(cfg, 16)
 
-    The model file is recorded relative to the package's repository when it lives there, so the
-    key does not depend on where the checkout is.
-    """
-    from ..config import REPO_ROOT
 
-    d = config_to_toml_dict(cfg)
-    d.pop("output", None)
-    mf = Path(d.get("plant", {}).get("model_file", ""))
-    try:
-        d["plant"]["model_file"] = str(mf.relative_to(REPO_ROOT))
-    except ValueError:
-        pass
-    return canonical_hash(d)
+def study_path(name_or_path: str | Path) -> Path:
+    """The file of a built-in study name (:func:`~ftc_mj.resources.builtin_studies`) or of a study path
+    (:class:`BadInput` naming ``STUDY_FILE`` if there is none)."""
+    s = str(name_or_path)
+    if s in builtin_studies():
+        return study_file(s)
+    return existing_file(s, "STUDY_FILE", "no such built-in study or file")
 
 
 def load_study(
@@ -458,7 +457,7 @@ def load_study(
     durations for a quick look); ``seeds`` replaces the study's seed count. Both are part of the
     study's identity (``study_hash``).
     """
-    path = Path(path)
+    path = study_path(path)
     raw = read_toml(path, "study")
     try:
         spec = StudySpec.model_validate(raw)

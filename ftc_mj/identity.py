@@ -1,0 +1,57 @@
+"""The identity of a run: what a run id and a study run key are computed from, in one place.
+
+A run is a pure function of its resolved config and seed, and of the robot it simulates. Its
+identity is the resolved config (:func:`~ftc_mj.config.config_to_toml_dict`) without the output
+settings (where and how results are written changes no number), with ``plant.model_file``
+replaced by the SHA-256 of the model file's *contents* (:func:`~ftc_mj.resources.model_digest`):
+
+- the same config and robot give the same identity on every machine and from every checkout or
+  install location (a shipped model is ``builtin:diffdrive.xml``; a copy of a model elsewhere is
+  the same robot);
+- a changed robot (one edited value in the MJCF) is a different run.
+
+:func:`run_digest` hashes that identity (SHA-256 of its canonical JSON: sorted keys, floats by
+``repr``); :func:`run_id` (``ftc-mj run`` folders, the paper matrix) and the study run keys
+(:func:`ftc_mj.study.spec.run_key`) are both made from it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Any
+
+from .config import RunConfig, config_to_toml_dict
+from .resources import model_digest
+
+
+def canonical_hash(obj: Any, n: int = 16) -> str:
+    """First ``n`` hex digits of the SHA-256 of plain data as canonical JSON (sorted keys)."""
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:n]
+
+
+def run_identity(cfg: RunConfig) -> dict[str, Any]:
+    """The resolved config as plain data, without ``output``, the model file named by its contents
+    (``plant.model_file`` → ``plant.model_digest``)."""
+    d = config_to_toml_dict(cfg)
+    d.pop("output", None)
+    plant = d.setdefault("plant", {})
+    plant["model_digest"] = model_digest(plant.pop("model_file", cfg.plant.model_file))
+    return d
+
+
+def run_digest(cfg: RunConfig, n: int = 16) -> str:
+    """First ``n`` hex digits of the hash of :func:`run_identity`."""
+    return canonical_hash(run_identity(cfg), n)
+
+
+def run_id(cfg: RunConfig) -> str:
+    """``<name>_<estimator>[M[c][p]]_<controller>_<policy>_s<seed>_<digest>``: readable settings and 8
+    hex digits of :func:`run_digest` (``M`` the IMM bank size, ``c`` a custom bank, ``p`` the paper
+    variant)."""
+    est = cfg.estimator.kind
+    if est.startswith("imm"):
+        est += f"{cfg.estimator.bank_size}" + ("c" if cfg.estimator.imm_bank is not None else "")
+        if cfg.estimator.imm_variant == "paper":
+            est += "p"
+    return f"{cfg.name}_{est}_{cfg.controller.kind}_{cfg.reconfiguration.policy}_s{cfg.seed}_{run_digest(cfg, 8)}"

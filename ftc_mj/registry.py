@@ -1,0 +1,216 @@
+"""Registries of the pluggable components: estimators, fault-decision rules, controllers,
+reconfiguration policies and reference paths.
+
+A run config names each component by a string (``estimator.kind``, ``estimator.decision.rule``,
+``controller.kind``, ``reconfiguration.policy``, ``reference.kind``); the simulation looks the name
+up here and calls the registered *factory*. What each factory receives and what the object it
+returns must do (inputs, outputs, units, what the loop calls when) is documented in
+``docs/plugins.md``; the built-ins are the examples.
+
+Where names come from, in this order, the first time a registry is asked for one:
+
+1. the built-ins, which register themselves when their module is imported (the module is named
+   here, as data, and imported on first use, so this module imports no component);
+2. Python entry points of the registry's group (``ftc_mj.estimators``, ``ftc_mj.decision_rules``,
+   ``ftc_mj.controllers``, ``ftc_mj.policies``, ``ftc_mj.references``) of installed packages:
+   ``name = "module:factory"`` registers ``factory`` under ``name``;
+3. calls of :meth:`Registry.register` (``ftc_mj.register_estimator("my-filter", factory)``), e.g.
+   by the modules a config lists in ``plugins`` (:func:`load_plugins`), which every process that
+   validates the config imports first — so Dask workers know the same components as the client.
+
+A name is registered once: registering a taken name is an error unless ``replace=True``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from importlib.metadata import entry_points
+from typing import Any
+
+from .errors import BadInput
+
+NAME_RE = re.compile(r"^[a-z0-9][a-z0-9_.+-]{0,62}$")
+"""A component name: lower-case letters, digits and ``_ . + -`` (it appears in run ids and file names)."""
+BUILTIN = "built-in"
+"""``origin`` of the components this package registers."""
+MODULE_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
+"""An importable module name (``my_pkg.filters``)."""
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One registered component."""
+
+    name: str
+    factory: Callable[..., Any]
+    """Builds the component (signature per registry: ``docs/plugins.md``)."""
+    settings: type | None = None
+    """A pydantic model validating the component's ``options`` table of the config, or ``None``
+    (then ``options`` must be empty)."""
+    meta: Mapping[str, Any] = field(default_factory=dict)
+    """What the simulation needs to know about the component (per registry, e.g. ``reusable``)."""
+    origin: str = ""
+    """Who registered it: ``built-in``, ``entry point <value>`` or the registering module."""
+
+
+class Registry:
+    """Named factories of one kind of component (see the module docstring)."""
+
+    def __init__(self, kind: str, group: str, builtins: str, config_key: str) -> None:
+        self.kind = kind
+        """What the components are (``estimator``), for messages."""
+        self.group = group
+        """Entry-point group of installed packages' components."""
+        self.config_key = config_key
+        """The config key naming a component of this registry (``estimator.kind``)."""
+        self._builtins = builtins
+        self._entries: dict[str, Entry] = {}
+        self._state = "empty"  # empty -> loaded (the built-ins' module imported, entry points read)
+
+    # ---------------------------------------------------------------- registration
+    def register(self, name: str, factory: Callable[..., Any] | None = None, *, settings: type | None = None,
+                 replace: bool = False, origin: str | None = None, **meta: Any) -> Any:
+        """Register ``factory`` under ``name``; without ``factory``, a decorator. ``settings``: a pydantic
+        model for the component's ``options``; ``meta``: flags the simulation reads (per registry).
+        ``ValueError`` for a malformed or (unless ``replace``) taken name."""
+        if factory is None:
+            return lambda f: self.register(name, f, settings=settings, replace=replace, origin=origin, **meta) or f
+        if not isinstance(name, str) or not NAME_RE.match(name):
+            raise ValueError(f"{self.kind} name {name!r}: lower-case letters, digits and '_ . + -', at most 63")
+        if not callable(factory):
+            raise TypeError(f"{self.kind} {name!r}: the factory must be callable, got {type(factory).__name__}")
+        if self._state == "empty" and origin != BUILTIN:
+            self._load()  # a plug-in's name must not collide with a built-in loaded later
+        if name in self._entries and not replace:
+            raise ValueError(f"{self.kind} {name!r} is already registered ({self._entries[name].origin}); "
+                             "pass replace=True to replace it")
+        where = origin or str(getattr(factory, "__module__", "?"))
+        self._entries[name] = Entry(name, factory, settings, dict(meta), where)
+        return None
+
+    def unregister(self, name: str) -> None:
+        """Remove ``name`` (tests and notebooks that re-register)."""
+        self._entries.pop(name, None)
+
+    # ---------------------------------------------------------------- lookup
+    def names(self) -> tuple[str, ...]:
+        """Every registered name, sorted."""
+        self._ensure()
+        return tuple(sorted(self._entries))
+
+    def get(self, name: str) -> Entry:
+        """The entry of ``name``; ``KeyError`` with the message of :meth:`check`."""
+        self._ensure()
+        try:
+            return self._entries[name]
+        except KeyError:
+            raise KeyError(self.unknown(name)) from None
+
+    def peek(self, name: str) -> Entry | None:
+        """The entry of ``name`` if it is registered already, without loading the registry."""
+        return self._entries.get(name)
+
+    @property
+    def loaded(self) -> bool:
+        """The built-ins and entry points have been loaded."""
+        return self._state == "loaded"
+
+    def check(self, name: str) -> str:
+        """``name`` if it is registered, else ``ValueError`` listing the registered names."""
+        self._ensure()
+        if name not in self._entries:
+            raise ValueError(self.unknown(name))
+        return name
+
+    def unknown(self, name: str) -> str:
+        """The message for an unregistered ``name``."""
+        return (f"unknown {self.kind} {name!r}; registered: {', '.join(self.names())} (register one with "
+                f"ftc_mj.register_{self.kind.replace(' ', '_')}, or name its module in plugins = [...])")
+
+    def build(self, name: str, *args: Any, **kwargs: Any) -> Any:
+        """``factory(*args, **kwargs)`` of ``name``."""
+        return self.get(name).factory(*args, **kwargs)
+
+    # ---------------------------------------------------------------- loading
+    def _ensure(self) -> None:
+        if self._state == "empty":
+            self._load()
+
+    def _load(self) -> None:
+        importlib.import_module(self._builtins)
+        self._state = "loaded"
+        for ep in entry_points(group=self.group):
+            if ep.name in self._entries:
+                continue
+            try:
+                factory = ep.load()
+            except Exception as err:  # noqa: BLE001 - an installed plug-in that cannot load is named, not hidden
+                raise BadInput(f"entry point {self.group}:{ep.name} = {ep.value!r} cannot be loaded: "
+                               f"{type(err).__name__}: {err}") from None
+            if ep.name not in self._entries:  # importing may have registered it already
+                self.register(ep.name, factory, origin=f"entry point {ep.value}")
+
+
+estimators = Registry("estimator", "ftc_mj.estimators", "ftc_mj.estimation.factory", "estimator.kind")
+"""``factory(cfg: RunConfig) -> Estimator | None`` (``None``: the run has no filter)."""
+decision_rules = Registry("decision rule", "ftc_mj.decision_rules", "ftc_mj.estimation.decision",
+                          "estimator.decision.rule")
+"""``factory(cfg: RunConfig) -> DecisionRule``."""
+controllers = Registry("controller", "ftc_mj.controllers", "ftc_mj.control.factory", "controller.kind")
+"""``factory(cfg: RunConfig, reference: Reference) -> Controller``; meta ``reusable=True``: the
+controller has ``reset()`` and is cached per process and structure (MPC solvers);
+``rate_bounded=True``: its first input stays within ``controller.omega_rate_max / rate`` of the
+command in force (the loop clips a dither to that bound)."""
+policies = Registry("policy", "ftc_mj.policies", "ftc_mj.sim.reconfig", "reconfiguration.policy")
+"""``factory(cfg: RunConfig) -> ReconfigurationPolicy``; meta ``needs_estimator=False``: used even
+in runs without a filter (otherwise such runs use ``none``)."""
+references = Registry("reference", "ftc_mj.references", "ftc_mj.control.reference", "reference.kind")
+"""``factory(cfg: RunConfig) -> Reference`` (starting at ``cfg.plant.initial_pose``)."""
+
+REGISTRIES: dict[str, Registry] = {"estimators": estimators, "decision_rules": decision_rules,
+                                   "controllers": controllers, "policies": policies, "references": references}
+"""Every registry by its name."""
+
+_loaded_plugins: set[str] = set()
+
+
+def load_plugins(modules: Iterable[str]) -> None:
+    """Import each plug-in module once (importing registers its components). :class:`BadInput` naming
+    ``plugins`` if a name is malformed or the module cannot be imported."""
+    for name in modules:
+        if not isinstance(name, str) or not MODULE_RE.match(name):
+            raise BadInput(f"plugins: {name!r} is not a module name (e.g. \"my_pkg.filters\")")
+        if name in _loaded_plugins:
+            continue
+        try:
+            importlib.import_module(name)
+        except Exception as err:  # noqa: BLE001 - whatever the plug-in raised, the user's module is named
+            msg = str(err).splitlines()[0] if str(err) else ""
+            raise BadInput(f"plugins: cannot import {name!r}: {type(err).__name__}: {msg[:200]}") from None
+        _loaded_plugins.add(name)
+
+
+def check_options(registry: Registry, name: str, options: Mapping[str, Any]) -> dict[str, Any]:
+    """``options`` validated by the ``settings`` model ``name`` was registered with (as plain data, the
+    settings' defaults filled in); ``ValueError`` ``<key>: why`` if they do not fit, or if the
+    component takes none."""
+    # empty options of a registry not loaded yet (a default config): nothing to fill in, and the
+    # components' modules stay unimported (a given name has loaded the registry when it was checked)
+    entry = registry.get(name) if options or registry.loaded else registry.peek(name)
+    settings = entry.settings if entry is not None else None
+    if settings is None:
+        if options:
+            raise ValueError(f"{registry.kind} {name!r} takes no options (got {', '.join(map(str, options))})")
+        return {}
+    from pydantic import ValidationError
+
+    try:
+        return settings.model_validate(dict(options)).model_dump(mode="json")  # type: ignore[attr-defined]
+    except ValidationError as err:
+        e = err.errors()[0]
+        loc = ".".join(str(p) for p in e["loc"])
+        msg = "unknown key" if e["type"] == "extra_forbidden" else e["msg"].removeprefix("Value error, ")
+        raise ValueError(f"{loc}: {msg}") from None

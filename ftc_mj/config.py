@@ -165,10 +165,12 @@ class SensorConfig(_Strict):
 class DecisionConfig(_Strict):
     """Fault-decision rule on top of the estimator."""
 
-    rule: Literal["sigma", "mode", "auto"] = "auto"
+    rule: Literal["sigma", "mode", "auto", "cusum", "glr"] = "auto"
     """``sigma``: a radius departs from nominal by ``k_sigma`` standard deviations and by at least
     ``min_drop`` for ``dwell`` seconds; ``mode``: an IMM fault-mode probability above
-    ``mode_threshold`` for ``dwell`` seconds; ``auto``: ``mode`` for IMMs, else ``sigma``."""
+    ``mode_threshold`` for ``dwell`` seconds; ``auto``: ``mode`` for IMMs, else ``sigma``;
+    ``cusum`` / ``glr``: a CUSUM / Willsky–Jones GLR on the whitened innovations crosses the threshold
+    set for a mean time between false alarms ``arl0`` (:mod:`ftc_mj.estimation.change`)."""
     k_sigma: PosFloat = 3.0
     min_drop: NonNegFloat = 0.1
     """Minimum radius departure (m) for the sigma rule (guards against tiny-σ false alarms)."""
@@ -180,6 +182,19 @@ class DecisionConfig(_Strict):
     max_split_sigma: PosFloat = 0.15
     """Sigma rule: a wheel is isolated only when the σ (m) of the radius split along the direction
     the speed cannot observe is at most this; otherwise the declared wheel is ``'unknown'``."""
+    arl0: PosFloat = 100.0
+    """``cusum``/``glr`` rules: target mean time (s) between false alarms; sets their thresholds."""
+    cusum_shift: PosFloat = 1.0
+    """CUSUM design shift (σ of the whitened innovation) the test is tuned to detect fastest."""
+    glr_window: PosFloat = 0.5
+    """GLR: onsets considered (s back from the current step); the filter absorbs a radius jump well within
+    it, after which a jump leaves no trace in the innovations."""
+    isolation_llr: PosFloat = 4.6
+    """``cusum``/``glr``: a wheel is isolated when its hypothesis leads the runner-up by this log-likelihood
+    ratio (nats; 4.6 ≈ 99:1 odds); otherwise the declared wheel is ``'unknown'``."""
+    statistics: bool = True
+    """Compute every rule's decision statistic each step and log it in the trace (``*_stat`` columns), so
+    that thresholds can be swept afterwards without re-running."""
 
 
 class EstimatorConfig(_Strict):

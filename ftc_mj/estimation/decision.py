@@ -22,6 +22,16 @@ Rules (``estimator.decision.rule``):
     matters for the ramp member, which can also explain a small constant offset of the left radius.
 ``auto``
     ``mode`` when the output carries IMM mode probabilities, else ``sigma``.
+``cusum`` / ``glr``
+    A CUSUM / Willsky–Jones GLR for a radius drop on the filter's whitened innovations
+    (:mod:`.change`) reaches its threshold, set from the target mean time between false alarms
+    ``arl0``; declared at once (the threshold is the evidence; no dwell), with the wheel its leading
+    hypothesis isolates (``'unknown'`` while no hypothesis leads by ``isolation_llr``). The declaration
+    is latched: once the filter has absorbed the change its innovations are white again and the
+    statistic falls back, which is no evidence that the tyre re-inflated.
+
+Every rule's statistic is computed each step (:mod:`.rule_statistics`, ``decision.statistics``) and
+returned in :attr:`DecisionState.statistics` for the trace.
 
 A declared fault is cleared when the condition has been false for ``dwell`` seconds, and its
 isolated wheel changes only when the new candidate has held for ``dwell`` seconds. Every
@@ -32,7 +42,6 @@ declaration, change of isolated wheel and clear is appended to :attr:`FaultDecis
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field
 from typing import Literal
@@ -41,11 +50,13 @@ import numpy as np
 
 from ..config import RunConfig
 from .base import FilterOutput
-from .imm import BANK_4, BANK_5
+from .change import WHEEL_CODES, calibrated_threshold
 from .observability import RadiusDirections, radius_directions
+from .rule_statistics import RuleStatistics, mode_score
 
 Wheel = Literal["right", "left", "both", "unknown"]
-_CLASSES: tuple[Wheel, ...] = ("right", "left", "both")
+CHANGE_RULES = ("cusum", "glr")
+_CODE_WHEEL = {code: wheel for wheel, code in WHEEL_CODES.items()}
 
 
 @dataclass
@@ -71,6 +82,9 @@ class DecisionState:
     """Most probable IMM mode (index into the bank), ``None`` for single filters."""
     events: list[tuple[float, str]] = field(default_factory=list)
     """All declaration / change / clear events so far (shared list, oldest first)."""
+    statistics: dict[str, float] = field(default_factory=dict)
+    """Every rule's decision statistic this step (:data:`~ftc_mj.estimation.rule_statistics.STAT_COLUMNS`),
+    empty when ``decision.statistics`` is off and the rule needs none."""
 
 
 class FaultDecision:
@@ -93,6 +107,10 @@ class FaultDecision:
         self._clear_since: float | None = None
         self._change_cand: Wheel | None = None
         self._change_since = 0.0
+        self._latched: Wheel | None = None
+        self.statistics = RuleStatistics(cfg) if d.statistics or self.rule in CHANGE_RULES else None
+        self.threshold = calibrated_threshold(cfg, self.rule) if self.rule in CHANGE_RULES else math.nan
+        """Threshold of the ``cusum``/``glr`` rule (log-likelihood-ratio units) for ``decision.arl0``."""
 
     # ---------------------------------------------------------------- candidate wheel per rule
     def _departs(self, dep: float, std: float) -> bool:
@@ -109,36 +127,42 @@ class FaultDecision:
         return None
 
     def _mode_candidate(self, out: FilterOutput) -> Wheel | None:
-        mu = np.asarray(out.mode_probs, float)
-        members = _class_members(mu.size)
-        if members is None:
+        score = mode_score(out, self.R0, self.min_drop)
+        if score is None:
             return None
-        m = mu.tolist()
-        probs = {c: float(sum(m[i] for i in idx)) for c, idx in members}
-        best = max(_CLASSES, key=lambda c: probs[c])
-        if probs[best] <= self.mode_threshold:
-            return None
-        drop_R = self.R0 - float(out.x[3]) > self.min_drop
-        drop_L = self.R0 - float(out.x[4]) > self.min_drop
-        ok = {"right": drop_R, "left": drop_L, "both": drop_R and drop_L}[best]
-        return best if ok else None
+        best, p, dropped = score
+        return best if p > self.mode_threshold and dropped else None  # type: ignore[return-value]
+
+    def _change_candidate(self, stats: dict[str, float]) -> Wheel | None:
+        """``cusum``/``glr``: the isolation of the latest step whose statistic reached the threshold,
+        latched (after an alarm the filter absorbs the change and the statistic falls back)."""
+        if stats[f"{self.rule}_stat"] >= self.threshold:
+            wheel = _CODE_WHEEL[int(stats[f"{self.rule}_wheel"])]
+            if wheel is not None:
+                self._latched = wheel
+        return self._latched
 
     # ---------------------------------------------------------------- update
     def update(self, t: float, out: FilterOutput, omega: np.ndarray | None = None) -> DecisionState:
         """Feed the estimator output of time ``t`` (s) and the wheel rates ``omega`` (rad/s) it was
         predicted with (they set which radius combination is observable); returns the decision."""
         dirs = radius_directions(out.P, omega)
+        u = np.asarray(omega, float) if omega is not None else np.zeros(2)
+        stats = self.statistics.update(t, out, u, dirs) if self.statistics is not None else {}
         use_mode = self.rule == "mode" or (self.rule == "auto" and out.mode_probs is not None)
-        if use_mode and out.mode_probs is not None:
+        if self.rule in CHANGE_RULES:
+            cand = self._change_candidate(stats)
+        elif use_mode and out.mode_probs is not None:
             cand = self._mode_candidate(out)
         else:
             cand = self._sigma_candidate(out, dirs)
         eps = 1e-9
+        dwell = 0.0 if self.rule in CHANGE_RULES else self.dwell  # a change detector's threshold is its evidence
         if cand is not None:
             self._clear_since = None
             if self._cond_since is None:
                 self._cond_since = t
-            if self.declared is None and t - self._cond_since >= self.dwell - eps:
+            if self.declared is None and t - self._cond_since >= dwell - eps:
                 self.declared = cand
                 self.n_declarations += 1
                 if self.first_time is None:
@@ -169,18 +193,8 @@ class FaultDecision:
         return DecisionState(
             detected=self.declared is not None, time=self.first_time, wheel=self.declared,
             severity_R=sev[0], severity_L=sev[1], suspected="unknown" in (cand, self.declared),
-            split_std=dirs.split_std, active_mode=active, events=self.events,
+            split_std=dirs.split_std, active_mode=active, events=self.events, statistics=stats,
         )
-
-
-@functools.cache
-def _class_members(n: int) -> tuple[tuple[Wheel, tuple[int, ...]], ...] | None:
-    """For the 4- or 5-model bank: each fault class with the indices of the members hypothesising it
-    (computed once: the decision runs at every filter step); ``None`` for other bank sizes."""
-    bank = BANK_4 if n == 4 else BANK_5 if n == 5 else None
-    if bank is None:
-        return None
-    return tuple((c, tuple(i for i, h in enumerate(bank) if h.wheel == c)) for c in _CLASSES)
 
 
 def _loss(r: float, R0: float) -> float:

@@ -7,10 +7,18 @@ wheel is not identified), ``radius_split_std`` (m, σ of the unobservable radius
 ``mode_prob_k``; reconfiguration: ``reconfig_state`` (0 nominal, 1 hold, 2 handed over,
 3 reverted), ``excitation`` (yaw-rate dither, rad/s, NaN when off); controller:
 ``omega_*_cmd, R_*_model`` (radii the controller assumed), ``solve_time_ms, solver_iterations, solver_ok`` (on
-controller samples, NaN elsewhere); ``cross_track_error`` (m, positive = left of the path).
+controller samples, NaN elsewhere); ``cross_track_error`` (m, positive = left of the path);
+``x_meas, y_meas`` (position fixes, NaN between them); the posterior Cramér–Rao bound of the
+filters' model along the true trajectory, ``R_R_pcrb_std, R_L_pcrb_std, radius_split_pcrb_std``
+(m, :mod:`ftc_mj.estimation.pcrb`); every fault-decision rule's statistic
+(:data:`~ftc_mj.estimation.rule_statistics.STAT_COLUMNS`: ``sigma_stat, mode_stat, cusum_stat,
+glr_stat`` with their ``*_wheel`` isolation codes, ``glr_drop`` (m), ``glr_onset`` (s), …).
 """
 
 from __future__ import annotations
+
+from ..estimation.pcrb import PCRB_COLUMNS
+from ..estimation.rule_statistics import STAT_COLUMNS
 
 BASE_COLUMNS: tuple[str, ...] = (
     "t", "x", "y", "psi", "v", "yaw_rate", "v_meas", "yaw_rate_meas", "R_R", "R_L",
@@ -20,4 +28,5 @@ BASE_COLUMNS: tuple[str, ...] = (
     "R_R_model", "R_L_model", "cross_track_error", "roll", "pitch", "z", "slip_R", "slip_L",
     "plant_flags", "fault_detected", "fault_suspected", "radius_split_std", "reconfig_state", "excitation",
     "solve_time_ms", "solver_iterations", "solver_ok",
+    "x_meas", "y_meas", *PCRB_COLUMNS, *STAT_COLUMNS,
 )

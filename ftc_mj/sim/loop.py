@@ -31,6 +31,7 @@ from ..control.base import ControlOutput
 from ..control.excitation import dither_wheel_rates, yaw_dither
 from ..estimation import FaultDecision, build_estimator
 from ..estimation.base import FilterOutput, Measurement
+from ..estimation.pcrb import pcrb_columns
 from ..plant import Sensors
 from ..recorder import Event, RobotGeometry, Solve
 from .cache import controller_for, plant_for
@@ -144,6 +145,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
             c["v_meas"][k] = rd.speed
             if rd.yaw_rate is not None:
                 c["yaw_rate_meas"][k] = rd.yaw_rate
+            if rd.position is not None:
+                c["x_meas"][k], c["y_meas"][k] = rd.position
             c["roll"][k], c["pitch"][k], c["z"][k] = tr.roll, tr.pitch, tr.z_chassis
             c["slip_R"][k], c["slip_L"][k] = tr.slip_R, tr.slip_L
             c["plant_flags"][k] = tr.flags
@@ -173,6 +176,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
                 c["fault_detected"][k] = float(ds.detected)
                 c["fault_suspected"][k] = float(ds.suspected)
                 c["radius_split_std"][k] = ds.split_std
+                for name, value in ds.statistics.items():
+                    c[name][k] = value
                 if out.mode_probs is not None:
                     for j in range(n_modes):
                         c[f"mode_prob_{j + 1}"][k] = out.mode_probs[j]
@@ -225,6 +230,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
         error = f"{type(exc).__name__}: {exc}"
         events.append(Event(rows * dt, "error", f"run failed: {error}"))
         cols = {k2: v[:rows] for k2, v in cols.items()}
+    if estimator is not None and rows:
+        cols.update(pcrb_columns(cfg, cols))
     if progress is not None:
         progress(1.0)
 

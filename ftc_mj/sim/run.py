@@ -18,6 +18,7 @@ from typing import Any
 
 from ..config import RunConfig, config_to_toml_dict
 from ..io import atomic_dir, unique_dir, write_json, write_parquet, write_toml
+from .fdi_metrics import fdi_metrics
 from .loop import SimResult, simulate
 from .metrics import compute_metrics, fault_onsets
 
@@ -65,7 +66,9 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "status": "failed" if res.error else "ok",
         "error": res.error,
     }
-    m.update(compute_metrics(cfg, res.trace, fault_onsets(cfg), res.counters))
+    onsets = fault_onsets(cfg)
+    m.update(compute_metrics(cfg, res.trace, onsets, res.counters))
+    m.update(fdi_metrics(cfg, res.trace, min((o for o in onsets.values() if o is not None), default=None)))
     ds = res.decision
     if ds is not None:
         m["isolated_wheel"] = getattr(ds, "wheel", None)

@@ -85,11 +85,17 @@ def channel_kinds(setup: FilterSetup, m: int) -> tuple[int, ...] | None:
     return None
 
 
+@functools.lru_cache(maxsize=64)
+def _variances(sigmas: tuple[float | None, ...], kinds: tuple[int, ...]) -> np.ndarray:
+    v = np.array([sigmas[k] ** 2 for k in kinds], float)  # type: ignore[operator]
+    v.flags.writeable = False
+    return v
+
+
 def noise_variances(setup: FilterSetup, kinds: tuple[int, ...]) -> np.ndarray:
-    """Measurement-noise variances of the channels ``kinds``."""
-    sig = {SPEED: setup.speed_sigma, YAW: setup.yaw_rate_sigma, POS_X: setup.position_sigma,
-           POS_Y: setup.position_sigma}
-    return np.array([sig[k] ** 2 for k in kinds], float)
+    """Measurement-noise variances of the channels ``kinds`` (read-only array, cached)."""
+    sigmas = (setup.speed_sigma, setup.yaw_rate_sigma, setup.position_sigma, setup.position_sigma)
+    return _variances(sigmas, kinds)
 
 
 def isolate(per_hypothesis: np.ndarray, margin: float) -> str | None:

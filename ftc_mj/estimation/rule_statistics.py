@@ -54,6 +54,7 @@ STAT_COLUMNS: tuple[str, ...] = (
     "white_innovation_1", "white_innovation_2",
 )
 """Trace columns written by :class:`RuleStatistics` (NaN where a rule does not apply)."""
+_EYE5 = np.eye(5)
 CLASSES: tuple[str, ...] = ("right", "left", "both")
 """IMM fault classes (a class = the members hypothesising that wheel or wheels)."""
 
@@ -172,8 +173,11 @@ class RuleStatistics:
                 s["white_innovation_2"] = float(lin.e[1])
             self._cusum_h = self.cusum.step(e, lin.W)[0].copy()
             self._cusum_g = float(self._cusum_h.max())
-            x_lin = self._x_prev if self._x_prev is not None else x
-            F = numpy_step_jacobian(self.setup.model, x_lin, np.asarray(u, float), self.dt)
+            if self.setup.position_sigma is None:
+                F = _EYE5  # no channel sees the pose: its rows of F do not reach any signature
+            else:
+                x_lin = self._x_prev if self._x_prev is not None else x
+                F = numpy_step_jacobian(self.setup.model, x_lin, np.asarray(u, float), self.dt)
             self._glr_g = float(self.glr.step(e, lin.W, F, lin.A)[0])
             self._glr_h = self.glr.per_hypothesis[0].copy()
             if self._glr_g > 0.0:

@@ -194,6 +194,8 @@ def draw_all(curves: list[RuleCurves], cells: list[Cell], keys: list[str], df: p
     out.mkdir(parents=True, exist_ok=True)
     links = []
     for fk, rows in _groups(curves, keys).items():
+        if not any(rc.design.delay for rcs in rows.values() for rc in rcs):
+            continue  # no fault runs: nothing to draw against the false-alarm rate
         name = "_".join(str(v) for v in fk).replace("+", "-").replace(" ", "") or "all"
         title = ", ".join(str(v) for v in fk) or "all cells"
         for kind, fn in (("delay", lambda p, r=rows, t=title: fig_delay(r, t, p)),

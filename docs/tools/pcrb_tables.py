@@ -1,7 +1,8 @@
-"""Regenerate the table of docs/fdi.md ("what no estimator can isolate"): the posterior Cramér–Rao bound
-along the radius split on the paper's circle.
+"""Regenerate the tables of docs/fdi.md built on the posterior Cramér–Rao bound: what no estimator can
+isolate with speed alone (the bound along the radius split on the paper's circle), and the error the
+filters' gains give on a fault-free truth.
 
-    .venv/bin/python docs/tools/split_bound.py
+    .venv/bin/python docs/tools/pcrb_tables.py
 
 Scenario 2 (left tyre 2 → 1 m at t = 10 s), UKF, NMPC with nominal radii (policy none, the paper's
 feedback off), 40 s, seed 0, on both plants, with speed only and with speed + yaw rate. From the onset
@@ -10,13 +11,20 @@ radii a random walk of σ 2 m/s·√dt) and for an estimator that *knows* the ra
 the puncture (radius process noise 0), the most any estimator may assume. Printed: the σ of the bound
 along the split (the direction the speed does not see at the current wheel rates) at several times,
 and the first time it is at most 0.15 m (the sigma rule's ``max_split_sigma``: isolation).
+
+Second table, the nominal circle (10 m/s, 50 m) without a fault: the steady-state radius σ of the
+filters' model (their Riccati recursion: the PCRB of that model), the error σ the same gains give when
+the radii are in truth constant (the Lyapunov recursion of the estimation error with no radius
+noise), and their ratio — what a filter that is optimal for its random-walk model achieves on a
+constant-radius truth relative to the bound.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ftc_mj.config import load_config
+from ftc_mj.config import RunConfig, load_config
+from ftc_mj.estimation.change import nominal_point
 from ftc_mj.estimation.observability import radius_directions
 from ftc_mj.estimation.pcrb import trace_pcrb
 from ftc_mj.sim.loop import simulate
@@ -50,5 +58,33 @@ def main() -> None:
                       + " | ".join(f"{v:.3f}" for v in at) + f" | {first} |")
 
 
+def constant_truth_table() -> None:
+    """The filters' steady-state σ (the bound of their model) against the σ their gains give with constant
+    radii, for each wheel and along the observed combination ``w ∝ [ω_R, ω_L]`` (with speed only the split
+    is a random walk nothing observes, so the per-wheel σ of the model grows without bound)."""
+    print("\n| sensors | direction | filters' model σ = PCRB (m) | σ with constant radii (m) | ratio |")
+    print("|---|---|---|---|---|")
+    for gyro in (0.01, None):
+        p = nominal_point(RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro}}))
+        m = p.m
+        H, K = np.array(p.H).reshape(m, 5), np.array(p.K).reshape(5, m)
+        F, R = np.array(p.F).reshape(5, 5), np.diag(np.square(p.r_sd))
+        A = np.eye(5) - K @ H
+        w = H[0, 3:5] / np.linalg.norm(H[0, 3:5])  # the speed row: ∝ [ω_R, ω_L]
+        dirs = {"R_R": np.array([1.0, 0.0]), "R_L": np.array([0.0, 1.0]), "observed w": w}
+        if gyro is None:
+            dirs = {"observed w": w}
+        sig = {}
+        for name, q in (("own", np.square(p.q_sd)), ("constant", np.square([*p.q_sd[:3], 0.0, 0.0]))):
+            S = np.zeros((5, 5))
+            for _ in range(20000):
+                S = A @ (F @ S @ F.T + np.diag(q)) @ A.T + K @ R @ K.T
+            sig[name] = {d: float(np.sqrt(v @ S[3:5, 3:5] @ v)) for d, v in dirs.items()}
+        for d in dirs:
+            print(f"| {'speed+yaw' if gyro else 'speed'} | {d} | {sig['own'][d]:.4f} | {sig['constant'][d]:.4f} | "
+                  f"{sig['constant'][d] / sig['own'][d]:.3f} |")
+
+
 if __name__ == "__main__":
     main()
+    constant_truth_table()

@@ -11,6 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from ftc_mj.cli import app
+from ftc_mj.config import RunConfig
 from ftc_mj.study.fdi_curves import Cell, Run, lorden_bound, operating_point, poisson_rate
 from ftc_mj.study.runner import run_study
 from ftc_mj.study.spec import load_study
@@ -20,7 +21,7 @@ def _run(key: str, records: list[list[float]], onset: float | None = None, seed:
     rec = np.asarray(records, float).reshape(-1, 3)
     return Run(key=key, seed=seed, severity=0.5 if onset is not None else 0.0, onset=onset,
                wheel="left" if onset is not None else None, duration=20.0,
-               records={"glr": rec}, profile=None)
+               records={"glr": rec})
 
 
 def test_operating_point_counts_alarms_exposure_delays_and_isolation() -> None:
@@ -48,17 +49,18 @@ def test_poisson_interval_with_no_alarm() -> None:
     assert r.mean == 0.0 and r.lo == 0.0 and r.hi == pytest.approx(3.6889 / 100.0, rel=1e-4)
 
 
-def test_lorden_bound_for_a_constant_gaussian_shift() -> None:
-    """Whitened innovations with a constant mean shift 1 (KL 1/2 per step): the bound is log(ARL0/dt)/KL
-    steps; 400 seeds estimate the shift to 5 %, the cumulative information to ~3 %, i.e. half a step."""
-    rng = np.random.default_rng(0)
-    prof = [np.column_stack([1.0 + rng.standard_normal(100), np.full(100, np.nan)]) for _ in range(400)]
-    cell = Cell({}, faults={0.5: [Run("k", i, 0.5, 10.0, "left", 20.0, {}, p) for i, p in enumerate(prof)]})
-    a = np.array([1.0, 100.0, 1e25])
-    b = lorden_bound(cell, 0.5, a, 0.01)
-    expect = np.log(a / 0.01) / 0.5 * 0.01
-    assert np.all(np.abs(b[:2] - expect[:2]) <= 0.011)
-    assert math.isinf(b[2])  # log(1e27) = 62 nats: more than the 1 s profile's 100 steps x 0.5 nats
+def test_lorden_bound_of_a_step_puncture() -> None:
+    """A 1 m drop of the left radius at ω = (5.1, 4.9) rad/s lowers the speed by 4.9/2 m/s: with σ 0.5 m/s
+    the information is ½ (2.45/0.5)² = 12.0 nats per step, so log(ARL0/dt)/12 steps, at least one (the
+    first measurement after the onset); with a gyro (σ 0.01 rad/s) the yaw rate moves by 2.45 rad/s and
+    one step always suffices."""
+    runs = [_run(str(i), [], 10.0) for i in range(3)]
+    for r in runs:
+        r.omega_onset, r.radius_step = np.array([5.1, 4.9]), np.array([0.0, -1.0])
+    a = np.array([100.0, 1e8])
+    for gyro, expect in ((None, [0.01, 0.01 * math.log(1e10) / 12.005]), (0.01, [0.01, 0.01])):
+        cell = Cell({}, faults={0.5: runs}, config=RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro}}))
+        assert lorden_bound(cell, 0.5, a, 0.01) == pytest.approx(expect, rel=1e-3)
 
 
 STUDY = """

@@ -10,10 +10,6 @@ Each record is ``[t, g, wheel_code]`` (``sigma``: ``[t, g, z_R, z_L, split_ident
 the isolated wheel at any threshold follows, :func:`~ftc_mj.estimation.rule_statistics.sigma_isolation`).
 Records stop at the first value above :data:`RECORD_CAP` (thresholds beyond are of no interest).
 
-``fdi_white_innovation`` holds the whitened innovation of the first :data:`PROFILE_S` seconds from a
-fault's onset (``[e_1, e_2]`` per row): averaged over seeds it is the mean shift the fault actually
-produced, whose Kullback–Leibler information gives Lorden's bound on the detection delay.
-
 PCRB ratios: ``radius_pcrb_rms_R/L`` is the root-mean-square of the bound's σ (m) and
 ``radius_rmse_over_pcrb_R/L`` the radius RMSE over it, both from ``settle_time`` seconds on.
 """
@@ -29,7 +25,6 @@ from ..config import RunConfig
 RULES: tuple[str, ...] = ("sigma", "mode", "cusum", "glr")
 RECORD_CAP: dict[str, float] = {"sigma": 200.0, "mode": 1.0, "cusum": 500.0, "glr": 500.0}
 """Largest threshold of interest per rule (σ, probability, nats)."""
-PROFILE_S = 1.0
 
 
 def first_alarm_records(trace: dict[str, np.ndarray], rule: str, split_limit: float) -> list[list[float]]:
@@ -54,26 +49,13 @@ def first_alarm_records(trace: dict[str, np.ndarray], rule: str, split_limit: fl
     return [[float(t[k]), float(g[k]), float(code[k])] for k in rows]
 
 
-def white_innovation_profile(trace: dict[str, np.ndarray], onset: float, dt: float) -> list[list[float]]:
-    """Whitened innovation ``[e_1, e_2]`` (NaN when absent) of the :data:`PROFILE_S` s from ``onset``."""
-    t = np.asarray(trace["t"], float)
-    k0 = int(np.searchsorted(t, onset - 1e-9))
-    k1 = min(t.size, k0 + int(round(PROFILE_S / dt)))
-    e1 = np.asarray(trace["white_innovation_1"], float)[k0:k1]
-    e2 = np.asarray(trace["white_innovation_2"], float)[k0:k1]
-    return [[float(a), float(b)] for a, b in zip(e1, e2, strict=True)]
-
-
-def fdi_metrics(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float | None,
-                settle_time: float = 5.0) -> dict[str, Any]:
-    """First-alarm records, the post-onset innovation profile and the PCRB ratios of a run."""
+def fdi_metrics(cfg: RunConfig, trace: dict[str, np.ndarray], settle_time: float = 5.0) -> dict[str, Any]:
+    """First-alarm records and PCRB ratios of a run."""
     m: dict[str, Any] = {}
     if "R_R_pcrb_std" not in trace or not np.any(np.isfinite(trace["R_R_pcrb_std"])):
         return m
     d = cfg.estimator.decision
     m["fdi_records"] = {r: first_alarm_records(trace, r, d.max_split_sigma) for r in RULES}
-    if onset is not None:
-        m["fdi_white_innovation"] = white_innovation_profile(trace, onset, 1.0 / cfg.estimator.rate)
     late = np.asarray(trace["t"], float) >= settle_time
     for w in ("R", "L"):
         err = np.asarray(trace[f"R_{w}_hat"], float)[late] - np.asarray(trace[f"R_{w}"], float)[late]

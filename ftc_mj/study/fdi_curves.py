@@ -19,15 +19,17 @@ sensors × filter) and each rule:
 * **isolation**: among detected runs, the fraction whose wheel at the first alarm is the true one,
   and the fraction ``'unknown'``.
 
-Lorden's bound: for a change in the mean of i.i.d. Gaussian observations no detector with mean time
-``ARL0`` between false alarms has a (worst-case) delay below ``log(ARL0)/KL`` samples, ``KL`` the
-Kullback–Leibler information per sample. The filters' whitened innovations are such observations
-(``N(0, I)`` while nothing changes); after a puncture their mean shifts by ``μ_j`` at ``j`` steps from
-the onset, estimated by the mean over the cell's seeds of the logged innovation profile. With a
-decaying shift (the filter absorbs the change) the bound is the delay at which the cumulative
-information ``Σ_{i≤j} |μ_i|²/2`` reaches ``log(ARL0/dt)`` (``|μ̂|²`` corrected by ``m/N`` for the noise of
-the mean of ``N`` seeds, ``m`` channels); if it never does, no detector working on the innovations can
-reach that ``ARL0`` with a finite delay on this fault.
+Lorden's bound: for a change in the mean of independent Gaussian observations no detector with mean
+time ``ARL0`` between false alarms has a (worst-case) delay below ``log(ARL0)/KL`` samples
+asymptotically, ``KL`` the Kullback–Leibler information per sample. A step puncture ``δ`` (m per wheel)
+shifts the mean of the speed (and yaw-rate) measurement by ``J(u) δ`` — ``J = ∂[V, ψ̇]/∂[R_R, R_L]`` of the
+model at the wheel rates ``u`` of the onset (the measurements are linear in the radii) — with the sensor
+noise ``R``, so ``KL = ½ (Jδ)ᵀ R⁻¹ (Jδ)``: the information of the shift actually produced, read from the
+runs' compact time series (wheel rates at the onset, true radii just after it; mean over the seeds).
+The bound is drawn as ``dt · max(1, log(ARL0/dt)/KL)``: a detector sees the fault at the first
+measurement after the onset at the earliest. It holds for the raw measurements, hence for every rule
+(all are functions of them); it assumes the wheel rates stay as at the onset (the controller reacts
+within 0.1 s) and the model's measurement equation (on the MuJoCo plant an approximation).
 
 Design points: each rule's threshold as configured (``k_sigma``, ``mode_threshold``) or calibrated for
 ``decision.arl0`` (``cusum``, ``glr``). Matched points: the threshold whose ARL0 measured on the
@@ -47,6 +49,7 @@ import polars as pl
 
 from ..config import RunConfig, validate_config
 from ..errors import BadInput
+from ..estimation._core import FilterSetup
 from ..estimation.change import calibrated_threshold
 from ..estimation.rule_statistics import sigma_isolation
 from .analysis import Estimate, mean_ci, rate_ci
@@ -69,8 +72,10 @@ class Run:
     duration: float
     records: dict[str, np.ndarray]
     """Per rule, (k, columns) record rows ``[t, g, …]``."""
-    profile: np.ndarray | None
-    """(rows, 2) whitened innovation from the onset (NaN where a channel is absent)."""
+    omega_onset: np.ndarray | None = None
+    """Wheel rates (rad/s) at the onset (compact time series)."""
+    radius_step: np.ndarray | None = None
+    """True radius change (m, right and left) just after the onset."""
 
 
 @dataclass
@@ -131,10 +136,18 @@ def _run(row: dict[str, Any], fault_axis: str) -> Run:
     for r in RULES:
         v = _json(row.get(f"fdi_records_{r}"))
         recs[r] = np.asarray(v if v else np.zeros((0, 3)), float)
-    prof = _json(row.get("fdi_white_innovation"))
-    return Run(key=str(row["run_key"]), seed=int(row["seed"]), severity=row[fault_axis],
-               onset=row.get("fault_onset_time"), wheel=row.get("true_fault_wheel"),
-               duration=float(row["sim_time_s"]), records=recs, profile=np.asarray(prof, float) if prof else None)
+    run = Run(key=str(row["run_key"]), seed=int(row["seed"]), severity=row[fault_axis],
+              onset=row.get("fault_onset_time"), wheel=row.get("true_fault_wheel"),
+              duration=float(row["sim_time_s"]), records=recs)
+    ts = row.get("ts_t")
+    if run.onset is not None and ts and row.get("ts_omega_R"):
+        t = np.asarray(ts, float)
+        k = int(np.searchsorted(t, run.onset + 1e-9)) - 1  # the sample at (or just before) the onset
+        if 0 <= k < t.size - 1:
+            run.omega_onset = np.array([row["ts_omega_R"][k], row["ts_omega_L"][k]], float)
+            run.radius_step = np.array([row["ts_R_R"][k + 1] - row["ts_R_R"][k],
+                                        row["ts_R_L"][k + 1] - row["ts_R_L"][k]], float)
+    return run
 
 
 def _configs(study_dir: Path, plan: dict[str, Any]) -> dict[str, RunConfig]:
@@ -275,19 +288,25 @@ def matched_threshold(cell: Cell, rule: str, grid: np.ndarray, target: float, de
     return math.nan
 
 
+def fault_kl(cell: Cell, severity: Any) -> float:
+    """Kullback–Leibler information per filter step of the measurement shift of a step puncture (see the
+    module docstring); ``nan`` without the time series it needs."""
+    runs = [r for r in cell.faults.get(severity, []) if r.omega_onset is not None and r.radius_step is not None]
+    if not runs or cell.config is None:
+        return math.nan
+    setup = FilterSetup.from_config(cell.config)
+    u = np.mean([r.omega_onset for r in runs], axis=0)
+    delta = np.mean([r.radius_step for r in runs], axis=0)
+    J = setup.model.measurement_jacobian(np.array([0.0, 0.0, 0.0, *setup.x0[3:5]]), u)[:, 3:5]
+    sig = [setup.speed_sigma] + ([setup.yaw_rate_sigma] if setup.yaw_rate_sigma is not None else [])
+    shift = (J @ delta)[: len(sig)] / np.asarray(sig)
+    return 0.5 * float(shift @ shift)
+
+
 def lorden_bound(cell: Cell, severity: Any, arl0: np.ndarray, dt: float) -> np.ndarray:
-    """Lorden's lower bound on the delay (s) at each ``arl0`` (s) from the cell's mean innovation shift
-    after the onset (see the module docstring); ``inf`` where the information never suffices."""
-    profs = [r.profile for r in cell.faults.get(severity, []) if r.profile is not None and r.profile.size]
-    if not profs:
+    """Lorden's lower bound on the delay (s) at each ``arl0`` (s) for the cell's step puncture (module
+    docstring): ``dt · max(1, log(ARL0/dt) / KL)``."""
+    kl = fault_kl(cell, severity)
+    if not kl > 0:
         return np.full(arl0.shape, np.nan)
-    n = min(p.shape[0] for p in profs)
-    P = np.stack([p[:n] for p in profs])  # (runs, rows, 2)
-    P = P[:, :, np.all(np.isfinite(P), axis=(0, 1))]  # the channels the sensor set has
-    m = P.shape[2]
-    mu = P.mean(axis=0)
-    kl = 0.5 * np.maximum(np.sum(mu * mu, axis=1) - m / P.shape[0], 0.0)
-    K = np.cumsum(kl)
-    need = np.log(np.maximum(arl0 / dt, 1.0))
-    j = np.searchsorted(K, need, side="left")
-    return np.where(j < n, j * dt, np.inf)
+    return dt * np.maximum(1.0, np.log(np.maximum(arl0 / dt, 1.0)) / kl)

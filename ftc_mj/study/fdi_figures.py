@@ -32,12 +32,16 @@ def _groups(curves: list[RuleCurves], keys: list[str]) -> dict[tuple, dict[Any, 
 
 
 def arl0_axis(points: list[Any]) -> tuple[np.ndarray, np.ndarray]:
-    """x of each point on an ARL0 axis: the estimate, or — no false alarm observed — the lower end of its
-    interval (then ARL0 is only known to exceed it; such points are drawn as open markers)."""
-    m = np.array([p.arl0.mean for p in points])
-    lo = np.array([p.arl0.lo for p in points])
-    censored = ~np.isfinite(m)
-    return np.where(censored, lo, m), censored
+    """x of each point on an ARL0 axis: the estimate; where no false alarm was seen only the first such
+    point (lowest threshold) is kept, at the fault-free seconds observed — ARL0 is only known to be
+    of that order or more — and drawn as an open marker; higher thresholds add nothing (NaN)."""
+    x = np.array([p.arl0.mean for p in points])
+    censored = ~np.isfinite(x)
+    first = int(np.argmax(censored)) if censored.any() else -1
+    x = np.where(censored, np.nan, x)
+    if first >= 0:
+        x[first] = points[first].exposure
+    return x, censored
 
 
 def _band(ax: Any, x: np.ndarray, m: np.ndarray, lo: np.ndarray, hi: np.ndarray, colour: str, label: str,
@@ -55,6 +59,32 @@ def _band(ax: Any, x: np.ndarray, m: np.ndarray, lo: np.ndarray, hi: np.ndarray,
         ax.plot(x[c], m[c], "o", mfc="none", color=colour, ms=4)
 
 
+def _log(ax: Any, x: bool = True, y: bool = True) -> None:
+    """Log scales on the axes that have positive finite data (an empty panel stays linear)."""
+    def has(get: str) -> bool:
+        for ln in ax.lines:
+            v = np.asarray(getattr(ln, get)(), float)
+            if np.any(np.isfinite(v) & (v > 0)):
+                return True
+        return False
+
+    if x and has("get_xdata"):
+        ax.set_xscale("log")
+    if y and has("get_ydata"):
+        ax.set_yscale("log")
+
+
+def _legend(fig: Any, rows: dict[Any, list[RuleCurves]], lorden: bool = False) -> None:
+    """One legend for the figure: every rule drawn in it (and Lorden's bound)."""
+    from matplotlib.lines import Line2D
+
+    rules = [r for r in COLOURS if any(rc.rule == r for rcs in rows.values() for rc in rcs)]
+    handles = [Line2D([], [], color=COLOURS[r], lw=1.5, label=r) for r in rules]
+    if lorden:
+        handles.append(Line2D([], [], color="k", ls="--", lw=1, label="Lorden bound"))
+    fig.legend(handles=handles, loc="upper right", fontsize=7, ncol=len(handles))
+
+
 def _grid(rows: dict[Any, list[RuleCurves]], plt: Any) -> tuple[Any, Any, list[Any]]:
     sevs = sorted({s for rcs in rows.values() for rc in rcs for s in rc.design.delay}, key=str)
     fig, axs = plt.subplots(len(rows), len(sevs), figsize=(3.3 * len(sevs), 2.6 * len(rows)), squeeze=False)
@@ -68,9 +98,9 @@ def fig_delay(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> None
     for i, (rv, rcs) in enumerate(rows.items()):
         for j, sev in enumerate(sevs):
             ax = axs[i, j]
-            for rc in rcs:
+            for rc in (r for r in rcs if sev in r.design.delay):
                 x, cens = arl0_axis(rc.points)
-                d = [p.delay.get(sev) for p in rc.points]
+                d = [p.delay[sev] for p in rc.points]
                 _band(ax, x, np.array([e.mean for e in d]), np.array([e.lo for e in d]), np.array([e.hi for e in d]),
                       COLOURS[rc.rule], rc.rule, cens)
                 dp = rc.design
@@ -78,10 +108,9 @@ def fig_delay(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> None
                 if sev in dp.delay and math.isfinite(xd[0]) and math.isfinite(dp.delay[sev].mean):
                     ax.plot(xd, [dp.delay[sev].mean], "o", color=COLOURS[rc.rule], ms=5,
                             mfc="none" if cd[0] else COLOURS[rc.rule], mew=1.5)
-            la, lb = lorden_curve(rcs[0].cell, sev)
-            ax.plot(la, lb, "k--", lw=1, label="Lorden bound")
-            ax.set_xscale("log")
-            ax.set_yscale("log")
+            la, lb = lorden_curve(rcs[0].cell, sev) if sev in rcs[0].cell.faults else (np.zeros(0), np.zeros(0))
+            ax.plot(la, lb, "k--", lw=1)
+            _log(ax)
             ax.set_title(f"{rv}, severity {sev}", fontsize=8)
             ax.tick_params(labelsize=7)
             ax.grid(alpha=0.3, which="both")
@@ -89,10 +118,10 @@ def fig_delay(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> None
                 ax.set_xlabel("ARL0: mean time between false alarms (s)", fontsize=7)
             if j == 0:
                 ax.set_ylabel("detection delay (s)", fontsize=7)
-    axs[0, 0].legend(fontsize=6)
-    fig.suptitle(f"{title}: delay against false-alarm rate (filled dots: design thresholds; open: no false alarm "
-                 "seen, ARL0 above the lower end of its 95 % interval)", fontsize=8)
-    fig.tight_layout()
+    _legend(fig, rows, lorden=True)
+    fig.suptitle(f"{title}: delay against mean time between false alarms\n(filled dots: design thresholds; open: no "
+                 "false alarm in the fault-free seconds observed, drawn there)", fontsize=8, x=0.02, ha="left")
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
     _save(fig, path)
 
 
@@ -103,9 +132,9 @@ def fig_roc(rows: dict[Any, list[RuleCurves]], title: str, horizon: float, path:
     for i, (rv, rcs) in enumerate(rows.items()):
         for j, sev in enumerate(sevs):
             ax = axs[i, j]
-            for rc in rcs:
+            for rc in (r for r in rcs if sev in r.design.delay):
                 x = np.array([p.pfa.mean for p in rc.points])
-                y = np.array([p.pd[sev].mean if sev in p.pd else np.nan for p in rc.points])
+                y = np.array([p.pd[sev].mean for p in rc.points])
                 order = np.argsort(x)
                 ax.plot(x[order], y[order], ".-", color=COLOURS[rc.rule], label=rc.rule, lw=1, ms=3)
             ax.plot([0, 1], [0, 1], color="0.7", lw=0.8)
@@ -118,9 +147,9 @@ def fig_roc(rows: dict[Any, list[RuleCurves]], title: str, horizon: float, path:
                 ax.set_xlabel(f"P(false alarm within {horizon:g} s)", fontsize=7)
             if j == 0:
                 ax.set_ylabel(f"P(detection within {horizon:g} s)", fontsize=7)
-    axs[0, 0].legend(fontsize=6)
-    fig.suptitle(f"{title}: ROC", fontsize=9)
-    fig.tight_layout()
+    _legend(fig, rows)
+    fig.suptitle(f"{title}: ROC (runs without an earlier alarm)", fontsize=9, x=0.02, ha="left")
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
     _save(fig, path)
 
 
@@ -131,13 +160,13 @@ def fig_isolation(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> 
     for i, (rv, rcs) in enumerate(rows.items()):
         for j, sev in enumerate(sevs):
             ax = axs[i, j]
-            for rc in rcs:
+            for rc in (r for r in rcs if sev in r.design.delay):
                 x, cens = arl0_axis(rc.points)
-                e = [p.iso[sev] for p in rc.points if sev in p.iso]
-                if len(e) == len(x):
+                e = [p.iso[sev] for p in rc.points]
+                if e:
                     _band(ax, x, np.array([v.mean for v in e]), np.array([v.lo for v in e]),
                           np.array([v.hi for v in e]), COLOURS[rc.rule], rc.rule, cens)
-            ax.set_xscale("log")
+            _log(ax, y=False)
             ax.set_ylim(-0.02, 1.02)
             ax.set_title(f"{rv}, severity {sev}", fontsize=8)
             ax.tick_params(labelsize=7)
@@ -146,9 +175,9 @@ def fig_isolation(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> 
                 ax.set_xlabel("ARL0 (s)", fontsize=7)
             if j == 0:
                 ax.set_ylabel("isolated the true wheel", fontsize=7)
-    axs[0, 0].legend(fontsize=6)
-    fig.suptitle(f"{title}: isolation accuracy of the detections", fontsize=9)
-    fig.tight_layout()
+    _legend(fig, rows)
+    fig.suptitle(f"{title}: isolation accuracy of the detections", fontsize=9, x=0.02, ha="left")
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
     _save(fig, path)
 
 
@@ -174,7 +203,7 @@ def fig_rmse(df: pl.DataFrame, keys: list[str], severity_of: dict[str, Any], pat
                 line = ax.plot(t, rmse, lw=1, label=str(lv[0]))
                 b, _ = ts_mean_ci(_stack(part, "ts_R_L_pcrb_std"))
                 ax.plot(t, b, "--", lw=0.8, color=line[0].get_color())
-            ax.set_yscale("log")
+            _log(ax, x=False)
             ax.set_title(f"{', '.join(map(str, pk))}; severity {sev}", fontsize=8)
             ax.tick_params(labelsize=7)
             ax.grid(alpha=0.3, which="both")

@@ -29,7 +29,7 @@ def step_costs(steps: int, gyro: float | None) -> dict[str, np.ndarray]:
     """µs per step of the UKF and of the decision with and without the statistics, interleaved."""
     u, z, zy = scenario(steps)
     base = {"sensors": {"yaw_rate_sigma": gyro}}
-    cfg_on = RunConfig.model_validate(base)
+    cfg_on = RunConfig.model_validate({**base, "estimator": {"decision": {"statistics": True}}})
     cfg_off = RunConfig.model_validate({**base, "estimator": {"decision": {"statistics": False}}})
     f = UKF(cfg_on)
     dec_on, dec_off = FaultDecision(cfg_on), FaultDecision(cfg_off)

@@ -192,9 +192,11 @@ class DecisionConfig(_Strict):
     isolation_llr: PosFloat = 4.6
     """``cusum``/``glr``: a wheel is isolated when its hypothesis leads the runner-up by this log-likelihood
     ratio (nats; 4.6 ≈ 99:1 odds); otherwise the declared wheel is ``'unknown'``."""
-    statistics: bool = True
+    statistics: bool = False
     """Compute every rule's decision statistic each step and log it in the trace (``*_stat`` columns), so
-    that thresholds can be swept afterwards without re-running."""
+    that thresholds can be swept afterwards without re-running (``ftc-mj fdi-curves``). Costs about 30 µs
+    per filter step, 15–45 % of a run's CPU time (``benchmarks/bench_fdi.py``); the ``cusum`` and ``glr``
+    rules compute their own statistic regardless."""
 
 
 class EstimatorConfig(_Strict):

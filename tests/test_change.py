@@ -27,7 +27,7 @@ DROP = 0.8  # m, left radius 2.0 -> 1.2
 
 def _cfg(rule: str, gyro: float | None, **decision: float) -> RunConfig:
     return RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro},
-                                     "estimator": {"decision": {"rule": rule, **decision}}})
+                                     "estimator": {"decision": {"rule": rule, "statistics": True, **decision}}})
 
 
 def _run(cfg: RunConfig, n: int = 500, seed: int = 1) -> tuple[list, FaultDecision]:
@@ -144,7 +144,7 @@ def test_sigma_and_mode_statistics_reproduce_the_live_rules() -> None:
         ("mode", [_out(2.0, r, 0.05, [1 - p, 0.0, p, 0.0]) for r, p in zip(RL, p_left, strict=True)], 0.9),
     ):
         cfg = RunConfig.model_validate({"estimator": {"kind": "imm-ukf" if rule == "mode" else "ukf",
-                                                      "decision": {"rule": rule}}})
+                                                      "decision": {"rule": rule, "statistics": True}}})
         dec = FaultDecision(cfg)
         states = [dec.update(round(k * 0.01, 6), o, np.array([5.1, 4.9])) for k, o in enumerate(outs)]
         first = next(k for k, s in enumerate(states) if s.detected)

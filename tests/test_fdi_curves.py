@@ -70,6 +70,7 @@ seeds = 2
 [base]
 duration = 12.0
 "reconfiguration.policy" = "none"
+"estimator.decision.statistics" = true
 "plant.kind" = "kinematic"
 "sensors.yaw_rate_sigma" = 0.01
 [[axes]]

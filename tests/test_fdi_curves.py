@@ -12,6 +12,7 @@ from typer.testing import CliRunner
 
 from ftc_mj.cli import app
 from ftc_mj.config import RunConfig
+from ftc_mj.sim.fdi_metrics import cumulative_kl
 from ftc_mj.study.fdi_curves import Cell, Run, lorden_bound, operating_point, poisson_rate
 from ftc_mj.study.runner import run_study
 from ftc_mj.study.spec import load_study
@@ -49,18 +50,26 @@ def test_poisson_interval_with_no_alarm() -> None:
     assert r.mean == 0.0 and r.lo == 0.0 and r.hi == pytest.approx(3.6889 / 100.0, rel=1e-4)
 
 
-def test_lorden_bound_of_a_step_puncture() -> None:
-    """A 1 m drop of the left radius at ω = (5.1, 4.9) rad/s lowers the speed by 4.9/2 m/s: with σ 0.5 m/s
-    the information is ½ (2.45/0.5)² = 12.0 nats per step, so log(ARL0/dt)/12 steps, at least one (the
-    first measurement after the onset); with a gyro (σ 0.01 rad/s) the yaw rate moves by 2.45 rad/s and
-    one step always suffices."""
+def test_cumulative_information_and_lorden_bound_of_a_step_puncture() -> None:
+    """A 1 m drop of the left radius at ω = (5.1, 4.9) rad/s lowers the true speed by 4.9/2 m/s: with σ
+    0.5 m/s the information is ½ (2.45/0.5)² = 12.005 nats per row from the first shifted row, a model
+    bias before the onset (here +0.3 m/s) is removed. The bound is then the first row where the
+    information reaches log(ARL0/dt): 1 row up to ARL0 = dt·e^12 (16 s at 100 Hz), 2 rows up to dt·e^24."""
+    cfg = RunConfig.model_validate({})
+    n, k_on = 400, 200
+    t = np.arange(n) * 0.01
+    v = np.full(n, 0.5 * 2.0 * (5.1 + 4.9) + 0.3)
+    v[k_on + 1:] -= 2.45
+    trace = {"t": t, "v": v, "yaw_rate": np.zeros(n), "omega_R": np.full(n, 5.1), "omega_L": np.full(n, 4.9)}
+    K = np.array(cumulative_kl(cfg, trace, t[k_on]))
+    assert K[0] == pytest.approx(0.0, abs=1e-9) and np.diff(K[:3]) == pytest.approx([12.005, 12.005], rel=1e-9)
+    assert K[-1] > 25.0 and K.size == 4  # stops once beyond the cap
     runs = [_run(str(i), [], 10.0) for i in range(3)]
     for r in runs:
-        r.omega_onset, r.radius_step = np.array([5.1, 4.9]), np.array([0.0, -1.0])
-    a = np.array([100.0, 1e8])
-    for gyro, expect in ((None, [0.01, 0.01 * math.log(1e10) / 12.005]), (0.01, [0.01, 0.01])):
-        cell = Cell({}, faults={0.5: runs}, config=RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro}}))
-        assert lorden_bound(cell, 0.5, a, 0.01) == pytest.approx(expect, rel=1e-3)
+        r.kl = K
+    cell = Cell({}, faults={0.5: runs}, config=cfg)
+    a = np.array([1.0, 100.0, 1e8, 1e13])
+    assert list(lorden_bound(cell, 0.5, a, 0.01)) == pytest.approx([0.01, 0.01, 0.02, 0.03])
 
 
 STUDY = """

@@ -67,8 +67,9 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "error": res.error,
         "error_where": res.error_where,
     }
-    m.update(compute_metrics(cfg, res.trace, fault_onsets(cfg), res.counters))
-    m.update(fdi_metrics(cfg, res.trace))
+    onsets = fault_onsets(cfg)
+    m.update(compute_metrics(cfg, res.trace, onsets, res.counters))
+    m.update(fdi_metrics(cfg, res.trace, min((o for o in onsets.values() if o is not None), default=None)))
     ds = res.decision
     if ds is not None:
         m["severity_R"] = getattr(ds, "severity_R", None)

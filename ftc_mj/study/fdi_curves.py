@@ -19,17 +19,16 @@ sensors × filter) and each rule:
 * **isolation**: among detected runs, the fraction whose wheel at the first alarm is the true one,
   and the fraction ``'unknown'``.
 
-Lorden's bound: for a change in the mean of independent Gaussian observations no detector with mean
+Lorden's bound: for a change in the distribution of independent observations no detector with mean
 time ``ARL0`` between false alarms has a (worst-case) delay below ``log(ARL0)/KL`` samples
-asymptotically, ``KL`` the Kullback–Leibler information per sample. A step puncture ``δ`` (m per wheel)
-shifts the mean of the speed (and yaw-rate) measurement by ``J(u) δ`` — ``J = ∂[V, ψ̇]/∂[R_R, R_L]`` of the
-model at the wheel rates ``u`` of the onset (the measurements are linear in the radii) — with the sensor
-noise ``R``, so ``KL = ½ (Jδ)ᵀ R⁻¹ (Jδ)``: the information of the shift actually produced, read from the
-runs' compact time series (wheel rates at the onset, true radii just after it; mean over the seeds).
-The bound is drawn as ``dt · max(1, log(ARL0/dt)/KL)``: a detector sees the fault at the first
-measurement after the onset at the earliest. It holds for the raw measurements, hence for every rule
-(all are functions of them); it assumes the wheel rates stay as at the onset (the controller reacts
-within 0.1 s) and the model's measurement equation (on the MuJoCo plant an approximation).
+asymptotically, ``KL`` the Kullback–Leibler information per sample; with an information that varies
+from sample to sample the delay is at least the number of samples whose cumulative information reaches
+``log(ARL0)`` (Lai 1998). Each fault run records the cumulative information the puncture actually put
+into the measurements (:func:`ftc_mj.sim.fdi_metrics.cumulative_kl`: the true speed and yaw rate
+against the nominal model, over the sensor noise); the bound drawn is ``dt · n``, ``n`` the first
+row after the onset at which the mean over the cell's seeds reaches ``log(ARL0/dt)``, and ``inf``
+(not drawn) if it does not within the recorded profile. It holds for the raw measurements, hence for
+every rule (all are functions of them).
 
 Design points: each rule's threshold as configured (``k_sigma``, ``mode_threshold``) or calibrated for
 ``decision.arl0`` (``cusum``, ``glr``). Matched points: the threshold whose ARL0 measured on the
@@ -49,7 +48,6 @@ import polars as pl
 
 from ..config import RunConfig, validate_config
 from ..errors import BadInput
-from ..estimation._core import FilterSetup
 from ..estimation.change import calibrated_threshold
 from ..estimation.rule_statistics import sigma_isolation
 from .analysis import Estimate, mean_ci, rate_ci
@@ -72,10 +70,8 @@ class Run:
     duration: float
     records: dict[str, np.ndarray]
     """Per rule, (k, columns) record rows ``[t, g, …]``."""
-    omega_onset: np.ndarray | None = None
-    """Wheel rates (rad/s) at the onset (compact time series)."""
-    radius_step: np.ndarray | None = None
-    """True radius change (m, right and left) just after the onset."""
+    kl: np.ndarray | None = None
+    """Cumulative information of the fault from the onset row (nats per row)."""
 
 
 @dataclass
@@ -139,14 +135,8 @@ def _run(row: dict[str, Any], fault_axis: str) -> Run:
     run = Run(key=str(row["run_key"]), seed=int(row["seed"]), severity=row[fault_axis],
               onset=row.get("fault_onset_time"), wheel=row.get("true_fault_wheel"),
               duration=float(row["sim_time_s"]), records=recs)
-    ts = row.get("ts_t")
-    if run.onset is not None and ts and row.get("ts_omega_R"):
-        t = np.asarray(ts, float)
-        k = int(np.searchsorted(t, run.onset + 1e-9)) - 1  # the sample at (or just before) the onset
-        if 0 <= k < t.size - 1:
-            run.omega_onset = np.array([row["ts_omega_R"][k], row["ts_omega_L"][k]], float)
-            run.radius_step = np.array([row["ts_R_R"][k + 1] - row["ts_R_R"][k],
-                                        row["ts_R_L"][k + 1] - row["ts_R_L"][k]], float)
+    kl = _json(row.get("fdi_cumulative_kl"))
+    run.kl = np.asarray(kl, float) if kl else None
     return run
 
 
@@ -288,25 +278,13 @@ def matched_threshold(cell: Cell, rule: str, grid: np.ndarray, target: float, de
     return math.nan
 
 
-def fault_kl(cell: Cell, severity: Any) -> float:
-    """Kullback–Leibler information per filter step of the measurement shift of a step puncture (see the
-    module docstring); ``nan`` without the time series it needs."""
-    runs = [r for r in cell.faults.get(severity, []) if r.omega_onset is not None and r.radius_step is not None]
-    if not runs or cell.config is None:
-        return math.nan
-    setup = FilterSetup.from_config(cell.config)
-    u = np.mean([r.omega_onset for r in runs], axis=0)
-    delta = np.mean([r.radius_step for r in runs], axis=0)
-    J = setup.model.measurement_jacobian(np.array([0.0, 0.0, 0.0, *setup.x0[3:5]]), u)[:, 3:5]
-    sig = [setup.speed_sigma] + ([setup.yaw_rate_sigma] if setup.yaw_rate_sigma is not None else [])
-    shift = (J @ delta)[: len(sig)] / np.asarray(sig)
-    return 0.5 * float(shift @ shift)
-
-
 def lorden_bound(cell: Cell, severity: Any, arl0: np.ndarray, dt: float) -> np.ndarray:
-    """Lorden's lower bound on the delay (s) at each ``arl0`` (s) for the cell's step puncture (module
-    docstring): ``dt · max(1, log(ARL0/dt) / KL)``."""
-    kl = fault_kl(cell, severity)
-    if not kl > 0:
+    """Lorden's lower bound on the delay (s) at each ``arl0`` (s) from the cell's recorded cumulative fault
+    information (module docstring); ``inf`` beyond the profile, ``nan`` without one."""
+    prof = [r.kl for r in cell.faults.get(severity, []) if r.kl is not None and r.kl.size]
+    if not prof:
         return np.full(arl0.shape, np.nan)
-    return dt * np.maximum(1.0, np.log(np.maximum(arl0 / dt, 1.0)) / kl)
+    n = min(p.size for p in prof)
+    K = np.mean([p[:n] for p in prof], axis=0)
+    j = np.searchsorted(K, np.log(np.maximum(arl0 / dt, 1.0)), side="left")
+    return np.where(j < n, j * dt, np.inf)

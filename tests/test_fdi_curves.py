@@ -3,7 +3,6 @@ the ``fdi-curves`` command end to end on a tiny study and its bad-input errors."
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np

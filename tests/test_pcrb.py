@@ -130,3 +130,18 @@ def test_pcrb_columns_shrink_with_a_gyro_and_keep_the_split_unobserved_without()
             assert split[-1] > 0.5 and split[-1] > split[0]
         else:
             assert split[-1] < 0.05 and cols["R_L_pcrb_std"][-1] < 0.05
+
+
+def test_ukf_covariance_is_the_bound_of_its_own_model_on_the_kinematic_plant() -> None:
+    """Speed + yaw rate measure the radii linearly (given the wheel rates) and the radii's dynamics are the
+    identity, so the UKF is the Kalman filter of its radius sub-problem and its σ equals the PCRB of its
+    model along the true trajectory — to round-off, before the puncture (the filter's Jacobian uses the
+    rates of the previous row, the bound the current ones: equal while the commands are held)."""
+    from ftc_mj.config import load_config
+    from ftc_mj.sim.loop import simulate
+
+    cfg = load_config("scenario2", {"plant.kind": "kinematic", "reconfiguration.policy": "none", "duration": 9.95,
+                                    "sensors.yaw_rate_sigma": 0.01})
+    tr = simulate(cfg).trace
+    for w in ("R", "L"):
+        assert abs(tr[f"R_{w}_std"][-1] / tr[f"R_{w}_pcrb_std"][-1] - 1.0) < 1e-9

@@ -60,8 +60,9 @@ def main() -> None:
 
 def constant_truth_table() -> None:
     """The filters' steady-state σ (the bound of their model) against the σ their gains give with constant
-    radii, for each wheel and along the observed combination ``w ∝ [ω_R, ω_L]`` (with speed only the split
-    is a random walk nothing observes, so the per-wheel σ of the model grows without bound)."""
+    radii, for each wheel, along the observed combination ``w ∝ [ω_R, ω_L]`` and along the split ``d ⊥ w``
+    (with speed only the split is a random walk nothing observes, so the model's per-wheel σ grows
+    without bound and only ``w`` is shown)."""
     print("\n| sensors | direction | filters' model σ = PCRB (m) | σ with constant radii (m) | ratio |")
     print("|---|---|---|---|---|")
     for gyro in (0.01, None):
@@ -71,7 +72,8 @@ def constant_truth_table() -> None:
         F, R = np.array(p.F).reshape(5, 5), np.diag(np.square(p.r_sd))
         A = np.eye(5) - K @ H
         w = H[0, 3:5] / np.linalg.norm(H[0, 3:5])  # the speed row: ∝ [ω_R, ω_L]
-        dirs = {"R_R": np.array([1.0, 0.0]), "R_L": np.array([0.0, 1.0]), "observed w": w}
+        dirs = {"R_R": np.array([1.0, 0.0]), "R_L": np.array([0.0, 1.0]), "observed w": w,
+                "split d": np.array([w[1], -w[0]])}
         if gyro is None:
             dirs = {"observed w": w}
         sig = {}

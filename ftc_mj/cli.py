@@ -312,6 +312,36 @@ def study(
                f"results in {out_dir}")
 
 
+@app.command("fdi-curves")
+def fdi_curves(
+    study_dir: Annotated[Path, typer.Argument(help="Output folder of a finished study with no-fault and fault runs.")],
+    out: Annotated[Path | None, typer.Option(help="Output folder (default: STUDY_DIR/fdi).")] = None,
+    fault_axis: Annotated[str, typer.Option(help="Study axis that sets the fault (its no-fault runs have no onset).")]
+    = "severity",
+    horizon: Annotated[float, typer.Option(help="Detection horizon (s) of the ROC.")] = 2.0,
+    arl0: Annotated[float, typer.Option(help="Mean time between false alarms (s) of the matched points.")] = 100.0,
+    settle: Annotated[float, typer.Option(help="Start (s) of the RMSE-over-PCRB window.")] = 10.0,
+) -> None:
+    """Operating characteristics of every filter x rule (delay against mean time between false alarms with
+    Lorden's bound, ROC, isolation), radius RMSE against the posterior Cramer-Rao bound: OUT/fdi.md,
+    OUT/fdi_curves.csv, OUT/figures/."""
+    from .study.fdi_report import fdi_curves as write_curves
+
+    try:
+        for name, v in (("--horizon", horizon), ("--arl0", arl0)):
+            if not v > 0:
+                raise BadInput(f"{name}: must be > 0")
+        if not settle >= 0:
+            raise BadInput("--settle: must be >= 0")
+        if not study_dir.is_dir():
+            raise BadInput(f"STUDY_DIR: {study_dir} is not a directory")
+        path = write_curves(study_dir, out, fault_axis=fault_axis, horizon=horizon, arl0=arl0, settle=settle)
+    except BadInput as err:
+        _fail(str(err))
+        return
+    typer.echo(f"operating characteristics in {path}/fdi.md")
+
+
 @app.command()
 def view(run_dirs: Annotated[list[str], typer.Argument(
         help="A run directory (or a .rrd file); several run directories open their comparison.",

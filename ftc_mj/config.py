@@ -286,7 +286,9 @@ class DecisionConfig(_Strict):
     departs from nominal by ``k_sigma`` standard deviations and by at least ``min_drop`` for ``dwell``
     seconds; ``mode``: the probability of a fault class of an IMM bank's declared hypotheses above
     ``mode_threshold`` for ``dwell`` seconds; ``auto``: ``mode`` for an estimator that declares
-    hypotheses (IMMs), else ``sigma``."""
+    hypotheses (IMMs), else ``sigma``; ``cusum`` / ``glr``: a CUSUM / Willsky–Jones GLR on the whitened
+    innovations crosses the threshold set for a mean time between false alarms ``arl0``
+    (:mod:`ftc_mj.estimation.change`)."""
     k_sigma: PosFloat = 3.0
     min_drop: NonNegFloat = 0.1
     """Minimum radius departure (m) for the sigma rule (guards against tiny-σ false alarms)."""
@@ -298,6 +300,21 @@ class DecisionConfig(_Strict):
     max_split_sigma: PosFloat = 0.15
     """Sigma rule: a wheel is isolated only when the σ (m) of the radius split along the direction
     the speed cannot observe is at most this; otherwise the declared wheel is ``'unknown'``."""
+    arl0: PosFloat = 100.0
+    """``cusum``/``glr`` rules: target mean time (s) between false alarms; sets their thresholds."""
+    cusum_shift: PosFloat = 1.0
+    """CUSUM design shift (σ of the whitened innovation) the test is tuned to detect fastest."""
+    glr_window: PosFloat = 0.5
+    """GLR: onsets considered (s back from the current step); the filter absorbs a radius jump well within
+    it, after which a jump leaves no trace in the innovations."""
+    isolation_llr: PosFloat = 4.6
+    """``cusum``/``glr``: a wheel is isolated when its hypothesis leads the runner-up by this log-likelihood
+    ratio (nats; 4.6 ≈ 99:1 odds); otherwise the declared wheel is ``'unknown'``."""
+    statistics: Flag = False
+    """Compute every rule's decision statistic each step and log it in the trace (``*_stat`` columns), so
+    that thresholds can be swept afterwards without re-running (``ftc-mj fdi-curves``). Costs about 30 µs
+    per filter step, 15–45 % of a run's CPU time (``benchmarks/bench_fdi.py``); the ``cusum`` and ``glr``
+    rules compute their own statistic regardless."""
     options: Options = Field(default_factory=dict, validate_default=True)
     """Settings of a plug-in rule (its registered settings model); built-in rules take none."""
 

@@ -26,11 +26,23 @@ Rules (``estimator.decision.rule``):
     (the run fails saying so).
 ``auto``
     ``mode`` when the output declares hypotheses, else ``sigma``.
+``cusum`` / ``glr``
+    A CUSUM / Willsky–Jones GLR for a radius drop on the filter's whitened innovations
+    (:mod:`.change`) reaches its threshold, set from the target mean time between false alarms
+    ``arl0``; declared at once (the threshold is the evidence; no dwell), with the wheel its leading
+    hypothesis isolates (``'unknown'`` while no hypothesis leads by ``isolation_llr``). The declaration
+    is latched: once the filter has absorbed the change its innovations are white again and the
+    statistic falls back, which is no evidence that the tyre re-inflated.
 
 Rules are registered by name (:data:`ftc_mj.registry.decision_rules`): a rule's factory takes the
 run config and returns an object with a ``dwell`` (s) and ``candidate(step)`` giving the wheel it
 would declare from this :class:`DecisionStep` (``None``: no fault evident); :class:`FaultDecision`
-adds the dwell, change and clear logic, the severity and the anomaly flag around it.
+adds the dwell, change and clear logic, the severity and the anomaly flag around it. A rule may set
+``declare_dwell`` (s) for its first declaration apart from ``dwell`` (the change detectors: 0) and
+``needs_statistics`` to be handed every rule's statistic in :attr:`DecisionStep.statistics`.
+
+Every rule's statistic is computed each step when ``decision.statistics`` is on (:mod:`.rule_statistics`)
+and returned in :attr:`DecisionState.statistics` for the trace.
 
 A declared fault is cleared when the condition has been false for ``dwell`` seconds, and its
 isolated wheel changes only when the new candidate has held for ``dwell`` seconds. Every
@@ -44,7 +56,6 @@ puncture: it is reported as :attr:`DecisionState.anomaly` and never declared.
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -54,11 +65,14 @@ import numpy as np
 
 from ..config import DecisionConfig, RunConfig
 from ..registry import BUILTIN, decision_rules
-from .base import FilterOutput, Hypothesis
+from .base import FilterOutput
+from .change import WHEEL_CODES, calibrated_threshold
 from .observability import RadiusDirections, radius_directions
+from .rule_statistics import RuleStatistics, mode_score
 
 Wheel = Literal["right", "left", "both", "unknown"]
-_CLASSES: tuple[Wheel, ...] = ("right", "left", "both")
+CHANGE_RULES = ("cusum", "glr")
+_CODE_WHEEL = {code: wheel for wheel, code in WHEEL_CODES.items()}
 
 
 @dataclass
@@ -87,6 +101,9 @@ class DecisionState:
     does not grow), so not declared; reported separately."""
     events: list[tuple[float, str]] = field(default_factory=list)
     """All declaration / change / clear events so far (shared list, oldest first)."""
+    statistics: dict[str, float] = field(default_factory=dict)
+    """Every rule's decision statistic this step (:data:`~ftc_mj.estimation.rule_statistics.STAT_COLUMNS`),
+    empty when ``decision.statistics`` is off and the rule needs none."""
 
 
 @dataclass(frozen=True)
@@ -102,6 +119,9 @@ class DecisionStep:
     dirs: RadiusDirections
     """The observed and unobservable-split radius directions at those rates, with the filter's σ (m)
     along each (:mod:`.observability`)."""
+    statistics: dict[str, float] = field(default_factory=dict)
+    """Every rule's statistic this step (:mod:`.rule_statistics`); empty unless ``decision.statistics``
+    is on or the rule sets ``needs_statistics``."""
 
 
 class DecisionRule(Protocol):
@@ -167,15 +187,8 @@ class ModeRule:
         if out.mode_probs is None or out.hypotheses is None:
             raise ValueError("decision rule 'mode' needs an estimator that declares the hypotheses of its mode "
                              "probabilities (FilterOutput.hypotheses)")
-        m = np.asarray(out.mode_probs, float).tolist()
-        probs = {c: float(sum(m[i] for i in idx)) for c, idx in class_members(tuple(out.hypotheses))}
-        best = max(_CLASSES, key=lambda c: probs[c])
-        if probs[best] <= self.mode_threshold:
-            return None
-        drop_R = self.R0 - float(out.x[3]) > self.min_drop
-        drop_L = self.R0 - float(out.x[4]) > self.min_drop
-        ok = {"right": drop_R, "left": drop_L, "both": drop_R and drop_L}[best]
-        return best if ok else None
+        best, p, dropped = mode_score(out, self.R0, self.min_drop)  # type: ignore[misc]
+        return best if p > self.mode_threshold and dropped else None  # type: ignore[return-value]
 
 
 class AutoRule:
@@ -190,6 +203,28 @@ class AutoRule:
         return rule.candidate(step)
 
 
+class ChangeRule:
+    """``cusum`` / ``glr``: the change detector's statistic at its ``arl0`` threshold; declared at once,
+    latched (module docstring)."""
+
+    needs_statistics = True
+    declare_dwell = 0.0
+
+    def __init__(self, cfg: RunConfig, name: str) -> None:
+        self.name, self.dwell = name, cfg.estimator.decision.dwell
+        self.threshold = calibrated_threshold(cfg, name)
+        """Threshold (log-likelihood-ratio units) for a mean time ``decision.arl0`` between false alarms."""
+        self._latched: Wheel | None = None
+
+    def candidate(self, step: DecisionStep) -> Wheel | None:
+        stats = step.statistics
+        if stats[f"{self.name}_stat"] >= self.threshold:
+            wheel = _CODE_WHEEL[int(stats[f"{self.name}_wheel"])]
+            if wheel is not None:
+                self._latched = wheel
+        return self._latched
+
+
 def _from_config(rule: type[SigmaRule | ModeRule | AutoRule]) -> Callable[[RunConfig], DecisionRule]:
     """The factory of a built-in rule: its settings are ``estimator.decision``, ``R0`` the model's."""
     return lambda cfg: rule(cfg.estimator.decision, cfg.model_wheel_radius)
@@ -198,6 +233,8 @@ def _from_config(rule: type[SigmaRule | ModeRule | AutoRule]) -> Callable[[RunCo
 decision_rules.register("sigma", _from_config(SigmaRule), origin=BUILTIN)
 decision_rules.register("mode", _from_config(ModeRule), origin=BUILTIN)
 decision_rules.register("auto", _from_config(AutoRule), origin=BUILTIN)
+decision_rules.register("cusum", lambda cfg: ChangeRule(cfg, "cusum"), origin=BUILTIN)
+decision_rules.register("glr", lambda cfg: ChangeRule(cfg, "glr"), origin=BUILTIN)
 
 
 class FaultDecision:
@@ -209,6 +246,11 @@ class FaultDecision:
         self.rule = d.rule
         self.rule_impl: DecisionRule = rule if rule is not None else decision_rules.build(d.rule, cfg)
         self.dwell = self.rule_impl.dwell
+        self.declare_dwell = float(getattr(self.rule_impl, "declare_dwell", self.dwell))
+        needs = bool(getattr(self.rule_impl, "needs_statistics", False))
+        self.statistics = RuleStatistics(cfg) if d.statistics or needs else None
+        self.threshold = float(getattr(self.rule_impl, "threshold", math.nan))
+        """The rule's threshold where it has one (``cusum``/``glr``: log-likelihood-ratio units)."""
         self.k_sigma = d.k_sigma  # the anomaly flag's thresholds (any rule)
         self.min_drop = d.min_drop
         self.R0 = cfg.model_wheel_radius
@@ -226,14 +268,16 @@ class FaultDecision:
         """Feed the estimator output of time ``t`` (s) and the wheel rates ``omega`` (rad/s) it was
         predicted with (they set which radius combination is observable); returns the decision."""
         dirs = radius_directions(out.P, omega)
+        u = np.asarray(omega, float) if omega is not None else np.zeros(2)
+        stats = self.statistics.update(t, out, u, dirs) if self.statistics is not None else {}
         above = departures(out, self.R0, self.k_sigma, self.min_drop)[1]
-        cand = self.rule_impl.candidate(DecisionStep(t, out, omega, dirs))
+        cand = self.rule_impl.candidate(DecisionStep(t, out, omega, dirs, stats))
         eps = 1e-9
         if cand is not None:
             self._clear_since = None
             if self._cond_since is None:
                 self._cond_since = t
-            if self.declared is None and t - self._cond_since >= self.dwell - eps:
+            if self.declared is None and t - self._cond_since >= self.declare_dwell - eps:
                 self.declared = cand
                 self.n_declarations += 1
                 if self.first_time is None:
@@ -265,14 +309,8 @@ class FaultDecision:
             detected=self.declared is not None, time=self.first_time, wheel=self.declared,
             severity_R=sev[0], severity_L=sev[1], suspected="unknown" in (cand, self.declared),
             split_std=dirs.split_std, active_mode=active, anomaly=above[0] or above[1], events=self.events,
+            statistics=stats,
         )
-
-
-@functools.cache
-def class_members(hypotheses: tuple[Hypothesis, ...]) -> tuple[tuple[Wheel, tuple[int, ...]], ...]:
-    """Each fault class (``right``, ``left``, ``both``) with the indices of the members whose hypothesis
-    makes that wheel faulty (computed once per bank: the decision runs at every filter step)."""
-    return tuple((c, tuple(i for i, h in enumerate(hypotheses) if h.wheel == c)) for c in _CLASSES)
 
 
 def _loss(r: float, R0: float) -> float:

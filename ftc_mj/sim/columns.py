@@ -14,11 +14,19 @@ not a puncture), ``radius_split_std`` (m, σ of the unobservable radius split), 
 reconfiguration: ``reconfig_state`` (0 nominal, 1 hold, 2 handed over, 3 reverted), ``excitation``
 (yaw-rate dither, rad/s, NaN when off); controller: ``omega_*_cmd, R_*_model`` (radii the
 controller assumed), ``solve_time_ms, solver_iterations, solver_ok`` (on controller samples, NaN
-elsewhere); ``cross_track_error`` (m, positive = left of the path).
+elsewhere); ``cross_track_error`` (m, positive = left of the path);
+``x_meas, y_meas`` (position fixes, NaN between them); the posterior Cramér–Rao bound of the
+filters' model along the true trajectory, ``R_R_pcrb_std, R_L_pcrb_std, radius_split_pcrb_std``
+(m, :mod:`ftc_mj.estimation.pcrb`); every fault-decision rule's statistic
+(:data:`~ftc_mj.estimation.rule_statistics.STAT_COLUMNS`: ``sigma_stat, mode_stat, cusum_stat,
+glr_stat`` with their ``*_wheel`` isolation codes, ``glr_drop`` (m), ``glr_onset`` (s), …).
 """
 
 from __future__ import annotations
 
+from ..estimation.change import WHEEL_CODES
+from ..estimation.pcrb import PCRB_COLUMNS
+from ..estimation.rule_statistics import STAT_COLUMNS
 from ..plant.truth import FLAG_NAMES
 
 STATE = ("x", "y", "psi", "R_R", "R_L")
@@ -30,8 +38,8 @@ COVARIANCE_COLUMNS: dict[tuple[int, int], str] = {
 }
 """Upper off-diagonal entries ``P[i, j]`` of the 5×5 state covariance and their trace columns."""
 
-WHEEL_CODES: dict[str | None, int] = {None: 0, "right": 1, "left": 2, "both": 3, "unknown": 4}
-"""``declared_wheel`` codes: nothing declared, right, left, both, fault of unknown wheel."""
+
+__all__ = ["BASE_COLUMNS", "COVARIANCE_COLUMNS", "STATE", "WHEEL_CODES"]
 
 BASE_COLUMNS: tuple[str, ...] = (
     "t", "x", "y", "psi", "v", "yaw_rate", "v_meas", "yaw_rate_meas", "R_R", "R_L",
@@ -42,8 +50,8 @@ BASE_COLUMNS: tuple[str, ...] = (
     "R_R_model", "R_L_model", "cross_track_error", "roll", "pitch", "z", "slip_R", "slip_L",
     "plant_flags", "fault_detected", "fault_suspected", "declared_wheel", "radius_anomaly", "radius_split_std",
     "reconfig_state", "excitation", "solve_time_ms", "solver_iterations", "solver_ok",
+    "x_meas", "y_meas", *PCRB_COLUMNS, *STAT_COLUMNS,
 )
-
 
 CODED_COLUMNS: dict[str, str] = {
     "plant_flags": "bitmask of the plant leaving the kinematic model's domain: " + ", ".join(

@@ -35,6 +35,7 @@ from ..control.reference import build_reference
 from ..estimation.base import FilterOutput, Measurement
 from ..estimation.decision import FaultDecision
 from ..estimation.factory import build_estimator
+from ..estimation.pcrb import pcrb_columns
 from ..plant import Sensors
 from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
@@ -203,6 +204,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
             c["v_meas"][k] = rd.speed
             if rd.yaw_rate is not None:
                 c["yaw_rate_meas"][k] = rd.yaw_rate
+            if rd.position is not None:
+                c["x_meas"][k], c["y_meas"][k] = rd.position
             c["roll"][k], c["pitch"][k], c["z"][k] = tr.roll, tr.pitch, tr.z_chassis
             c["slip_R"][k], c["slip_L"][k] = tr.slip_R, tr.slip_L
             c["plant_flags"][k] = tr.flags
@@ -228,6 +231,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
                 c["declared_wheel"][k] = float(WHEEL_CODES[ds.wheel])
                 c["radius_anomaly"][k] = float(ds.anomaly)
                 c["radius_split_std"][k] = ds.split_std
+                for name, value in ds.statistics.items():
+                    c[name][k] = value
                 if out.mode_probs is not None:
                     for j in range(n_modes):
                         c[f"mode_prob_{j + 1}"][k] = out.mode_probs[j]
@@ -284,6 +289,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
         error_where = _where(exc)
         events.append(Event(rows * dt, "error", f"run failed: {error} ({error_where})"))
         cols = {k2: v[:rows] for k2, v in cols.items()}
+    if estimator is not None and rows:
+        cols.update(pcrb_columns(cfg, cols))
     if progress is not None:
         progress(1.0)
 

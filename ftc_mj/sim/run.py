@@ -32,6 +32,7 @@ from ..identity import run_id
 from ..io import atomic_dir, remove_stale_temporaries, unique_dir, write_json, write_parquet, write_toml
 from ..plant import NAN, UNSTABLE
 from .columns import trace_schema_metadata
+from .fdi_metrics import fdi_metrics
 from .loop import SimResult, simulate
 from .metrics import compute_metrics, fault_onsets
 
@@ -68,7 +69,9 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "error": res.error,
         "error_where": res.error_where,
     }
-    m.update(compute_metrics(cfg, res.trace, fault_onsets(cfg), res.counters))
+    onsets = fault_onsets(cfg)
+    m.update(compute_metrics(cfg, res.trace, onsets, res.counters))
+    m.update(fdi_metrics(cfg, res.trace, min((o for o in onsets.values() if o is not None), default=None)))
     # the radii the controller used departed from nominal at some sample (not just: a feeding policy)
     m["feedback"] = bool((m.get("reconfig_handed_fraction") or 0.0) > 0.0)
     t_bad = unstable_time(res.trace)

@@ -1,0 +1,511 @@
+"""Sequential change detectors on a filter's innovations: CUSUM and GLR for a drop in a wheel radius.
+
+Both work on the *whitened* innovation ``e_k = L_k⁻¹ y_k`` (``S_k = L_k L_kᵀ``, Cholesky), which is
+i.i.d. ``N(0, I)`` while the filter's model holds (a consistent filter on a fault-free run), and on
+the innovation *signature* of a puncture: a drop of ``ν`` metres along the state direction
+``f_i`` (hypothesis ``i`` = right, left or both wheels, :data:`HYPOTHESES`) just before step ``θ``
+shifts the prior estimation error by ``ν f_i`` and hence the mean of ``e_k`` by ``ν ρ_i(k, θ)`` with
+(Willsky & Jones 1976)::
+
+    ρ_i(k, θ) = L_k⁻¹ H_k φ_i(k, θ),   φ_i(θ, θ) = f_i,
+    φ_i(k+1, θ) = F_{k+1} (I - K_k H_k) φ_i(k, θ),   K_k = P_k Hₖᵀ R_k⁻¹,
+
+where ``H`` is the measurement Jacobian, ``F`` the prediction Jacobian (model automatic
+differentiation) and ``K`` the filter's gain, obtained from its posterior covariance ``P`` by the
+Kalman identity ``K = P Hᵀ R⁻¹``. The filter adapts to the new radius, so ``ρ`` decays: the
+innovations carry the evidence of a fault only during that transient (its total information is
+``Σ_k |ρ(k, θ)|²`` per m² of drop).
+
+CUSUM (Page 1954) per hypothesis, for a mean shift of ``δ`` (``decision.cusum_shift``, σ units)
+along the unit direction ``u_i = ρ_i(θ, θ) / |ρ_i(θ, θ)|``::
+
+    C_i ← max(0, C_i + δ u_iᵀ e_k - δ²/2),
+
+the log-likelihood-ratio CUSUM of ``N(δ, 1)`` against ``N(0, 1)`` for ``z = u_iᵀ e``.
+
+GLR (Willsky & Jones): for every onset ``θ`` in the last ``decision.glr_window`` seconds and every
+hypothesis, ``D = Σ_{k≥θ} ρᵀ e_k``, ``C = Σ_{k≥θ} |ρ|²``; the maximum-likelihood drop is
+``ν̂ = D / C`` and the log-likelihood ratio of "drop ν̂ at θ" against "no change" is
+``D² / (2C)`` (kept when ``ν̂ > 0``: a puncture lowers the radius). The statistic is the maximum over
+``θ`` and hypotheses; its maximiser estimates the onset, the wheel and the size.
+
+Isolation: the hypothesis with the largest statistic is isolated when it leads the runner-up by
+``decision.isolation_llr`` (nats; 4.6 ≈ 99:1 odds); otherwise the wheel is ``'unknown'``. With
+speed alone the signatures of the hypotheses are collinear (every drop lowers the speed and nothing
+else is measured), the statistics tie and nothing is isolated.
+
+Thresholds from a target mean time between false alarms ``decision.arl0`` (s),
+:func:`calibrated_threshold`: a Monte Carlo of the detector on its null model, the filter at its
+nominal operating point (the reference's speed and yaw rate at nominal radii; ``P`` after 20 s of the
+filter's own Riccati recursion from ``P0``; speed and yaw-rate channels, position fixes ignored) when
+nothing changes: :class:`NullInnovations` simulates its estimation error with the radii *constant*,
+the no-fault truth. Those innovations are not ``N(0, I)``: the filters' random-walk ``Q`` makes ``S``
+overstate the radius uncertainty (measured on the kinematic plant with speed + yaw rate: mean NIS
+0.97 for 2 channels) and the mismatched gain colours them, and a calibration on ``N(0, I)`` gave no
+false alarm in 2000 s at a 100 s target. The threshold is the one whose censored first-alarm rate
+(alarms / exposure up to each chain's first alarm) is ``1/arl0``. With the filters' own model as the
+truth the innovations are ``N(0, I)`` and the calibration of a single CUSUM reproduces Siegmund's
+approximation ``ARL0 ≈ (e^{b} - b - 1)/(δ²/2)``, ``b = h + 1.166 δ`` (tested). Targets beyond 200 s are
+calibrated at 200 s and extended by ``h += log(arl0/200 s)`` (the LLR scale: ``ARL0 ∝ e^h``
+asymptotically, Lorden 1971), which errs on the long side for a GLR.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ..config import RunConfig
+from ..model.kinematics import inverse_rates, numpy_rates_jacobian
+from ._core import POS_X, POS_Y, SPEED, YAW, FilterSetup, measure_jacobian
+from .pcrb import information_bound
+
+HYPOTHESES: tuple[str, ...] = ("right", "left", "both")
+"""Fault hypotheses of the detectors, in the order of their statistics."""
+DIRECTIONS = np.array([
+    [0.0, 0.0, 0.0, -1.0, 0.0],
+    [0.0, 0.0, 0.0, 0.0, -1.0],
+    [0.0, 0.0, 0.0, -math.sqrt(0.5), -math.sqrt(0.5)],
+])
+"""State change ``f_i`` per metre of drop under each hypothesis (unit vectors; 'both' drops each wheel by
+``ν/√2``)."""
+WHEEL_CODES: dict[str | None, int] = {None: 0, "right": 1, "left": 2, "both": 3, "unknown": 4}
+"""Code of an isolation result in the trace (``*_wheel`` columns)."""
+CALIBRATION_HORIZON_S = 200.0
+NOMINAL_SETTLE_S = 20.0
+NULL_BURN_IN = 500
+
+
+def channel_kinds(setup: FilterSetup, m: int) -> tuple[int, ...] | None:
+    """Channel codes of an ``m``-channel innovation (order speed, yaw rate, x, y) for the configured
+    sensors; ``None`` when ``m`` does not match a complete set (a channel was dropped that step)."""
+    base = (SPEED, YAW) if setup.yaw_rate_sigma is not None else (SPEED,)
+    if m == len(base):
+        return base
+    if setup.position_sigma is not None and m == len(base) + 2:
+        return (*base, POS_X, POS_Y)
+    return None
+
+
+@functools.lru_cache(maxsize=64)
+def _variances(sigmas: tuple[float | None, ...], kinds: tuple[int, ...]) -> np.ndarray:
+    v = np.array([sigmas[k] ** 2 for k in kinds], float)  # type: ignore[operator]
+    v.flags.writeable = False
+    return v
+
+
+def noise_variances(setup: FilterSetup, kinds: tuple[int, ...]) -> np.ndarray:
+    """Measurement-noise variances of the channels ``kinds`` (read-only array, cached)."""
+    sigmas = (setup.speed_sigma, setup.yaw_rate_sigma, setup.position_sigma, setup.position_sigma)
+    return _variances(sigmas, kinds)
+
+
+def isolate(per_hypothesis: np.ndarray, margin: float) -> str | None:
+    """The hypothesis whose statistic leads the runner-up by ``margin``, ``'unknown'`` if none does,
+    ``None`` if every statistic is zero."""
+    v = per_hypothesis.tolist()
+    best = max(range(len(v)), key=v.__getitem__)
+    if not v[best] > 0.0:
+        return None
+    second = max(x for i, x in enumerate(v) if i != best)
+    return HYPOTHESES[best] if v[best] - second >= margin else "unknown"
+
+
+# ---------------------------------------------------------------------------- detectors (batched)
+class InnovationCUSUM:
+    """One CUSUM per hypothesis, over a batch of ``batch`` independent sequences (1 online)."""
+
+    def __init__(self, shift: float, batch: int = 1) -> None:
+        self.shift = float(shift)
+        self.C = np.zeros((batch, len(HYPOTHESES)))
+
+    def step(self, e: np.ndarray, W: np.ndarray) -> np.ndarray:
+        """Advance with whitened innovations ``e`` (batch, m) and ``W = L⁻¹ H`` (m, 5), which gives the
+        instantaneous signatures ``W f_i``; returns the statistics (batch, hypotheses), in
+        log-likelihood-ratio units."""
+        _cusum_step(self.C, np.ascontiguousarray(e, dtype=float), np.ascontiguousarray(W, dtype=float),
+                    DIRECTIONS, self.shift)
+        return self.C
+
+
+@njit(cache=True, error_model="numpy")
+def _cusum_step(C: np.ndarray, e: np.ndarray, W: np.ndarray, f: np.ndarray, shift: float) -> None:
+    """Compiled step of :class:`InnovationCUSUM` (in place); a hypothesis without a signature (zero wheel
+    rates) only drifts down."""
+    nb, m = e.shape
+    nh, d = f.shape
+    u = np.empty(m)
+    for h in range(nh):
+        n2 = 0.0
+        for r in range(m):
+            acc = 0.0
+            for j in range(d):
+                acc += W[r, j] * f[h, j]
+            u[r] = acc
+            n2 += acc * acc
+        n = math.sqrt(n2)
+        for b in range(nb):
+            z = 0.0
+            if n > 0.0:
+                for r in range(m):
+                    z += u[r] * e[b, r]
+                z /= n
+            C[b, h] = max(0.0, C[b, h] + shift * z - 0.5 * shift * shift)
+
+
+class JumpGLR:
+    """Window-limited Willsky–Jones GLR for each hypothesis over a batch of sequences (1 online).
+
+    The onsets of the window live in a ring of ``window`` slots; slot :attr:`pos` holds the onset of the
+    latest step (lag 0), slot ``pos - j`` (mod window) lag ``j``. ``phi`` (slot, hypothesis, 5) holds the
+    signatures of the estimation error and ``C`` (slot, hypothesis) the information sums (shared by the
+    batch: they do not depend on the data), ``D`` (batch, slot, hypothesis) the correlation sums.
+    After :meth:`step`, ``best`` (batch,) is the statistic, ``best_index`` (batch,) its flat
+    (slot, hypothesis) index and ``per_hypothesis`` (batch, hypothesis) each hypothesis' maximum.
+    """
+
+    def __init__(self, window: int, batch: int = 1) -> None:
+        nh = len(HYPOTHESES)
+        self.window = window
+        self.pos = -1
+        self.phi = np.zeros((window, nh, 5))
+        self.D = np.zeros((batch, window, nh))
+        self.C = np.zeros((window, nh))
+        self.best = np.zeros(batch)
+        self.best_index = np.zeros(batch, dtype=np.int64)
+        self.per_hypothesis = np.zeros((batch, nh))
+        self._A_prev = np.eye(5)
+
+    def step(self, e: np.ndarray, W: np.ndarray, F: np.ndarray, A: np.ndarray) -> np.ndarray:
+        """Advance one step and return :attr:`best`.
+
+        ``e`` (batch, m): whitened innovations; ``W = L⁻¹ H`` (m, 5); ``F`` (5, 5): Jacobian of the
+        prediction into this step; ``A = I - K H`` (5, 5): the update's error propagation.
+        """
+        self.pos = (self.pos + 1) % self.window
+        G = np.asarray(F, float) @ self._A_prev  # older onsets: through the last update, then this prediction
+        _glr_step(self.phi, self.D, self.C, self.pos, np.ascontiguousarray(e, dtype=float),
+                  np.ascontiguousarray(W, dtype=float), G, DIRECTIONS, self.best, self.best_index,
+                  self.per_hypothesis)
+        self._A_prev = np.asarray(A, float)
+        return self.best
+
+    def estimate(self, index: int = 0) -> tuple[str, float, int]:
+        """Leading hypothesis of batch member ``index``: its name, the drop ``ν̂ = D/C`` (m along its unit
+        direction) and the lag (steps) of its onset."""
+        slot, hyp = divmod(int(self.best_index[index]), len(HYPOTHESES))
+        return HYPOTHESES[hyp], float(self.D[index, slot, hyp] / self.C[slot, hyp]), (self.pos - slot) % self.window
+
+
+@njit(cache=True, error_model="numpy")
+def _glr_step(phi: np.ndarray, D: np.ndarray, C: np.ndarray, pos: int, e: np.ndarray, W: np.ndarray,
+              G: np.ndarray, f: np.ndarray, best: np.ndarray, best_index: np.ndarray, per_hyp: np.ndarray) -> None:
+    """Compiled step of :class:`JumpGLR` (in place): propagate the older signatures by ``G`` (the last
+    update's ``I - KH``, then this step's prediction), start the onset of this step in slot ``pos``,
+    accumulate ``D``/``C`` and keep the maxima of ``D²/2C`` (``D > 0``)."""
+    L, nh, d = phi.shape
+    nb, m = e.shape
+    for b in range(nb):
+        best[b] = 0.0
+        best_index[b] = 0
+        for h in range(nh):
+            per_hyp[b, h] = 0.0
+    v = np.empty(d)
+    rho = np.empty(m)
+    for sl in range(L):
+        for h in range(nh):
+            p = phi[sl, h]
+            if sl == pos:
+                for i in range(d):
+                    p[i] = f[h, i]
+                C[sl, h] = 0.0
+                for b in range(nb):
+                    D[b, sl, h] = 0.0
+            else:
+                for i in range(d):
+                    acc = 0.0
+                    for j in range(d):
+                        acc += G[i, j] * p[j]
+                    v[i] = acc
+                for i in range(d):
+                    p[i] = v[i]
+            c = 0.0
+            for r in range(m):
+                acc = 0.0
+                for j in range(d):
+                    acc += W[r, j] * p[j]
+                rho[r] = acc
+                c += acc * acc
+            cs = C[sl, h] + c
+            C[sl, h] = cs
+            for b in range(nb):
+                acc = D[b, sl, h]
+                for r in range(m):
+                    acc += rho[r] * e[b, r]
+                D[b, sl, h] = acc
+                if acc > 0.0 and cs > 0.0:
+                    g = 0.5 * acc * acc / cs
+                    if g > per_hyp[b, h]:
+                        per_hyp[b, h] = g
+                    if g > best[b]:
+                        best[b] = g
+                        best_index[b] = sl * nh + h
+
+
+# ---------------------------------------------------------------------------- one filter step
+@dataclass(frozen=True)
+class Linearisation:
+    """What the detectors need of one filter step."""
+
+    e: np.ndarray
+    """Whitened innovation (m,)."""
+    W: np.ndarray
+    """``L⁻¹ H`` (m, 5)."""
+    A: np.ndarray
+    """``I - K H`` with ``K = P Hᵀ R⁻¹`` (5, 5)."""
+
+
+def measurement_jacobian(setup: FilterSetup, x: np.ndarray, u: np.ndarray, kinds: tuple[int, ...]) -> np.ndarray:
+    """Jacobian (m, 5) of the channels ``kinds`` at state ``x`` (speed and yaw-rate rows: the model's AD
+    Jacobian; position rows: unit vectors)."""
+    if kinds[0] == SPEED and len(kinds) <= 2 and (len(kinds) == 1 or kinds[1] == YAW):
+        return numpy_rates_jacobian(setup.model, x, u)[: len(kinds)]
+    return measure_jacobian(setup.model, x[None, :], u, kinds)[0]
+
+
+def linearise_step(setup: FilterSetup, x: np.ndarray, P: np.ndarray, y: np.ndarray, S: np.ndarray,
+                   u: np.ndarray) -> Linearisation | None:
+    """The detectors' view of a filter step with posterior ``(x, P)``, innovation ``y`` and its covariance
+    ``S`` over the channels the step used, predicted with wheel rates ``u`` (rad/s); ``None`` if the
+    step carries no usable innovation (a channel dropped, ``S`` not positive definite, non-finite)."""
+    kinds = channel_kinds(setup, int(y.size))
+    if kinds is None:
+        return None
+    H = measurement_jacobian(setup, x, u, kinds)
+    m = len(kinds)
+    e, W, A = np.empty(m), np.empty((m, 5)), np.empty((5, 5))
+    ok = _linearise(np.asarray(P, float), np.asarray(y, float), np.asarray(S, float), H,
+                    noise_variances(setup, kinds), e, W, A)
+    return Linearisation(e=e, W=W, A=A) if ok else None
+
+
+@njit(cache=True, error_model="numpy")
+def _linearise(P: np.ndarray, y: np.ndarray, S: np.ndarray, H: np.ndarray, var: np.ndarray, e: np.ndarray,
+               W: np.ndarray, A: np.ndarray) -> bool:
+    """Compiled :func:`linearise_step`: lower Cholesky ``S = L Lᵀ``, ``e = L⁻¹ y``, ``W = L⁻¹ H``,
+    ``A = I - P Hᵀ R⁻¹ H``; False if ``S`` is not positive definite or anything is non-finite."""
+    m, d = H.shape
+    L = np.zeros((m, m))
+    for i in range(m):
+        for j in range(i + 1):
+            acc = S[i, j]
+            for k in range(j):
+                acc -= L[i, k] * L[j, k]
+            if i == j:
+                if not acc > 0.0 or not math.isfinite(acc):
+                    return False
+                L[i, i] = math.sqrt(acc)
+            else:
+                L[i, j] = acc / L[j, j]
+    for i in range(m):
+        acc = y[i]
+        for k in range(i):
+            acc -= L[i, k] * e[k]
+        e[i] = acc / L[i, i]
+        if not math.isfinite(e[i]):
+            return False
+        for c in range(d):
+            acc = H[i, c]
+            for k in range(i):
+                acc -= L[i, k] * W[k, c]
+            W[i, c] = acc / L[i, i]
+    for i in range(d):
+        for j in range(d):
+            acc = 0.0
+            for r in range(m):
+                k_ir = 0.0
+                for c in range(d):
+                    k_ir += P[i, c] * H[r, c]
+                acc += k_ir / var[r] * H[r, j]
+            A[i, j] = (1.0 if i == j else 0.0) - acc
+    return True
+
+
+# ---------------------------------------------------------------------------- calibration
+@dataclass(frozen=True)
+class NominalPoint:
+    """The filter at its nominal operating point (see the module docstring), as hashable numbers."""
+
+    H: tuple[float, ...]
+    """(m, 5) measurement Jacobian."""
+    L: tuple[float, ...]
+    """(m, m) lower Cholesky factor of the filter's innovation covariance ``S``."""
+    K: tuple[float, ...]
+    """(5, m) filter gain ``P Hᵀ R⁻¹``."""
+    F: tuple[float, ...]
+    """(5, 5) prediction Jacobian."""
+    r_sd: tuple[float, ...]
+    """(m,) measurement-noise σ."""
+    q_sd: tuple[float, ...]
+    """(5,) the filters' process-noise σ per step (diagonal ``Q``)."""
+
+    @property
+    def m(self) -> int:
+        return len(self.r_sd)
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(W, F, A)``: ``W = L⁻¹ H``, ``F``, ``A = I - K H`` as the detectors take them."""
+        m = self.m
+        H, L, K = np.array(self.H).reshape(m, 5), np.array(self.L).reshape(m, m), np.array(self.K).reshape(5, m)
+        return np.linalg.solve(L, H), np.array(self.F).reshape(5, 5), np.eye(5) - K @ H
+
+
+def nominal_point(cfg: RunConfig) -> NominalPoint:
+    """Speed (+ yaw-rate) channels at the reference's steady speed and yaw rate with nominal radii; the
+    covariance after :data:`NOMINAL_SETTLE_S` of the filter's Riccati recursion from ``P0``."""
+    setup = FilterSetup.from_config(cfg)
+    ref = cfg.reference
+    psidot = 0.0 if ref.kind == "line" else ref.speed / ref.radius * (1.0 if ref.direction == "ccw" else -1.0)
+    R0 = setup.nominal_radius
+    u = np.array(inverse_rates(ref.speed, psidot, R0, R0, setup.model.b), float)
+    x = np.array([0.0, 0.0, 0.0, R0, R0])
+    kinds = channel_kinds(setup, 2 if setup.yaw_rate_sigma is not None else 1)
+    assert kinds is not None
+    H = measure_jacobian(setup.model, x[None, :], u, kinds)[0]
+    var = noise_variances(setup, kinds)
+    F = setup.model.step_jacobian(x, u)
+    n = int(round(NOMINAL_SETTLE_S / setup.dt))
+    P = information_bound(np.broadcast_to(F, (n, 5, 5)), [H] * n, [np.diag(var)] * n, setup.Q, setup.P0)[-1]
+    Pm = F @ P @ F.T + setup.Q
+    L = np.linalg.cholesky(H @ Pm @ H.T + np.diag(var))
+    K = P @ H.T / var
+    return NominalPoint(tuple(H.ravel()), tuple(L.ravel()), tuple(K.ravel()), tuple(F.ravel()),
+                        tuple(np.sqrt(var)), tuple(np.sqrt(np.diag(setup.Q))))
+
+
+class NullInnovations:
+    """Whitened innovations of the nominal filter when nothing changes, for a batch of ``chains``.
+
+    The estimation error of the linearised filter follows ``y = H ε⁻ + v``, ``ε⁺ = ε⁻ - K y``,
+    ``ε⁻ ← F ε⁺ + w``, with ``v ~ N(0, R)`` and the *true* process noise ``w``: the filters' ``Q`` except
+    for the radii, whose σ per step is ``q_radius`` (0: the radii are constant — the no-fault truth).
+    With ``q_radius`` = the filters' own value the innovations ``e = L⁻¹ y`` are i.i.d. ``N(0, I)``;
+    with constant radii they are smaller (the random-walk model overstates the radius uncertainty the
+    innovation covariance ``S`` includes) and correlated. :data:`NULL_BURN_IN` steps reach the stationary
+    error before the first innovation is returned.
+    """
+
+    def __init__(self, point: NominalPoint, chains: int, rng: np.random.Generator, q_radius: float = 0.0) -> None:
+        m = point.m
+        self.H = np.array(point.H).reshape(m, 5)
+        self.Linv = np.linalg.inv(np.array(point.L).reshape(m, m))
+        self.K = np.array(point.K).reshape(5, m)
+        self.F = np.array(point.F).reshape(5, 5)
+        self.r_sd = np.array(point.r_sd)
+        q = np.array(point.q_sd)
+        q[3:5] = q_radius
+        self.q_sd = q
+        self.rng = rng
+        self.eps = np.zeros((chains, 5))
+        for _ in range(NULL_BURN_IN):
+            self.next()
+
+    def next(self) -> np.ndarray:
+        """Whitened innovations (chains, m) of the next step."""
+        n = self.eps.shape[0]
+        y = self.eps @ self.H.T + self.rng.standard_normal((n, self.r_sd.size)) * self.r_sd
+        self.eps = (self.eps - y @ self.K.T) @ self.F.T + self.rng.standard_normal((n, 5)) * self.q_sd
+        return y @ self.Linv.T
+
+
+def null_running_max(kind: str, point: NominalPoint, *, shift: float, window: int, steps: int, chains: int,
+                     q_radius: float = 0.0, seed: int = 0) -> np.ndarray:
+    """Running maximum (chains, steps) of a detector's statistic on :class:`NullInnovations` at the nominal
+    point: the null distribution of its first-alarm time for every threshold at once."""
+    W, F, A = point.arrays()
+    rng = np.random.default_rng([seed, 17, point.m])
+    null = NullInnovations(point, chains, rng, q_radius)
+    out = np.empty((chains, steps))
+    run = np.zeros(chains)
+    if kind == "cusum":
+        det_c = InnovationCUSUM(shift, chains)
+        for k in range(steps):
+            run = np.maximum(run, det_c.step(null.next(), W).max(axis=1))
+            out[:, k] = run
+    elif kind == "glr":
+        det_g = JumpGLR(informative_lags(point, window), chains)
+        for k in range(steps):
+            run = np.maximum(run, det_g.step(null.next(), W, F, A))
+            out[:, k] = run
+    else:
+        raise ValueError(f"unknown change detector {kind!r}")
+    return out
+
+
+def informative_lags(point: NominalPoint, window: int, keep: float = 1.0 - 1e-6) -> int:
+    """Lags (≤ ``window``) that carry the fraction ``keep`` of a jump's signature information at the
+    nominal point. Beyond them a jump's log-likelihood ratio no longer changes, so the running maximum
+    of the statistic — all a first alarm depends on — is the same with the shorter window."""
+    W, F, A = point.arrays()
+    phi = DIRECTIONS.copy()
+    info = np.zeros((window, len(HYPOTHESES)))
+    for j in range(window):
+        info[j] = np.sum((phi @ W.T) ** 2, axis=1)
+        phi = phi @ A.T @ F.T
+    cum = np.cumsum(info, axis=0)
+    total = cum[-1]
+    need = np.all(cum >= keep * total, axis=1)
+    return int(np.argmax(need)) + 1 if need.any() else window
+
+
+def first_alarm_rate(running_max: np.ndarray, h: float) -> float:
+    """Censored first-alarm rate (alarms per step) at threshold ``h``: chains alarming / steps observed up
+    to each chain's first alarm (the maximum-likelihood rate of an exponential first-alarm time)."""
+    hit = running_max >= h
+    alarmed = hit[:, -1]
+    first = np.where(alarmed, hit.argmax(axis=1) + 1, running_max.shape[1])
+    return float(alarmed.sum()) / float(first.sum())
+
+
+@functools.lru_cache(maxsize=32)
+def null_threshold(kind: str, point: NominalPoint, shift: float, window: int, arl0_steps: int,
+                   q_radius: float = 0.0) -> float:
+    """Threshold whose censored first-alarm rate on :class:`NullInnovations` (radius noise ``q_radius``) is
+    ``1/arl0_steps`` (bisection on 160 chains of ``arl0_steps`` steps; cached)."""
+    chains = 160  # ≈ 100 first alarms at the target: the rate to ±10 %, the threshold to ±0.1 nats
+    M = null_running_max(kind, point, shift=shift, window=window, steps=arl0_steps, chains=chains, q_radius=q_radius)
+    lo, hi = 0.0, float(M.max()) + 1.0
+    target = 1.0 / arl0_steps
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        if first_alarm_rate(M, mid) > target:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def calibrated_threshold(cfg: RunConfig, kind: str) -> float:
+    """Threshold (log-likelihood-ratio units) of the ``cusum`` or ``glr`` rule for ``decision.arl0``."""
+    d = cfg.estimator.decision
+    rate = cfg.estimator.rate
+    horizon = min(d.arl0, CALIBRATION_HORIZON_S)
+    h = null_threshold(kind, nominal_point(cfg), float(d.cusum_shift), glr_window_steps(cfg),
+                       int(round(horizon * rate)))
+    return h + math.log(d.arl0 / horizon)
+
+
+def glr_window_steps(cfg: RunConfig) -> int:
+    """GLR window (filter steps) from ``decision.glr_window`` (s)."""
+    return max(1, int(round(cfg.estimator.decision.glr_window * cfg.estimator.rate)))
+
+
+def siegmund_arl0(h: float, shift: float) -> float:
+    """Siegmund's approximation of a single Gaussian CUSUM's ARL0 (steps) at threshold ``h`` (LLR units)
+    for a design shift ``shift`` (σ): ``(e^b - b - 1)/(δ²/2)``, ``b = h + 1.166 δ``."""
+    b = h + 1.166 * shift
+    return (math.exp(b) - b - 1.0) / (0.5 * shift * shift)

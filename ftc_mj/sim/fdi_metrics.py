@@ -1,0 +1,108 @@
+"""FDI metrics of one run that a Monte-Carlo study needs to sweep thresholds afterwards, and the
+radius error against the posterior Cramér–Rao bound.
+
+First-alarm records (``metrics.json`` key ``fdi_records``): for each rule with a logged statistic
+``g_k`` (:mod:`ftc_mj.estimation.rule_statistics`), the rule's first alarm at a threshold ``h`` is the
+first row with ``g_k ≥ h``, i.e. the first row at which the running maximum of ``g`` reaches ``h``.
+The running maximum is a step function, so its record rows — where ``g`` exceeds every earlier
+value — give the first alarm for every threshold at once: a handful of rows instead of the trace.
+Each record is ``[t, g, wheel_code]`` (``sigma``: ``[t, g, z_R, z_L, split_identified]``, from which
+the isolated wheel at any threshold follows, :func:`~ftc_mj.estimation.rule_statistics.sigma_isolation`).
+Records stop at the first value above :data:`RECORD_CAP` (thresholds beyond are of no interest).
+
+Information of the fault (``fdi_cumulative_kl``, fault runs): the Kullback–Leibler information the
+puncture puts into the measurements, accumulated from the onset row, ``K_n = Σ_{k<n} ½ Δ_kᵀ R⁻¹ Δ_k``
+(nats, per row). ``Δ_k`` is the shift of the *true* speed (and yaw rate) away from what the nominal
+model predicts for the same wheel rates, ``[V, ψ̇]_true - [V, ψ̇](R0, ω)``, less its mean over the
+second before the onset (the model's bias on a fault-free robot), and ``R`` the sensor noise: the
+shift actually observed, whatever the plant does (on the MuJoCo robot a punctured tyre first slips
+and the chassis keeps its speed, so the shift builds up over tenths of a second instead of at once).
+The list stops once ``K`` exceeds :data:`KL_CAP` or after :data:`KL_PROFILE_S` seconds.
+
+PCRB ratios: ``radius_pcrb_rms_R/L`` is the root-mean-square of the bound's σ (m) and
+``radius_rmse_over_pcrb_R/L`` the radius RMSE over it, both from ``settle_time`` seconds on.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..config import RunConfig
+from ..estimation._core import FilterSetup
+from ..model.kinematics import body_rates
+
+RULES: tuple[str, ...] = ("sigma", "mode", "cusum", "glr")
+KL_CAP = 25.0
+"""nats: log(ARL0/dt) for ARL0 = 7e8 s at 100 Hz, beyond any false-alarm rate of interest."""
+KL_PROFILE_S = 5.0
+RECORD_CAP: dict[str, float] = {"sigma": 200.0, "mode": 1.0, "cusum": 500.0, "glr": 500.0}
+"""Largest threshold of interest per rule (σ, probability, nats)."""
+
+
+def first_alarm_records(trace: dict[str, np.ndarray], rule: str, split_limit: float) -> list[list[float]]:
+    """Record rows of the running maximum of ``<rule>_stat`` (see the module docstring); empty when the
+    rule has no statistic in this trace."""
+    g = np.asarray(trace.get(f"{rule}_stat", []), float)
+    if g.size == 0 or not np.any(np.isfinite(g)):
+        return []
+    t = np.asarray(trace["t"], float)
+    gf = np.where(np.isfinite(g), g, -np.inf)
+    prev = np.concatenate(([0.0], np.maximum.accumulate(gf)[:-1]))
+    rows = np.flatnonzero(gf > np.maximum(prev, 0.0))
+    cap = RECORD_CAP[rule]
+    over = np.flatnonzero(gf[rows] > cap)
+    if over.size:
+        rows = rows[: over[0] + 1]
+    if rule == "sigma":
+        split = np.asarray(trace["radius_split_std"], float)
+        zR, zL = np.asarray(trace["sigma_z_R"], float), np.asarray(trace["sigma_z_L"], float)
+        return [[float(t[k]), float(g[k]), float(zR[k]), float(zL[k]), float(split[k] <= split_limit)] for k in rows]
+    code = np.asarray(trace[f"{rule}_wheel"], float)
+    return [[float(t[k]), float(g[k]), float(code[k])] for k in rows]
+
+
+def cumulative_kl(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float) -> list[float]:
+    """``K_n`` of the module docstring from the onset row on."""
+    setup = FilterSetup.from_config(cfg)
+    t = np.asarray(trace["t"], float)
+    R0 = setup.nominal_radius
+    V0, yr0 = body_rates(R0, R0, np.asarray(trace["omega_R"], float), np.asarray(trace["omega_L"], float),
+                         setup.model.b)
+    res = [(np.asarray(trace["v"], float) - V0) / setup.speed_sigma]
+    if setup.yaw_rate_sigma is not None:
+        res.append((np.asarray(trace["yaw_rate"], float) - yr0) / setup.yaw_rate_sigma)
+    r = np.column_stack(res)
+    k0 = int(np.searchsorted(t, onset - 1e-9))
+    pre = (t >= onset - 1.0) & (t < onset)
+    if not pre.any() or k0 >= t.size:
+        return []
+    d = r[k0: k0 + int(round(KL_PROFILE_S / setup.dt))] - r[pre].mean(axis=0)
+    K = np.cumsum(0.5 * np.sum(d * d, axis=1))
+    stop = np.flatnonzero(K > KL_CAP)
+    return [float(v) for v in (K[: stop[0] + 1] if stop.size else K)]
+
+
+def fdi_metrics(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float | None,
+                settle_time: float = 5.0) -> dict[str, Any]:
+    """First-alarm records, the fault's cumulative information (``onset``: the first fault onset, s, or
+    ``None``) and PCRB ratios of a run."""
+    m: dict[str, Any] = {}
+    if "R_R_pcrb_std" not in trace or not np.any(np.isfinite(trace["R_R_pcrb_std"])):
+        return m
+    d = cfg.estimator.decision
+    m["fdi_records"] = {r: first_alarm_records(trace, r, d.max_split_sigma) for r in RULES}
+    if onset is not None:
+        m["fdi_cumulative_kl"] = cumulative_kl(cfg, trace, onset)
+    late = np.asarray(trace["t"], float) >= settle_time
+    for w in ("R", "L"):
+        err = np.asarray(trace[f"R_{w}_hat"], float)[late] - np.asarray(trace[f"R_{w}"], float)[late]
+        bound = np.asarray(trace[f"R_{w}_pcrb_std"], float)[late]
+        ok = np.isfinite(err) & np.isfinite(bound)
+        if not ok.any():
+            continue
+        rms_bound = float(np.sqrt(np.mean(bound[ok] ** 2)))
+        m[f"radius_pcrb_rms_{w}"] = rms_bound
+        m[f"radius_rmse_over_pcrb_{w}"] = float(np.sqrt(np.mean(err[ok] ** 2))) / rms_bound
+    return m

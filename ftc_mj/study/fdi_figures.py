@@ -1,0 +1,245 @@
+"""Figures of ``ftc-mj fdi-curves``: delay against mean time between false alarms (with Lorden's
+bound), detection within the horizon against false alarm in a window (ROC), isolation accuracy, and
+radius RMSE over time against the posterior Cramér–Rao bound.
+
+Layout: one figure per combination of the cell axes but the last (e.g. plant × sensors); its rows
+are the values of the last cell axis (e.g. the filter), its columns the severities.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from .analysis import _plt, _save, _stack, ts_mean_ci
+from .fdi_curves import Cell
+from .fdi_report import RuleCurves, lorden_curve
+
+COLOURS = {"sigma": "tab:blue", "mode": "tab:green", "cusum": "tab:orange", "glr": "tab:red"}
+
+
+def _groups(curves: list[RuleCurves], keys: list[str]) -> dict[tuple, dict[Any, list[RuleCurves]]]:
+    """Figure key (all cell keys but the last) → row value (last key) → that cell's rule curves."""
+    out: dict[tuple, dict[Any, list[RuleCurves]]] = {}
+    for rc in curves:
+        vals = [rc.cell.key[k] for k in keys]
+        out.setdefault(tuple(vals[:-1]), {}).setdefault(vals[-1] if vals else "", []).append(rc)
+    return out
+
+
+def arl0_axis(points: list[Any]) -> tuple[np.ndarray, np.ndarray]:
+    """x of each point on an ARL0 axis: the estimate; where no false alarm was seen only the first such
+    point (lowest threshold) is kept, at the fault-free seconds observed — ARL0 is only known to be
+    of that order or more — and drawn as an open marker; higher thresholds add nothing (NaN)."""
+    x = np.array([p.arl0.mean for p in points])
+    censored = ~np.isfinite(x)
+    first = int(np.argmax(censored)) if censored.any() else -1
+    x = np.where(censored, np.nan, x)
+    if first >= 0:
+        x[first] = points[first].exposure
+    return x, censored
+
+
+def _band(ax: Any, x: np.ndarray, m: np.ndarray, lo: np.ndarray, hi: np.ndarray, colour: str, label: str,
+          censored: np.ndarray | None = None) -> None:
+    ok = np.isfinite(x) & np.isfinite(m) & (x > 0)
+    if not ok.any():
+        return
+    order = np.argsort(x[ok])
+    xs = x[ok][order]
+    ax.plot(xs, m[ok][order], color=colour, label=label, lw=1.2)
+    ax.fill_between(xs, np.nan_to_num(lo[ok][order], nan=0.0), np.nan_to_num(hi[ok][order], nan=0.0),
+                    color=colour, alpha=0.15, lw=0)
+    if censored is not None and (censored & ok).any():
+        c = censored & ok
+        ax.plot(x[c], m[c], "o", mfc="none", color=colour, ms=4)
+
+
+def _log(ax: Any, x: bool = True, y: bool = True) -> None:
+    """Log scales on the axes that have positive finite data (an empty panel stays linear)."""
+    def has(get: str) -> bool:
+        for ln in ax.lines:
+            v = np.asarray(getattr(ln, get)(), float)
+            if np.any(np.isfinite(v) & (v > 0)):
+                return True
+        return False
+
+    if x and has("get_xdata"):
+        ax.set_xscale("log")
+    if y and has("get_ydata"):
+        ax.set_yscale("log")
+
+
+def _legend(fig: Any, rows: dict[Any, list[RuleCurves]], lorden: bool = False) -> None:
+    """One legend for the figure: every rule drawn in it (and Lorden's bound)."""
+    from matplotlib.lines import Line2D
+
+    rules = [r for r in COLOURS if any(rc.rule == r for rcs in rows.values() for rc in rcs)]
+    handles = [Line2D([], [], color=COLOURS[r], lw=1.5, label=r) for r in rules]
+    if lorden:
+        handles.append(Line2D([], [], color="k", ls="--", lw=1, label="Lorden bound"))
+    fig.legend(handles=handles, loc="upper right", fontsize=7, ncol=len(handles))
+
+
+def _grid(rows: dict[Any, list[RuleCurves]], plt: Any) -> tuple[Any, Any, list[Any]]:
+    sevs = sorted({s for rcs in rows.values() for rc in rcs for s in rc.design.delay}, key=str)
+    fig, axs = plt.subplots(len(rows), len(sevs), figsize=(3.3 * len(sevs), 2.6 * len(rows)), squeeze=False)
+    return fig, axs, sevs
+
+
+def fig_delay(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> None:
+    """Mean conditional delay (95 % CI band) against measured ARL0, per rule, with Lorden's bound."""
+    plt = _plt()
+    fig, axs, sevs = _grid(rows, plt)
+    for i, (rv, rcs) in enumerate(rows.items()):
+        for j, sev in enumerate(sevs):
+            ax = axs[i, j]
+            for rc in (r for r in rcs if sev in r.design.delay):
+                x, cens = arl0_axis(rc.points)
+                d = [p.delay[sev] for p in rc.points]
+                _band(ax, x, np.array([e.mean for e in d]), np.array([e.lo for e in d]), np.array([e.hi for e in d]),
+                      COLOURS[rc.rule], rc.rule, cens)
+                dp = rc.design
+                xd, cd = arl0_axis([dp])
+                if sev in dp.delay and math.isfinite(xd[0]) and math.isfinite(dp.delay[sev].mean):
+                    ax.plot(xd, [dp.delay[sev].mean], "o", color=COLOURS[rc.rule], ms=5,
+                            mfc="none" if cd[0] else COLOURS[rc.rule], mew=1.5)
+            la, lb = lorden_curve(rcs[0].cell, sev) if sev in rcs[0].cell.faults else (np.zeros(0), np.zeros(0))
+            ax.plot(la, lb, "k--", lw=1)
+            _log(ax)
+            ax.set_title(f"{rv}, severity {sev}", fontsize=8)
+            ax.tick_params(labelsize=7)
+            ax.grid(alpha=0.3, which="both")
+            if i == len(rows) - 1:
+                ax.set_xlabel("ARL0: mean time between false alarms (s)", fontsize=7)
+            if j == 0:
+                ax.set_ylabel("detection delay (s)", fontsize=7)
+    _legend(fig, rows, lorden=True)
+    fig.suptitle(f"{title}: delay against mean time between false alarms\n(filled dots: design thresholds; open: no "
+                 "false alarm in the fault-free seconds observed, drawn there)", fontsize=8, x=0.02, ha="left")
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    _save(fig, path)
+
+
+def fig_roc(rows: dict[Any, list[RuleCurves]], title: str, horizon: float, path: Path) -> None:
+    """Detection within the horizon against false alarm in a window of the same length."""
+    plt = _plt()
+    fig, axs, sevs = _grid(rows, plt)
+    for i, (rv, rcs) in enumerate(rows.items()):
+        for j, sev in enumerate(sevs):
+            ax = axs[i, j]
+            for rc in (r for r in rcs if sev in r.design.delay):
+                x = np.array([p.pfa.mean for p in rc.points])
+                y = np.array([p.pd[sev].mean for p in rc.points])
+                order = np.argsort(x)
+                ax.plot(x[order], y[order], ".-", color=COLOURS[rc.rule], label=rc.rule, lw=1, ms=3)
+            ax.plot([0, 1], [0, 1], color="0.7", lw=0.8)
+            ax.set_xlim(-0.02, 1.02)
+            ax.set_ylim(-0.02, 1.02)
+            ax.set_title(f"{rv}, severity {sev}", fontsize=8)
+            ax.tick_params(labelsize=7)
+            ax.grid(alpha=0.3)
+            if i == len(rows) - 1:
+                ax.set_xlabel(f"P(false alarm within {horizon:g} s)", fontsize=7)
+            if j == 0:
+                ax.set_ylabel(f"P(detection within {horizon:g} s)", fontsize=7)
+    _legend(fig, rows)
+    fig.suptitle(f"{title}: ROC (runs without an earlier alarm)", fontsize=9, x=0.02, ha="left")
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    _save(fig, path)
+
+
+def fig_isolation(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> None:
+    """Fraction of detections isolating the true wheel against measured ARL0."""
+    plt = _plt()
+    fig, axs, sevs = _grid(rows, plt)
+    for i, (rv, rcs) in enumerate(rows.items()):
+        for j, sev in enumerate(sevs):
+            ax = axs[i, j]
+            for rc in (r for r in rcs if sev in r.design.delay):
+                x, cens = arl0_axis(rc.points)
+                e = [p.iso[sev] for p in rc.points]
+                if e:
+                    _band(ax, x, np.array([v.mean for v in e]), np.array([v.lo for v in e]),
+                          np.array([v.hi for v in e]), COLOURS[rc.rule], rc.rule, cens)
+            _log(ax, y=False)
+            ax.set_ylim(-0.02, 1.02)
+            ax.set_title(f"{rv}, severity {sev}", fontsize=8)
+            ax.tick_params(labelsize=7)
+            ax.grid(alpha=0.3, which="both")
+            if i == len(rows) - 1:
+                ax.set_xlabel("ARL0 (s)", fontsize=7)
+            if j == 0:
+                ax.set_ylabel("isolated the true wheel", fontsize=7)
+    _legend(fig, rows)
+    fig.suptitle(f"{title}: isolation accuracy of the detections", fontsize=9, x=0.02, ha="left")
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    _save(fig, path)
+
+
+def fig_rmse(df: pl.DataFrame, keys: list[str], severity_of: dict[str, Any], path: Path) -> None:
+    """Left-radius RMSE over seeds against time and the bound's σ, per cell of all keys but the last (panels)
+    and the last key (lines); no-fault runs in the first row, each severity in the next."""
+    plt = _plt()
+    ok = df.filter(pl.col("status") == "ok")
+    panels = list(dict.fromkeys(tuple(r[k] for k in keys[:-1]) for r in ok.iter_rows(named=True)))
+    sevs = list(dict.fromkeys(severity_of.values()))
+    fig, axs = plt.subplots(len(sevs), len(panels), figsize=(3.6 * len(panels), 2.6 * len(sevs)), squeeze=False)
+    for j, pk in enumerate(panels):
+        sub = ok
+        for k, v in zip(keys[:-1], pk, strict=True):
+            sub = sub.filter(pl.col(k) == v)
+        for i, sev in enumerate(sevs):
+            ax = axs[i, j]
+            part_s = sub.filter(pl.col("run_key").is_in([k for k, s in severity_of.items() if s == sev]))
+            for lv, part in part_s.group_by(keys[-1], maintain_order=True):
+                t = np.nanmax(_stack(part, "ts_t"), axis=0)
+                e = _stack(part, "ts_R_L_hat") - _stack(part, "ts_R_L")
+                rmse = np.sqrt(np.nanmean(e * e, axis=0))
+                line = ax.plot(t, rmse, lw=1, label=str(lv[0]))
+                b, _ = ts_mean_ci(_stack(part, "ts_R_L_pcrb_std"))
+                ax.plot(t, b, "--", lw=0.8, color=line[0].get_color())
+            _log(ax, x=False)
+            ax.set_title(f"{', '.join(map(str, pk))}; severity {sev}", fontsize=8)
+            ax.tick_params(labelsize=7)
+            ax.grid(alpha=0.3, which="both")
+            if j == 0:
+                ax.set_ylabel("R_L RMSE (—) and PCRB σ (--) (m)", fontsize=7)
+            if i == len(sevs) - 1:
+                ax.set_xlabel("t (s)", fontsize=7)
+    axs[0, 0].legend(fontsize=6)
+    fig.suptitle("left-radius RMSE over seeds against the posterior Cramér–Rao bound", fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def draw_all(curves: list[RuleCurves], cells: list[Cell], keys: list[str], df: pl.DataFrame, out: Path,
+             horizon: float) -> list[str]:
+    """Draw every figure into ``out``; returns Markdown lines linking them."""
+    out.mkdir(parents=True, exist_ok=True)
+    links = []
+    for fk, rows in _groups(curves, keys).items():
+        if not any(rc.design.delay for rcs in rows.values() for rc in rcs):
+            continue  # no fault runs: nothing to draw against the false-alarm rate
+        name = "_".join(str(v) for v in fk).replace("+", "-").replace(" ", "") or "all"
+        title = ", ".join(str(v) for v in fk) or "all cells"
+        for kind, fn in (("delay", lambda p, r=rows, t=title: fig_delay(r, t, p)),
+                         ("roc", lambda p, r=rows, t=title: fig_roc(r, t, horizon, p)),
+                         ("isolation", lambda p, r=rows, t=title: fig_isolation(r, t, p))):
+            path = out / f"{kind}_{name}.png"
+            fn(path)
+            links.append(f"![{kind} {title}](figures/{path.name})")
+    severity_of = {}
+    for cell in cells:
+        for r in cell.nofault:
+            severity_of[r.key] = "no fault"
+        for sev, runs in cell.faults.items():
+            for r in runs:
+                severity_of[r.key] = sev
+    fig_rmse(df, keys, severity_of, out / "rmse_pcrb.png")
+    links.append("![radius RMSE against the PCRB](figures/rmse_pcrb.png)")
+    return links

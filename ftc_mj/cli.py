@@ -39,6 +39,7 @@ class ControllerKind(StrEnum):
     nmpc = "nmpc"
     lmpc = "lmpc"
     open_loop = "open-loop"
+    pf_nmpc = "pf-nmpc"
 
 
 def _fail(msg: str, code: int = 2) -> None:

@@ -217,10 +217,54 @@ class EstimatorConfig(_Strict):
     decision: DecisionConfig = Field(default_factory=DecisionConfig)
 
 
+class PathFollowingConfig(_Strict):
+    """Settings of the path-following NMPC (``controller.kind = "pf-nmpc"``,
+    :mod:`ftc_mj.control.pathfollow`). It shares ``nodes``, ``horizon``, ``rate_penalty``,
+    ``omega_rate_max``, ``solver``, ``max_iter`` and the budgets with the NMPC; its desired speed is
+    ``reference.speed``. Cost weights are per second of horizon (Gauss–Lobatto quadrature)."""
+
+    q_contour: NonNegFloat = 30.0
+    """Weight (1/(m² s)) on the squared contouring error (distance from the path, normal to it)."""
+    q_lag: NonNegFloat = 10.0
+    """Weight (1/(m² s)) on the squared lag error (position along the tangent relative to the progress point)."""
+    q_heading: NonNegFloat = 10.0
+    """Weight (1/(rad² s)) on the squared heading error to the path tangent."""
+    q_progress: NonNegFloat = 1.0
+    """Weight (s/m²) on the squared deviation of the progress speed from ``reference.speed``."""
+    progress_rate_penalty: NonNegFloat = 0.1
+    """Weight (s³/m²) on the squared rate of the progress speed."""
+    max_progress_speed: PosFloat | None = None
+    """Upper bound (m/s) of the progress speed; ``None`` = twice ``reference.speed``."""
+    lateral_accel_margin: Annotated[float, Field(gt=0, le=1)] = 0.9
+    """The bound on the robot's lateral acceleration as a fraction of its lift-off limit, which the sim layer
+    derives from the MJCF (:func:`ftc_mj.plant.limits.lateral_accel_limits`: 3.92 m/s² for
+    ``models/diffdrive.xml``, where the inner tyre reaches its friction circle; measured onset of lift-off
+    4.1–4.2 m/s², docs/findings.md)."""
+    max_lateral_accel: PosFloat | None = None
+    """Explicit bound (m/s²) on the robot's lateral acceleration; ``None`` = ``lateral_accel_margin`` × the
+    derived lift-off limit."""
+    compensate_yaw_compliance: bool = True
+    """Bound the robot's lateral acceleration, not the kinematic model's: on the MuJoCo plant the velocity servos
+    yield under the tyres' yaw couple, so the model's ``V psidot`` (from the commanded rates) is ``1 + c V``
+    times the robot's, with ``c`` derived from the MJCF (0.0375 s/m: 1.375 at 10 m/s). ``False`` (and the
+    kinematic plant) bounds the model's ``V psidot``."""
+    braking_trade: bool = True
+    """Bound ``|a_lat| + β |dV/dt|`` instead of ``|a_lat|``: braking loads the inner tyre too, so its lift-off limit
+    falls by β (0.75 for ``models/diffdrive.xml``, derived from the MJCF) per m/s² of braking."""
+    max_longitudinal_accel: PosFloat | None = 3.0
+    """Bound (m/s²) on ``dV/dt`` at every node and on the change of the speed from the applied command's within
+    one control period; ``None`` = no bound. The motors' torque limit allows about 4 m/s² (models/diffdrive.xml)."""
+    slack_penalty: PosFloat = 1.0e4
+    """Exact-penalty weight on the slack of the lateral bound (per m/s²); it must exceed the bound's multiplier
+    for the slack to stay 0 whenever the bound can be met."""
+
+
 class ControllerConfig(_Strict):
     """Trajectory-tracking controller (paper §3, DESIGN §5)."""
 
-    kind: Literal["nmpc", "lmpc", "open-loop"] = "nmpc"
+    kind: Literal["nmpc", "lmpc", "open-loop", "pf-nmpc"] = "nmpc"
+    """``nmpc`` (the paper's pseudospectral NMPC on the time-parametrised reference), ``lmpc``, ``open-loop``,
+    ``pf-nmpc`` (path following on the geometric path, settings in ``path_following``)."""
     rate: PosFloat = 10.0
     """Control rate (Hz); commands are held (zero-order hold) between solves."""
     nodes: Annotated[int, Field(ge=4, le=200)] = 50
@@ -266,6 +310,7 @@ class ControllerConfig(_Strict):
     """Constant wheel rates (rad/s) of the open-loop controller."""
     open_loop_schedule: list[tuple[float, float, float]] = Field(default_factory=list)
     """Optional ``[t, omega_R, omega_L]`` breakpoints (piecewise-linear) for the open-loop controller."""
+    path_following: PathFollowingConfig = Field(default_factory=PathFollowingConfig)
 
 
 class ExcitationConfig(_Strict):

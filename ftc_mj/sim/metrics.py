@@ -9,6 +9,7 @@ import numpy as np
 
 from ..config import RunConfig
 from ..plant import LIFTOFF, TIPPED
+from .path_metrics import path_following_metrics
 
 LIMIT_TOL = 1e-3  # a command within 0.1 % of the bound counts as "at the limit"
 RECOVERY_S = 5.0
@@ -171,4 +172,5 @@ def compute_metrics(
     m["max_abs_roll_deg"] = float(np.degrees(_nanstat(np.abs(trace["roll"]), np.max)))
     m["max_abs_slip"] = _nanstat(np.abs(np.concatenate([trace["slip_R"], trace["slip_L"]])), np.max)
     m["sim_time_s"] = float(t[-1] + 1.0 / cfg.estimator.rate) if t.size else 0.0
+    m.update(path_following_metrics(cfg, trace, onsets))
     return m

@@ -15,14 +15,18 @@ Problem: see :mod:`ftc_mj.control.collocation`. Solver options:
   solve (and a re-seed after two consecutive failures) is an IPOPT solve.
 
 The first command of the plan (node 0, at ``t0``) is applied under zero-order hold. A failed or
-over-budget solve, or a non-finite pose/radii, never raises: the controller falls back to the
-previous plan shifted to the current time (or, with no plan yet, the reference feed-forward),
-counts it in ``failures`` and says why in ``status``. Outputs are always clipped to the bounds.
+over-budget solve, a solver error (CasADi/IPOPT/QP plugin error, linear-algebra failure), or a
+non-finite pose/radii never raises: the controller falls back to the previous plan shifted to the
+current time (or, with no plan yet, the reference feed-forward), counts it in ``failures`` and says
+why in ``status``. Any other exception (a ``TypeError``, a shape bug) propagates and fails the run.
+Outputs are always clipped to the bounds.
 """
 
 from __future__ import annotations
 
+import os
 import time
+import traceback
 
 import casadi as ca
 import numpy as np
@@ -44,6 +48,21 @@ SOLVERS = ("ipopt", "rti-daqp", "rti-qpoases", "rti-osqp")
 
 RESEED_WAIT = 20
 """Samples (2 s at 10 Hz) without IPOPT re-seeds after a re-seed failed (RTI steps continue meanwhile)."""
+
+_CASADI_DIR = os.path.dirname(os.path.abspath(ca.__file__))
+
+
+def _raised_in(exc: BaseException, directory: str) -> bool:
+    """The innermost frame of ``exc``'s traceback is in a file under ``directory``."""
+    frames = traceback.extract_tb(exc.__traceback__)
+    return bool(frames) and os.path.abspath(frames[-1].filename).startswith(directory + os.sep)
+
+
+def solver_error(exc: BaseException) -> bool:
+    """``exc`` is a solver error a controller falls back on: a linear-algebra failure, or a ``RuntimeError``
+    raised by CasADi (its plugins and IPOPT report through it). Anything else is a bug that fails the run."""
+    return isinstance(exc, np.linalg.LinAlgError) or (isinstance(exc, RuntimeError)
+                                                       and _raised_in(exc, _CASADI_DIR))
 
 
 class PlanController:
@@ -93,8 +112,13 @@ class PlanController:
         self._u_applied = None if u_applied is None else np.asarray(u_applied, dtype=float).copy()
         try:
             out = self._solve(t, pose, radii, t_start)
-        except Exception as exc:  # noqa: BLE001 - a solve must never stop the loop
-            out = self._fallback(t, f"exception: {type(exc).__name__}: {exc}", t_start, None)
+        except (RuntimeError, np.linalg.LinAlgError) as exc:
+            # only solver errors become a fallback: a linear-algebra failure, or an error raised by
+            # CasADi (its plugins and IPOPT report through RuntimeError); anything else is a bug
+            # that fails the run
+            if not (isinstance(exc, np.linalg.LinAlgError) or _raised_in(exc, _CASADI_DIR)):
+                raise
+            out = self._fallback(t, f"solver error: {type(exc).__name__}: {exc}", t_start, None)
         self._consecutive_failures = self._consecutive_failures + 1 if out.fallback else 0
         return out
 

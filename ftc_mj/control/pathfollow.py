@@ -48,7 +48,8 @@ Solvers: ``ipopt`` (the full NLP, the path symbolic through ``geometry(s, casadi
 (:class:`~ftc_mj.control.collocation.StateElimination`) and the dense QP in ``u`` is solved by the
 certified active-set path (:class:`~ftc_mj.control.certified_qp.CertifiedQP`), else the named
 CasADi QP plugin. The first solve, and a re-seed after two consecutive failures, is an IPOPT solve.
-A failed solve falls back to the shifted previous plan like the NMPC's.
+A failed or over-budget solve, a solver error or a non-finite pose/radii falls back to the shifted
+previous plan like the NMPC's; any other exception propagates and fails the run.
 """
 
 from __future__ import annotations
@@ -74,7 +75,7 @@ from .collocation import (
     sanitize_radii,
 )
 from .lgl import interpolation_matrix
-from .nmpc import RESEED_WAIT
+from .nmpc import RESEED_WAIT, solver_error
 from .reference import Path, path_errors, project
 
 SOLVERS = ("ipopt", "rti-daqp", "rti-qpoases", "rti-osqp")
@@ -179,8 +180,10 @@ class PathFollowingNMPC:
         self.solves += 1
         try:
             out = self._solve(t, pose, radii, u_applied, t_start)
-        except Exception as exc:  # noqa: BLE001 - a solve must never stop the loop
-            out = self._fallback(t, f"exception: {type(exc).__name__}: {exc}", t_start, None)
+        except (RuntimeError, np.linalg.LinAlgError) as exc:
+            if not solver_error(exc):
+                raise
+            out = self._fallback(t, f"solver error: {type(exc).__name__}: {exc}", t_start, None)
         self._consecutive_failures = self._consecutive_failures + 1 if out.fallback else 0
         return out
 

@@ -1,4 +1,4 @@
-"""One run from a resolved config to its output directory (DESIGN §6).
+"""One run from a resolved config to its output directory.
 
 ``DIR/<run-id>/`` receives ``config.toml`` (fully resolved), ``trace.parquet``, ``metrics.json`` and
 ``run.rrd``. The directory is assembled under a temporary name and renamed into place at the end,
@@ -64,15 +64,13 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "seed": cfg.seed,
         "status": "failed" if res.error else "ok",
         "error": res.error,
+        "error_where": res.error_where,
     }
     m.update(compute_metrics(cfg, res.trace, fault_onsets(cfg), res.counters))
     ds = res.decision
     if ds is not None:
-        m["isolated_wheel"] = getattr(ds, "wheel", None)
         m["severity_R"] = getattr(ds, "severity_R", None)
         m["severity_L"] = getattr(ds, "severity_L", None)
-        true_w = m.get("true_fault_wheel")
-        m["isolation_correct"] = (m["isolated_wheel"] == true_w) if true_w is not None else None
     m["wall_time_s"] = res.wall_time
     m["realtime_factor"] = m["sim_time_s"] / res.wall_time if res.wall_time > 0 else float("nan")
     return m
@@ -84,13 +82,15 @@ def execute(
     *,
     rrd: bool | None = None,
     progress: Callable[[float], None] | None = None,
+    strict: bool | None = None,
 ) -> RunOutcome:
     """Simulate ``cfg``; if ``out_root`` is given, write ``out_root/<run-id>/`` atomically.
 
-    ``rrd`` overrides ``cfg.output.rrd``. A failed run still writes its metrics (status ``failed``
-    and the reason) and trace up to the failure.
+    ``rrd`` overrides ``cfg.output.rrd``; ``strict`` is :func:`~ftc_mj.sim.loop.simulate`'s. A failed
+    run (a component raised; status ``failed``, ``error`` and ``error_where`` say what and where)
+    still writes its metrics and its trace up to the failure.
     """
-    res = simulate(cfg, progress)
+    res = simulate(cfg, progress, strict=strict)
     metrics = run_metrics(cfg, res)
     run_id = metrics["run_id"]
     if out_root is None:

@@ -344,11 +344,12 @@ def compliance_offset(spec: PathFollowingSpec, u_applied: np.ndarray | None, rad
     return k * a * lever
 
 
-def lateral_sides(spec: PathFollowingSpec) -> tuple[tuple[float, float], ...]:
+def lateral_sides(spec: PathFollowingSpec, at_t0: bool = False) -> tuple[tuple[float, float], ...]:
     """Signs ``(s_lat, s_lon)`` of the rows ``s_lat a + s_lon β dV/dt − σ ≤ A`` that make
-    ``|a| + β |dV/dt| ≤ A + σ`` (two rows ``±a`` when ``β = braking_trade = 0``)."""
+    ``|a| + β |dV/dt| ≤ A + σ`` at the nodes, or (``at_t0``) the extra rows at ``t0`` with ``dV/dt`` the change
+    of speed from the applied command's (none when ``β = 0``)."""
     if spec.braking_trade == 0.0:
-        return ((1.0, 0.0), (-1.0, 0.0))
+        return () if at_t0 else ((1.0, 0.0), (-1.0, 0.0))
     return ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0))
 
 
@@ -417,19 +418,18 @@ class PathNLP:
                 g.append(sl * a + so * spec.braking_trade * ax - sig)
                 lbg.append(-np.inf * np.ones(N))
                 ubg.append(pr.max_lateral_accel * np.ones(N))
-            self._lat0 = sum(int(x.numel()) for x in g), len(lateral_sides(spec))
-            if spec.braking_trade > 0.0:  # at t0: the speed change from the applied command's, V_applied = p[6]
-                for sl, so in lateral_sides(spec):
-                    g.append(sl * a[0] + so * spec.braking_trade * (Vp[0, 0] - p[6]) / spec.sample_time - sig)
-                    lbg.append([-np.inf])
-                    ubg.append([pr.max_lateral_accel])
+            self._lat0 = sum(int(x.numel()) for x in g), len(lateral_sides(spec, True))
+            for sl, so in lateral_sides(spec, True):  # at t0: the speed change from the applied command's (p[6])
+                g.append(sl * a[0] + so * spec.braking_trade * (Vp[0, 0] - p[6]) / spec.sample_time - sig)
+                lbg.append([-np.inf])
+                ubg.append([pr.max_lateral_accel])
         if pr.max_longitudinal_accel is not None:
             g.append(dU[0, :].T * 0.5 * radii[0] + dU[1, :].T * 0.5 * radii[1])
             g.append(Vp[0, 0])  # speed at t0, within a_max T_s of the applied command's (bounds per solve)
             lbg += [-pr.max_longitudinal_accel * np.ones(N), [-np.inf]]
             ubg += [pr.max_longitudinal_accel * np.ones(N), [np.inf]]
         self._lbg, self._ubg = np.concatenate(lbg), np.concatenate(ubg)
-        if pr.max_lateral_accel is None or spec.braking_trade == 0.0:
+        if pr.max_lateral_accel is None:
             self._lat0 = (0, 0)
         self._lbx = np.concatenate([-np.inf * np.ones(6 * N), np.zeros(N), [0.0]])
         self._ubx = np.concatenate([np.inf * np.ones(6 * N), spec.max_progress_speed * np.ones(N), [SLACK_MAX]])
@@ -520,8 +520,8 @@ class PathQP:
         self.rate_lim = pr.omega_rate_max * h
         self.lbx = np.concatenate([np.zeros(3 * N), [0.0]])  # wheel-rate parts set per QP (wheel_bounds)
         self.ubx = np.concatenate([np.zeros(2 * N), spec.max_progress_speed * np.ones(N), [SLACK_MAX]])
-        sides = len(lateral_sides(spec)) if pr.max_lateral_accel is not None else 0
-        self.n_lat = sides * N + (sides if spec.braking_trade > 0.0 else 0)
+        self.n_lat = (len(lateral_sides(spec)) * N + len(lateral_sides(spec, True))
+                      if pr.max_lateral_accel is not None else 0)
         self.n_lon = N + 1 if pr.max_longitudinal_accel is not None else 0
         self.m = 4 + 2 * N + self.n_lat + self.n_lon
         self.certified = (qpsol == "daqp") if certified is None else bool(certified)
@@ -604,15 +604,13 @@ class PathQP:
                 A[rows, N + j] += sl * gL
                 A[rows, -1] = -1.0
                 lba[rows], uba[rows] = -np.inf, pr.max_lateral_accel - sl * lin0
-            if self.n_lat > len(sides) * N:  # at t0 with the change of speed from the applied command's
-                for q, (sl, so) in enumerate(sides):
-                    row = i + len(sides) * N + q
-                    c = so * sp.braking_trade / sp.sample_time
-                    A[row, [0, N]] = sl * np.array([gR[0], gL[0]]) + c * J[0]
-                    A[row, -1] = -1.0
-                    lba[row] = -np.inf
-                    uba[row] = (np.inf if V_applied is None
-                                else pr.max_lateral_accel - sl * lin0[0] + c * V_applied)
+            for q, (sl, so) in enumerate(lateral_sides(sp, True)):  # at t0, dV/dt from the applied command
+                row = i + len(sides) * N + q
+                c = so * sp.braking_trade / sp.sample_time
+                A[row, [0, N]] = sl * np.array([gR[0], gL[0]]) + c * J[0]
+                A[row, -1] = -1.0
+                lba[row] = -np.inf
+                uba[row] = np.inf if V_applied is None else pr.max_lateral_accel - sl * lin0[0] + c * V_applied
             i += self.n_lat
         if self.n_lon:
             amax = pr.max_longitudinal_accel

@@ -326,22 +326,27 @@ class PathFollowingNMPC:
 
 def compliance_offset(spec: PathFollowingSpec, u_applied: np.ndarray | None, radii: np.ndarray,
                       nominal_radii: np.ndarray) -> np.ndarray:
-    """The wheel rates (rad/s) of the robot minus the commanded ones at the applied command: the velocity servos
-    yield under the tyres' yaw couple ``F = M a x_G / (2 b)`` (the robot understeers), the outer (right, for a
-    left turn) wheel lags by ``F R_R / k_v`` and the inner runs ahead by ``F R_L / k_v``: ``δ = k a (−R_R, R_L)``
-    with ``a`` the robot's lateral acceleration. ``k = c b / R_0²`` follows from ``yaw_compliance`` ``c`` (s/m,
-    the yaw-rate deficit per m/s² with the nominal tyres ``R_0``); ``a`` solves ``a = V(u + δ) psidot(u + δ)``
-    (three fixed-point steps; ``k a R ≪ omega``). Zero with ``c = 0`` or before the first command."""
+    """The wheel rates (rad/s) of the robot minus the commanded ones at the applied command ``u``.
+
+    The velocity servos yield under the tyres' yaw couple ``F = M a x_G / (2 b)`` (the robot understeers): the
+    outer (right, for a left turn) wheel lags by ``F R_R / k_v``, the inner runs ahead by ``F R_L / k_v``, so
+    ``δ = k a (−R_R, R_L)`` with ``a`` the robot's lateral acceleration and ``k = c b / R_0²`` from
+    ``yaw_compliance`` ``c`` (s/m, the yaw-rate deficit per m/s² with the nominal tyres ``R_0``). With the
+    model's ``V0, r0`` of ``u``, the robot's are ``V = V0 + p a`` and ``r = r0 − q a`` (``p = k (R_L² − R_R²)/2``,
+    ``q = k (R_R² + R_L²)/(2 b)``), and ``a = V r`` is the root of ``−p q a² + (p r0 − q V0 − 1) a + V0 r0 = 0``
+    that tends to ``V0 r0 / (1 + q V0)`` as ``p → 0``. Zero with ``c = 0`` or before the first command."""
     if spec.yaw_compliance == 0.0 or u_applied is None:
         return np.zeros(2)
     b = spec.problem.half_track
     k = spec.yaw_compliance * b / (0.5 * float(nominal_radii @ nominal_radii))
-    lever = np.array([-radii[0], radii[1]])
-    a = 0.0
-    for _ in range(3):
-        w = u_applied + k * a * lever
-        a = 0.25 * (radii[0] * w[0] + radii[1] * w[1]) * (radii[0] * w[0] - radii[1] * w[1]) / b
-    return k * a * lever
+    V0 = 0.5 * float(radii @ u_applied)
+    r0 = (radii[0] * u_applied[0] - radii[1] * u_applied[1]) / (2.0 * b)
+    p = 0.5 * k * (radii[1] ** 2 - radii[0] ** 2)
+    q = 0.5 * k * float(radii @ radii) / b
+    B = p * r0 - q * V0 - 1.0
+    disc = max(B * B + 4.0 * p * q * V0 * r0, 0.0)
+    a = 2.0 * V0 * r0 / (-B + np.sqrt(disc)) if -B + np.sqrt(disc) > 0.0 else 0.0
+    return k * a * np.array([-radii[0], radii[1]])
 
 
 def lateral_sides(spec: PathFollowingSpec, at_t0: bool = False) -> tuple[tuple[float, float], ...]:

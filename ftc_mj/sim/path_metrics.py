@@ -27,12 +27,12 @@ BOUND_TOL = 0.01
 
 def feasible_speed(cfg: RunConfig, R_R: float, R_L: float) -> float:
     """The largest speed (m/s) at which the robot with radii ``R_R, R_L`` (m) can follow the whole reference
-    path within its wheel-rate limit (:func:`~ftc_mj.model.kinematics.max_path_speed` at the path's largest
-    |curvature|, sampled every 0.5 m over one period or 400 m), capped at the desired ``reference.speed``."""
+    path within its wheel-rate limit (:func:`~ftc_mj.model.kinematics.max_path_speed` at the path's curvature,
+    sampled every 0.5 m over one period or 400 m), capped at the desired ``reference.speed``."""
     ref = build_reference(cfg)
     length = float(getattr(ref, "length", 400.0))
-    k = np.abs(ref.geometry(np.linspace(0.0, length, int(length / 0.5) + 1)).curvature).max()
-    V = max_path_speed(np.array([k, -k]), R_R, R_L, cfg.plant_half_track, cfg.robot.omega_max)
+    k = ref.geometry(np.linspace(0.0, length, int(length / 0.5) + 1)).curvature
+    V = max_path_speed(np.unique(k), R_R, R_L, cfg.plant_half_track, cfg.robot.omega_max)
     return float(min(np.min(V), cfg.reference.speed))
 
 

@@ -46,8 +46,9 @@ def test_feasible_speed_of_every_path_kind() -> None:
     cfg = RunConfig()
     assert feasible_speed(cfg, 2.0, 2.0) == pytest.approx(10.0)  # the desired speed caps it
     om = cfg.robot.omega_max
-    assert feasible_speed(cfg, 0.1, 2.0) == pytest.approx(0.1 * om / (1 + 1 / 50))  # the outer wheel punctured
-    cfg.reference.kind = "figure8"  # both turning senses: the smaller tyre is the inner one in one lobe
-    assert feasible_speed(cfg, 0.1, 2.0) == pytest.approx(0.1 * om / (1 - 1 / 50))
+    assert feasible_speed(cfg, 2.0, 0.1) == pytest.approx(0.1 * om / (1 - 1 / 50))  # inner (left) tyre punctured
+    assert feasible_speed(cfg, 0.1, 2.0) == pytest.approx(0.1 * om / (1 + 1 / 50))  # outer (right) tyre punctured
+    cfg.reference.kind = "figure8"  # both turning senses: the punctured left tyre is the outer one in lobe 2
+    assert feasible_speed(cfg, 2.0, 0.1) == pytest.approx(0.1 * om / (1 + 1 / 50))
     cfg.reference.kind = "line"
     assert feasible_speed(cfg, 0.1, 2.0) == pytest.approx(0.1 * om)

@@ -200,7 +200,9 @@ def test_view_opens_the_recording(tmp_path: Path, monkeypatch) -> None:
     """``ftc-mj view`` hands the run's recording to the Rerun viewer binary."""
     import ftc_mj.recorder as recorder
 
-    (tmp_path / "run.rrd").write_bytes(b"")
+    trace, solves, events, ref = recorder.synthetic_run(2.0)
+    recorder.write_rrd(tmp_path / "run.rrd", trace, run_id="r", solves=solves, events=events, reference_path=ref)
+    monkeypatch.setenv("DISPLAY", ":99")
     seen: list[list[str]] = []
 
     class Done:

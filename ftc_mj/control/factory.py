@@ -14,7 +14,8 @@ from .pathfollow import PathFollowingNMPC, PathFollowingSpec, RobotLimits
 
 
 def problem_spec(cfg: RunConfig) -> ProblemSpec:
-    """The MPC problem numbers of ``cfg`` (model half track, robot input limits, controller weights)."""
+    """The MPC problem numbers of ``cfg`` (model half track, robot input limits, controller weights and
+    period)."""
     c = cfg.controller
     return ProblemSpec(
         nodes=c.nodes,
@@ -28,6 +29,9 @@ def problem_spec(cfg: RunConfig) -> ProblemSpec:
         rate_penalty=c.rate_penalty,
         max_lateral_accel=c.max_lateral_accel,
         max_longitudinal_accel=c.max_longitudinal_accel,
+        sample_time=1.0 / c.rate,
+        rate_bound_from_applied=c.rate_bound_from_applied,
+        rate_penalty_first_step=c.rate_penalty_first_step,
     )
 
 

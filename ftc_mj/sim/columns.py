@@ -19,6 +19,8 @@ elsewhere); ``cross_track_error`` (m, positive = left of the path).
 
 from __future__ import annotations
 
+from ..plant.truth import FLAG_NAMES
+
 STATE = ("x", "y", "psi", "R_R", "R_L")
 """Estimator state order; ``<name>_hat`` and ``<name>_std`` columns follow it."""
 
@@ -41,3 +43,27 @@ BASE_COLUMNS: tuple[str, ...] = (
     "plant_flags", "fault_detected", "fault_suspected", "declared_wheel", "radius_anomaly", "radius_split_std",
     "reconfig_state", "excitation", "solve_time_ms", "solver_iterations", "solver_ok",
 )
+
+
+CODED_COLUMNS: dict[str, str] = {
+    "plant_flags": "bitmask of the plant leaving the kinematic model's domain: " + ", ".join(
+        f"{bit} {name}" for bit, name in FLAG_NAMES.items()) + " (NAN, UNSTABLE, PHYSICS_WARNING are sticky)",
+    "reconfig_state": "reconfiguration policy state: 0 nominal radii, 1 hold (radii in use kept), "
+                      "2 handed over (estimates in use), 3 reverted (to the last trusted radii)",
+    "fault_detected": "1 while the fault decision declares a fault, else 0 (NaN without an estimator)",
+    "fault_suspected": "1 while a fault is evident but its wheel is not identified, else 0",
+    "solver_ok": "1 a controller sample whose solve converged without fallback, 0 otherwise; NaN between samples",
+    "declared_wheel": "wheel the fault decision declares: " + ", ".join(
+        f"{code} {name or 'nothing declared'}" for name, code in WHEEL_CODES.items()),
+    "excitation": "yaw-rate dither added to the command (rad/s); NaN when off",
+    "cross_track_error": "signed distance to the reference path (m), positive = left of it",
+}
+"""Meaning of the trace's coded columns, also stored in the Parquet schema metadata of ``trace.parquet``."""
+
+
+def trace_schema_metadata() -> dict[str, str]:
+    """Parquet key-value metadata of ``trace.parquet``: units and the coded columns (JSON)."""
+    import json
+
+    return {"ftc_mj.units": "SI units and radians; one row per estimator step",
+            "ftc_mj.columns": json.dumps(CODED_COLUMNS)}

@@ -114,6 +114,16 @@ def robot_geometry(plant: object, cfg: RunConfig) -> RobotGeometry:
     )
 
 
+def step_bound(cfg: RunConfig, applied: np.ndarray | None) -> tuple[np.ndarray | None, float]:
+    """``(previous, max_step)`` for :func:`~ftc_mj.control.excitation.dither_wheel_rates`: the command in
+    force and the MPC's bound ``omega_rate_max / rate`` (rad/s) on the next step, or no bound (open loop,
+    ``controller.rate_bound_from_applied`` off, or no command yet)."""
+    c = cfg.controller
+    if applied is None or c.kind == "open-loop" or not c.rate_bound_from_applied:
+        return None, np.inf
+    return applied, c.omega_rate_max / c.rate
+
+
 def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
              strict: bool | None = None) -> SimResult:
     """Run one closed-loop simulation for ``cfg`` and return its buffered telemetry.
@@ -242,7 +252,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
                 if exc.enabled and suspected:
                     dither = yaw_dither(t, exc.amplitude, exc.period)
                     cmd.omega = dither_wheel_rates(cmd.omega, dither, model_radii, cfg.model_half_track,
-                                                   cfg.robot.omega_max)
+                                                   cfg.robot.omega_max, *step_bound(cfg, applied))
                     c["excitation"][k] = dither
                 plant.set_command(float(cmd.omega[0]), float(cmd.omega[1]))
                 applied = np.array(cmd.omega, dtype=float)

@@ -65,7 +65,11 @@ Tracking (m, the cross-track error is positive left of the path)
 Actuation
     ``omega_at_limit_fraction`` (fraction of steps with a wheel-rate command within
     :data:`LIMIT_TOL` of ``omega_max``) and ``omega_at_limit_s`` (s); ``command_total_variation_per_s``
-    (Σ |Δ command| of both wheels per second of run, rad/s²: the chatter metric).
+    (Σ |Δ command| of both wheels per second of run, rad/s²: the chatter metric);
+    ``command_step_max`` (rad/s, the largest change of either wheel's command between consecutive
+    controller samples; the MPCs bound it by ``omega_rate_max / rate`` when
+    ``controller.rate_bound_from_applied``) and ``command_at_rate_limit_s`` (s, controller periods that
+    began with a step within :data:`LIMIT_TOL` of that bound or beyond it).
 Solver
     ``solve_time_ms`` {``median``, ``p95``, ``max``} (wall clock, ms; NaN without solves);
     ``solves_over_period`` (solves longer than the control period); ``solver_iterations_median``;
@@ -79,7 +83,8 @@ Plant (the MuJoCo plant's flags of leaving the kinematic model's domain)
 Reconfiguration (trace ``reconfig_state``)
     ``reconfig_handovers``, ``reconfig_holds``, ``reconfig_reverts`` (entries into each state),
     ``reconfig_first_handover_time`` (s, None if none), ``reconfig_handover_delay`` (from the first
-    onset, s; None without a fault, a hand-over, or for a hand-over before the fault),
+    onset, s; None without a fault, a hand-over, or for a hand-over before the fault; for ``direct`` and
+    ``truth``, which hand radii over at every controller sample: to the first sample at or after it),
     ``reconfig_handed_fraction`` (fraction of steps handed over).
 Failures
     ``exceptions``: exceptions of a component that ended the run (0 or 1; the run's ``status`` is
@@ -355,6 +360,13 @@ def compute_metrics(
     dur = max(float(t[-1] - t[0]), 1e-9) if t.size > 1 else 1.0
     tv = np.nansum(np.abs(np.diff(cmdR))) + np.nansum(np.abs(np.diff(cmdL)))
     m["command_total_variation_per_s"] = float(tv / dur)
+    # command steps between controller samples (the trace holds each command): largest, and time (s) in
+    # controller periods that began with a step at (or, with the first input free, beyond) the MPC's
+    # rate bound omega_rate_max / rate
+    steps = np.fmax(np.abs(np.diff(cmdR)), np.abs(np.diff(cmdL)))
+    step_lim = cfg.controller.omega_rate_max / cfg.controller.rate
+    m["command_step_max"] = _nanstat(steps, np.max)
+    m["command_at_rate_limit_s"] = float(np.sum(steps >= step_lim * (1 - LIMIT_TOL)) / cfg.controller.rate)
     # ---------------------------------------------------------------- solver
     st = trace["solve_time_ms"]
     st = st[np.isfinite(st)]
@@ -390,6 +402,11 @@ def compute_metrics(
         m["reconfig_first_handover_time"] = t_hand
         m["reconfig_handover_delay"] = (None if t_hand is None or t_on_any is None or t_hand < t_on_any
                                         else t_hand - t_on_any)
+        if cfg.reconfiguration.policy in ("direct", "truth") and t_on_any is not None:
+            # radii are handed over at every controller sample: the first sample at or after the onset
+            sample = np.isfinite(trace["solve_time_ms"]) if "solve_time_ms" in trace else np.ones(st.size, bool)
+            t_next = _first((st == 2) & sample & (t >= t_on_any - 1e-9), t)
+            m["reconfig_handover_delay"] = None if t_next is None else max(t_next - t_on_any, 0.0)
         m["reconfig_handed_fraction"] = float(np.mean(st == 2))
     m["max_abs_roll_deg"] = float(np.degrees(_nanstat(np.abs(trace["roll"]), np.max)))
     m["max_abs_slip"] = _nanstat(np.abs(np.concatenate([trace["slip_R"], trace["slip_L"]])), np.max)

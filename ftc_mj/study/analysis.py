@@ -526,12 +526,16 @@ def analyse_study(plan: StudyPlan, results: pl.DataFrame, out: Path, *, figures:
     out = Path(out)
     df = prepare(results)
     spec = plan.spec
+    # runs whose physics blew up describe a frozen robot: counted apart, never averaged
+    unstable = df.filter(pl.col("status") == "unstable") if "status" in df.columns else df.clear()
+    df = df.filter(pl.col("status") != "unstable") if unstable.height else df
     metrics = [m for m in CORE_METRICS if m.column in df.columns and df[m.column].null_count() < df.height]
     n_ok = int((df["status"] == "ok").sum()) if "status" in df.columns else 0
     lines = [f"# Study `{spec.name}`", ""]
     if spec.description:
         lines += [spec.description.strip(), ""]
-    lines += [f"Runs: {df.height} of {len(plan.runs)} planned have results ({n_ok} ok, {df.height - n_ok} failed). "
+    lines += [f"Runs: {df.height + unstable.height} of {len(plan.runs)} planned have results ({n_ok} ok, "
+              f"{df.height - n_ok} failed, {unstable.height} with unstable physics, excluded from every statistic). "
               f"Axes: {', '.join(f'`{c}`' for c in plan.axis_columns) or 'none'}; seeds per combination: "
               f"{_n_seeds(plan)}.", ""]
     if plan.extra_overrides:
@@ -575,9 +579,10 @@ def analyse_study(plan: StudyPlan, results: pl.DataFrame, out: Path, *, figures:
         if figures:
             fig_confusion(mats, fig_dir / "confusion.png")
             lines += ["![confusion](figures/confusion.png)", ""]
-    if "status" in df.columns and df.height - n_ok:
+    if "status" in df.columns and df.height - n_ok + unstable.height:
         lines += ["## Failed runs", ""]
-        for r in df.filter(pl.col("status") != "ok").head(20).iter_rows(named=True):
+        bad = pl.concat([df.filter(pl.col("status") != "ok"), unstable], how="diagonal_relaxed")
+        for r in bad.head(20).iter_rows(named=True):
             labs = ", ".join(f"{c}={r.get(c)}" for c in plan.axis_columns)
             lines.append(f"- `{r['run_key']}` ({labs}, seed {r.get('seed')}): {r.get('error')}")
         lines.append("")

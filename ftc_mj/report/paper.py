@@ -24,6 +24,7 @@ from ..errors import BadInput
 from ..io import atomic_path, write_json
 from .claims import Claim, evaluate_claims
 from .matrix import full_matrix, make_label, select
+from .pathfollow_claims import evaluate_pathfollow_claims
 from .policy_claims import evaluate_policy_claims
 from .render import render_claims
 from .runner import RunTask, row_from_run_dir, run_tasks
@@ -161,7 +162,7 @@ def run_paper(out: Path, *, jobs: int = 2, duration: float | None = None, only: 
     t1 = time.perf_counter()
     write_summary_csv(out / "summary.csv", rows)
     by_label = {r["label"]: r for r in rows}
-    claims = evaluate_claims(by_label) + evaluate_policy_claims(by_label)
+    claims = evaluate_claims(by_label) + evaluate_policy_claims(by_label) + evaluate_pathfollow_claims(by_label)
     figs: list[Path] = []
     if figures:
         from .figures import make_figures

@@ -16,6 +16,7 @@ from .claims import (
     lbl,
     num,
 )
+from .pathfollow_claims import PATHFOLLOW_THRESHOLDS
 from .policy_claims import POLICY_THRESHOLDS
 
 ICON = {REPRODUCED: "✅ reproduced", PARTLY: "🟡 partly", NOT_REPRODUCED: "❌ not reproduced",
@@ -110,11 +111,12 @@ def render_claims(claims: Sequence[Claim], rows: Mapping[str, Mapping[str, Any]]
              "otherwise partly. Runs missing from the invocation make checks 'not evaluated'.\n",
              "## Verdicts\n", verdict_table(claims), "\n## Thresholds\n",
              md_table([{"name": k, "value": v, "meaning": d}
-                       for k, (v, d) in {**THRESHOLDS, **POLICY_THRESHOLDS}.items()]),
+                       for k, (v, d) in {**THRESHOLDS, **POLICY_THRESHOLDS, **PATHFOLLOW_THRESHOLDS}.items()]),
              "\nRun labels: `s<scenario>-<filter>[5]-<fb|nofb>-<controller>` (feedback off/on = reconfiguration "
              "policy none/direct); the IMM banks have 4 models unless the label says `5`. The reconfiguration-policy "
              "axis (claims R1–R3): `s<scenario>-ukf-<policy>-<speed|yaw>-nmpc-rp` (`-rp`: NMPC with the "
-             "actuation-rate term). Scenario 4's ramp starts at t = 10 s and reaches 0.1 m at 29 s.\n"]
+             "actuation-rate term); the path-following axis (claim P1) the same with `pf-nmpc`. Scenario 4's ramp "
+             "starts at t = 10 s and reaches 0.1 m at 29 s.\n"]
     for c in claims:
         parts.append(f"\n## {c.id}. {c.title} — {ICON[c.verdict]} ({c.n_passed}/{c.n_evaluated} checks)\n")
         parts.append(f"**Paper.** {c.paper}\n")

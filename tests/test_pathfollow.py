@@ -216,3 +216,18 @@ def test_mujoco_run_writes_the_telemetry_and_rerun_entities(tmp_path) -> None:
     t, s = read_scalar_series(out.run_dir / "run.rrd", "/path_following/progress")
     assert len(t) == int(rows.sum()) and np.all(np.diff(s) > 0)
     read_scalar_series(out.run_dir / "run.rrd", "/path_following/lateral_accel/bound")
+
+
+@pytest.mark.parametrize("solver", ["ipopt", "rti-daqp"])
+def test_first_command_stays_within_one_step_of_the_applied_command(solver: str) -> None:
+    """On the circle at 10 m/s with the wheels commanded to stop (u_applied = 0): the new command may move each
+    wheel by at most omega_rate_max T_s = 2 rad/s from it, and the speed by at most max_longitudinal_accel T_s
+    = 0.3 m/s (the plan would otherwise jump back to the ~5 rad/s the circle needs)."""
+    ctl = PathFollowingNMPC(_spec(), CIRCLE, solver=solver)
+    R = np.array([2.0, 2.0])
+    ctl.solve(0.0, np.zeros(3), R)  # seed (no applied command yet): plans the circle at 10 m/s
+    g = CIRCLE.at(0.1)
+    o = ctl.solve(0.1, np.array([g.x, g.y, g.psi]), R, np.zeros(2))
+    assert not o.fallback, o.status
+    assert np.all(np.abs(o.omega) <= 2.0 + 1e-6) and np.abs(o.omega).max() > 0.1
+    assert 0.5 * R @ o.omega <= 0.3 + 1e-6

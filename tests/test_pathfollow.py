@@ -219,15 +219,21 @@ def test_mujoco_run_writes_the_telemetry_and_rerun_entities(tmp_path) -> None:
 
 
 @pytest.mark.parametrize("solver", ["ipopt", "rti-daqp"])
-def test_first_command_stays_within_one_step_of_the_applied_command(solver: str) -> None:
-    """On the circle at 10 m/s with the wheels commanded to stop (u_applied = 0): the new command may move each
-    wheel by at most omega_rate_max T_s = 2 rad/s from it, and the speed by at most max_longitudinal_accel T_s
-    = 0.3 m/s (the plan would otherwise jump back to the ~5 rad/s the circle needs)."""
-    ctl = PathFollowingNMPC(_spec(), CIRCLE, solver=solver)
+@pytest.mark.parametrize("row", ["wheel rate", "speed"])
+def test_first_command_stays_within_one_step_of_the_applied_command(solver: str, row: str) -> None:
+    """On the circle at 10 m/s with the wheels commanded to stop (u_applied = 0), the plan would jump back to the
+    ~5 rad/s the circle needs. ``wheel rate``: without the longitudinal bound and the braking trade-off the new
+    command may move each wheel by at most omega_rate_max T_s = 2 rad/s; ``speed``: with them, the speed by at
+    most max_longitudinal_accel T_s = 0.3 m/s."""
+    spec = (PathFollowingSpec(ProblemSpec(rate_penalty=1.0, max_lateral_accel=3.0)) if row == "wheel rate"
+            else _spec())
+    ctl = PathFollowingNMPC(spec, CIRCLE, solver=solver)
     R = np.array([2.0, 2.0])
     ctl.solve(0.0, np.zeros(3), R)  # seed (no applied command yet): plans the circle at 10 m/s
     g = CIRCLE.at(0.1)
     o = ctl.solve(0.1, np.array([g.x, g.y, g.psi]), R, np.zeros(2))
     assert not o.fallback, o.status
-    assert np.all(np.abs(o.omega) <= 2.0 + 1e-6) and np.abs(o.omega).max() > 0.1
-    assert 0.5 * R @ o.omega <= 0.3 + 1e-6
+    if row == "wheel rate":
+        assert np.abs(o.omega).max() == pytest.approx(2.0, abs=1e-6)  # as far as the row allows
+    else:
+        assert 0.5 * R @ o.omega == pytest.approx(0.3, abs=1e-6)

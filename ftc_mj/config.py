@@ -380,8 +380,10 @@ class ControllerConfig(_Strict):
     fault (measured in docs/findings.md), so it is off unless asked for."""
     max_lateral_accel: PosFloat | None = None
     """Bound (m/s²) on the lateral acceleration ``V ψ̇`` the NMPC may plan at every node; ``None`` =
-    the paper's problem (no bound). The MuJoCo robot (2 m wheels, 1 m half track, centre of mass about
-    2.5 m high) starts lifting its inner wheel at about 3.5 m/s²; the 50 m circle at 10 m/s needs 2."""
+    the paper's problem (no bound). The MuJoCo robot (2 m wheels, 1 m half track, centre of mass 1.09 m
+    high) starts lifting its inner wheel at 3.9 m/s² in a quasi-steady turn (derived from the MJCF,
+    :mod:`ftc_mj.plant.limits`; measured 4.1–4.2 m/s²), less in transients; the 50 m circle at 10 m/s needs 2.
+    The model's ``V ψ̇`` of the commanded rates is 1.375 times the robot's at 10 m/s (servo compliance)."""
     max_longitudinal_accel: PosFloat | None = None
     """Bound (m/s²) on the longitudinal acceleration ``dV/dt`` the NMPC/LMPC may plan at every node (linear
     in the wheel accelerations for given radii); ``None`` = no bound. With ``max_lateral_accel`` it bounds
@@ -420,8 +422,8 @@ class ExcitationConfig(_Strict):
     With speed-only sensing the split between the radii is seen only through turning
     (``ω_R − ω_L``). The dither adds ``δψ̇ = amplitude · sin(2π t / period)`` to the commanded yaw
     rate at constant model speed (:mod:`~ftc_mj.control.excitation`); at 10 m/s every 0.1 rad/s of
-    amplitude is 1 m/s² of extra lateral acceleration (the robot starts lifting a wheel at about
-    3.5 m/s², the circle itself needs 2)."""
+    amplitude is 1 m/s² of extra lateral acceleration (the robot starts lifting a wheel at 3.9 m/s² in a
+    quasi-steady turn, :mod:`ftc_mj.plant.limits`; the circle itself needs 2)."""
 
     enabled: Flag = False
     amplitude: ranged(0.0, 1.0, lo_open=True, unit="rad/s") = 0.05

@@ -46,9 +46,8 @@ def cell(df: pl.DataFrame, name: str) -> str:
     if a.size == 0 or not np.isfinite(a).any():
         return "—"
     e = mean_ci(a)
-    worst = np.nanmax(a)
     half = f" ± {e.half:.2g}" if np.isfinite(e.half) else ""
-    return f"{e.mean:.3g}{half} ({worst:.3g})"
+    return f"{e.mean:.3g}{half} ({worst(a):.3g})"
 
 
 def tipped(df: pl.DataFrame) -> str:
@@ -78,6 +77,10 @@ def count(mask: np.ndarray) -> str:
     return f"{int(np.sum(mask))}/{mask.size}"
 
 
+def worst(a: np.ndarray) -> float:
+    return float(np.nanmax(a)) if np.isfinite(a).any() else float("nan")
+
+
 def acceptance(df: pl.DataFrame, ctl: str) -> list[str]:
     """The acceptance checks for one controller (speed + yaw rate, safe policy; speed only for item 4)."""
     out = []
@@ -86,20 +89,20 @@ def acceptance(df: pl.DataFrame, ctl: str) -> list[str]:
         e, lift = col(d, "contouring_max_recovered"), col(d, "liftoff_time_post_transient_s")
         tip = np.array(d["tipped"].to_list(), dtype=bool)
         out.append(f"scenario {sc[1]}: max |e_c| from 5 s after the last onset ≤ 0.5 m in {count(e <= 0.5)} seeds "
-                   f"(worst {np.nanmax(e):.2f} m); lift-off outside the 1 s transients ≤ 0.2 s in "
-                   f"{count(lift <= 0.2)} (worst {np.nanmax(lift):.2f} s); tipped in {count(tip)}")
+                   f"(worst {worst(e):.2f} m); lift-off outside the 1 s transients ≤ 0.2 s in "
+                   f"{count(lift <= 0.2)} (worst {worst(lift):.2f} s); tipped in {count(tip)}")
     d = sel(df, fault="s4", sensors="speed+yaw", policy="safe", controller=ctl)
     e, ratio = col(d, "cross_track_max"), col(d, "speed_ratio_final")
     tip = np.array(d["tipped"].to_list(), dtype=bool)
     out.append(f"scenario 4: within 1 m of the path for the whole run in {count(e <= 1.0)} seeds (worst "
-               f"{np.nanmax(e):.2f} m); speed over the last 5 s within 15 % of the feasible speed in "
-               f"{count(np.abs(ratio - 1) <= 0.15)} (ratio {np.nanmin(ratio):.3f}–{np.nanmax(ratio):.3f}); tipped in "
+               f"{worst(e):.2f} m); speed over the last 5 s within 15 % of the feasible speed in "
+               f"{count(np.abs(ratio - 1) <= 0.15)} (ratio {-worst(-ratio):.3f}–{worst(ratio):.3f}); tipped in "
                f"{count(tip)}")
     d = sel(df, fault="s1", sensors="speed+yaw", policy="safe", controller=ctl)
     e, v = col(d, "cross_track_max_settled"), col(d, "speed_mean_after_fault")
     out.append(f"scenario 1: mean speed within 1 % of 10 m/s in {count(np.abs(v / 10 - 1) <= 0.01)} seeds "
-               f"({np.nanmin(v):.3f}–{np.nanmax(v):.3f} m/s); max |e_c| after 5 s ≤ 0.1 m in {count(e <= 0.1)} "
-               f"(worst {np.nanmax(e):.3f} m)")
+               f"({-worst(-v):.3f}–{worst(v):.3f} m/s); max |e_c| after 5 s ≤ 0.1 m in {count(e <= 0.1)} "
+               f"(worst {worst(e):.3f} m)")
     worse, pairs = [], 0
     for sc in ("s2", "s3", "s4"):
         a = sel(df, fault=sc, sensors="speed", policy="none", controller=ctl)

@@ -2,7 +2,8 @@
 
 Loop: 30 s at 10 Hz, RK4 plant (10 ms substeps) under ZOH, start (0, −5, 0) i.e. 5 m off the
 default circle (R = 50 m, 10 m/s), R_L steps 2 → 1 m at t = 10 s and the MPC is given the true
-radii. Columns: build time, first (cold) solve, warm solve median/p95/max (all samples after the
+radii (the path-following NMPC, ``pf-nmpc``, on the same loop with its default settings and the
+actuation-rate term 1). Columns: build time, first (cold) solve, warm solve median/p95/max (all samples after the
 first), iterations, fallbacks, largest change of the command between samples, time to
 |cross-track| < 0.1 m, tracking RMS/max for t > 5 s. Every MPC runs twice, with the first-step bound
 ``|U(t0) − u_applied| ≤ omega_rate_max T_s`` (``bound``, the default) and with the first input free
@@ -258,6 +259,25 @@ def rate_bound_table(repeats: int) -> None:
               f"{np.median(a[:, 5]):.1f} |")
 
 
+def pathfollow_rows(cfg: RunConfig, ref, duration: float) -> list[str]:
+    """The path-following NMPC (its first-step bound is part of its problem) on the same loop, RTI and IPOPT,
+    with the robot's limits the sim layer derives from the MJCF (kinematic plant: no yaw compliance)."""
+    from ftc_mj.control import build_controller
+    from ftc_mj.sim.cache import robot_limits
+
+    pf = cfg.model_copy(deep=True)
+    pf.controller.kind, pf.controller.rate_penalty, pf.plant.kind = "pf-nmpc", 1.0, "kinematic"
+    out = []
+    for solver in ("rti-daqp", "ipopt"):
+        pf.controller.solver = solver
+        t0 = time.perf_counter()
+        ctl = build_controller(pf, ref, robot_limits(pf))
+        build = time.perf_counter() - t0
+        res = simulate(ctl, ref, duration, (0.0, -5.0, 0.0), true_radii=left_step)
+        out.append(row(f"PF-NMPC {solver} (bound; rate penalty 1)", build, res, ctl))
+    return out
+
+
 def controller_table(duration: float, skip_opti: bool) -> None:
     """The kinematic tracking loop for every MPC, with the first-step bound and with the first input free
     (alternated), and the plain Opti build (printed)."""
@@ -278,6 +298,7 @@ def controller_table(duration: float, skip_opti: bool) -> None:
             res = simulate(ctl, ref, duration, (0.0, -5.0, 0.0), true_radii=left_step)
             rows.append(row(f"{name} ({'bound' if bound else 'free'})", build, res, ctl))
     cfg.controller.rate_bound_from_applied = True
+    rows += pathfollow_rows(cfg, ref, duration)
     spec = problem_spec(cfg)
     if not skip_opti:
         t0 = time.perf_counter()

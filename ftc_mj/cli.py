@@ -466,7 +466,7 @@ def paper(
     report_only: Annotated[bool, typer.Option("--report-only", help="Run nothing: rebuild the report from the "
                                               "finished runs (over seeds: of the same selection).")] = False,
 ) -> None:
-    """Run the paper's test matrix (38 runs + 20 extras) over seeds and judge every claim's checks with
+    """Run the paper's test matrix (38 runs + 31 extras) over seeds and judge every claim's checks with
     Wilson intervals (or, with --quick, take a single-seed look); write summary.csv, claims.md,
     claims.json and figures/."""
     from .report.matrix import full_matrix, select

@@ -399,12 +399,54 @@ class EstimatorConfig(_Strict):
         return len(self.imm_bank) if self.imm_bank is not None else self.imm_models
 
 
+class PathFollowingConfig(_Strict):
+    """Settings of the path-following NMPC (``controller.kind = "pf-nmpc"``,
+    :mod:`ftc_mj.control.pathfollow`). It shares ``nodes``, ``horizon``, ``rate_penalty``,
+    ``omega_rate_max``, ``solver``, ``max_iter`` and the budgets with the NMPC; its desired speed is
+    ``reference.speed``. Cost weights are per second of horizon (Gauss–Lobatto quadrature)."""
+
+    q_contour: NonNegFloat = 30.0
+    """Weight (1/(m² s)) on the squared contouring error (distance from the path, normal to it)."""
+    q_lag: NonNegFloat = 10.0
+    """Weight (1/(m² s)) on the squared lag error (position along the tangent relative to the progress point)."""
+    q_heading: NonNegFloat = 10.0
+    """Weight (1/(rad² s)) on the squared heading error to the path tangent."""
+    q_progress: NonNegFloat = 1.0
+    """Weight (s/m²) on the squared deviation of the progress speed from ``reference.speed``."""
+    progress_rate_penalty: NonNegFloat = 0.1
+    """Weight (s³/m²) on the squared rate of the progress speed."""
+    max_progress_speed: PosFloat | None = None
+    """Upper bound (m/s) of the progress speed; ``None`` = twice ``reference.speed``."""
+    lateral_accel_margin: ranged(0.0, 1.0, lo_open=True) = 0.9
+    """The bound on the robot's lateral acceleration as a fraction of its lift-off limit, which the sim layer
+    derives from the MJCF (:func:`ftc_mj.plant.limits.lateral_accel_limits`: 3.92 m/s² for
+    the built-in ``diffdrive.xml``, where the inner tyre reaches its friction circle; measured onset of lift-off
+    4.1–4.2 m/s², docs/findings.md)."""
+    max_lateral_accel: ranged(0.0, 20.0, lo_open=True, unit="m/s²") | None = None
+    """Explicit bound (m/s²) on the robot's lateral acceleration; ``None`` = ``lateral_accel_margin`` × the
+    derived lift-off limit."""
+    compensate_yaw_compliance: Flag = True
+    """Bound the robot's lateral acceleration, not the kinematic model's: on the MuJoCo plant the velocity servos
+    yield under the tyres' yaw couple, so the model's ``V psidot`` (from the commanded rates) is ``1 + c V``
+    times the robot's, with ``c`` derived from the MJCF (0.0375 s/m: 1.375 at 10 m/s). ``False`` (and the
+    kinematic plant) bounds the model's ``V psidot``."""
+    braking_trade: Flag = True
+    """Bound ``|a_lat| + β |dV/dt|`` instead of ``|a_lat|``: braking loads the inner tyre too, so its lift-off limit
+    falls by β (0.75 for the built-in ``diffdrive.xml``, derived from the MJCF) per m/s² of braking."""
+    max_longitudinal_accel: ranged(0.0, 20.0, lo_open=True, unit="m/s²") | None = 3.0
+    """Bound (m/s²) on ``dV/dt`` at every node and on the change of the speed from the applied command's within
+    one control period; ``None`` = no bound. The motors' torque limit allows about 4 m/s² (built-in model)."""
+    slack_penalty: PosFloat = 1.0e4
+    """Exact-penalty weight on the slack of the lateral bound (per m/s²); it must exceed the bound's multiplier
+    for the slack to stay 0 whenever the bound can be met."""
+
+
 class ControllerConfig(_Strict):
     """Trajectory-tracking controller (paper §3)."""
 
     kind: component("controllers") = "nmpc"
     """A registered controller (:data:`ftc_mj.registry.controllers`). Built-in: ``nmpc``, ``lmpc``,
-    ``open-loop``."""
+    ``open-loop``, ``pf-nmpc`` (path following on the geometric path, settings in ``path_following``)."""
     rate: ranged(0.0, 1.0e3, lo_open=True, unit="Hz") = 10.0
     """Control rate (Hz); commands are held (zero-order hold) between solves."""
     nodes: ranged_int(4, 200) = 50
@@ -435,8 +477,10 @@ class ControllerConfig(_Strict):
     fault (measured in docs/findings.md), so it is off unless asked for."""
     max_lateral_accel: PosFloat | None = None
     """Bound (m/s²) on the lateral acceleration ``V ψ̇`` the NMPC may plan at every node; ``None`` =
-    the paper's problem (no bound). The MuJoCo robot (2 m wheels, 1 m half track, centre of mass about
-    2.5 m high) starts lifting its inner wheel at about 3.5 m/s²; the 50 m circle at 10 m/s needs 2."""
+    the paper's problem (no bound). The MuJoCo robot (2 m wheels, 1 m half track, centre of mass 1.09 m
+    high) starts lifting its inner wheel at 3.9 m/s² in a quasi-steady turn (derived from the MJCF,
+    :mod:`ftc_mj.plant.limits`; measured 4.1–4.2 m/s²), less in transients; the 50 m circle at 10 m/s needs 2.
+    The model's ``V ψ̇`` of the commanded rates is 1.375 times the robot's at 10 m/s (servo compliance)."""
     max_longitudinal_accel: PosFloat | None = None
     """Bound (m/s²) on the longitudinal acceleration ``dV/dt`` the NMPC/LMPC may plan at every node (linear
     in the wheel accelerations for given radii); ``None`` = no bound. With ``max_lateral_accel`` it bounds
@@ -470,6 +514,7 @@ class ControllerConfig(_Strict):
     """Settings of a plug-in controller (its registered settings model); built-in controllers take none."""
 
     _options = options_of("controllers", "kind")
+    path_following: PathFollowingConfig = Field(default_factory=PathFollowingConfig)
 
 
 class ExcitationConfig(_Strict):
@@ -478,8 +523,8 @@ class ExcitationConfig(_Strict):
     With speed-only sensing the split between the radii is seen only through turning
     (``ω_R − ω_L``). The dither adds ``δψ̇ = amplitude · sin(2π t / period)`` to the commanded yaw
     rate at constant model speed (:mod:`~ftc_mj.control.excitation`); at 10 m/s every 0.1 rad/s of
-    amplitude is 1 m/s² of extra lateral acceleration (the robot starts lifting a wheel at about
-    3.5 m/s², the circle itself needs 2)."""
+    amplitude is 1 m/s² of extra lateral acceleration (the robot starts lifting a wheel at 3.9 m/s² in a
+    quasi-steady turn, :mod:`ftc_mj.plant.limits`; the circle itself needs 2)."""
 
     enabled: Flag = False
     amplitude: ranged(0.0, 1.0, lo_open=True, unit="rad/s") = 0.05

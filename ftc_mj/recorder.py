@@ -54,6 +54,9 @@ Time series (``Scalars``; one sample per trace row unless stated):
 - ``/fault/detected`` (if ``fault_detected`` is present; 0/1).
 - ``/reconfiguration/state`` (if ``reconfig_state`` is present; 0 nominal, 1 hold, 2 handed over,
   3 reverted). Every hand-over, hold and revert is also an ``/events`` line.
+- ``/path_following/{progress,contouring_error,lag_error}``, ``/path_following/speed/{desired,planned,
+  progress}``, ``/path_following/lateral_accel/{planned,bound}``, ``/path_following/slack``: the
+  path-following NMPC's telemetry (trace columns ``pf_*``, if present), only at solve times.
 - ``/solver/{solve_time_ms,iterations,status}``: **only at solve times** (not forward-filled).
   Taken from ``solves`` if given, else from the trace rows where ``solve_time_ms`` is finite.
   ``status`` is 1 for a solve that converged, 0 for a failed one, and 0.5 for a fallback.
@@ -134,6 +137,18 @@ _BOUND = [150, 150, 150]
 _MEAS = [120, 200, 120]
 _CMD = [240, 110, 40]
 _LIMIT = [220, 40, 40]
+PF_SERIES: tuple[tuple[str, str, list[int], str], ...] = (
+    ("pf_progress", "/path_following/progress", [40, 140, 240], "progress s"),
+    ("pf_contouring_error", "/path_following/contouring_error", [40, 140, 240], "contouring error"),
+    ("pf_lag_error", "/path_following/lag_error", [240, 110, 40], "lag error"),
+    ("pf_speed_desired", "/path_following/speed/desired", [230, 200, 40], "desired speed"),
+    ("pf_speed_planned", "/path_following/speed/planned", [40, 140, 240], "planned speed"),
+    ("pf_progress_speed", "/path_following/speed/progress", [120, 200, 120], "progress speed"),
+    ("pf_lateral_accel", "/path_following/lateral_accel/planned", [40, 140, 240], "planned lateral acceleration"),
+    ("pf_lateral_bound", "/path_following/lateral_accel/bound", [220, 40, 40], "bound"),
+    ("pf_slack", "/path_following/slack", [150, 150, 150], "slack of the bound"),
+)
+"""(trace column, entity, colour, name) of the path-following NMPC's series (logged at solve rows only)."""
 _MODE_COLORS = [[31, 119, 180], [255, 127, 14], [44, 160, 44], [214, 39, 40], [148, 103, 189],
                 [140, 86, 75], [227, 119, 194], [127, 127, 127]]
 
@@ -340,6 +355,14 @@ def _blueprint(trace: Mapping[str, np.ndarray], n_modes: int, has_solves: bool,
         speed.append(ts("/reconfiguration", "Reconfiguration (0 nominal, 1 hold, 2 handed over, 3 reverted)",
                         axis_y=rrb.ScalarAxis(range=(-0.1, 3.1))))
     series.append(rrb.Tabs(*speed, active_tab=0) if len(speed) > 1 else speed[0])
+    if PF_SERIES[0][0] in trace:
+        series.append(rrb.Tabs(
+            ts("/path_following/speed", "Path following: desired, planned and progress speed (m/s)"),
+            ts("/path_following", "Path following: contouring and lag error (m)",
+               contents=["/path_following/contouring_error", "/path_following/lag_error"]),
+            ts("/path_following/lateral_accel", "Path following: planned lateral acceleration and bound (m/s²)"),
+            ts("/path_following/progress", "Path following: progress s (m)"),
+            active_tab=0))
     if has_solves:
         series.append(rrb.Tabs(
             ts("/solver/solve_time_ms", "NMPC solve time (ms)"),
@@ -564,6 +587,11 @@ def _log_all(rec: rr.RecordingStream, trace: Mapping[str, np.ndarray], n: int, s
         scalars("/fault/detected", col("fault_detected"), _LIMIT, "fault detected", 1.5)
     if "reconfig_state" in trace:
         scalars("/reconfiguration/state", col("reconfig_state"), _EST, "reconfiguration state", 1.5)
+    for name, entity, color, label in PF_SERIES:
+        if name in trace:
+            rows = np.flatnonzero(np.isfinite(col(name)))
+            style(entity, color, label)
+            rec.send_columns(entity, indexes=idx_rows(rows), columns=rr.Scalars.columns(scalars=col(name)[rows]))
 
     # ---- events -----------------------------------------------------------------------------------
     if events:

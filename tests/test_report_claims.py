@@ -10,7 +10,7 @@ import pytest
 
 from ftc_mj.report import claims as cl
 from ftc_mj.report.derived import command_switching, innovation_peak_z, mode_delays, settle_delay
-from ftc_mj.report.matrix import full_matrix, paper_matrix, select
+from ftc_mj.report.matrix import full_matrix, paper_matrix, pathfollow_runs, select
 from ftc_mj.report.render import render_claims
 from ftc_mj.report.summary import read_summary_csv, write_summary_csv
 
@@ -49,7 +49,8 @@ def test_extras_are_the_literal_imm_variant() -> None:
     assert all(e.imm_variant == "paper" and e.overrides["estimator.imm_variant"] == "paper" for e in literal)
     assert len(full_matrix(extras=False)) == 38
     # the reconfiguration-policy axis: scenarios 2-4 x {none, direct, safe} x {speed, speed+yaw}, UKF, NMPC
-    policy = [e for e in extras if not e.estimator.startswith("imm")]
+    pf = {e.label for e in pathfollow_runs()}
+    policy = [e for e in extras if not e.estimator.startswith("imm") and e.label not in pf]
     assert len(policy) == 18 and len({e.label for e in policy}) == 18
     assert {(e.scenario, e.policy, e.sensing) for e in policy} == {
         (f"scenario{n}", p, s) for n in (2, 3, 4) for p in ("none", "direct", "safe") for s in ("speed", "speed+yaw")}
@@ -59,8 +60,11 @@ def test_extras_are_the_literal_imm_variant() -> None:
 def test_select_by_glob() -> None:
     m = full_matrix()
     assert [e.label for e in select(m, ["s4-imm-ukf5-*"])] == ["s4-imm-ukf5-nofb-nmpc", "s4-imm-ukf5-fb-nmpc"]
-    assert len(select(m, ["s1-*", "s2-*"])) == 8 + 9 + 2 + 6
-    assert [e.label for e in select(m, ["s2-ukf-safe-*"])] == ["s2-ukf-safe-speed-nmpc-rp", "s2-ukf-safe-yaw-nmpc-rp"]
+    assert len(select(m, ["s1-*", "s2-*"])) == 8 + 9 + 2 + 6 + 2 + 3  # + the path-following axis' s1 and s2 runs
+    assert [e.label for e in select(m, ["s2-ukf-safe-speed-nmpc-rp", "s2-ukf-safe-yaw-nmpc-rp"])] == [
+        "s2-ukf-safe-speed-nmpc-rp", "s2-ukf-safe-yaw-nmpc-rp"]
+    assert [e.label for e in select(m, ["s2-ukf-safe-*-pf-nmpc-rp"])] == ["s2-ukf-safe-yaw-pf-nmpc-rp",
+                                                                          "s2-ukf-safe-speed-pf-nmpc-rp"]
     assert select(m, None) == m
     assert select(m, ["nothing"]) == []
 

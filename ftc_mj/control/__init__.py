@@ -1,5 +1,5 @@
 """Trajectory-tracking controllers (paper §3): LGL pseudospectral NMPC, linear MPC,
-open loop; the reference paths; LGL helpers."""
+open loop, the path-following NMPC; the reference paths; LGL helpers."""
 
 from .base import Controller, ControlOutput
 from .collocation import ProblemSpec
@@ -16,6 +16,7 @@ from .lgl import (
 from .lmpc import LinearMPC
 from .nmpc import NMPC, OptiNMPC
 from .open_loop import OpenLoopController
+from .pathfollow import PathFollowingNMPC, PathFollowingSpec
 from .reference import CircleReference, FigureEightReference, LineReference, RefSample, build_reference
 
 __all__ = [
@@ -28,6 +29,8 @@ __all__ = [
     "LinearMPC",
     "OpenLoopController",
     "OptiNMPC",
+    "PathFollowingNMPC",
+    "PathFollowingSpec",
     "ProblemSpec",
     "RefSample",
     "barycentric_interpolate",

@@ -67,6 +67,13 @@ def _raised_in(exc: BaseException, directory: str) -> bool:
     return bool(frames) and os.path.abspath(frames[-1].filename).startswith(directory + os.sep)
 
 
+def solver_error(exc: BaseException) -> bool:
+    """``exc`` is a solver error a controller falls back on: a linear-algebra failure, or a ``RuntimeError``
+    raised by CasADi (its plugins and IPOPT report through it). Anything else is a bug that fails the run."""
+    return isinstance(exc, np.linalg.LinAlgError) or (isinstance(exc, RuntimeError)
+                                                       and _raised_in(exc, _CASADI_DIR))
+
+
 class PlanController:
     """Shared plan bookkeeping, warm-start shift and fallback of the MPCs."""
 

@@ -1,9 +1,19 @@
-"""Reference paths with a constant-speed time law: circle, straight line, figure-eight.
+"""Reference paths parametrised by arc length, and their constant-speed time law.
 
-Every reference starts *at* the initial pose ``(x0, y0, psi0)`` (m, m, rad) and is traversed at the
-constant speed ``V`` (m/s). ``at(t)`` is vectorised over ``t`` (s) and returns ``x, y`` (m), a
-continuous (unwrapped) heading ``psi`` (rad), the speed ``V`` (m/s) and the yaw rate ``psidot``
-(rad/s).
+Every path — circle, straight line, figure-eight — is a function of the arc length ``s`` (m)
+measured from the initial pose ``(x0, y0, psi0)`` (m, m, rad)::
+
+    geometry(s) -> PathSample(x, y, heading, curvature)
+
+with ``d(x, y)/ds = (cos heading, sin heading)`` and ``d heading/ds = curvature`` (1/m, positive
+turning left); the heading is continuous (unwrapped). ``geometry`` is written against a math
+namespace ``lib`` (``numpy`` or ``casadi``, as :func:`~ftc_mj.model.kinematics.pose_rates`), so the
+same lines give the vectorised numeric path and the symbolic one an NLP optimises over; a new path
+needs nothing else.
+
+The time law of the time-parametrised controllers is derived from the geometry: ``at(t)`` is the
+path at ``s = V t`` traversed at the constant speed ``V`` (m/s), with yaw rate ``V curvature``
+(rad/s). It is vectorised over ``t`` (s).
 
 Cross-track sign convention: ``cross_track(x, y)`` is the signed distance (m) from the path,
 **positive to the left** of the direction of travel (for a counter-clockwise circle: inside).
@@ -12,8 +22,11 @@ Cross-track sign convention: ``cross_track(x, y)`` is the signed distance (m) fr
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, Protocol
+from collections.abc import Callable
+from types import ModuleType
+from typing import Any, NamedTuple, Protocol
 
+import casadi as ca
 import numpy as np
 
 from ..config import RunConfig
@@ -30,10 +43,25 @@ class RefSample(NamedTuple):
     psidot: np.ndarray
 
 
-class Reference(Protocol):
-    """What the controllers need from a reference."""
+class PathSample(NamedTuple):
+    """A path at one or many arc lengths: position (m), heading (rad, unwrapped), curvature (1/m)."""
+
+    x: Any
+    y: Any
+    heading: Any
+    curvature: Any
+
+
+class Path(Protocol):
+    """What a path-following controller needs from a path."""
 
     speed: float
+
+    def geometry(self, s: Any, lib: ModuleType = np) -> PathSample: ...
+
+
+class Reference(Path, Protocol):
+    """What the controllers need from a reference: the path and its time law."""
 
     def at(self, t: np.ndarray | float) -> RefSample: ...
 
@@ -42,7 +70,31 @@ class Reference(Protocol):
     def path_points(self, n: int = 200) -> np.ndarray: ...
 
 
-class CircleReference:
+def _select(lib: ModuleType, cond: Any, a: Any, b: Any) -> Any:
+    """``a`` where ``cond`` else ``b``, in numpy or casadi."""
+    return np.where(cond, a, b) if lib is np else ca.if_else(cond, a, b)
+
+
+def _full(lib: ModuleType, like: Any, value: float) -> Any:
+    """``value`` shaped like ``like`` (a constant path quantity as a function of ``s``)."""
+    return np.full(np.shape(like), value) if lib is np else 0.0 * like + value
+
+
+class _TimeLaw:
+    """``at(t)``: the path at ``s = speed t`` traversed at constant speed (for a class with ``geometry``
+    and ``speed``)."""
+
+    speed: float
+    geometry: Callable[..., PathSample]
+
+    def at(self, t: np.ndarray | float) -> RefSample:
+        """Position (m), heading (rad), speed (m/s) and yaw rate (rad/s) of the time law at ``t`` (s)."""
+        t = np.asarray(t, dtype=float)
+        g = self.geometry(self.speed * t)
+        return RefSample(g.x, g.y, g.heading, np.full_like(t, self.speed), self.speed * g.curvature)
+
+
+class CircleReference(_TimeLaw):
     """A circle of radius ``radius`` (m) through the initial pose, tangent to its heading.
 
     ``direction="ccw"`` puts the centre ``radius`` to the left of the initial pose (robot at the
@@ -69,17 +121,21 @@ class CircleReference:
         self.omega = s * self.speed / self.radius  # yaw rate (rad/s), signed
 
     @property
+    def length(self) -> float:
+        """Arc length of one lap (m)."""
+        return 2 * math.pi * self.radius
+
+    @property
     def period(self) -> float:
         """Lap time (s)."""
-        return 2 * math.pi * self.radius / self.speed
+        return self.length / self.speed
 
-    def at(self, t: np.ndarray | float) -> RefSample:
-        t = np.asarray(t, dtype=float)
-        th = self.theta0 + self.omega * t
-        x = self.center[0] + self.radius * np.cos(th)
-        y = self.center[1] + self.radius * np.sin(th)
-        psi = self.psi0 + self.omega * t
-        return RefSample(x, y, psi, np.full_like(t, self.speed), np.full_like(t, self.omega))
+    def geometry(self, s: Any, lib: ModuleType = np) -> PathSample:
+        """Point, heading and curvature ``sign/radius`` at arc length ``s`` (m)."""
+        k = self.sign / self.radius
+        th = self.theta0 + k * s
+        return PathSample(self.center[0] + self.radius * lib.cos(th), self.center[1] + self.radius * lib.sin(th),
+                          self.psi0 + k * s, _full(lib, s, k))
 
     def cross_track(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
         d = np.hypot(np.asarray(x, float) - self.center[0], np.asarray(y, float) - self.center[1])
@@ -87,10 +143,10 @@ class CircleReference:
 
     def path_points(self, n: int = 200) -> np.ndarray:
         """(n, 2) points of one lap (m), for drawing."""
-        return np.stack(self.at(np.linspace(0, self.period, n))[:2], axis=1)
+        return np.stack(self.geometry(np.linspace(0, self.length, n))[:2], axis=1)
 
 
-class LineReference:
+class LineReference(_TimeLaw):
     """A straight line from the initial pose along its heading."""
 
     def __init__(self, speed: float = 10.0, initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
@@ -99,16 +155,10 @@ class LineReference:
         self.speed = float(speed)
         self.x0, self.y0, self.psi0 = (float(v) for v in initial_pose)
 
-    def at(self, t: np.ndarray | float) -> RefSample:
-        t = np.asarray(t, dtype=float)
-        c, s = math.cos(self.psi0), math.sin(self.psi0)
-        return RefSample(
-            self.x0 + c * self.speed * t,
-            self.y0 + s * self.speed * t,
-            np.full_like(t, self.psi0),
-            np.full_like(t, self.speed),
-            np.zeros_like(t),
-        )
+    def geometry(self, s: Any, lib: ModuleType = np) -> PathSample:
+        """Point at arc length ``s`` (m); constant heading, zero curvature."""
+        return PathSample(self.x0 + math.cos(self.psi0) * s, self.y0 + math.sin(self.psi0) * s,
+                          _full(lib, s, self.psi0), _full(lib, s, 0.0))
 
     def cross_track(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
         dx = np.asarray(x, float) - self.x0
@@ -117,15 +167,15 @@ class LineReference:
 
     def path_points(self, n: int = 200, length: float = 400.0) -> np.ndarray:
         """(n, 2) points (m) of the first ``length`` metres."""
-        return np.stack(self.at(np.linspace(0, length / self.speed, n))[:2], axis=1)
+        return np.stack(self.geometry(np.linspace(0, length, n))[:2], axis=1)
 
 
-class FigureEightReference:
+class FigureEightReference(_TimeLaw):
     """Two tangent circles of radius ``radius`` (m) meeting at the initial pose.
 
     First lap of the lobe on the ``direction`` side (ccw: left), then the opposite lobe in the
-    opposite sense; heading is continuous (it turns +2π then −2π per period), the yaw rate switches
-    sign at the crossing point.
+    opposite sense; heading is continuous (it turns +2π then −2π per figure-eight), the curvature
+    switches sign at the crossing point.
     """
 
     def __init__(
@@ -141,23 +191,29 @@ class FigureEightReference:
             CircleReference(radius, speed, other, initial_pose),
         )
         self.speed = float(speed)
+        self.lap_length = self.lobes[0].length
         self.lap = self.lobes[0].period
+
+    @property
+    def length(self) -> float:
+        """Arc length (m) of the full figure-eight."""
+        return 2 * self.lap_length
 
     @property
     def period(self) -> float:
         """Time (s) for the full figure-eight."""
         return 2 * self.lap
 
-    def at(self, t: np.ndarray | float) -> RefSample:
-        t = np.asarray(t, dtype=float)
-        tm = np.mod(t, self.period)
-        first = tm < self.lap
-        a = self.lobes[0].at(tm)
-        b = self.lobes[1].at(tm - self.lap)
-        # psi: lobe 1 ends at psi0 ± 2π, lobe 2 starts from there and returns to psi0
-        psi_b = b.psi + self.lobes[0].omega * self.lap
-        out = [np.where(first, u, v) for u, v in zip(a, (b.x, b.y, psi_b, b.V, b.psidot), strict=True)]
-        return RefSample(*out)
+    def geometry(self, s: Any, lib: ModuleType = np) -> PathSample:
+        """The first lobe for ``s mod length < lap_length``, else the second; lobe 2 starts at the heading
+        lobe 1 ends with (``psi0 ± 2π``) and turns back to ``psi0``."""
+        sm = s - self.length * lib.floor(s / self.length)
+        a = self.lobes[0].geometry(sm, lib)
+        b = self.lobes[1].geometry(sm - self.lap_length, lib)
+        turn = 2 * math.pi * self.lobes[0].sign
+        first = sm < self.lap_length
+        return PathSample(*(_select(lib, first, u, v) for u, v in zip(a, (b.x, b.y, b.heading + turn, b.curvature),
+                                                                         strict=True)))
 
     def cross_track(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
         """Signed distance (m) to the nearer lobe, positive left of that lobe's direction of travel."""
@@ -167,7 +223,43 @@ class FigureEightReference:
 
     def path_points(self, n: int = 200) -> np.ndarray:
         """(n, 2) points (m) of one full figure-eight."""
-        return np.stack(self.at(np.linspace(0, self.period, n))[:2], axis=1)
+        return np.stack(self.geometry(np.linspace(0, self.length, n))[:2], axis=1)
+
+
+def path_errors(path: Path, x: np.ndarray, y: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Contouring and lag error (m) of the points ``(x, y)`` relative to the path points at ``s``.
+
+    ``e_c = −sin θ (x − x_p) + cos θ (y − y_p)`` (positive to the left of the path tangent) and
+    ``e_l = cos θ (x − x_p) + sin θ (y − y_p)`` (positive ahead of the path point), with
+    ``(x_p, y_p, θ) = geometry(s)``.
+    """
+    g = path.geometry(np.asarray(s, dtype=float))
+    dx, dy = np.asarray(x, float) - g.x, np.asarray(y, float) - g.y
+    c, sn = np.cos(g.heading), np.sin(g.heading)
+    return -sn * dx + c * dy, c * dx + sn * dy
+
+
+def project(path: Path, x: float, y: float, s_guess: float, window: float, step: float = 0.5,
+            newton: int = 3) -> float:
+    """Arc length (m) of the path point nearest ``(x, y)`` within ``s_guess ± window`` (m).
+
+    A sampled search every ``step`` metres picks the nearest sample (the one nearest ``s_guess`` on a
+    tie), then Newton steps on the lag error ``e_l(s) = 0`` refine it: ``de_l/ds = κ e_c − 1``, so
+    ``s ← s + e_l / (1 − κ e_c)`` (steps limited to one sample spacing).
+    """
+    n = max(int(math.ceil(window / step)), 1)
+    cand = s_guess + step * np.arange(-n, n + 1)
+    g = path.geometry(cand)
+    d2 = (g.x - x) ** 2 + (g.y - y) ** 2 + 1e-12 * np.abs(cand - s_guess)
+    s = float(cand[int(np.argmin(d2))])
+    for _ in range(newton):
+        ec, el = path_errors(path, np.array([x]), np.array([y]), np.array([s]))
+        k = float(path.geometry(np.array([s])).curvature[0])
+        den = 1.0 - k * float(ec[0])
+        if den <= 1e-6:
+            break
+        s += float(np.clip(float(el[0]) / den, -step, step))
+    return s
 
 
 def _start(cfg: RunConfig) -> tuple[float, float, float]:

@@ -54,6 +54,18 @@ def inverse_rates(V: Any, psidot: Any, R_R: Any, R_L: Any, b: Any) -> tuple[Any,
     return (V + b * psidot) / R_R, (V - b * psidot) / R_L
 
 
+def max_path_speed(curvature: Any, R_R: Any, R_L: Any, b: Any, omega_max: Any) -> Any:
+    """Largest forward speed ``V`` (m/s) at which both wheel rates of :func:`inverse_rates` for the yaw
+    rate ``V curvature`` stay within ``±omega_max`` (rad/s): ``omega_R = V (1 + b κ) / R_R`` and
+    ``omega_L = V (1 − b κ) / R_L``, so ``V ≤ R_R omega_max / |1 + b κ|`` and ``V ≤ R_L omega_max /
+    |1 − b κ|`` (curvature κ in 1/m; on a circle of radius R_p turning left the inner wheel gives
+    ``R_L omega_max / (1 − b/R_p)``)."""
+    with np.errstate(divide="ignore"):
+        right = R_R * omega_max / np.abs(1.0 + b * curvature)
+        left = R_L * omega_max / np.abs(1.0 - b * curvature)
+    return np.minimum(right, left)
+
+
 def _sx_derivative(x: ca.SX, u: ca.SX, b: Any) -> ca.SX:
     """Symbolic ``xdot`` (5x1) of :func:`pose_rates`; ``b`` is a number or a CasADi symbol."""
     xd, yd, pd = pose_rates(x[2], x[3], x[4], u[0], u[1], b, ca)

@@ -148,8 +148,29 @@ def policy_runs() -> list[MatrixEntry]:
     return out
 
 
+PF_SCENARIOS = ("scenario1", "scenario2", "scenario3", "scenario4")
+
+
+def pathfollow_runs() -> list[MatrixEntry]:
+    """The path-following axis (:mod:`~ftc_mj.report.pathfollow_claims`): pf-nmpc with ``safe`` and a gyro on
+    scenarios 1–4, the time-parametrised NMPC likewise on scenario 1 (scenarios 2–4 are on the policy axis), and
+    pf-nmpc with speed only under ``safe`` and ``none`` on scenarios 2–4 — 11 runs, UKF, actuation-rate term."""
+    combos = [(sc, ctl, "safe", "speed+yaw") for sc in PF_SCENARIOS
+              for ctl in (("pf-nmpc", "nmpc") if sc == "scenario1" else ("pf-nmpc",))]
+    combos += [(sc, "pf-nmpc", pol, "speed") for sc in PF_SCENARIOS[1:] for pol in ("safe", "none")]
+    out = []
+    for sc, ctl, pol, sensing in combos:
+        ov: dict[str, Any] = {"estimator.kind": "ukf", "reconfiguration.policy": pol, "controller.kind": ctl,
+                              "controller.rate_penalty": POLICY_RATE_PENALTY}
+        if sensing == "speed+yaw":
+            ov["sensors.yaw_rate_sigma"] = YAW_RATE_SIGMA
+        out.append(MatrixEntry(make_label(sc, "ukf", pol, ctl, sensing=sensing, rate_penalty=POLICY_RATE_PENALTY),
+                               sc, ov, extra=True))
+    return out
+
+
 def full_matrix(extras: bool = True) -> list[MatrixEntry]:
-    return paper_matrix() + (extra_runs() + policy_runs() if extras else [])
+    return paper_matrix() + (extra_runs() + policy_runs() + pathfollow_runs() if extras else [])
 
 
 def select(entries: list[MatrixEntry], patterns: list[str] | None) -> list[MatrixEntry]:

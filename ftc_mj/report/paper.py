@@ -44,6 +44,7 @@ from .checks import Claim
 from .claims import evaluate_claims
 from .compare import claims_document
 from .matrix import MatrixEntry, full_matrix, select
+from .pathfollow_claims import evaluate_pathfollow_claims
 from .policy_claims import evaluate_policy_claims
 from .render import render_claims
 from .runner import RunTask, collect_existing, run_tasks
@@ -237,7 +238,8 @@ def run_quick(out: Path, entries: list[MatrixEntry], opts: PaperOptions, show: b
     t1 = time.perf_counter()
     write_summary_csv(out / "summary.csv", rows)
     by_label = {r["label"]: r for r in rows}
-    claims: list[Claim] = evaluate_claims(by_label) + evaluate_policy_claims(by_label)
+    claims: list[Claim] = (evaluate_claims(by_label) + evaluate_policy_claims(by_label)
+                           + evaluate_pathfollow_claims(by_label))
     figs: list[Path] = []
     if opts.figures:
         from .figures import make_figures

@@ -14,6 +14,7 @@ from .claims import evaluate_claims
 from .compare import claims_document, compare, load_baseline
 from .matrix import MatrixEntry
 from .matrix_study import AXIS, load_matrix_study, run_matrix_study
+from .pathfollow_claims import evaluate_pathfollow_claims
 from .policy_claims import evaluate_policy_claims
 from .render_seeded import render_seeded
 from .seeded import combine
@@ -65,7 +66,8 @@ def run_seeded(out: Path, entries: list[MatrixEntry], opts: PaperOptions, show: 
     wall = time.perf_counter() - t0
     t1 = time.perf_counter()
     rows_by_seed = res.by_seed()
-    claims = combine({s: evaluate_claims(r) + evaluate_policy_claims(r) for s, r in rows_by_seed.items()})
+    claims = combine({s: evaluate_claims(r) + evaluate_policy_claims(r) + evaluate_pathfollow_claims(r)
+                      for s, r in rows_by_seed.items()})
     rows = summary_rows(res.rows)
     write_summary_csv(out / "summary.csv", rows)
     figs = _figures(out, rows_by_seed.get(seeds[0], {}), opts.jobs) if opts.figures else []

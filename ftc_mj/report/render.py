@@ -9,6 +9,7 @@ from typing import Any
 
 from .checks import FAIL, NA, NOT_EVALUATED, NOT_REPRODUCED, NOT_RUN, PARTLY, PASS, REPRODUCED, Claim, fmt, num
 from .claims import THRESHOLDS, lbl
+from .pathfollow_claims import PATHFOLLOW_THRESHOLDS
 from .policy_claims import POLICY_THRESHOLDS
 
 ICON = {REPRODUCED: "✅ reproduced", PARTLY: "🟡 partly", NOT_REPRODUCED: "❌ not reproduced",
@@ -19,7 +20,8 @@ PLANT_NOTE = ("The paper's robot is a kinematic model in MATLAB; ours is a MuJoC
 LABELS_NOTE = ("Run labels: `s<scenario>-<filter>[5]-<fb|nofb>-<controller>` (feedback off/on = reconfiguration "
                "policy none/direct); the IMM banks have 4 models unless the label says `5`. The reconfiguration-policy "
                "axis (claims R1–R3): `s<scenario>-ukf-<policy>-<speed|yaw>-nmpc-rp` (`-rp`: NMPC with the "
-               "actuation-rate term). Scenario 4's ramp starts at t = 10 s and reaches 0.1 m at 29 s.\n")
+               "actuation-rate term); the path-following axis (claim P1) the same with `pf-nmpc`. Scenario 4's ramp "
+               "starts at t = 10 s and reaches 0.1 m at 29 s.\n")
 
 
 def md_table(rows: Sequence[Mapping[str, Any]]) -> str:
@@ -57,7 +59,7 @@ def verdict_table(claims: Sequence[Claim]) -> str:
 
 
 def thresholds_table() -> str:
-    both = {**THRESHOLDS, **POLICY_THRESHOLDS}
+    both = {**THRESHOLDS, **POLICY_THRESHOLDS, **PATHFOLLOW_THRESHOLDS}
     return md_table([{"name": k, "value": v, "meaning": d} for k, (v, d) in both.items()])
 
 

@@ -1,5 +1,5 @@
-"""Per-process cache of the expensive, reusable parts of a run: the compiled MuJoCo plant and the
-built MPC solvers.
+"""Per-process cache of the expensive, reusable parts of a run: the compiled MuJoCo plant, the
+built MPC solvers and the robot's limits the path-following NMPC is given.
 
 Studies and the paper matrix run many simulations in one worker process; CasADi solvers cost
 0.1–0.3 s to build (and do not pickle), so they are built once per worker and per structure, then
@@ -9,18 +9,22 @@ fresh and a reused build), so caching never changes results.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from typing import Any
 
 from ..config import RunConfig
 from ..control.factory import build_controller
+from ..control.pathfollow import RobotLimits
 from ..identity import run_identity
-from ..plant import build_plant
+from ..plant import build_model, build_plant
+from ..plant.limits import lateral_accel_limits
 from ..registry import controllers
 
 _MAX_ENTRIES = 16
 _plants: dict[str, Any] = {}
 _controllers: dict[str, Any] = {}
+_limits: dict[str, RobotLimits] = {}
 stats = {"plant_builds": 0, "plant_hits": 0, "controller_builds": 0, "controller_hits": 0}
 
 
@@ -50,15 +54,30 @@ def plant_for(cfg: RunConfig) -> Any:
     return plant
 
 
+def robot_limits(cfg: RunConfig) -> RobotLimits:
+    """The robot's numbers for the path-following NMPC, derived from the MJCF with the config's edits
+    (:func:`~ftc_mj.plant.limits.lateral_accel_limits`): its lift-off lateral acceleration, the braking
+    trade-off and the servos' yaw compliance — 0 on the kinematic plant, which follows the commanded rates
+    exactly (cached per plant setup)."""
+    key = _key(cfg, ("plant", "robot"))
+    if key not in _limits:
+        lim = lateral_accel_limits(build_model(cfg.plant, cfg.robot))
+        _remember(_limits, key, RobotLimits(lim.liftoff, lim.yaw_compliance, lim.braking_trade))
+    lim = _limits[key]
+    return lim if cfg.plant.kind == "mujoco" else dataclasses.replace(lim, yaw_compliance=0.0)
+
+
 def controller_for(cfg: RunConfig, reference: Any) -> Any:
     """A controller for ``cfg``, reset: one registered ``reusable`` (MPCs) is cached per structure,
     any other is built anew."""
-    if not controllers.get(cfg.controller.kind).meta.get("reusable", False):
-        return build_controller(cfg, reference)
-    key = _key(cfg, ("controller", "reference", "robot", "model"), (tuple(cfg.plant.initial_pose),))
+    meta = controllers.get(cfg.controller.kind).meta
+    limits = robot_limits(cfg) if meta.get("robot_limits", False) else None
+    if not meta.get("reusable", False):
+        return build_controller(cfg, reference, limits)
+    key = _key(cfg, ("controller", "reference", "robot", "model"), (tuple(cfg.plant.initial_pose), limits))
     ctrl = _controllers.get(key)
     if ctrl is None:
-        ctrl = build_controller(cfg, reference)
+        ctrl = build_controller(cfg, reference, limits)
         _remember(_controllers, key, ctrl)
         stats["controller_builds"] += 1
     else:
@@ -71,3 +90,4 @@ def clear() -> None:
     """Drop every cached part."""
     _plants.clear()
     _controllers.clear()
+    _limits.clear()

@@ -53,6 +53,10 @@ Fault decision (runs with an estimator; the trace's ``fault_detected`` and ``dec
     decision's thresholds (not a puncture, never declared).
     ``severity_R/L`` (fractional radius loss 0..1 of the last decision) are added by
     :func:`~ftc_mj.sim.run.run_metrics`. Without an estimator only ``onsets`` (no detection keys).
+Path following (:func:`~ftc_mj.sim.path_metrics.path_following_metrics`, every run)
+    ``contouring_rms_recovered``, ``contouring_max_recovered`` (m, from 5 s after the *last* onset),
+    ``speed_mean_after_fault``, ``speed_mean_final``, ``feasible_speed_final``, ``speed_ratio_final``,
+    ``lateral_accel_max``, ``lateral_bound_time_s`` (see that module).
 Tracking (m, the cross-track error is positive left of the path)
     ``cross_track_rms``, ``cross_track_max`` (of |error|), ``cross_track_final`` over the whole run;
     ``*_settled`` from ``settle_time`` (5 s) on; ``cross_track_rms_after_fault``,
@@ -102,6 +106,7 @@ from ..config import RunConfig
 from ..estimation.consistency import ChiSquareTest, anees, anis, nees
 from ..plant import LIFTOFF, TIPPED
 from .columns import COVARIANCE_COLUMNS, STATE, WHEEL_CODES
+from .path_metrics import path_following_metrics
 
 LIMIT_TOL = 1e-3  # a command within 0.1 % of the bound counts as "at the limit"
 RECOVERY_S = 5.0
@@ -406,4 +411,5 @@ def compute_metrics(
     m["max_abs_roll_deg"] = float(np.degrees(_nanstat(np.abs(trace["roll"]), np.max)))
     m["max_abs_slip"] = _nanstat(np.abs(np.concatenate([trace["slip_R"], trace["slip_L"]])), np.max)
     m["sim_time_s"] = t_end
+    m.update(path_following_metrics(cfg, trace, onsets))
     return m

@@ -1,0 +1,239 @@
+"""Path-following NMPC: bounds honoured by IPOPT and by the RTI iterates, closed loops on the kinematic model
+(RK4 plant under ZOH), the speed it finds by itself, every path kind, failure handling, factory and sim wiring.
+
+Numbers quoted in the report come from ``pytest tests/test_pathfollow.py -s`` (lines ``[pf]``)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from ftc_mj.config import RunConfig, load_config
+from ftc_mj.control import build_controller, build_reference
+from ftc_mj.control.collocation import ProblemSpec
+from ftc_mj.control.kinsim import simulate
+from ftc_mj.control.pathfollow import (
+    PathFollowingNMPC,
+    PathFollowingSpec,
+    RobotLimits,
+    compliance_offset,
+    wheel_bounds,
+)
+from ftc_mj.control.reference import FigureEightReference, LineReference
+
+OMEGA_MAX = math.radians(1000.0)
+CIRCLE = build_reference(RunConfig())  # 50 m, 10 m/s, from the origin heading +x
+
+
+def _spec(A: float = 3.0, beta: float = 0.75, speed: float = 10.0, **kw) -> PathFollowingSpec:
+    return PathFollowingSpec(ProblemSpec(rate_penalty=1.0, max_lateral_accel=A, max_longitudinal_accel=3.0),
+                             desired_speed=speed, braking_trade=beta, **kw)
+
+
+def _rates(omega: np.ndarray, radii) -> tuple[np.ndarray, np.ndarray]:
+    V = 0.5 * (radii[0] * omega[:, 0] + radii[1] * omega[:, 1])
+    return V, (radii[0] * omega[:, 0] - radii[1] * omega[:, 1]) / 2.0
+
+
+def _traction(ctl: PathFollowingNMPC, omega: np.ndarray, radii) -> np.ndarray:
+    """|V psidot| + β |dV/dt| of a plan's wheel rates (N, 2) at its nodes (m/s²)."""
+    V, r = _rates(omega, radii)
+    return np.abs(V * r) + ctl.spec.braking_trade * np.abs(ctl.col.D @ V / ctl.col.h)
+
+
+@pytest.fixture(scope="module")
+def offset_loop():
+    """5 m off the circle (outside), bound 3 m/s² with the braking trade-off, nominal radii, 20 s."""
+    ctl = PathFollowingNMPC(_spec(), CIRCLE)
+    return ctl, simulate(ctl, CIRCLE, 20.0, (0.0, -5.0, 0.0))
+
+
+def test_converges_from_offset_without_exceeding_the_bound(offset_loop) -> None:
+    """The kinematic plant's lateral acceleration under the applied commands never exceeds the bound by more than
+    the second-order error of one RTI linearisation (measured 2e-3 m/s²; 0.03 allowed), the robot is on the
+    path (< 1 cm) after 8 s and at the desired speed, and every command moves by at most omega_rate_max T_s from
+    the previous one (the rate row relative to the applied command)."""
+    ctl, res = offset_loop
+    V, r = _rates(res.omega, (2.0, 2.0))
+    lat = np.abs(V * r)
+    steps = [np.abs(b.omega - a.omega).max() for a, b in zip(res.outputs[:-1], res.outputs[1:], strict=True)]
+    st = res.solve_times[1:] * 1e3
+    print(f"\n[pf] 5 m offset: max |V psidot| {lat.max():.4f} m/s² (bound 3), max|e| after 8 s "
+          f"{res.max_abs_error(8.0):.2e} m, speed at 20 s {V[-1]:.4f} m/s, largest command step {max(steps):.3f} "
+          f"rad/s (bound 2), slack max {max(o.telemetry['pf_slack'] for o in res.outputs):.1e}, failures "
+          f"{ctl.failures}, solve median {np.median(st):.2f} ms p95 {np.percentile(st, 95):.2f} ms")
+    assert ctl.failures == 0
+    assert lat.max() <= 3.0 + 0.03 and lat.max() > 2.9  # the bound is what limits the return
+    assert res.max_abs_error(8.0) < 0.01
+    assert V[-1] == pytest.approx(10.0, rel=1e-3)
+    assert max(steps) <= 20.0 * 0.1 + 1e-9
+    for o in res.outputs:
+        assert set(o.telemetry) == set(ctl.telemetry_columns)
+        assert o.telemetry["pf_slack"] < 1e-6  # the bound can be met from the start: the slack stays 0
+
+
+def test_ipopt_and_rti_iterates_honour_the_traction_bound() -> None:
+    """2 m off the circle (outside), heading along it; the 10 m/s the path asks needs 2 m/s²: with a 1.5 m/s²
+    bound IPOPT's plan keeps |V psidot| + β |dV/dt| ≤ 1.5 at every node (active somewhere), and RTI steps from
+    the feed-forward guess (the path at 10 m/s) converge to the same plan within the bound: the rows are
+    linearised, so an iterate may exceed them by the second-order term, which vanishes as they converge."""
+    spec = _spec(A=1.5)
+    ip = PathFollowingNMPC(spec, CIRCLE, solver="ipopt", max_iter=200)
+    rti = PathFollowingNMPC(spec, CIRCLE, solver="rti-daqp")
+    R = np.array([2.0, 2.0])
+    pose = np.array([0.0, -2.0, 0.0])
+    o = ip.solve(0.0, pose, R)
+    assert o.success and not o.fallback
+    tr = _traction(ip, o.predicted_omega, R)
+    assert tr.max() <= 1.5 + 1e-6 and tr.max() > 1.5 - 1e-3
+    x0 = rti.initial_state(pose, 0.0)
+    Xg, Ug = rti._guess(0.0, x0, R, None)
+    bounds = wheel_bounds(spec, rti.col.N, None, np.zeros(2))
+    excess = []
+    for _ in range(12):
+        ok, _, Xg, Ug, _ = rti.qp.solve(Xg, Ug, R, x0, bounds, None)
+        assert ok
+        excess.append(_traction(rti, Ug[:, :2], R).max() - 1.5)
+    du = np.abs(Ug[:, :2] - o.predicted_omega).max()
+    print(f"\n[pf] IPOPT bound margin {1.5 - tr.max():.1e}; RTI iterates' excess over the bound "
+          + ", ".join(f"{e:.1e}" for e in excess) + f"; max |ΔU| to IPOPT {du:.1e}")
+    np.testing.assert_allclose(Ug[:, :2], o.predicted_omega, atol=1e-3)
+    assert excess[-1] <= 1e-6
+
+
+@pytest.mark.parametrize("case", ["wheel", "lateral"])
+def test_finds_the_feasible_speed_by_itself(case: str) -> None:
+    """Nothing tells the controller the speed: with the left tyre at 0.1 m the inner wheel at omega_max carries
+    V = r omega_max / (1 − b/R_p) = 1.7809 m/s; with a 1.5 m/s² lateral bound (no braking trade-off) the circle
+    allows sqrt(A R_p) = 8.660 m/s. Both within 0.5 % over the last 5 of 30 s, on the path within 2 cm."""
+    radii, A = ((2.0, 0.1), 3.0) if case == "wheel" else ((2.0, 2.0), 1.5)
+    expect = 0.1 * OMEGA_MAX / (1 - 1 / 50) if case == "wheel" else math.sqrt(A * 50.0)
+    ctl = PathFollowingNMPC(_spec(A=A, beta=0.0), CIRCLE)
+    res = simulate(ctl, CIRCLE, 30.0, (0.0, 0.0, 0.0), true_radii=lambda t: radii)
+    V, _ = _rates(res.omega, radii)
+    late = res.t > 25.0
+    print(f"\n[pf] {case}-limited: speed {V[late].mean():.4f} m/s (expected {expect:.4f}), max|e| after 25 s "
+          f"{res.max_abs_error(25.0):.2e} m")
+    assert V[late].mean() == pytest.approx(expect, rel=5e-3)
+    assert res.max_abs_error(25.0) < 0.02
+    assert ctl.failures == 0
+
+
+@pytest.mark.parametrize("kind", ["line", "figure8"])
+def test_every_path_kind_is_followed(kind: str) -> None:
+    """A line from a 3 m offset, and a figure-eight (15 m lobes, 6 m/s: 2.4 m/s² in the lobes) through its crossing
+    where the curvature steps by 2/15 1/m: on the path within 5 cm (line) and 0.15 m (figure-eight; the crossing
+    costs 0.10 m, measured) after 6 s; the progress keeps growing."""
+    path = LineReference(8.0) if kind == "line" else FigureEightReference(15.0, 6.0)
+    pose = (0.0, 3.0, 0.0) if kind == "line" else (0.0, 0.0, 0.0)
+    ctl = PathFollowingNMPC(_spec(speed=path.speed), path)
+    res = simulate(ctl, path, 30.0, pose)
+    s = np.array([o.telemetry["pf_progress"] for o in res.outputs])
+    print(f"\n[pf] {kind}: max|e| after 6 s {res.max_abs_error(6.0):.2e} m, progress {s[-1]:.1f} m")
+    assert res.max_abs_error(6.0) < (0.05 if kind == "line" else 0.15)
+    assert np.all(np.diff(s) > 0)
+    assert ctl.failures == 0
+
+
+def test_compliance_offset_is_the_servo_couple() -> None:
+    """With the offset the model turns at r / (1 + c V) for the model's r of the command (the robot's yaw rate
+    under the servo couple; equal tyres: no speed change), and the deficit scales with R² of the tyres."""
+    spec = _spec(yaw_compliance=0.0375)
+    u = np.array(((10.0 + 0.2) / 2.0, (10.0 - 0.2) / 2.0))  # model V = 10 m/s, r = 0.2 rad/s
+    R = np.array([2.0, 2.0])
+    d = compliance_offset(spec, u, R, R)
+    V, r = _rates((u + d)[None, :], R)
+    assert V[0] == pytest.approx(10.0, abs=1e-12)
+    assert r[0] == pytest.approx(0.2 / (1 + 0.0375 * 10.0), rel=1e-12)
+    small = compliance_offset(spec, u * 2.0, R / 2.0, R)  # same V, r with half-size tyres: a quarter the deficit
+    _, r2 = _rates((u * 2.0 + small)[None, :], R / 2.0)
+    assert 0.2 - r2[0] == pytest.approx(0.2 * 0.0375 * 10 / 4 / (1 + 0.0375 * 10 / 4), rel=1e-12)
+    unequal = np.array([2.0, 1.0])  # the robot's V, r from the offset satisfy a = V r with the couple of that a
+    d = compliance_offset(spec, u, unequal, R)
+    V, r = _rates((u + d)[None, :], unequal)
+    a = V[0] * r[0]
+    k = 0.0375 * 1.0 / 4.0
+    np.testing.assert_allclose(d, k * a * np.array([-2.0, 1.0]), rtol=1e-12)
+    assert np.all(compliance_offset(_spec(), u, R, R) == 0.0) and np.all(compliance_offset(spec, None, R, R) == 0)
+
+
+def test_failures_fall_back_and_reset_repeats() -> None:
+    ctl = PathFollowingNMPC(_spec(), CIRCLE)
+    R = np.array([2.0, 2.0])
+    o = ctl.solve(0.0, np.array([np.nan, 0.0, 0.0]), R)
+    assert o.fallback and "non-finite pose" in o.status and np.all(np.abs(o.omega) <= OMEGA_MAX)
+    o = ctl.solve(0.1, np.zeros(3), np.array([np.inf, 2.0]))
+    assert o.fallback and "non-finite radii" in o.status and ctl.failures == 2
+    bad = PathFollowingNMPC(_spec(), CIRCLE, max_iter=0)
+    assert bad.solve(0.0, np.zeros(3), R).fallback
+    runs = []
+    for _ in range(2):
+        ctl.reset()
+        res = simulate(ctl, CIRCLE, 3.0, (0.0, -2.0, 0.1))
+        runs.append(np.array([o.omega for o in res.outputs]))
+        assert ctl.failures == 0
+    np.testing.assert_array_equal(runs[0], runs[1])
+
+
+def test_factory_and_sim_hand_over_the_robot_limits() -> None:
+    """The factory needs the robot's lift-off limit (or an explicit bound); the sim layer derives it from the
+    MJCF, with the yaw compliance only on the MuJoCo plant."""
+    from ftc_mj.sim.cache import robot_limits
+
+    cfg = load_config("scenario1", {"controller.kind": "pf-nmpc"})
+    with pytest.raises(ValueError, match="lift-off"):
+        build_controller(cfg, CIRCLE)
+    lim = robot_limits(cfg)
+    assert lim.liftoff_accel == pytest.approx(3.915, abs=1e-3) and lim.yaw_compliance == pytest.approx(0.0375)
+    ctl = build_controller(cfg, CIRCLE, lim)
+    assert isinstance(ctl, PathFollowingNMPC)
+    assert ctl.spec.problem.max_lateral_accel == pytest.approx(cfg.controller.path_following.lateral_accel_margin
+                                                               * lim.liftoff_accel)
+    assert ctl.spec.braking_trade == pytest.approx(lim.braking_trade) and ctl.spec.desired_speed == 10.0
+    cfg.plant.kind = "kinematic"
+    assert robot_limits(cfg).yaw_compliance == 0.0
+    cfg.controller.path_following.max_lateral_accel = 2.5
+    cfg.controller.path_following.braking_trade = False
+    ctl = build_controller(cfg, CIRCLE)
+    assert ctl.spec.problem.max_lateral_accel == 2.5 and ctl.spec.braking_trade == 0.0
+    assert RobotLimits(3.0).yaw_compliance == 0.0
+
+
+def test_mujoco_run_writes_the_telemetry_and_rerun_entities(tmp_path) -> None:
+    """A short MuJoCo run with ``--controller pf-nmpc``: the pf_* trace columns are filled at the controller
+    samples, the path metrics are in metrics.json and the Rerun recording has the path-following series."""
+    from ftc_mj.recorder import read_scalar_series
+    from ftc_mj.sim.run import execute
+
+    cfg = load_config("scenario1", {"controller.kind": "pf-nmpc", "duration": 2.0, "controller.rate_penalty": 1.0})
+    out = execute(cfg, tmp_path)
+    tr = out.result.trace
+    rows = np.isfinite(tr["solve_time_ms"])
+    for name in PathFollowingNMPC.telemetry_columns:
+        assert np.all(np.isfinite(tr[name][rows][1:])) and np.all(np.isnan(tr[name][~rows]))
+    m = out.metrics
+    assert m["status"] == "ok" and m["feasible_speed_final"] == pytest.approx(10.0)
+    t, s = read_scalar_series(out.run_dir / "run.rrd", "/path_following/progress")
+    assert len(t) == int(rows.sum()) and np.all(np.diff(s) > 0)
+    read_scalar_series(out.run_dir / "run.rrd", "/path_following/lateral_accel/bound")
+
+
+@pytest.mark.parametrize("solver", ["ipopt", "rti-daqp"])
+@pytest.mark.parametrize("row", ["wheel rate", "speed"])
+def test_first_command_stays_within_one_step_of_the_applied_command(solver: str, row: str) -> None:
+    """On the circle at 10 m/s with the wheels commanded to stop (u_applied = 0), the plan would jump back to the
+    ~5 rad/s the circle needs. ``wheel rate``: without the longitudinal bound and the braking trade-off the new
+    command may move each wheel by at most omega_rate_max T_s = 2 rad/s; ``speed``: with them, the speed by at
+    most max_longitudinal_accel T_s = 0.3 m/s."""
+    spec = (PathFollowingSpec(ProblemSpec(rate_penalty=1.0, max_lateral_accel=3.0)) if row == "wheel rate"
+            else _spec())
+    ctl = PathFollowingNMPC(spec, CIRCLE, solver=solver)
+    R = np.array([2.0, 2.0])
+    ctl.solve(0.0, np.zeros(3), R)  # seed (no applied command yet): plans the circle at 10 m/s
+    g = CIRCLE.at(0.1)
+    o = ctl.solve(0.1, np.array([g.x, g.y, g.psi]), R, np.zeros(2))
+    assert not o.fallback, o.status
+    if row == "wheel rate":
+        assert np.abs(o.omega).max() == pytest.approx(2.0, abs=1e-6)  # as far as the row allows
+    else:
+        assert 0.5 * R @ o.omega == pytest.approx(0.3, abs=1e-6)

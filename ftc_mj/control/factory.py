@@ -8,6 +8,7 @@ from .collocation import ProblemSpec
 from .lmpc import LinearMPC
 from .nmpc import NMPC
 from .open_loop import OpenLoopController
+from .robust import RobustNMPC
 
 
 def problem_spec(cfg: RunConfig) -> ProblemSpec:
@@ -30,7 +31,7 @@ def problem_spec(cfg: RunConfig) -> ProblemSpec:
 
 def build_controller(cfg: RunConfig, reference) -> Controller:
     """``cfg.controller.kind``: ``nmpc`` → :class:`NMPC`, ``lmpc`` → :class:`LinearMPC`,
-    ``open-loop`` → :class:`OpenLoopController`."""
+    ``open-loop`` → :class:`OpenLoopController`, ``robust-nmpc`` → :class:`RobustNMPC`."""
     c = cfg.controller
     R0 = cfg.model_wheel_radius
     if c.kind == "open-loop":
@@ -38,5 +39,10 @@ def build_controller(cfg: RunConfig, reference) -> Controller:
     spec = problem_spec(cfg)
     if c.kind == "lmpc":
         return LinearMPC(spec, reference, qpsol=c.lmpc_qpsol, time_budget=c.time_budget, nominal_radii=(R0, R0))
+    if c.kind == "robust-nmpc":
+        rb = c.robust
+        return RobustNMPC(spec, reference, rb.scenarios, rb.weights, rb.robust_horizon_nodes, rb.objective,
+                          prune_below=rb.prune_below, solver=c.solver, control_period=1.0 / c.rate, max_iter=c.max_iter,
+                          time_budget=c.time_budget, nominal_radii=(R0, R0), cold_time_budget=c.cold_time_budget)
     return NMPC(spec, reference, solver=c.solver, max_iter=c.max_iter, time_budget=c.time_budget,
                 nominal_radii=(R0, R0), cold_time_budget=c.cold_time_budget)

@@ -10,8 +10,9 @@ hold) between controller samples. At estimator step ``k`` (time ``t_k``):
 2. the filter predicts over ``[t_{k-1}, t_k]`` with the wheel rates measured at ``t_{k-1}`` and
    updates with the measurement at ``t_k``; the fault decision runs on its output;
 3. on a controller sample, the controller solves from the pose at ``t_k`` with the radii chosen by
-   the reconfiguration policy (optionally dithered while a fault is suspected but not isolated), and
-   its command is applied from ``t_k``;
+   the reconfiguration policy (a robust NMPC with ``posterior`` weighting is first handed the filter's
+   scenario weights, :mod:`.scenario_weights`) (optionally dithered while a fault is suspected but not
+   isolated), and its command is applied from ``t_k``;
 4. one trace row is stored; the plant advances to ``t_{k+1}``.
 
 Telemetry is buffered in preallocated arrays; nothing is logged call by call.
@@ -37,6 +38,7 @@ from .cache import controller_for, plant_for
 from .columns import BASE_COLUMNS
 from .metrics import fault_onsets
 from .reconfig import RadiusFeedback
+from .scenario_weights import ScenarioWeighting
 
 
 @dataclass
@@ -88,6 +90,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
     estimator = build_estimator(cfg) if cfg.estimator.kind != "none" else None
     decision = FaultDecision(cfg) if estimator is not None else None
     feedback = RadiusFeedback(cfg)
+    weighting = ScenarioWeighting.for_config(cfg)  # robust NMPC re-weighted by the filter (None: as configured)
     exc = cfg.reconfiguration.excitation
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
@@ -194,6 +197,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
                 pose = np.array([tr.x, tr.y, tr.psi])
                 if cfg.sensors.pose_sigma > 0:
                     pose = pose + pose_rng.normal(0.0, cfg.sensors.pose_sigma, 3)
+                if weighting is not None:
+                    controller.set_scenario_weights(weighting.weights(out, model_radii))
                 cmd = controller.solve(t, pose, model_radii, applied)
                 if exc.enabled and suspected:
                     dither = yaw_dither(t, exc.amplitude, exc.period)

@@ -35,11 +35,12 @@ rebuilding anything; the simulation loop uses this to re-weight the scenarios wi
 detection and identification (the *hybrid* of passive and active FTC). A weight only scales a
 scenario's cost (zero is allowed): the constraints of every scenario hold whatever its weight —
 except that a scenario whose weight is below ``prune_below`` is *pruned*: its cost and its
-constraints leave the problem (its rows are relaxed, parametrically, nothing is rebuilt). Pruning is
-what makes re-weighting work: an implausible scenario's cost is orders of magnitude larger than the
-plausible ones' (measured on the kinematic plant after a left puncture: weights 0.999 / 0.001 left
-the robot 0.36 m off the path against 0 for the exact model), and its rate rows, kept by its
-recourse inputs near their previous plan, still bound the shared inputs in the RTI iteration.
+constraints leave the problem (its rows are relaxed, parametrically, nothing is rebuilt). Why one
+may want that: an implausible scenario's cost is orders of magnitude larger than the plausible
+ones' (measured on the kinematic plant after a left puncture: weights 0.999 / 0.001 left the robot
+0.36 m off the path against 0 for the exact model), and its rate rows, kept by its recourse inputs
+near their previous plan, still bound the shared inputs in the RTI iteration. On the MuJoCo robot
+the pruned hybrid diverged, though (docs/findings.md), so it is off by default.
 
 So that the QP stays strictly convex (and well conditioned) when a weight is small or zero, it adds
 the proximal term ``(ρ_i/2) ‖v_i − v_i,g‖²`` on each scenario's own inputs about their guess,

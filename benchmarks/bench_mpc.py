@@ -3,7 +3,10 @@
 Loop: 30 s at 10 Hz, RK4 plant (10 ms substeps) under ZOH, start (0, −5, 0) i.e. 5 m off the
 default circle (R = 50 m, 10 m/s), R_L steps 2 → 1 m at t = 10 s and the MPC is given the true
 radii. Columns: build time, first (cold) solve, warm solve median/p95/max (all samples after the
-first), iterations, fallbacks, time to |cross-track| < 0.1 m, tracking RMS/max for t > 5 s.
+first), iterations, fallbacks, largest change of the command between samples, time to
+|cross-track| < 0.1 m, tracking RMS/max for t > 5 s. Every MPC runs twice, with the first-step bound
+``|U(t0) − u_applied| ≤ omega_rate_max T_s`` (``bound``, the default) and with the first input free
+(``free``, ``controller.rate_bound_from_applied = false``), in alternating order.
 
 ``--qp``: per-QP time of the RTI QP, old path (CasADi daqp plugin alone) vs new (certified active
 set, :mod:`ftc_mj.control.certified_qp`), on QPs recorded from the well-behaved loop above and from a
@@ -20,8 +23,13 @@ the kinematic scenario 2 loop of the robust NMPC's acceptance test (start on the
 on the same loop (``benchmarks/dompc_multistage.py``: run here when ``do_mpc`` imports, else its
 number measured on this machine is printed with its date).
 
+``--rate-bound R``: the same three 40 s MuJoCo runs plus scenario 2 without feedback, with the
+first-step bound and with the first input free, alternated R times in one process; medians of wall
+time and of the runs' solve-time median/p95, with the largest command step, solver failures and
+cross-track maximum of each formulation.
+
 Usage: ``.venv/bin/python benchmarks/bench_mpc.py [--duration 30] [--skip-opti] [--skip-table] [--qp]
-[--runs 3] [--robust]``
+[--runs 3] [--rate-bound 3] [--robust]``
 """
 
 from __future__ import annotations
@@ -52,7 +60,8 @@ def left_step(t: float) -> tuple[float, float]:
 
 
 class OptiController:
-    """Plain CasADi Opti + IPOPT build of the same NLP, warm-started with the shifted previous plan."""
+    """Plain CasADi Opti + IPOPT build of the same NLP (with the first-step bound), warm-started with the
+    shifted previous plan."""
 
     def __init__(self, spec, reference) -> None:
         self.opti = OptiNMPC(spec)
@@ -69,7 +78,7 @@ class OptiController:
             Xg, Ug = ref[:3].T, np.zeros((self.col.N, 2)) + 5.0
         else:
             Xg, Ug = self.col.shift(*self._plan, t, 1.0, radii)
-        X, U, it = self.opti.solve(x0, radii, ref, Xg, Ug)
+        X, U, it = self.opti.solve(x0, radii, ref, Xg, Ug, u_applied)
         self._plan = (t, X, U)
         return ControlOutput(omega=U[0], iterations=it, solve_time=time.perf_counter() - t0,
                              predicted=X, predicted_t=self.col.times(t), predicted_omega=U)
@@ -82,8 +91,9 @@ def row(name: str, build: float, res, ctl) -> str:
     bad = np.nonzero(np.abs(res.cross_track) >= 0.1)[0]
     bad = bad[res.t[bad] < 10.0]
     t01 = res.t[bad[-1] + 1] if len(bad) else 0.0
+    step = np.abs(np.diff([o.omega for o in res.outputs], axis=0)).max()
     return (f"| {name} | {build:.2f} | {st[0]:.1f} | **{np.median(warm):.2f}** | {np.percentile(warm, 95):.2f} | "
-            f"{warm.max():.1f} | {int(np.median(its))}/{its.max()} | {ctl.failures} | {t01:.2f} | "
+            f"{warm.max():.1f} | {int(np.median(its))}/{its.max()} | {ctl.failures} | {step:.2f} | {t01:.2f} | "
             f"{res.rms_error(5.0):.1e} | {res.max_abs_error(5.0):.1e} |")
 
 
@@ -263,6 +273,76 @@ def robust_table(duration: float) -> None:
               f"{r['solve_ms_p95']:.0f} | {r['pre_fault_offset_m']:+.2f} | {r['max_error_after_fault_m']:.2f} | 25 |")
 
 
+def rate_bound_table(repeats: int) -> None:
+    """40 s MuJoCo runs with the first-step bound and with the first input free, alternated (printed)."""
+    from ftc_mj.config import load_config
+    from ftc_mj.sim.run import execute
+
+    base = {"estimator.kind": "ukf", "controller.kind": "nmpc", "duration": 40.0}
+    runs = {"scenario4 feedback": ("scenario4", {**base, "feedback": True}),
+            "scenario2 feedback": ("scenario2", {**base, "feedback": True}),
+            "scenario2 yaw_rate_sigma 0.01, feedback": ("scenario2", {**base, "feedback": True,
+                                                                     "sensors.yaw_rate_sigma": 0.01}),
+            "scenario2 feedback off": ("scenario2", {**base, "feedback": False})}
+    execute(load_config("scenario2", {"duration": 0.5}), None)  # warm-up: imports, numba cache, first builds
+    res: dict = {}
+    for k in range(repeats):
+        for name, (sc, ov) in runs.items():
+            for bound in ((True, False) if k % 2 == 0 else (False, True)):
+                o = execute(load_config(sc, {**ov, "controller.rate_bound_from_applied": bound}), None)
+                m, tr = o.metrics, o.result.trace
+                cmd = np.stack([tr["omega_R_cmd"], tr["omega_L_cmd"]], axis=1)
+                res.setdefault((name, bound), []).append(
+                    (m["wall_time_s"], m["solve_time_ms"]["median"], m["solve_time_ms"]["p95"],
+                     m["solver_failures"], np.abs(np.diff(cmd, axis=0)).max(), m["cross_track_max"]))
+    print(f"\n40 s MuJoCo runs (UKF, RTI NMPC), medians of {repeats}; bound = |U(t0) - u_applied| <= "
+          f"omega_rate_max T_s, free = first input free; load avg {os.getloadavg()[0]:.2f}.\n")
+    print("| run | first step | wall s | solve median ms | solve p95 ms | solver failures | largest step rad/s "
+          "| max cross-track m |")
+    print("|---|---|---|---|---|---|---|---|")
+    for (name, bound), v in res.items():
+        a = np.array(v)
+        print(f"| {name} | {'bound' if bound else 'free'} | {np.median(a[:, 0]):.2f} | {np.median(a[:, 1]):.2f} | "
+              f"{np.median(a[:, 2]):.2f} | {np.median(a[:, 3]):.0f} | {np.median(a[:, 4]):.2f} | "
+              f"{np.median(a[:, 5]):.1f} |")
+
+
+def controller_table(duration: float, skip_opti: bool) -> None:
+    """The kinematic tracking loop for every MPC, with the first-step bound and with the first input free
+    (alternated), and the plain Opti build (printed)."""
+    cfg = RunConfig()
+    cfg.controller.time_budget = 10.0  # measure, don't fall back
+    ref = build_reference(cfg)
+    makers = ([(f"NMPC {s}", lambda sp, s=s: NMPC(sp, ref, solver=s, time_budget=10.0))
+               for s in ("rti-daqp", "rti-qpoases", "rti-osqp", "ipopt")]
+              + [(f"LMPC {q}", lambda sp, q=q: LinearMPC(sp, ref, qpsol=q, time_budget=10.0))
+                 for q in ("daqp", "qpoases", "osqp")])
+    rows = []
+    for i, (name, make) in enumerate(makers):
+        for bound in ((True, False) if i % 2 == 0 else (False, True)):
+            cfg.controller.rate_bound_from_applied = bound
+            t0 = time.perf_counter()
+            ctl = make(problem_spec(cfg))
+            build = time.perf_counter() - t0
+            res = simulate(ctl, ref, duration, (0.0, -5.0, 0.0), true_radii=left_step)
+            rows.append(row(f"{name} ({'bound' if bound else 'free'})", build, res, ctl))
+    cfg.controller.rate_bound_from_applied = True
+    spec = problem_spec(cfg)
+    if not skip_opti:
+        t0 = time.perf_counter()
+        ctl = OptiController(spec, ref)
+        build = time.perf_counter() - t0
+        res = simulate(ctl, ref, duration, (0.0, -5.0, 0.0), true_radii=left_step)
+        rows.append(row("plain Opti + IPOPT (expand; bound)", build, res, ctl))
+    print(f"\nMPC benchmark: {duration:.0f} s at 10 Hz, N={spec.nodes}, T={spec.horizon} s, 5 m initial offset, "
+          f"R_L 2→1 m at 10 s (true radii). Times in ms unless noted; load avg {os.getloadavg()[0]:.2f}.\n")
+    print("| controller | build s | first ms | warm median ms | warm p95 ms | warm max ms | iters med/max "
+          "| fallbacks | largest step rad/s | t(|e|<0.1 m) s | RMS |e| t>5 s (m) | max |e| t>5 s (m) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(r)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=30.0)
@@ -270,6 +350,8 @@ def main() -> None:
     ap.add_argument("--skip-table", action="store_true", help="skip the controller comparison table")
     ap.add_argument("--qp", action="store_true", help="per-QP time, old vs new path")
     ap.add_argument("--runs", type=int, default=0, help="whole MuJoCo runs, old vs new, this many times each")
+    ap.add_argument("--rate-bound", type=int, default=0,
+                    help="whole MuJoCo runs, first-step bound vs free first input, this many times each")
     ap.add_argument("--robust", action="store_true", help="robust multi-stage NMPC vs nominal NMPC and do-mpc")
     args = ap.parse_args()
     if args.robust:
@@ -279,37 +361,10 @@ def main() -> None:
         qp_table(problem_spec(cfg), build_reference(cfg), min(args.duration, 20.0))
     if args.runs:
         run_table(args.runs)
-    if args.skip_table:
-        return
-    cfg.controller.time_budget = 10.0  # measure, don't fall back
-    ref = build_reference(cfg)
-    spec = problem_spec(cfg)
-    rows = []
-    for solver in ("rti-daqp", "rti-qpoases", "rti-osqp", "ipopt"):
-        t0 = time.perf_counter()
-        ctl = NMPC(spec, ref, solver=solver, time_budget=10.0)
-        build = time.perf_counter() - t0
-        res = simulate(ctl, ref, args.duration, (0.0, -5.0, 0.0), true_radii=left_step)
-        rows.append(row(f"NMPC {solver}", build, res, ctl))
-    if not args.skip_opti:
-        t0 = time.perf_counter()
-        ctl = OptiController(spec, ref)
-        build = time.perf_counter() - t0
-        res = simulate(ctl, ref, args.duration, (0.0, -5.0, 0.0), true_radii=left_step)
-        rows.append(row("plain Opti + IPOPT (expand)", build, res, ctl))
-    for qp in ("daqp", "qpoases", "osqp"):
-        t0 = time.perf_counter()
-        ctl = LinearMPC(spec, ref, qpsol=qp, time_budget=10.0)
-        build = time.perf_counter() - t0
-        res = simulate(ctl, ref, args.duration, (0.0, -5.0, 0.0), true_radii=left_step)
-        rows.append(row(f"LMPC {qp}", build, res, ctl))
-    print(f"\nMPC benchmark: {args.duration:.0f} s at 10 Hz, N={spec.nodes}, T={spec.horizon} s, 5 m initial offset, "
-          f"R_L 2→1 m at 10 s (true radii). Times in ms unless noted; load avg {os.getloadavg()[0]:.2f}.\n")
-    print("| controller | build s | first ms | warm median ms | warm p95 ms | warm max ms | iters med/max "
-          "| fallbacks | t(|e|<0.1 m) s | RMS |e| t>5 s (m) | max |e| t>5 s (m) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for r in rows:
-        print(r)
+    if args.rate_bound:
+        rate_bound_table(args.rate_bound)
+    if not args.skip_table:
+        controller_table(args.duration, args.skip_opti)
 
 
 if __name__ == "__main__":

@@ -5,6 +5,9 @@ Rerun recording) and the whole ``ftc-mj paper`` matrix with 2 jobs.
                                                             # last recorded runs/out/paper/paper_run.json
     .venv/bin/python benchmarks/bench_paper.py --matrix     # also time a fresh matrix (2 jobs)
     .venv/bin/python benchmarks/bench_paper.py --repeats 3  # median of 3 round-robin repeats per run
+    .venv/bin/python benchmarks/bench_paper.py --rate-bound # every run also with the first input free
+                                                            # (controller.rate_bound_from_applied = false),
+                                                            # round-robin in the same process
 
 Targets: UKF+NMPC 40 s run ≤ 1.5 s wall, IMM-UKF-5 ≤ 2.5 s, matrix ≤ 90 s with 2 jobs, .rrd ≤ 10 MB,
 Rerun logging ≤ 5 % of the run's wall time.
@@ -93,6 +96,7 @@ def _bench_runs_once(out: Path, cases: list[tuple[str, str, dict[str, object], f
         rows.append({"run": name, "status": m.get("status"), "sim wall [s]": sim, "rrd write [s]": rrd_s,
                      "rrd/sim": frac, "execute total [s]": total, "rrd [MB]": rrd_mb,
                      "solve median [ms]": (m.get("solve_time_ms") or {}).get("median"),
+                     "solve p95 [ms]": (m.get("solve_time_ms") or {}).get("p95"),
                      "solve max [ms]": (m.get("solve_time_ms") or {}).get("max"),
                      "solver failures": m.get("solver_failures"),
                      "target [s]": target, "meets targets": ok})
@@ -118,6 +122,17 @@ def recorded_matrix() -> dict[str, object] | None:
             "source": f"recorded in {RECORDED.relative_to(REPO)} (jobs={d.get('jobs')}, reused={d.get('reused')})"}
 
 
+def with_free_first_input(cases: list[tuple[str, str, dict[str, object], float | None]]
+                          ) -> list[tuple[str, str, dict[str, object], float | None]]:
+    """Each case with the first-step bound (``[bound]``, the default, keeps its target) followed by the
+    same run with the first input free (``[free]``, no target)."""
+    out = []
+    for name, sc, ov, target in cases:
+        out.append((f"{name} [bound]", sc, ov, target))
+        out.append((f"{name} [free]", sc, {**ov, "controller.rate_bound_from_applied": False}, None))
+    return out
+
+
 def _fmt(v: object) -> str:
     if isinstance(v, float):
         return f"{v:.3g}"
@@ -138,10 +153,14 @@ def main() -> int:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--repeats", type=int, default=1,
                     help="run every case this many times (median row, and the minimum)")
+    ap.add_argument("--rate-bound", action="store_true",
+                    help="also run every case with the first input free, next to the default formulation")
     args = ap.parse_args()
+    cases, refs = (with_free_first_input(CASES), with_free_first_input(REFERENCE_CASES)) if args.rate_bound \
+        else (CASES, REFERENCE_CASES)
     with tempfile.TemporaryDirectory(prefix="bench_runs_") as d:
-        rows = bench_runs(Path(d), CASES, args.repeats)
-        extra = bench_runs(Path(d), REFERENCE_CASES, args.repeats)
+        rows = bench_runs(Path(d), cases, args.repeats)
+        extra = bench_runs(Path(d), refs, args.repeats)
     print(f"# one 40 s closed-loop run per estimator (scenario 4, NMPC, feedback on, with .rrd); "
           f"median of {args.repeats}")
     print_table(rows)

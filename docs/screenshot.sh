@@ -1,22 +1,35 @@
 #!/usr/bin/env bash
 # Headless screenshot of the native Rerun viewer showing a recording with its saved blueprint.
 #
-#   docs/screenshot.sh RUN.rrd OUT.png [WIDTHxHEIGHT]
+#   docs/screenshot.sh [--install] RUN.rrd|RUN_DIR OUT.png [WIDTHxHEIGHT]
 #
-# Route (TECHNOTES §1.3 route 1): Xvfb + Mesa lavapipe (software Vulkan) + the `rerun` binary of the
-# project's venv:  rerun RUN.rrd --window-size WxH --screenshot-to OUT.png
-# Missing Debian packages (xvfb, xauth, xdotool, mesa-vulkan-drivers, libgl1-mesa-dri, libegl-mesa0) are
-# installed with apt-get (needs root). The PNG is written at 2x the window size by the viewer.
+# Route: Xvfb (a virtual X display) + Mesa lavapipe (software Vulkan, no GPU needed) + the `rerun`
+# binary of the project's venv:  rerun RUN.rrd --window-size WxH --screenshot-to OUT.png
+# The PNG is written at 2x the window size by the viewer; it shows the blueprint saved in the file
+# (for ftc-mj compare recordings: the overlaid runs).
+#
+# What it needs from the system (Debian/Ubuntu packages): xvfb, xauth, xdotool, mesa-vulkan-drivers,
+# libgl1-mesa-dri, libegl-mesa0. If some are missing it stops and prints the apt-get command; with
+# --install it runs that command itself (system-wide, with sudo unless root) and says so first.
+# Nothing else outside this run changes: the viewer runs with HOME-independent temporary config,
+# data, cache and runtime folders (its usage-analytics opt-out is written there, not in your
+# ~/.config), which are removed at the end; OUT.png appears only when the capture succeeded.
 # Environment: RERUN_BIN (default: the venv's rerun, else `rerun` on PATH), SCREENSHOT_TIMEOUT (s, 180).
 set -euo pipefail
 
-if [[ $# -lt 2 ]]; then
-    echo "usage: $0 RUN.rrd OUT.png [WIDTHxHEIGHT]" >&2
+INSTALL=0
+if [[ ${1:-} == "--install" ]]; then
+    INSTALL=1
+    shift
+fi
+if [[ $# -lt 2 || ${1:-} == "-h" || ${1:-} == "--help" ]]; then
+    echo "usage: $0 [--install] RUN.rrd|RUN_DIR OUT.png [WIDTHxHEIGHT]" >&2
     exit 2
 fi
 RRD=$1
 OUT=$2
 SIZE=${3:-1400x900}
+[[ -d "$RRD" ]] && RRD="$RRD/run.rrd"
 if [[ ! -f "$RRD" ]]; then
     echo "error: recording not found: $RRD" >&2
     exit 2
@@ -49,19 +62,28 @@ for pkg in mesa-vulkan-drivers libgl1-mesa-dri libegl-mesa0; do
     dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || need+=("$pkg")
 done
 if [[ ${#need[@]} -gt 0 ]]; then
-    echo "installing: ${need[*]}" >&2
     SUDO=""
-    [[ $(id -u) -ne 0 ]] && SUDO="sudo"
-    $SUDO apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${need[@]}" >&2
+    [[ $(id -u) -ne 0 ]] && SUDO="sudo "
+    cmd="${SUDO}apt-get install -y --no-install-recommends ${need[*]}"
+    if [[ $INSTALL -eq 0 ]]; then
+        echo "error: missing system packages: ${need[*]}; install them with: ${SUDO}apt-get update && $cmd" >&2
+        echo "       (or re-run with --install to let this script run that command)" >&2
+        exit 2
+    fi
+    echo "installing system-wide with apt-get: ${need[*]}" >&2
+    ${SUDO}apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $cmd -qq >&2
 fi
 
 # --- capture -------------------------------------------------------------------------------------
-"$RERUN_BIN" analytics disable >/dev/null 2>&1 || true
+WORK=$(mktemp -d "${TMPDIR:-/tmp}/ftc-mj-screenshot.XXXXXX")
 mkdir -p "$(dirname "$OUT")"
 TMP_OUT="$(dirname "$OUT")/.$(basename "$OUT").$$.png"
-trap 'rm -f "$TMP_OUT"' EXIT
-export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
+trap 'rm -rf "$WORK"; rm -f "$TMP_OUT"' EXIT
+mkdir -p "$WORK/config" "$WORK/data" "$WORK/cache" "$WORK/run"
+chmod 700 "$WORK/run"
+export XDG_CONFIG_HOME="$WORK/config" XDG_DATA_HOME="$WORK/data" XDG_CACHE_HOME="$WORK/cache" XDG_RUNTIME_DIR="$WORK/run"
+"$RERUN_BIN" analytics disable >/dev/null 2>&1 || true   # into the temporary config above
 export WGPU_BACKEND=${WGPU_BACKEND:-vulkan}
 W=${SIZE%x*}
 H=${SIZE#*x}

@@ -1,23 +1,67 @@
-"""The ``ftc-mj`` command line (DESIGN §6).
+"""The ``ftc-mj`` command line.
 
-Exit codes: 0 success, 1 a run failed (reason recorded in its metrics), 2 bad input (one line on
-stderr naming the problem, nothing written).
+Exit codes (:mod:`ftc_mj.errors`): 0 success; 1 a run failed (its reason is in ``metrics.json``) or
+its output could not be written; 2 bad input — one line ``ftc-mj: error: …`` on stderr naming the
+option or field, nothing written (also for the usage errors click detects itself: an unknown option,
+a bad choice, ``--seed abc``); 3 the physics of the run became unstable (status ``unstable``);
+130 interrupted.
 """
 
 from __future__ import annotations
 
 import os
 import sys
+import tempfile
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
+from typer.core import TyperGroup
 
-from .errors import BadInput
+from .errors import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED, EXIT_UNSTABLE, BadInput, RunFailed
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
-                  help="Active fault-tolerant control of a MuJoCo differential-drive robot.")
+
+class OneLineErrorGroup(TyperGroup):
+    """The command group: usage errors (those click detects too) become one line on stderr with exit
+    code 2 instead of a boxed panel with a usage header; Ctrl-C one line with exit code 130."""
+
+    def main(self, args: Any = None, prog_name: str | None = None, complete_var: str | None = None,
+             standalone_mode: bool = True, **extra: Any) -> Any:
+        try:
+            rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var, standalone_mode=False,
+                              **extra)
+            code = rv if isinstance(rv, int) else 0
+            if code == EXIT_INTERRUPTED:  # a Ctrl-C no command handled (typer maps it to exit 130)
+                typer.echo("ftc-mj: interrupted", err=True)
+        except typer.Abort as err:  # raised by _interrupted with its line
+            typer.echo(f"ftc-mj: {str(err) or 'interrupted'}", err=True)
+            code = EXIT_INTERRUPTED
+        except typer.TyperException as err:  # click's usage errors (exit code 2) and other command-line errors
+            fmt = getattr(err, "format_message", None)
+            msg = " ".join((fmt() if callable(fmt) else str(err)).split())
+            code = int(getattr(err, "exit_code", EXIT_FAILED))
+            ctx = getattr(err, "ctx", None)
+            hint = f" (see '{ctx.command_path} --help')" if code == EXIT_BAD_INPUT and ctx is not None else ""
+            typer.echo(f"ftc-mj: error: {msg}{hint}", err=True)
+        if not standalone_mode:
+            return code
+        sys.exit(code)
+
+
+app = typer.Typer(add_completion=False, pretty_exceptions_enable=False, cls=OneLineErrorGroup,
+                  rich_markup_mode=None, help="Active fault-tolerant control of a MuJoCo differential-drive robot.")
+
+
+@app.callback(invoke_without_command=True)
+def _top(ctx: typer.Context) -> None:
+    """Active fault-tolerant control of a MuJoCo differential-drive robot.
+
+    Exit codes: 0 success; 1 a run failed or could not be written; 2 bad input (one line naming the
+    option or field, nothing written); 3 the physics of a run became unstable; 130 interrupted.
+    """
+    if ctx.invoked_subcommand is None:
+        typer.echo(ctx.get_help())
 
 
 class EstimatorKind(StrEnum):
@@ -26,6 +70,16 @@ class EstimatorKind(StrEnum):
     imm_ekf = "imm-ekf"
     imm_ukf = "imm-ukf"
     none = "none"
+
+
+class ImmModels(StrEnum):
+    four = "4"
+    five = "5"
+
+
+class ImmVariant(StrEnum):
+    hypothesis = "hypothesis"
+    paper = "paper"
 
 
 class ReconfigPolicy(StrEnum):
@@ -41,9 +95,14 @@ class ControllerKind(StrEnum):
     open_loop = "open-loop"
 
 
-def _fail(msg: str, code: int = 2) -> None:
-    typer.echo(f"ftc-mj: error: {msg}", err=True)
+def _fail(msg: str, code: int = EXIT_BAD_INPUT) -> None:
+    typer.echo(f"ftc-mj: error: {' '.join(str(msg).split())}", err=True)
     raise typer.Exit(code)
+
+
+def _interrupted(msg: str = "interrupted") -> None:
+    """End the command after a Ctrl-C with one line (printed by :class:`OneLineErrorGroup`), exit 130."""
+    raise typer.Abort(msg)
 
 
 def _overrides(items: list[str]) -> dict[str, Any]:
@@ -56,47 +115,97 @@ def _overrides(items: list[str]) -> dict[str, Any]:
     return out
 
 
+def _folder(value: str | None, option: str = "--out") -> Path | None:
+    """A folder option as a Path; an empty value is refused (``Path("")`` would be the working directory)."""
+    if value is None:
+        return None
+    if not value.strip() or "\0" in value:
+        raise BadInput(f"{option}: expected a folder path, got {value!r} (use '.' for the current folder)")
+    return Path(value)
+
+
+def _defaults() -> Any:
+    from .config import RunConfig
+
+    return RunConfig()
+
+
+_D = _defaults()
+
+
+def _flag_overrides(ov: dict[str, Any], flags: list[tuple[str, str, Any]]) -> dict[str, Any]:
+    """Add each given flag's value under its config key; a ``--set`` of the same key with another value is
+    a contradiction (BadInput naming the flag)."""
+    for flag, key, val in flags:
+        if val is None:
+            continue
+        if key in ov and ov[key] != val:
+            raise BadInput(f"{flag}: {val!r} contradicts --set {key}={ov[key]!r}")
+        ov[key] = val
+    return ov
+
+
 @app.command()
 def run(
-    scenario: Annotated[str, typer.Argument(help="Built-in scenario (scenario1..scenario4) or a TOML file.")],
-    estimator: Annotated[EstimatorKind | None, typer.Option(help="FDI filter.")] = None,
-    imm_models: Annotated[int | None, typer.Option(help="IMM bank size: 4 or 5.")] = None,
-    imm_variant: Annotated[str | None, typer.Option(help="IMM variant: hypothesis or paper.")] = None,
+    scenario: Annotated[str, typer.Argument(help="Built-in scenario (scenario1..scenario4) or a TOML file.",
+                                            metavar="SCENARIO", show_default=False)],
+    estimator: Annotated[EstimatorKind | None, typer.Option(
+        help=f"FDI filter. [default: the scenario's estimator.kind, else {_D.estimator.kind}]")] = None,
+    imm_models: Annotated[ImmModels | None, typer.Option(
+        help=f"IMM bank size (imm-ekf/imm-ukf only). [default: {_D.estimator.imm_models}]")] = None,
+    imm_variant: Annotated[ImmVariant | None, typer.Option(
+        help=f"IMM variant (imm-ekf/imm-ukf only). [default: {_D.estimator.imm_variant}]")] = None,
     reconfig: Annotated[ReconfigPolicy | None, typer.Option(
         help="Reconfiguration policy: none (nominal radii), direct (latest estimate, the paper's feedback), "
-             "safe (gated, clamped, rate-limited hand-over; the default), truth (oracle).")] = None,
+             "safe (gated, clamped, rate-limited hand-over), truth (oracle). "
+             f"[default: the scenario's reconfiguration.policy, else {_D.reconfiguration.policy}]")] = None,
     feedback: Annotated[bool | None, typer.Option("--feedback/--no-feedback",
-                                                  help="Aliases of --reconfig direct / --reconfig none.")] = None,
-    controller: Annotated[ControllerKind | None, typer.Option(help="Tracking controller.")] = None,
-    seed: Annotated[int | None, typer.Option(help="Random seed (noise).")] = None,
-    duration: Annotated[float | None, typer.Option(help="Simulated time (s).")] = None,
-    out: Annotated[Path | None, typer.Option(help="Output folder (default: output.dir of the config).")] = None,
-    set_: Annotated[list[str] | None, typer.Option("--set", help="Override any config key: dotted.key=value.")] = None,
+                                                  help="Aliases of --reconfig direct / --reconfig none.",
+                                                  show_default=False)] = None,
+    controller: Annotated[ControllerKind | None, typer.Option(
+        help=f"Tracking controller. [default: the scenario's controller.kind, else {_D.controller.kind}]")] = None,
+    seed: Annotated[int | None, typer.Option(help=f"Random seed of the noise. [default: {_D.seed}]")] = None,
+    duration: Annotated[float | None, typer.Option(
+        help=f"Simulated time (s), at most 3600. [default: the scenario's, else {_D.duration:g}]")] = None,
+    out: Annotated[str | None, typer.Option(help=f"Output folder. [default: output.dir, {_D.output.dir}]",
+                                            show_default=False)] = None,
+    set_: Annotated[list[str] | None, typer.Option("--set", help="Override any config key: dotted.key=value "
+                                                   "(the value is read as TOML, else as a string).")] = None,
     no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write the Rerun recording.")] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary table.")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary table (the run folder "
+                                                              "is still printed).")] = False,
 ) -> None:
-    """Run one closed-loop simulation and write DIR/<run-id>/ (config.toml, trace.parquet,
-    metrics.json, run.rrd)."""
+    """Run one closed-loop simulation and write OUT/<run-id>/ (config.toml, trace.parquet,
+    metrics.json, run.rrd).
+
+    Exit codes: 0 ok; 1 the run failed (reason in metrics.json) or could not be written; 2 bad input
+    (one line naming the field, nothing written); 3 the physics became unstable (status unstable: the
+    robot froze where MuJoCo's state blew up, so its metrics are not results).
+    """
     from .config import load_config
 
     try:
         ov = _overrides(set_ or [])
         if reconfig is not None and feedback is not None:
             raise BadInput("--feedback/--no-feedback: give either it or --reconfig, not both")
-        for key, val in (("estimator.kind", estimator.value if estimator else None),
-                         ("estimator.imm_models", imm_models), ("estimator.imm_variant", imm_variant),
-                         ("feedback", feedback), ("reconfiguration.policy", reconfig.value if reconfig else None),
-                         ("controller.kind", controller.value if controller else None),
-                         ("seed", seed), ("duration", duration)):
-            if val is not None:
-                ov[key] = val
+        _flag_overrides(ov, [
+            ("--estimator", "estimator.kind", estimator.value if estimator else None),
+            ("--imm-models", "estimator.imm_models", int(imm_models.value) if imm_models else None),
+            ("--imm-variant", "estimator.imm_variant", imm_variant.value if imm_variant else None),
+            ("--feedback/--no-feedback", "feedback", feedback),
+            ("--reconfig", "reconfiguration.policy", reconfig.value if reconfig else None),
+            ("--controller", "controller.kind", controller.value if controller else None),
+            ("--seed", "seed", seed), ("--duration", "duration", duration)])
         cfg = load_config(scenario, ov)
+        if not cfg.estimator.kind.startswith("imm"):
+            for flag, key in (("--imm-models", "estimator.imm_models"), ("--imm-variant", "estimator.imm_variant")):
+                if key in ov:
+                    raise BadInput(f"{flag}: only for the imm-ekf and imm-ukf estimators (estimator.kind is "
+                                   f"{cfg.estimator.kind!r})")
+        out_root = _folder(out) or cfg.output.dir
     except BadInput as err:
         _fail(str(err))
         return
-    out_root = out if out is not None else cfg.output.dir
-    if out_root.exists() and not out_root.is_dir():
-        _fail(f"--out: {out_root} exists and is not a directory")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from .sim.progress import run_with_progress
     from .sim.summary import print_run_summary
@@ -104,30 +213,52 @@ def run(
     show = cfg.output.progress and not quiet and sys.stderr.isatty()
     try:
         outcome = run_with_progress(cfg, out_root, rrd=not no_rrd and cfg.output.rrd, show=show)
-    except BadInput as err:  # e.g. a model file that does not compile: nothing has been written
+    except BadInput as err:  # an unwritable --out, a model MuJoCo cannot simulate: nothing has been written
         _fail(str(err))
         return
-    if not quiet:
-        print_run_summary(outcome)
-    if outcome.metrics["status"] != "ok":
+    except RunFailed as err:  # the results could not be written (nothing was kept)
+        _fail(str(err), EXIT_FAILED)
+        return
+    except KeyboardInterrupt:
+        _interrupted("interrupted; nothing of this run was written")
+        return
+    if quiet:
+        typer.echo(str(outcome.run_dir))
+    else:
+        print_run_summary(outcome, cfg.reconfiguration.max_sigma)
+    status = outcome.metrics["status"]
+    if status == "unstable":
+        typer.echo(f"ftc-mj: physics unstable: {outcome.metrics['error']}", err=True)
+        raise typer.Exit(EXIT_UNSTABLE)
+    if status != "ok":
         typer.echo(f"ftc-mj: run failed: {outcome.metrics['error']}", err=True)
-        raise typer.Exit(1)
+        raise typer.Exit(EXIT_FAILED)
 
 
-class RrdMode(StrEnum):
+class StudyRrd(StrEnum):
     none = "none"
     failures = "failures"
     all = "all"
+    compare = "compare"
 
 
 @app.command()
 def study(
-    study_file: Annotated[Path, typer.Argument(help="Study file (runs/studies/*.toml).")],
-    out: Annotated[Path | None, typer.Option(help="Study output folder (default: runs/out/studies/<name>).")] = None,
+    study_file: Annotated[str, typer.Argument(help="Study file (runs/studies/*.toml).", metavar="STUDY_FILE",
+                                              show_default=False)],
+    out: Annotated[str | None, typer.Option(help="Study output folder. [default: runs/out/studies/<name>]",
+                                            show_default=False)] = None,
     workers: Annotated[int, typer.Option(help="Local worker processes (ignored with --address).")] = 2,
-    address: Annotated[str | None, typer.Option(help="Existing dask scheduler, tcp://HOST:PORT.")] = None,
-    rrd: Annotated[RrdMode, typer.Option(help="Per-run Rerun recordings: none, failures or all.")] = RrdMode.none,
-    limit: Annotated[int | None, typer.Option(help="Compute at most N of the missing runs now.")] = None,
+    address: Annotated[str | None, typer.Option(
+        help="Existing dask scheduler, tcp://HOST:PORT. Use only a scheduler you trust: it receives the run "
+             "configs and its workers run code as their user. It must answer within 10 s.")] = None,
+    dashboard: Annotated[str, typer.Option(help="Dask dashboard of the local cluster, HOST:PORT (port 0 = any free "
+                                                "port); 127.0.0.1 = this machine only.")] = "127.0.0.1:0",
+    rrd: Annotated[StudyRrd, typer.Option(help="Per-run folders with recordings under OUT/runs: none, failures, all; "
+                                               "compare = all, plus OUT/compare.rrd overlaying the runs.")
+                   ] = StudyRrd.none,
+    limit: Annotated[int | None, typer.Option(help="Compute at most N of the missing runs now, chosen to cover "
+                                                   "every axis value first (the rest on a later call).")] = None,
     seeds: Annotated[int | None, typer.Option(help="Replace the study's seed count (part of its identity).")] = None,
     set_: Annotated[list[str] | None, typer.Option("--set", help="Extra base override dotted.key=value "
                                                    "(part of the study's identity).")] = None,
@@ -138,49 +269,127 @@ def study(
     """Sweep a study on dask.distributed: every finished run is persisted at once under
     OUT/rows/; re-running the same command computes only the missing runs; OUT/results.parquet,
     OUT/summary.md and OUT/figures/ are written at the end."""
-    from .study.runner import StudyInterruptedError, run_study, validate_address
+    from .config import existing_file
+    from .study.runner import StudyInterruptedError, run_study, validate_address, validate_dashboard
     from .study.spec import load_study
 
     try:
+        path = existing_file(study_file, "STUDY_FILE")
         if address is not None:
             validate_address(address)
+        validate_dashboard(dashboard)
         if workers < 1:
             raise BadInput("--workers: must be >= 1")
         if limit is not None and limit < 0:
             raise BadInput("--limit: must be >= 0")
-        plan = load_study(study_file, extra_overrides=_overrides(set_ or []), seeds=seeds)
-        out_dir = out if out is not None else Path("runs/out/studies") / plan.spec.name
+        plan = load_study(path, extra_overrides=_overrides(set_ or []), seeds=seeds)
+        out_dir = _folder(out) or Path("runs/out/studies") / plan.spec.name
         report = run_study(plan, out_dir, workers=workers, address=address, serial=serial, rrd=rrd.value,
-                           limit=limit, retry_failed=retry_failed, progress=not quiet and sys.stderr.isatty())
+                           limit=limit, retry_failed=retry_failed, progress=not quiet and sys.stderr.isatty(),
+                           dashboard=dashboard, echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True))
     except BadInput as err:
         _fail(str(err))
         return
-    except StudyInterruptedError as err:
-        typer.echo(f"ftc-mj: {err}", err=True)
-        raise typer.Exit(130) from None
+    except (StudyInterruptedError, KeyboardInterrupt) as err:
+        _interrupted(str(err) if isinstance(err, StudyInterruptedError) else "interrupted")
+        return
     done = report.already_done + len(report.computed)
-    typer.echo(f"{plan.spec.name}: computed {len(report.computed)} runs ({len(report.failed)} failed) in "
-               f"{report.wall_time_s:.1f} s; {done} of {report.planned} done; results in {out_dir}")
+    n_bad = len(report.failed) - len(report.unstable)
+    typer.echo(f"{plan.spec.name}: computed {len(report.computed)} runs ({n_bad} failed, {len(report.unstable)} "
+               f"with unstable physics) in {report.wall_time_s:.1f} s; {done} of {report.planned} done; "
+               f"results in {out_dir}")
 
 
 @app.command()
-def view(run_dir: Annotated[Path, typer.Argument(help="A run directory (or a .rrd file).")]) -> None:
-    """Open a run's Rerun recording in the Rerun viewer."""
-    from .errors import RunFailed
-    from .recorder import open_viewer
+def view(run_dirs: Annotated[list[str], typer.Argument(
+        help="A run directory (or a .rrd file); several run directories open their comparison.",
+        metavar="RUN_DIR...", show_default=False)]) -> None:
+    """Open a run's Rerun recording in the Rerun viewer, or the comparison of several runs."""
+    from .recorder import check_display, check_recording, open_viewer
 
     try:
-        open_viewer(run_dir)
+        if len(run_dirs) == 1:
+            rrd = check_recording(Path(run_dirs[0]))
+            check_display(f"docs/screenshot.sh {rrd} OUT.png")
+            open_viewer(rrd)
+            return
+        from .comparison import load_runs
+
+        load_runs(run_dirs)  # bad input first: exit 2 before anything else
+        check_display(f"ftc-mj compare {' '.join(run_dirs)} --out compare.rrd && "
+                      "docs/screenshot.sh compare.rrd OUT.png")
+        with tempfile.TemporaryDirectory(prefix="ftc-mj-view.") as tmp:
+            rrd = _compare(run_dirs, Path(tmp) / "comparison.rrd", None)
+            open_viewer(rrd)
     except BadInput as err:
-        _fail(f"RUN_DIR: {err}")
+        _fail(str(err))
     except RunFailed as err:
-        _fail(str(err), code=1)
+        _fail(str(err), code=EXIT_FAILED)
+
+
+def _compare(run_dirs: list[str], out: Path, labels: list[str] | None) -> Path:
+    from .comparison import write_comparison
+
+    return write_comparison([Path(d) for d in run_dirs], out, labels)
+
+
+def _labels(values: list[str] | None, n: int) -> list[str] | None:
+    """``--labels``: repeated, or one comma-separated value for several runs."""
+    if not values:
+        return None
+    if len(values) == 1 and n > 1:
+        return [v.strip() for v in values[0].split(",")]
+    return list(values)
+
+
+@app.command()
+def compare(
+    run_dirs: Annotated[list[str], typer.Argument(help="Run directories (OUT/<run-id>/ of ftc-mj run).",
+                                                  metavar="RUN_DIR...", show_default=False)],
+    out: Annotated[str, typer.Option(help="The comparison recording to write (.rrd).")] = "compare.rrd",
+    labels: Annotated[list[str] | None, typer.Option(
+        "--labels", help="One label per run (repeat the option, or one comma-separated value). [default: the "
+                         "settings that differ between the runs]", show_default=False)] = None,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing OUT file.")] = False,
+) -> None:
+    """Write one Rerun recording overlaying several runs: each under /runs/<label>/ on a shared sim_time
+    timeline, with a blueprint that plots them together (trajectories, radii, cross-track error, wheel
+    rates, IMM mode probabilities, reconfiguration state; legend by run label)."""
+    from .sim.run import check_output_root
+
+    try:
+        target = _folder(out, "--out")
+        assert target is not None
+        if target.suffix != ".rrd":
+            raise BadInput(f"--out: {out}: the file name must end in .rrd")
+        if target.is_dir():
+            raise BadInput(f"--out: {out} is a folder; give a file name ending in .rrd")
+        if target.exists() and not overwrite:
+            raise BadInput(f"--out: {out} exists (give another name, or --overwrite)")
+        from .comparison import load_runs
+
+        load_runs(run_dirs, _labels(labels, len(run_dirs)))  # every input checked before writing
+        check_output_root(target.parent if str(target.parent) else Path("."), target.name)
+        path = _compare(run_dirs, target, _labels(labels, len(run_dirs)))
+    except BadInput as err:
+        _fail(str(err))
+        return
+    except OSError as err:
+        _fail(f"cannot write {out}: {err.strerror or err}", EXIT_FAILED)
+        return
+    typer.echo(str(path))
+
+
+class PaperRrd(StrEnum):
+    runs = "runs"
+    none = "none"
+    compare = "compare"
 
 
 @app.command()
 def paper(
-    out: Annotated[Path, typer.Option(help="Output folder: runs/, summary.csv, claims.md, figures/.")] = Path(
-        "runs/out/paper"),
+    out: Annotated[str, typer.Option(help="Output folder: runs/, summary.csv, claims.md, figures/.")
+                   ] = "runs/out/paper",
     jobs: Annotated[int, typer.Option(help="Parallel worker processes.")] = 2,
     duration: Annotated[float | None, typer.Option(help="Shorten every run to this many seconds.")] = None,
     only: Annotated[list[str] | None, typer.Option("--only", help="Run only labels matching this glob "
@@ -188,7 +397,10 @@ def paper(
     extras: Annotated[bool, typer.Option("--extras/--no-extras",
                                          help="Add runs beyond the paper's 38: the literal 'paper' IMM (2) "
                                               "and the reconfiguration-policy axis (18).")] = True,
-    no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write Rerun recordings.")] = False,
+    rrd: Annotated[PaperRrd, typer.Option(help="Recordings: runs (one per run), none, or compare (also "
+                                               "OUT/compare/claim-<id>.rrd overlaying each claim's runs).")
+                   ] = PaperRrd.runs,
+    no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Same as --rrd none.")] = False,
     fresh: Annotated[bool, typer.Option("--fresh", help="Recompute runs even if OUT/runs has them.")] = False,
     list_: Annotated[bool, typer.Option("--list", help="Print the matrix labels and exit.")] = False,
     report_only: Annotated[bool, typer.Option("--report-only", help="Run nothing: rebuild summary, claims and "
@@ -201,23 +413,45 @@ def paper(
         for e in select(full_matrix(extras), only):
             typer.echo(f"{e.label}\t{e.scenario}\t" + " ".join(f"{k}={v}" for k, v in e.overrides.items()))
         return
+    from .io import remove_stale_temporaries
     from .report.paper import run_paper
 
     try:
-        res = run_paper(out, jobs=jobs, duration=duration, only=only, extras=extras, rrd=not no_rrd, fresh=fresh,
-                        echo=lambda s: typer.echo(s, err=True), report_only=report_only)
+        if no_rrd and rrd != PaperRrd.runs and rrd != PaperRrd.none:
+            raise BadInput(f"--no-rrd: contradicts --rrd {rrd.value}")
+        mode = PaperRrd.none if no_rrd else rrd
+        out_dir = _folder(out)
+        assert out_dir is not None
+        for d in (out_dir, out_dir / "runs", out_dir / "figures", out_dir / "compare"):
+            remove_stale_temporaries(d)
+        res = run_paper(out_dir, jobs=jobs, duration=duration, only=only, extras=extras, rrd=mode != PaperRrd.none,
+                        fresh=fresh, echo=lambda s: typer.echo(s, err=True), report_only=report_only)
+        compared = _claim_comparisons(res, out_dir / "compare") if mode == PaperRrd.compare else []
     except BadInput as err:
         _fail(str(err))
         return
     except KeyboardInterrupt:
-        typer.echo("ftc-mj: interrupted; finished runs are kept and reused next time", err=True)
-        raise typer.Exit(130) from None
+        _interrupted("interrupted; finished runs are kept and reused next time")
+        return
     typer.echo(f"{len(res.rows)} runs in {res.wall_time_s:.1f} s (report {res.report_time_s:.1f} s) → {res.out}")
     for c in res.claims:
         typer.echo(f"  claim {c.id:>2}: {c.verdict:<15} {c.title}")
+    for p in compared:
+        typer.echo(f"  comparison: {p}")
     if res.failed:
         typer.echo(f"ftc-mj: {len(res.failed)} run(s) failed: {', '.join(res.failed)}", err=True)
-        raise typer.Exit(1)
+        raise typer.Exit(EXIT_FAILED)
+
+
+def _claim_comparisons(res: Any, out_dir: Path) -> list[Path]:
+    from .comparison import claim_run_dirs, write_comparison
+
+    paths = []
+    for claim_id, labels, dirs in claim_run_dirs(res.claims, res.rows):
+        if len(dirs) >= 2:
+            paths.append(write_comparison(dirs, out_dir / f"claim-{claim_id}.rrd", labels,
+                                          recording_id=f"claim-{claim_id}"))
+    return paths
 
 
 @app.command()

@@ -12,11 +12,22 @@ Loading goes through :func:`load_config`, which accepts a built-in scenario name
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    Strict,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from .errors import BadInput
 
@@ -28,8 +39,78 @@ DEFAULT_MODEL_FILE = MODELS_DIR / "diffdrive.xml"
 
 OMEGA_MAX = math.radians(1000.0)  # rad/s, the paper's wheel-rate limit (±1000 deg/s)
 
-PosFloat = Annotated[float, Field(gt=0)]
-NonNegFloat = Annotated[float, Field(ge=0)]
+FLOAT_BOUND = 1.0e6
+"""Magnitude bound of every config float without a tighter physical range: finite numbers beyond it
+(1e15 s, 1e308 kg) are typing slips, not experiments, and overflow the physics or the allocations."""
+
+
+def _interval(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:
+    return f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+
+
+def ranged(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False, unit: str = "") -> Any:
+    """A strict float type: a finite number (an integer is accepted, a boolean or string is not) in
+    the interval from ``lo`` to ``hi`` (open ends as flagged); the error names the interval and unit."""
+    where = _interval(lo, hi, lo_open, hi_open) + (f" {unit}" if unit else "")
+
+    def check(v: float) -> float:
+        inside = (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
+        if not (math.isfinite(v) and inside):
+            raise ValueError(f"must be a finite number in {where}, got {v!r}")
+        return v
+
+    return Annotated[float, Strict(), AfterValidator(check)]
+
+
+def _plain_int(v: Any) -> Any:
+    """A numpy integer as a Python int (callers computing seeds or sizes with numpy); anything else as is."""
+    return int(v) if hasattr(v, "dtype") and getattr(v.dtype, "kind", "") in "iu" and v.shape == () else v
+
+
+def ranged_int(lo: int, hi: int) -> Any:
+    """A strict integer type in ``[lo, hi]`` (a float or boolean is not an integer; a numpy integer is)."""
+    return Annotated[int, BeforeValidator(_plain_int), Strict(), Field(ge=lo, le=hi)]
+
+
+PosFloat = ranged(0.0, FLOAT_BOUND, lo_open=True)
+"""A finite float in (0, 1e6]."""
+NonNegFloat = ranged(0.0, FLOAT_BOUND)
+"""A finite float in [0, 1e6]."""
+FiniteFloat = ranged(-FLOAT_BOUND, FLOAT_BOUND)
+"""A finite float in [-1e6, 1e6]."""
+Fraction = ranged(0.0, 1.0, lo_open=True, hi_open=True)
+"""A finite float in (0, 1)."""
+Flag = Annotated[bool, Strict()]
+"""``true`` or ``false`` only (not 1, "yes")."""
+Rate = ranged(0.0, 1.0e4, lo_open=True, unit="Hz")
+Length = ranged(1.0e-3, 100.0, unit="m")
+"""A robot dimension (m)."""
+AngleDeg = ranged(0.0, 180.0, lo_open=True, unit="deg")
+
+NAME_RE = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]{0,99}$")
+"""A run or study name: one safe file-name component (it names the output folder)."""
+
+
+def check_name(v: str) -> str:
+    """``v`` if it is a plain file-name component (see :data:`NAME_RE`), else ``ValueError``."""
+    if not NAME_RE.match(v):
+        shown = v[:40].encode("unicode_escape").decode() + ("…" if len(v) > 40 else "")
+        raise ValueError("must be a plain file name: letters, digits, '_', '-', '.', '+', starting with a "
+                         f"letter, digit or '_', at most 100 characters (got '{shown}')")
+    return v
+
+
+SafeName = Annotated[str, Strict(), AfterValidator(check_name)]
+
+
+def _path_text(v: Any) -> Any:
+    """Reject an empty path or one with a NUL byte before it becomes a ``Path`` (``Path("")`` is ``.``)."""
+    if isinstance(v, str) and (not v.strip() or "\0" in v):
+        raise ValueError("must be a non-empty path without NUL bytes")
+    return v
+
+
+PathText = Annotated[Path, BeforeValidator(_path_text)]
 
 
 class _Strict(BaseModel):
@@ -41,23 +122,23 @@ class _Strict(BaseModel):
 class RobotConfig(_Strict):
     """Nominal design shared by plant and model unless overridden there."""
 
-    wheel_radius: PosFloat = 2.0
+    wheel_radius: Length = 2.0
     """Nominal wheel radius R0 (m)."""
-    half_track: PosFloat = 1.0
+    half_track: Length = 1.0
     """Half track b (m): wheel centre to axle midpoint; track width is 2b (DESIGN §1)."""
-    omega_max: PosFloat = OMEGA_MAX
+    omega_max: ranged(0.0, 1.0e4, lo_open=True, unit="rad/s") = OMEGA_MAX
     """Wheel-rate limit (rad/s), symmetric."""
 
 
 class PlantConfig(_Strict):
     """Truth plant (MuJoCo). ``None`` means: take the value from ``robot``."""
 
-    model_file: Path = DEFAULT_MODEL_FILE
+    model_file: PathText = DEFAULT_MODEL_FILE
     variant: Literal["suspended", "rigid"] = "suspended"
-    timestep: PosFloat = 0.001
+    timestep: ranged(1.0e-5, 0.05, unit="s") = 0.001
     """Physics step (s)."""
-    wheel_radius: PosFloat | None = None
-    half_track: PosFloat | None = None
+    wheel_radius: Length | None = None
+    half_track: Length | None = None
     chassis_mass: PosFloat | None = None
     """Chassis mass (kg); ``None`` keeps the MJCF value."""
     wheel_mass: PosFloat | None = None
@@ -68,34 +149,38 @@ class PlantConfig(_Strict):
     """Sliding friction of the caster(s); 0 = frictionless (the kinematic model's assumption)."""
     actuator_gain: PosFloat | None = None
     """Velocity-actuator gain kv (N m s/rad); ``None`` keeps the MJCF value."""
-    initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (0.0, 0.0, 0.0)
     """Initial (x, y, psi) of the axle midpoint (m, m, rad)."""
-    start_moving: bool = True
+    start_moving: Flag = True
     """Start in steady motion at the reference's speed and yaw rate at t = 0 (the paper's runs begin on the
     path at 10 m/s); False = start from rest."""
-    reseat_hub: bool = True
+    reseat_hub: Flag = True
     """Levelling suspension (suspended variant): on every radius change move the hub and its strut's spring
     reference by the radius change, so the tyre stays on the ground with the same load and the chassis level.
     ``False``: passive struts (a shrunken tyre hangs on its spring and the chassis rolls)."""
     kind: Literal["mujoco", "kinematic"] = "mujoco"
     """``mujoco``: the physical truth plant; ``kinematic``: the ideal kinematic model integrated exactly (RK4)."""
-    wheel_load_fraction: Annotated[float, Field(gt=0, lt=1)] = 0.7
+    wheel_load_fraction: Fraction = 0.7
     """Share of the chassis weight carried by the two wheel slides (suspended variant); the caster takes the rest.
     The builder sets the slide spring preload and the chassis centre of mass (x) from it."""
     slip_limit: PosFloat = 0.3
     """Longitudinal tyre slip speed (m/s) above which the plant raises the ``SLIP`` flag."""
-    tilt_limit_deg: PosFloat = 10.0
+    tilt_limit_deg: AngleDeg = 10.0
     """Roll or pitch (deg) above which the plant raises the ``LARGE_ROLL`` flag."""
-    tipped_limit_deg: PosFloat = 60.0
+    tipped_limit_deg: AngleDeg = 60.0
     """Roll or pitch (deg) above which the plant raises the ``TIPPED`` flag."""
 
     @field_validator("model_file")
     @classmethod
     def _model_exists(cls, v: Path) -> Path:
         p = Path(v)
-        if not p.is_absolute() and not p.exists():
-            p = REPO_ROOT / p
-        if not p.is_file():
+        try:
+            if not p.is_absolute() and not p.exists():
+                p = REPO_ROOT / p
+            found = p.is_file()
+        except OSError as err:  # e.g. a name too long for the file system
+            raise ValueError(f"cannot use {str(v)[:80]}: {err.strerror}") from None
+        if not found:
             raise ValueError(f"model file not found: {v}")
         return p
 
@@ -103,11 +188,11 @@ class PlantConfig(_Strict):
 class ModelConfig(_Strict):
     """What the filters and controllers assume. ``None`` means: take the value from ``robot``."""
 
-    half_track: PosFloat | None = None
-    wheel_radius: PosFloat | None = None
+    half_track: Length | None = None
+    wheel_radius: Length | None = None
 
 
-Breakpoints = list[tuple[float, float]]
+Breakpoints = Annotated[list[tuple[FiniteFloat, FiniteFloat]], Field(max_length=10_000)]
 
 
 def _check_schedule(v: Breakpoints) -> Breakpoints:
@@ -176,7 +261,7 @@ class DecisionConfig(_Strict):
     """Time (s) the condition must hold before a fault is declared. It trades false alarms against the
     delay of a reconfiguration: on the MuJoCo robot a 0.5 s dwell let a 1.6 m offset build up after
     the scenario 2 puncture, and correcting it lifted the inner wheel (docs/findings.md)."""
-    mode_threshold: Annotated[float, Field(gt=0, lt=1)] = 0.9
+    mode_threshold: Fraction = 0.9
     max_split_sigma: PosFloat = 0.15
     """Sigma rule: a wheel is isolated only when the σ (m) of the radius split along the direction
     the speed cannot observe is at most this; otherwise the declared wheel is ``'unknown'``."""
@@ -186,20 +271,20 @@ class EstimatorConfig(_Strict):
     """The FDI filter (paper §3). Defaults are exactly the paper's values."""
 
     kind: Literal["ekf", "ukf", "imm-ekf", "imm-ukf", "none"] = "ukf"
-    rate: PosFloat = 100.0
+    rate: Rate = 100.0
     """Filter rate (Hz); dt = 1/rate."""
     imm_models: Literal[4, 5] = 4
     imm_variant: Literal["hypothesis", "paper"] = "hypothesis"
-    kappa: float = 0.001
+    kappa: ranged(-5.0, 1.0e3, lo_open=True) = 0.001
     """Julier sigma-point parameter."""
-    p0_sigma: tuple[float, float, float, float, float] = (0.5, 0.5, math.radians(1.0), 0.5, 0.5)
+    p0_sigma: tuple[PosFloat, PosFloat, PosFloat, PosFloat, PosFloat] = (0.5, 0.5, math.radians(1.0), 0.5, 0.5)
     """Initial standard deviations of [x, y, psi, R_R, R_L] (m, m, rad, m, m)."""
-    q_rate: tuple[float, float, float, float, float] = (5.0, 5.0, 0.1, 2.0, 2.0)
+    q_rate: tuple[NonNegFloat, NonNegFloat, NonNegFloat, NonNegFloat, NonNegFloat] = (5.0, 5.0, 0.1, 2.0, 2.0)
     """Process noise: Q = diag((q_rate * dt)^2) (the paper's Q)."""
     initial_radii: tuple[PosFloat, PosFloat] | None = None
     """Initial radius estimates (m); ``None`` = the model's nominal radius."""
-    p_stay_4: Annotated[float, Field(gt=0, lt=1)] = 0.97
-    p_stay_5: Annotated[float, Field(gt=0, lt=1)] = 0.96
+    p_stay_4: Fraction = 0.97
+    p_stay_5: Fraction = 0.96
     ramp_rate: PosFloat = 0.1
     """Deflation rate (m/s) hypothesised by the 5th (linear puncture) IMM model."""
     min_radius: PosFloat = 0.05
@@ -217,19 +302,23 @@ class EstimatorConfig(_Strict):
     decision: DecisionConfig = Field(default_factory=DecisionConfig)
 
 
+ScenarioFraction = ranged(0.0, 2.0, lo_open=True)
+"""A scenario radius as a fraction of the model radius, in (0, 2]."""
+
+
 class RobustConfig(_Strict):
     """Multi-stage robust NMPC (``controller.kind = "robust-nmpc"``; :mod:`~ftc_mj.control.robust`): one
     state trajectory per radius scenario, shared inputs over the robust horizon, all constraints in
     every scenario."""
 
-    scenarios: list[tuple[PosFloat, PosFloat]] = Field(
+    scenarios: list[tuple[ScenarioFraction, ScenarioFraction]] = Field(
         default_factory=lambda: [(1.0, 1.0), (0.5, 1.0), (1.0, 0.5), (0.5, 0.5)], min_length=1, max_length=16)
     """Scenario radii ``[R_R, R_L]`` as fractions of the model radii the reconfiguration policy hands over
     (the nominal radii under policy ``none``). Default: no fault, right at 50 %, left at 50 %, both at
     50 % (the 4-model IMM bank, in its order)."""
     weights: list[NonNegFloat] | None = None
     """Scenario weights (one per scenario, not all zero; normalised); unset = uniform."""
-    robust_horizon_nodes: Annotated[int, Field(ge=1)] | None = None
+    robust_horizon_nodes: ranged_int(1, 200) | None = None
     """Input nodes shared by all scenarios (non-anticipativity); unset = every node inside the first
     control period (5 of the default 50). More shared nodes make the NLP harder: with a 50 % scenario
     IPOPT needed 22 iterations at 12 nodes and did not converge in 200 at 20."""
@@ -240,13 +329,13 @@ class RobustConfig(_Strict):
     """``fixed``: the configured weights (passive FTC). ``posterior``: at every solve the weights are
     the filter's posterior probabilities of the scenario radii (:mod:`~ftc_mj.sim.scenario_weights`;
     needs an estimator): a hybrid of passive and active FTC."""
-    posterior_tolerance: PosFloat = 0.25
+    posterior_tolerance: ranged(0.0, 10.0, lo_open=True, unit="m") = 0.25
     """``posterior`` weighting: standard deviation (m) added to the filter's radius σ in every direction
     — how far the true radii may lie from a scenario and still count as that scenario."""
-    posterior_floor: Annotated[float, Field(ge=0, lt=1)] = 0.01
+    posterior_floor: ranged(0.0, 1.0, hi_open=True) = 0.01
     """``posterior`` weighting: share of the weight spread uniformly over all scenarios whatever the
     filter says (no scenario is dismissed outright)."""
-    prune_below: Annotated[float, Field(ge=0, lt=1)] = 0.0
+    prune_below: ranged(0.0, 1.0, hi_open=True) = 0.0
     """A scenario whose (normalised) weight is below this leaves the problem, cost and constraints (the
     one of largest weight never does); 0 = never. Trade-off measured on scenario 2 with a gyro (UKF,
     rate-penalised cost; docs/findings.md): on the kinematic plant the floor 0.01 without pruning leaves
@@ -270,11 +359,11 @@ class ControllerConfig(_Strict):
 
     kind: Literal["nmpc", "lmpc", "open-loop", "robust-nmpc"] = "nmpc"
     """``robust-nmpc``: the multi-stage robust NMPC over radius scenarios (settings in ``robust``)."""
-    rate: PosFloat = 10.0
+    rate: ranged(0.0, 1.0e3, lo_open=True, unit="Hz") = 10.0
     """Control rate (Hz); commands are held (zero-order hold) between solves."""
-    nodes: Annotated[int, Field(ge=4, le=200)] = 50
+    nodes: ranged_int(4, 200) = 50
     """LGL nodes N."""
-    horizon: PosFloat = 5.0
+    horizon: ranged(0.0, 60.0, lo_open=True, unit="s") = 5.0
     """Prediction horizon (s)."""
     q_pose: NonNegFloat = 10.0
     q_speed: NonNegFloat = 1.0
@@ -283,6 +372,21 @@ class ControllerConfig(_Strict):
     """Weight on the squared wheel acceleration (rad/s^2)^2 in the cost; 0 = the paper's cost."""
     omega_rate_max: PosFloat = 20.0
     """Input-rate bound |d omega / dt| (rad/s^2)."""
+    rate_bound_from_applied: Flag = True
+    """Bound the first input of every NMPC/LMPC plan relative to the command in force on the plant:
+    ``|U(t0) − u_applied| ≤ omega_rate_max / rate`` per wheel (and, with ``rate_penalty``, penalise that
+    step like the in-plan rates), so consecutive commands differ by at most that much (with the
+    excitation dither on, the dithered command is clipped to the same step). ``False`` reproduces the
+    earlier formulation, where the rate bound held only inside each plan and the command could jump
+    between the wheel-rate limits from one sample to the next."""
+    rate_penalty_first_step: Flag = False
+    """With ``rate_penalty > 0`` and ``rate_bound_from_applied``: the rate penalty also covers the step
+    from the command in force, weighted as that step spread over one controller period,
+    ``rate_penalty T_s ‖(U(t0) − u_applied)/T_s‖²`` (the in-plan term is ``rate_penalty ∫ ‖dU/dt‖² dt``).
+    ``False`` (default) keeps the bound and penalises the rates inside the plan only. The step penalty
+    pulls ``U(t0)`` towards the command in force, i.e. it gives the command inertia (phase lag in the
+    loop): on the MuJoCo robot, at this weight, it destabilises the rate-penalised loop even without a
+    fault (measured in docs/findings.md), so it is off unless asked for."""
     max_lateral_accel: PosFloat | None = None
     """Bound (m/s²) on the lateral acceleration ``V ψ̇`` the NMPC may plan at every node; ``None`` =
     the paper's problem (no bound). The MuJoCo robot (2 m wheels, 1 m half track, centre of mass about
@@ -300,7 +404,7 @@ class ControllerConfig(_Strict):
     """QP solver of the linear MPC (CasADi conic plugin)."""
     cold_time_budget: PosFloat | None = None
     """Wall-time budget (s) of a cold (first or re-seeding) solve; ``None`` = not enforced."""
-    max_iter: Annotated[int, Field(ge=0)] = 30
+    max_iter: ranged_int(0, 10_000) = 30
     """Iteration limit of the NLP solver (IPOPT); 0 forces a failure (used in tests). In the 58 runs of
     ``ftc-mj paper`` every IPOPT solve that succeeded needed at most 14 iterations and every one that
     failed (re-seeds of a diverging loop) ran to the limit, at 4–8 ms per iteration: 30 keeps every
@@ -311,9 +415,10 @@ class ControllerConfig(_Strict):
     previous plan. ``None`` (default) = not enforced: a wall-clock rule makes results depend on machine
     load, and a run must be a pure function of its config and seed. Solve times are always reported
     (``solve_time_ms``, ``solves_over_period``)."""
-    open_loop_omega: tuple[float, float] = (5.0, 5.0)
+    open_loop_omega: tuple[FiniteFloat, FiniteFloat] = (5.0, 5.0)
     """Constant wheel rates (rad/s) of the open-loop controller."""
-    open_loop_schedule: list[tuple[float, float, float]] = Field(default_factory=list)
+    open_loop_schedule: Annotated[list[tuple[FiniteFloat, FiniteFloat, FiniteFloat]], Field(max_length=10_000)] = Field(
+        default_factory=list)
     """Optional ``[t, omega_R, omega_L]`` breakpoints (piecewise-linear) for the open-loop controller."""
     robust: RobustConfig = Field(default_factory=RobustConfig)
     """Settings of the robust multi-stage NMPC (``kind = "robust-nmpc"``)."""
@@ -328,8 +433,8 @@ class ExcitationConfig(_Strict):
     amplitude is 1 m/s² of extra lateral acceleration (the robot starts lifting a wheel at about
     3.5 m/s², the circle itself needs 2)."""
 
-    enabled: bool = False
-    amplitude: Annotated[float, Field(gt=0, le=1.0)] = 0.05
+    enabled: Flag = False
+    amplitude: ranged(0.0, 1.0, lo_open=True, unit="rad/s") = 0.05
     """Yaw-rate dither amplitude (rad/s)."""
     period: PosFloat = 2.0
     """Dither period (s)."""
@@ -384,19 +489,20 @@ class ReferenceConfig(_Strict):
 
 
 class OutputConfig(_Strict):
-    dir: Path = Path("runs/out")
-    rrd: bool = True
-    progress: bool = True
+    dir: PathText = Path("runs/out")
+    rrd: Flag = True
+    progress: Flag = True
 
 
 class RunConfig(_Strict):
     """A complete run. Keys that scripts rely on: DESIGN §6."""
 
-    name: str = "run"
-    description: str = ""
-    duration: PosFloat = 40.0
-    """Simulated time (s)."""
-    seed: Annotated[int, Field(ge=0)] = 0
+    name: SafeName = "run"
+    """Names the run's output folder: one plain file-name component (:data:`NAME_RE`)."""
+    description: Annotated[str, Strict(), Field(max_length=2000)] = ""
+    duration: ranged(0.0, 3600.0, lo_open=True, unit="s") = 40.0
+    """Simulated time (s); an hour is 360 000 trace rows (about 130 MB in memory)."""
+    seed: ranged_int(0, 2**63 - 1) = 0
     robot: RobotConfig = Field(default_factory=RobotConfig)
     plant: PlantConfig = Field(default_factory=PlantConfig)
     model: ModelConfig = Field(default_factory=ModelConfig)
@@ -496,10 +602,23 @@ class RunConfig(_Strict):
 
 # ---------------------------------------------------------------------------- loading
 BUILTIN_SCENARIOS = ("scenario1", "scenario2", "scenario3", "scenario4")
+MAX_TOML_BYTES = 4 * 2**20
+"""Largest scenario or study file read (bytes): config files are a few kB."""
 
 
 def _fmt_loc(loc: tuple[Any, ...]) -> str:
     return ".".join(str(p) for p in loc if not isinstance(p, int)) or "<root>"
+
+
+def shown_value(v: Any, width: int = 40) -> str:
+    """A value as the user wrote it in TOML (``true``, ``"yes"``, ``[1, 2]``), cut to ``width`` characters."""
+    if isinstance(v, bool):
+        text = "true" if v else "false"
+    elif isinstance(v, str):
+        text = '"' + v.encode("unicode_escape").decode() + '"'
+    else:
+        text = repr(v)
+    return text if len(text) <= width else text[: width - 1] + "…"
 
 
 def _one_line(err: ValidationError) -> str:
@@ -509,6 +628,8 @@ def _one_line(err: ValidationError) -> str:
     if e["type"] == "extra_forbidden":
         msg = "unknown key"
     msg = msg.removeprefix("Value error, ")
+    if e["type"] not in ("value_error", "extra_forbidden", "missing") and "input" in e:
+        msg += f", got {shown_value(e['input'])}"
     extra = f" (and {err.error_count() - 1} more)" if err.error_count() > 1 else ""
     if loc == "<root>" and ": " in msg:  # model-level checks name their field themselves
         return f"{msg}{extra}"
@@ -521,6 +642,8 @@ def validate_config(data: dict[str, Any]) -> RunConfig:
         return RunConfig.model_validate(data)
     except ValidationError as err:
         raise BadInput(_one_line(err)) from None
+    except RecursionError:
+        raise BadInput("config: values nested too deeply") from None
 
 
 def scenario_path(name_or_path: str | Path) -> Path:
@@ -528,20 +651,48 @@ def scenario_path(name_or_path: str | Path) -> Path:
     s = str(name_or_path)
     if s in BUILTIN_SCENARIOS:
         return SCENARIO_DIR / f"{s}.toml"
+    return existing_file(s, "scenario", "no such built-in scenario or file")
+
+
+def existing_file(s: str, what: str, missing: str = "no such file") -> Path:
+    """``Path(s)`` if it names a readable regular file; else :class:`BadInput` (``what: why``), also for
+    names the OS rejects (NUL bytes, too long)."""
+    shown = s if len(s) <= 120 else s[:120] + "…"
+    if not s or "\0" in s:
+        raise BadInput(f"{what}: expected a file path, got {shown!r}")
     p = Path(s)
-    if not p.is_file():
-        raise BadInput(f"scenario: no such built-in scenario or file: {s}")
+    try:
+        found = p.is_file()
+    except OSError as err:
+        raise BadInput(f"{what}: {shown}: {err.strerror}") from None
+    if not found:
+        raise BadInput(f"{what}: {missing}: {shown}")
     return p
 
 
 def read_toml(path: Path, what: str = "config") -> dict[str, Any]:
     try:
         with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except tomllib.TOMLDecodeError as err:
-        raise BadInput(f"{what} {path}: invalid TOML: {err}") from None
+            raw = fh.read(MAX_TOML_BYTES + 1)
     except OSError as err:
         raise BadInput(f"{what} {path}: cannot read: {err.strerror}") from None
+    if len(raw) > MAX_TOML_BYTES:
+        raise BadInput(f"{what} {path}: larger than {MAX_TOML_BYTES // 2**20} MiB; not a config file")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise BadInput(f"{what} {path}: not UTF-8 text (byte 0x{raw[err.start]:02x} at offset {err.start})") from None
+    return parse_toml(text, f"{what} {path}")
+
+
+def parse_toml(text: str, what: str) -> dict[str, Any]:
+    """``tomllib.loads`` with every failure as a one-line :class:`BadInput` naming ``what``."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise BadInput(f"{what}: invalid TOML: {str(err).splitlines()[0]}") from None
+    except RecursionError:
+        raise BadInput(f"{what}: invalid TOML: nested too deeply") from None
 
 
 def parse_override(item: str) -> tuple[str, Any]:
@@ -552,10 +703,14 @@ def parse_override(item: str) -> tuple[str, Any]:
     key = key.strip()
     if not key or any(not part for part in key.split(".")):
         raise BadInput(f"--set {item}: empty key")
+    if "\n" in raw or "\r" in raw or "\0" in raw:
+        raise BadInput(f"--set {key}: the value must be one line of text without NUL bytes")
     try:
         value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
         value = raw
+    except RecursionError:
+        raise BadInput(f"--set {key}: value nested too deeply") from None
     return key, value
 
 
@@ -575,7 +730,11 @@ def load_config(scenario: str | Path, overrides: dict[str, Any] | None = None) -
     """Load a scenario (built-in name or TOML path), apply dotted overrides, validate."""
     path = scenario_path(scenario)
     data = read_toml(path, "scenario")
-    data.setdefault("name", path.stem)
+    if "name" not in data:
+        if not NAME_RE.match(path.stem):
+            raise BadInput(f"name: the scenario file's stem {path.stem[:40]!r} is not a plain file name "
+                           "(letters, digits, '_', '-', '.', '+'); set name = \"...\" in the file")
+        data["name"] = path.stem
     for key, value in (overrides or {}).items():
         set_dotted(data, key, value)
     return validate_config(data)

@@ -1,12 +1,19 @@
 """Atomic file and directory output: a killed process never leaves a half-written file under
-its final name, and nothing that already exists is overwritten silently."""
+its final name, and nothing that already exists is overwritten silently.
+
+Temporaries are hidden and carry the writing process's id, ``.<name>.<pid>.<random>.tmp`` (files)
+and ``.<name>.<pid>.<random>.partial`` (run directories), so that :func:`remove_stale_temporaries`
+can delete the ones a killed process left behind without touching those of a live writer.
+"""
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import tempfile
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -29,7 +36,7 @@ def atomic_path(path: Path) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on success it is renamed onto ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     tmp_path = Path(tmp)
     try:
@@ -73,9 +80,11 @@ def write_toml(path: Path, data: dict[str, Any]) -> None:
         tmp.write_bytes(tomli_w.dumps(data).encode())
 
 
-def write_parquet(path: Path, columns: dict[str, np.ndarray]) -> None:
-    """Write equal-length numpy columns as a Parquet table atomically."""
+def write_parquet(path: Path, columns: dict[str, np.ndarray], metadata: dict[str, str] | None = None) -> None:
+    """Write equal-length numpy columns as a Parquet table atomically, with optional schema metadata."""
     table = pa.table({k: pa.array(np.asarray(v)) for k, v in columns.items()})
+    if metadata:
+        table = table.replace_schema_metadata(metadata)
     with atomic_path(path) as tmp:
         pq.write_table(table, tmp)
 
@@ -88,15 +97,36 @@ def atomic_dir(final: Path) -> Iterator[Path]:
     removed, so a killed or failed run leaves nothing under the final name.
     """
     final = Path(final)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".partial", dir=final.parent))
+    created = _missing_parents(final.parent)
+    done = False
     try:
-        yield tmp
-        os.chmod(tmp, 0o777 & ~_umask())
-        os.rename(tmp, final)
+        final.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.{os.getpid()}.", suffix=".partial", dir=final.parent))
+        try:
+            yield tmp
+            os.chmod(tmp, 0o777 & ~_umask())
+            os.rename(tmp, final)
+            done = True
+        finally:
+            if tmp.exists():
+                shutil.rmtree(tmp, ignore_errors=True)
     finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
+        if not done:  # folders made for a run that was not kept go too (if still empty)
+            for d in created:
+                try:
+                    d.rmdir()
+                except OSError:
+                    break
+
+
+def _missing_parents(folder: Path) -> list[Path]:
+    """The folders ``mkdir(parents=True)`` would create for ``folder``, deepest first."""
+    out = []
+    p = Path(folder)
+    while not p.exists() and p != p.parent:
+        out.append(p)
+        p = p.parent
+    return out
 
 
 def unique_dir(parent: Path, name: str) -> Path:
@@ -107,3 +137,49 @@ def unique_dir(parent: Path, name: str) -> Path:
         cand = Path(parent) / f"{name}-{i}"
         i += 1
     return cand
+
+
+_TEMP_RE = re.compile(r"^\..+?(?:\.(?P<pid>\d+))?\.[a-z0-9_]{8}\.(?:tmp|partial)$")
+LEGACY_TEMP_AGE_S = 600.0
+"""A temporary without a process id (written before they carried one) is stale after this long (s);
+a writer keeps its temporaries for seconds (the run's files are written after the simulation)."""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's live process
+        return True
+    return True
+
+
+def remove_stale_temporaries(folder: Path) -> list[Path]:
+    """Delete the temporaries of :func:`atomic_path`/:func:`atomic_dir` in ``folder`` whose writing
+    process no longer runs on this machine (left by a kill); returns what was removed. A missing or
+    unreadable folder has none."""
+    folder = Path(folder)
+    removed: list[Path] = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    now = time.time()
+    for e in entries:
+        m = _TEMP_RE.match(e.name)
+        if m is None:
+            continue
+        try:
+            stale = (not _alive(int(m.group("pid"))) if m.group("pid")
+                     else now - e.stat(follow_symlinks=False).st_mtime > LEGACY_TEMP_AGE_S)
+            if not stale:
+                continue
+            if e.is_dir(follow_symlinks=False):
+                shutil.rmtree(e.path)
+            else:
+                os.unlink(e.path)
+        except OSError:
+            continue
+        removed.append(Path(e.path))
+    return removed

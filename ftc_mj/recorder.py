@@ -78,12 +78,13 @@ yaw rate, attitude, fault flag), NMPC solve time (tabs: iterations, status). Tim
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import shutil
 import subprocess
 import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -92,11 +93,14 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from ftc_mj.errors import BadInput, RunFailed
+from ftc_mj.io import atomic_path
 
 __all__ = [
     "Event",
     "RobotGeometry",
     "Solve",
+    "check_display",
+    "check_recording",
     "open_viewer",
     "read_scalar_series",
     "synthetic_run",
@@ -121,7 +125,7 @@ WHEEL_RADIUS_TOL = 1e-4
 
 _OK_STATUSES = frozenset({"ok", "success", "succeeded", "solve_succeeded", "solved_to_acceptable_level",
                           "solved", "converged", "optimal"})
-_LEVELS = {"info": rr.TextLogLevel.INFO, "warn": rr.TextLogLevel.WARN, "warning": rr.TextLogLevel.WARN,
+TEXT_LEVELS = {"info": rr.TextLogLevel.INFO, "warn": rr.TextLogLevel.WARN, "warning": rr.TextLogLevel.WARN,
            "error": rr.TextLogLevel.ERROR, "debug": rr.TextLogLevel.DEBUG}
 
 # colours (RGB)
@@ -198,7 +202,7 @@ class RobotGeometry:
 # helpers
 
 
-def _ns(t: np.ndarray) -> np.ndarray:
+def seconds_to_ns(t: np.ndarray) -> np.ndarray:
     """Seconds → ``timedelta64[ns]`` (integer ns, rounded once)."""
     return np.round(np.asarray(t, dtype=np.float64) * 1e9).astype(np.int64).astype("timedelta64[ns]")
 
@@ -245,12 +249,12 @@ def _change_rows(r: np.ndarray, t: np.ndarray, tol: float, min_dt: float) -> np.
 
 
 @functools.lru_cache(maxsize=256)
-def _series_style(color: tuple[int, ...], name: str, width: float) -> rr.SeriesLines:
+def series_style(color: tuple[int, ...], name: str, width: float) -> rr.SeriesLines:
     """A ``SeriesLines`` style, built once per process (the Arrow conversion is most of its cost)."""
     return rr.SeriesLines(colors=[list(color)], names=[name], widths=[width])
 
 
-def _strips_column(strips: list[np.ndarray]) -> rr.ComponentColumnList:
+def strips_column(strips: list[np.ndarray]) -> rr.ComponentColumnList:
     """``LineStrips3D`` columns, one strip per row, built as one Arrow array (30x faster than letting
     Rerun convert a list of arrays strip by strip)."""
     import pyarrow as pa
@@ -263,6 +267,28 @@ def _strips_column(strips: list[np.ndarray]) -> rr.ComponentColumnList:
     inner = pa.FixedSizeListArray.from_arrays(pa.array(flat, type=pa.float32()), type=typ.value_type)
     arr = pa.ListArray.from_arrays(pa.array(offsets), inner, type=typ)
     return rr.LineStrips3D.columns(strips=arr).partition(np.ones(len(strips), dtype=np.int64))
+
+
+def growing_path(x: np.ndarray, y: np.ndarray, t: np.ndarray, z: float = 0.02) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The actual path as a growing strip: rows (trace indices) every ``1 / PATH_RATE_HZ`` s plus the last
+    one, and for each the ``(k, 3)`` float32 points (m) up to it, decimated to ``PATH_POINT_RATE_HZ``,
+    at height ``z``."""
+    n = len(t)
+    dt = float(np.median(np.diff(t))) if n > 1 else 0.01
+    dt = dt if dt > 0 else 0.01
+    pstep = max(1, int(round(1.0 / (PATH_POINT_RATE_HZ * dt))))
+    rstep = max(1, int(round(1.0 / (PATH_RATE_HZ * dt))))
+    rows = np.arange(0, n, rstep, dtype=np.int64)
+    if rows[-1] != n - 1:
+        rows = np.append(rows, n - 1)
+    pts = np.stack([x, y, np.full(n, z)], axis=1).astype(np.float32)
+    strips = []
+    for i in rows:
+        sel = np.arange(0, i + 1, pstep)
+        if sel[-1] != i:
+            sel = np.append(sel, i)
+        strips.append(pts[sel])
+    return rows, strips
 
 
 def _finite_range(*arrays: np.ndarray, pad: float = 0.1) -> tuple[float, float] | None:
@@ -303,6 +329,19 @@ def _validate(trace: Mapping[str, np.ndarray]) -> int:
 # blueprint
 
 
+def overview_eye(xy: np.ndarray) -> rrb.EyeControls3D:
+    """A 3D eye that sees all finite points ``(N, 2)`` (m) from a high oblique viewpoint to the south."""
+    xy = np.asarray(xy, dtype=np.float64)
+    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    if len(xy):
+        c = 0.5 * (xy.min(axis=0) + xy.max(axis=0))
+        ext = float(max(np.ptp(xy[:, 0]), np.ptp(xy[:, 1]), 1.0))
+    else:
+        c, ext = np.zeros(2), 10.0
+    return rrb.EyeControls3D(position=[c[0] - 0.1 * ext, c[1] - 0.9 * ext, 0.8 * ext],
+                             look_target=[c[0], c[1], 0.0], eye_up=[0, 0, 1])
+
+
 def _blueprint(trace: Mapping[str, np.ndarray], n_modes: int, has_solves: bool,
                reference_path: np.ndarray | None) -> rrb.Blueprint:
     """Layout: 3D overview, 3D robot close-up and events on the left; a 2-column grid of time-series
@@ -323,14 +362,7 @@ def _blueprint(trace: Mapping[str, np.ndarray], n_modes: int, has_solves: bool,
     # 3D overview eye: the whole reference (or path) from a high oblique viewpoint
     xy = (np.asarray(reference_path, dtype=np.float64)[:, :2] if reference_path is not None
           and len(reference_path) else np.stack([trace["x"], trace["y"]], axis=1))
-    xy = xy[np.all(np.isfinite(xy), axis=1)]
-    if len(xy):
-        c = 0.5 * (xy.min(axis=0) + xy.max(axis=0))
-        ext = float(max(np.ptp(xy[:, 0]), np.ptp(xy[:, 1]), 1.0))
-    else:
-        c, ext = np.zeros(2), 10.0
-    overview = rrb.EyeControls3D(position=[c[0] - 0.1 * ext, c[1] - 0.9 * ext, 0.8 * ext],
-                                 look_target=[c[0], c[1], 0.0], eye_up=[0, 0, 1])
+    overview = overview_eye(xy)
     r0 = float(np.nanmax(np.abs(np.asarray(trace["R_R"], dtype=np.float64)))) if len(trace["R_R"]) else 1.0
     d = 4.0 * max(r0, 0.05)
     close = rrb.EyeControls3D(position=[-1.3 * d, -1.1 * d, 0.9 * d], look_target=[0.0, 0.0, 0.5 * r0],
@@ -405,24 +437,26 @@ def write_rrd(path: Path, trace: Mapping[str, np.ndarray], *, run_id: str, app_i
     solves = list(solves or [])
     events = list(events or [])
     m = _mode_count(trace, n_modes)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    path.parent.mkdir(parents=True, exist_ok=True)
-
-    rec = rr.RecordingStream(app_id, recording_id=run_id)
     has_solves = bool(solves) or ("solve_time_ms" in trace
                                   and bool(np.isfinite(np.asarray(trace["solve_time_ms"])).any()))
-    try:
-        rec.save(tmp, default_blueprint=_blueprint(trace, m, has_solves, reference_path))
+    with recording_file(path, app_id, run_id, _blueprint(trace, m, has_solves, reference_path)) as rec:
         _log_all(rec, trace, n, solves, events, reference_path, geometry, omega_max, m)
-        rec.flush()
-        rec.disconnect()
-        os.replace(tmp, path)
-    except BaseException:
+
+
+@contextlib.contextmanager
+def recording_file(path: Path, app_id: str, recording_id: str, blueprint: rrb.Blueprint
+                   ) -> Iterator[rr.RecordingStream]:
+    """A recording stream of its own with a file sink and ``blueprint``, writing a temporary file beside
+    ``path`` (:func:`ftc_mj.io.atomic_path`) that is renamed onto ``path`` once the stream is flushed and
+    closed; on any error nothing appears under ``path``."""
+    with atomic_path(Path(path)) as tmp:
+        rec = rr.RecordingStream(app_id, recording_id=recording_id)
         try:
-            rec.disconnect()
+            rec.save(tmp, default_blueprint=blueprint)
+            yield rec
+            rec.flush()
         finally:
-            tmp.unlink(missing_ok=True)
-        raise
+            rec.disconnect()
 
 
 def _log_all(rec: rr.RecordingStream, trace: Mapping[str, np.ndarray], n: int, solves: list[Solve],
@@ -430,7 +464,7 @@ def _log_all(rec: rr.RecordingStream, trace: Mapping[str, np.ndarray], n: int, s
              omega_max: float, m: int) -> None:
     """Send every entity (static styles first, then one ``send_columns`` per entity)."""
     t = np.asarray(trace["t"], dtype=np.float64)
-    T = _ns(t)
+    T = seconds_to_ns(t)
     steps = np.arange(n, dtype=np.int64)
     idx_all = [rr.TimeColumn("sim_time", duration=T), rr.TimeColumn("step", sequence=steps)]
 
@@ -441,11 +475,11 @@ def _log_all(rec: rr.RecordingStream, trace: Mapping[str, np.ndarray], n: int, s
         return [rr.TimeColumn("sim_time", duration=T[rows]), rr.TimeColumn("step", sequence=rows)]
 
     def idx_times(times: np.ndarray) -> list[rr.TimeColumn]:
-        return [rr.TimeColumn("sim_time", duration=_ns(times)),
+        return [rr.TimeColumn("sim_time", duration=seconds_to_ns(times)),
                 rr.TimeColumn("step", sequence=_steps_for(times, t))]
 
     def style(entity: str, color: list[int], name: str, width: float = 1.5) -> None:
-        rec.log(entity, _series_style(tuple(color), name, width), static=True)
+        rec.log(entity, series_style(tuple(color), name, width), static=True)
 
     def scalars(entity: str, values: np.ndarray, color: list[int], name: str, width: float = 1.5) -> None:
         style(entity, color, name, width)
@@ -495,24 +529,10 @@ def _log_all(rec: rr.RecordingStream, trace: Mapping[str, np.ndarray], n: int, s
         rec.send_columns(ent, indexes=idx_rows(rows),
                          columns=rr.Cylinders3D.columns(radii=r[rows], centers=centers))
 
-    # actual path: growing strip at PATH_RATE_HZ with points decimated to PATH_POINT_RATE_HZ
-    dt = float(np.median(np.diff(t))) if n > 1 else 0.01
-    dt = dt if dt > 0 else 0.01
-    pstep = max(1, int(round(1.0 / (PATH_POINT_RATE_HZ * dt))))
-    rstep = max(1, int(round(1.0 / (PATH_RATE_HZ * dt))))
-    path_rows = np.arange(0, n, rstep, dtype=np.int64)
-    if path_rows[-1] != n - 1:
-        path_rows = np.append(path_rows, n - 1)
-    pts = np.stack([x, y, np.full(n, 0.02)], axis=1).astype(np.float32)
-    strips = []
-    for i in path_rows:
-        sel = np.arange(0, i + 1, pstep)
-        if sel[-1] != i:
-            sel = np.append(sel, i)
-        strips.append(pts[sel])
+    path_rows, strips = growing_path(x, y, t)
     rec.log("/world/path", rr.LineStrips3D.from_fields(radii=[0.06], colors=[[60, 220, 90]]), static=True)
     rec.send_columns("/world/path", indexes=idx_rows(path_rows),
-                     columns=_strips_column(strips))
+                     columns=strips_column(strips))
 
     # ---- NMPC solves ----------------------------------------------------------------------------
     if solves:
@@ -527,7 +547,7 @@ def _log_all(rec: rr.RecordingStream, trace: Mapping[str, np.ndarray], n: int, s
         rec.log("/world/prediction", rr.LineStrips3D.from_fields(radii=[0.1], colors=[[230, 60, 230]]),
                 static=True)
         rec.send_columns("/world/prediction", indexes=idx_times(ts),
-                         columns=_strips_column(pred))
+                         columns=strips_column(pred))
         st_ms = np.array([s.solve_time_ms for s in solves], dtype=np.float64)
         iters = np.array([s.iterations for s in solves], dtype=np.float64)
         status = np.array([1.0 if s.ok else (0.5 if s.fallback else 0.0) for s in solves])
@@ -602,7 +622,7 @@ def _log_all(rec: rr.RecordingStream, trace: Mapping[str, np.ndarray], n: int, s
     if events:
         events = sorted(events, key=lambda e: e.t)
         et = np.array([e.t for e in events], dtype=np.float64)
-        levels = [str(_LEVELS.get(e.level.strip().lower(), rr.TextLogLevel.INFO)) for e in events]
+        levels = [str(TEXT_LEVELS.get(e.level.strip().lower(), rr.TextLogLevel.INFO)) for e in events]
         rec.send_columns("/events", indexes=idx_times(et),
                          columns=rr.TextLog.columns(text=[e.text for e in events], level=levels))
 
@@ -743,6 +763,38 @@ def _rerun_executable() -> str:
     if found is None:
         raise RunFailed("the rerun viewer executable was not found (is rerun-sdk installed?)")
     return found
+
+
+def check_recording(path: Path) -> Path:
+    """The ``.rrd`` of a run directory (its ``run.rrd``) or the file itself, if Rerun can read a recording
+    from it; else :class:`~ftc_mj.errors.BadInput` naming ``RUN_DIR``."""
+    from rerun.chunk import RrdReader
+
+    p = Path(path)
+    try:
+        if p.is_dir():
+            p = p / "run.rrd"
+        found = p.is_file()
+    except (OSError, ValueError) as err:
+        raise BadInput(f"RUN_DIR: cannot use {str(path)[:80]}: {getattr(err, 'strerror', None) or err}") from None
+    if not found:
+        raise BadInput(f"RUN_DIR: recording not found: {p}")
+    try:
+        ok = bool(RrdReader(str(p)).recordings())
+    except (RuntimeError, OSError, ValueError) as err:
+        raise BadInput(f"RUN_DIR: {p} is not a Rerun recording ({str(err).splitlines()[0][:100]})") from None
+    if not ok:
+        raise BadInput(f"RUN_DIR: {p} holds no recording")
+    return p
+
+
+def check_display(headless_hint: str) -> None:
+    """Raise :class:`~ftc_mj.errors.RunFailed` (one line naming ``headless_hint``, the command that renders
+    a screenshot instead) when the native viewer has no display to open on (Linux without ``DISPLAY``
+    or ``WAYLAND_DISPLAY``)."""
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise RunFailed(f"no display for the Rerun viewer (DISPLAY is not set); for a headless screenshot run: "
+                        f"{headless_hint}")
 
 
 def open_viewer(path: Path, *, wait: bool = True, extra_args: Iterable[str] = ()) -> None:

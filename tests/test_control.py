@@ -108,12 +108,16 @@ def test_nmpc_ipopt_offset_matches_opti() -> None:
     np.testing.assert_allclose(out.predicted, X, atol=1e-5)
 
 
+@pytest.mark.parametrize("first_step", ["free", "bound"])
 @pytest.mark.parametrize("rate_penalty", [0.0, 0.05])
-def test_nmpc_rti_converges_to_ipopt(rate_penalty: float) -> None:
+def test_nmpc_rti_converges_to_ipopt(rate_penalty: float, first_step: str) -> None:
     """RTI steps from the shifted IPOPT plan converge (Gauss–Newton, linearly) to IPOPT's solution
-    (also with the optional rate penalty, and IPOPT agrees with the plain Opti build)."""
+    (also with the optional rate penalty, and IPOPT agrees with the plain Opti build). ``bound``: the
+    command in force is the t = 0 command, and the perturbed pose asks for more than the first-step
+    bound ``|U(t0) − u_applied| ≤ omega_rate_max T_s`` = 2 rad/s allows, so it is active (with the
+    rate penalty, the penalty on that step acts too)."""
     ref = build_reference(RunConfig())
-    spec = ProblemSpec(rate_penalty=rate_penalty)
+    spec = ProblemSpec(rate_penalty=rate_penalty, rate_penalty_first_step=True)
     rti = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)  # no wall-clock rules:
     ip = NMPC(spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None)  # a loaded machine must not matter
     R = np.array(NOMINAL)
@@ -123,22 +127,27 @@ def test_nmpc_rti_converges_to_ipopt(rate_penalty: float) -> None:
     col = Collocation(spec)
     tau1 = 0.1 / col.h - 1.0
     pose1 = barycentric_interpolate(col.tau, o0.predicted, np.array([tau1]))[0] + np.array([0.03, -0.02, 0.005])
-    b = ip.solve(0.1, pose1, R)
+    ua = o0.omega if first_step == "bound" else None
+    b = ip.solve(0.1, pose1, R, ua)
+    a = rti.solve(0.1, pose1, R, ua)  # the first RTI iterate, from the shifted plan
+    assert a.status.startswith("rti") and not a.fallback and not b.fallback
     r, _ = reference_at_nodes(ref, col.times(0.1), pose1[2])
-    Xg, Ug = rti._guess(0.1, pose1, r, R)
-    errs = []
-    for _ in range(6):
-        ok, _, Xg, Ug = rti._qp.solve(Xg, Ug, R, pose1, r)
+    Xg, Ug = a.predicted, a.predicted_omega
+    errs = [np.abs(Ug - b.predicted_omega).max()]
+    for _ in range(5):
+        ok, _, Xg, Ug = rti._qp.solve(Xg, Ug, R, pose1, r, u_prev=ua)
         assert ok
         errs.append(np.abs(Ug - b.predicted_omega).max())
-    e_str = np.array2string(np.array(errs), precision=1)
-    print(f"\n[ctl] RTI iterates vs converged IPOPT plan, max|domega| (rad/s): {e_str}")
+    e_str = " ".join(f"{v:.1e}" for v in errs)
+    print(f"\n[ctl] RTI iterates vs converged IPOPT plan ({first_step} first step), max|domega| (rad/s): {e_str}")
     assert errs[0] < 0.2 and errs[-1] < 1e-3
-    a = rti.solve(0.1, pose1, R)
-    assert a.status.startswith("rti") and not a.fallback
     np.testing.assert_allclose(a.omega, b.omega, atol=0.2)
-    if rate_penalty > 0:
-        X, U, _ = OptiNMPC(spec).solve(pose1, R, r, b.predicted, b.predicted_omega)
+    if ua is not None:  # both meet the bound (2 rad/s = 20 rad/s² x 0.1 s); active without the penalty
+        step = np.abs(b.omega - ua)
+        assert np.all(step <= 2.0 + 1e-6) and np.all(np.abs(Ug[0] - ua) <= 2.0 + 1e-6)
+        assert step.max() > 2.0 - 1e-6 or rate_penalty > 0
+    if rate_penalty > 0 or ua is not None:
+        X, U, _ = OptiNMPC(spec).solve(pose1, R, r, b.predicted, b.predicted_omega, ua)
         np.testing.assert_allclose(b.predicted_omega, U, atol=1e-4)
 
 
@@ -359,7 +368,7 @@ DAQP_ITERATION_LIMIT = -4  # DAQP's exit flag when it stops at its iteration lim
 
 
 def _record_qps(spec: ProblemSpec, true_radii, model_radii, duration: float = 10.0) -> tuple[NMPC, list]:
-    """QP data ``(H, g, E, e, Lv, ll, lu, Lo)`` of every RTI step of a closed loop solved by the CasADi
+    """QP data ``(H, g, E, e, Lv, ll, lu, Lo, lbx, ubx)`` of every RTI step of a closed loop solved by the CasADi
     plugin alone (``certified`` off)."""
     ref = build_reference(RunConfig())
     ctl = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None, max_iter=300)
@@ -387,7 +396,8 @@ def test_certified_qp_equals_plugin_on_saturated_loop(case: str) -> None:
     """The certified active-set path and the CasADi daqp plugin give the same QP solutions (and the
     same infeasibility verdicts) on QPs recorded from loops that saturate the wheels: the model is
     told the wrong radii, so the plan keeps hitting the rate and wheel-rate bounds (up to ~97 of the
-    100 inputs' constraints active)."""
+    100 inputs' constraints active), and the first-step bound from the command in force (the two
+    first inputs' box, tightened to ±2 rad/s about it) is active in most of them."""
     spec = {"lateral": ProblemSpec(max_lateral_accel=1.5),
             "longitudinal": ProblemSpec(max_longitudinal_accel=1.0)}.get(case, ProblemSpec())
     if case == "wrong-radii":
@@ -396,13 +406,14 @@ def test_certified_qp_equals_plugin_on_saturated_loop(case: str) -> None:
         ctl, rec = _record_qps(spec, lambda t: (1.0, 2.0), lambda t: (2.0, 1.0))
     qp = ctl._qp
     qp.reset()
-    n = qp.nu
-    errs, n_active, verdicts = [], [], []
-    for H, g, E, e, Lv, ll, lu, Lo in rec:
-        u_ref, _, _, _ = qp._qpfun(H, g, E, e, Lv, ll, lu, Lo, np.zeros(n), np.zeros(n), np.zeros(qp._lam_a.size))
+    n, N = qp.nu, qp.col.N
+    errs, n_active, verdicts, first_active = [], [], [], 0
+    for H, g, E, e, Lv, ll, lu, Lo, lbx, ubx in rec:
+        u_ref, _, _, _ = qp._qpfun(H, g, E, e, Lv, ll, lu, Lo, lbx, ubx, np.zeros(n), np.zeros(n),
+                                   np.zeros(qp._lam_a.size))
         ref_status = qp._qpfun.stats().get("return_status")
         ok_ref = qp._qpfun.ret == 0 and bool(qp._qpfun.stats().get("success", True))
-        verdict, u, lam_x, lam_a = qp._solve_certified(H, g, E, e, Lv, ll, lu, Lo)
+        verdict, u, lam_x, lam_a = qp._solve_certified(H, g, E, e, Lv, ll, lu, Lo, lbx, ubx)
         verdicts.append(verdict)
         if verdict == "unresolved":  # the plugin decides; nothing to compare
             qp._ws = None
@@ -416,7 +427,8 @@ def test_certified_qp_equals_plugin_on_saturated_loop(case: str) -> None:
             continue
         A, lba, uba = qp._rows(E, e, Lv, ll, lu, Lo)
         Au = A @ u
-        assert np.all(Au >= lba - 1e-6) and np.all(Au <= uba + 1e-6) and np.all(np.abs(u) <= qp.omega_max + 1e-6)
+        assert np.all(Au >= lba - 1e-6) and np.all(Au <= uba + 1e-6)
+        assert np.all(u >= lbx - 1e-6) and np.all(u <= ubx + 1e-6)
         np.testing.assert_allclose(H @ u + g + lam_x + A.T @ lam_a, 0.0, atol=1e-6 * (1 + np.abs(g).max()))
         if gave_up:  # certified (feasible, stationary, right-signed multipliers); nothing to compare
             continue
@@ -434,12 +446,15 @@ def test_certified_qp_equals_plugin_on_saturated_loop(case: str) -> None:
         assert cost >= cost_ref - 1e-6 * (1 + abs(cost_ref))  # nor better than tolerance allows
         errs.append(np.abs(u - u_ref).max())
         n_active.append(int(np.count_nonzero(qp._ws)))
+        tight = (lbx[[0, N]] > -qp.omega_max) & (ubx[[0, N]] < qp.omega_max)
+        first_active += bool(np.any(tight & (qp._ws[[0, N]] != 0)))
     errs_a = np.array(errs)
     counts = {v: verdicts.count(v) for v in set(verdicts)}
     print(f"\n[ctl] certified vs plugin QP ({case}): {len(rec)} QPs {counts}; active bounds/rows median "
-          f"{np.median(n_active):.0f} max {max(n_active)}; max|du| median {np.median(errs_a):.1e} "
-          f"max {errs_a.max():.1e} rad/s")
+          f"{np.median(n_active):.0f} max {max(n_active)}; first-step bound active in {first_active}; "
+          f"max|du| median {np.median(errs_a):.1e} max {errs_a.max():.1e} rad/s")
     assert counts.get("optimal", 0) >= 0.85 * len(rec)
+    assert first_active >= 0.5 * len(errs)
     assert max(n_active) >= (80 if case in ("swapped", "wrong-radii") else 20)
     assert np.median(errs_a) < 1e-8
     assert errs_a.max() < 1e-3  # ill-conditioned H (cond ~1e7): DAQP versions differ by up to ~5e-4 here
@@ -489,3 +504,35 @@ def test_certified_qp_random_and_infeasible() -> None:
     A = np.ones((1, n))
     res = cqp.solve(np.eye(n), np.zeros(n), A, np.array([2.0 * n]), np.array([2.0 * n]), -np.ones(n), np.ones(n))
     assert res.status == "infeasible" and res.path == "farkas"
+
+
+def test_certificate_refuses_a_working_set_whose_refinement_does_not_converge() -> None:
+    """Two nearly parallel active rows (``a`` and ``a + 3e-8 d``) with multipliers 1e9: ``YᵀY`` has a
+    condition number ~1e16, so the two refinement steps leave the working-set residual at ~5e-8
+    relative — inside ``primal_tol`` and with right-signed multipliers and rounding-level stationarity,
+    so primal feasibility, signs and stationarity alone would accept a ``u`` 0.5 away from the exact
+    KKT point. The working-set residual (complementarity) part of the certificate refuses it, and
+    ``solve`` then does not return the guess."""
+    from ftc_mj.control.certified_qp import CertifiedQP
+
+    n = 4
+    H = np.eye(n)
+    a = np.array([1.0, 2.0, -1.0, 0.5])
+    A = np.vstack([a, a + 3e-8 * np.array([0.3, -1.0, 0.7, 1.1])])
+    u_star = np.array([0.2, -0.1, 0.3, 0.05])
+    uba = A @ u_star
+    lba = uba - 10.0
+    g = -H @ u_star - A.T @ np.array([1e9, 1e9])  # KKT: H u* + g + Aᵀλ* = 0, both rows active at u*
+    lbx, ubx = -np.ones(n), np.ones(n)
+    lo, hi = np.r_[lbx, lba], np.r_[ubx, uba]
+    ws = np.array([0, 0, 0, 0, 1, 1], dtype=np.int8)
+    Linv = np.linalg.inv(np.linalg.cholesky(H))
+    eq = lba == uba
+    cqp = CertifiedQP()
+    u, _ = cqp._eqp(Linv, H, g, A, lo, hi, ws, Linv @ g)
+    residual = CertifiedQP._ws_residual(np.r_[u, A @ u], lo, hi, ws)
+    assert residual > 10 * cqp.ws_tol  # the refinement did not converge
+    assert cqp._try(Linv, H, g, A, lo, hi, eq, ws, "guess") is None
+    without = CertifiedQP(ws_tol=np.inf)._try(Linv, H, g, A, lo, hi, eq, ws, "guess")
+    assert without is not None and np.abs(without.u - u_star).max() > 0.1  # what the incomplete certificate let through
+    assert cqp.solve(H, g, A, lba, uba, lbx, ubx, guess=ws).path != "guess"

@@ -96,7 +96,8 @@ def test_sigma_rule_isolates_only_an_identified_split() -> None:
     o.P[3:5, 3:5] = 0.02**2 * np.eye(2)
     for t in np.arange(0.0, 1.0, 0.01):
         s = dec.update(float(round(t, 6)), o, omega)
-    assert s.detected and s.wheel == "both" and not s.suspected  # 2.9 m is a 0.9 m departure as well
+    # 2.9 m is a 0.9 m departure too, but upwards: not a puncture, an anomaly
+    assert s.detected and s.wheel == "left" and not s.suspected and s.anomaly
     dec = FaultDecision(RunConfig())
     o = out(2.0, 1.0, sigma=0.02)
     for t in np.arange(0.0, 1.0, 0.01):
@@ -113,3 +114,34 @@ def test_isolated_wheel_changes_only_after_the_dwell() -> None:
     s = feed(dec, 1.2, 1.4, out(2.0, 1.0))
     s = feed(dec, 1.4, 2.0, out(1.2, 1.0))  # held for 0.6 s: changes after the 0.3 s dwell
     assert s.wheel == "both" and [e for e in dec.events if e[1] == "change both"][0][0] == pytest.approx(1.7)
+
+
+def test_an_upward_radius_drift_is_an_anomaly_not_a_puncture() -> None:
+    """A puncture makes a radius smaller: a radius estimate 0.5 m (25 σ) above nominal is never declared,
+    with the wheel identified or not, and is reported as an anomaly; the same drift downwards is a fault."""
+    dec = FaultDecision(RunConfig())
+    s = feed(dec, 0.0, 3.0, out(2.0, 2.5))
+    assert not s.detected and s.anomaly and not s.suspected and dec.events == []
+    # speed only, split unidentified: the observed combination moves up (both radii up) -> not a fault
+    omega = np.array([5.0, 5.0])
+    o = out(2.3, 2.3, sigma=0.5)
+    o.P[3:5, 3:5] = 0.02**2 * np.full((2, 2), 0.5) + 0.6**2 * np.array([[0.5, -0.5], [-0.5, 0.5]])
+    dec = FaultDecision(RunConfig())
+    for t in np.arange(0.0, 2.0, 0.01):
+        s = dec.update(float(round(t, 6)), o, omega)
+    assert not s.detected and not s.suspected
+    # the same combination moved down: an evident fault of unknown wheel
+    o.x[3:5] = [1.7, 1.7]
+    dec = FaultDecision(RunConfig())
+    for t in np.arange(0.0, 2.0, 0.01):
+        s = dec.update(float(round(t, 6)), o, omega)
+    assert s.detected and s.wheel == "unknown"
+    # reversing (w ∝ -ω, so smaller radii move w·(R - R0) up): larger radii are still no fault, smaller are
+    for radii, fault in (([2.3, 2.3], False), ([1.7, 1.7], True)):
+        o.x[3:5] = radii
+        dec = FaultDecision(RunConfig())
+        for t in np.arange(0.0, 2.0, 0.01):
+            s = dec.update(float(round(t, 6)), o, -omega)
+        assert s.detected is fault
+    s = feed(FaultDecision(RunConfig()), 0.0, 3.0, out(2.0, 1.5))
+    assert s.detected and s.wheel == "left" and not s.anomaly

@@ -19,7 +19,7 @@ N_STEPS = 400
 
 def excited_data(n: int, seed: int = 0, yaw_sigma: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Wheel rates (n, 2), noisy speed (n,), noisy yaw rate (n,) from the kinematic model; R_L 2→1 m
-    linearly over steps 100..200 (BASELINES §1 style)."""
+    linearly over steps 100..200."""
     rng = np.random.default_rng(seed)
     m = KinematicModel(b=1.0, dt=0.01)
     t = np.arange(n) * 0.01

@@ -1,4 +1,4 @@
-"""Filters on kinematic-model data with known radii: innovation consistency (Monte Carlo), a 50 % left
+"""Filters on kinematic-model data with known radii: the paper's Q against constant radii (Monte Carlo), a 50 % left
 puncture with and without a yaw-rate gyro, and what the speed sensor alone can identify."""
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ import pytest
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import EKF, IMM, UKF, FaultDecision, Measurement
 from ftc_mj.estimation._core import SPEED, Assembled, FilterSetup, make_core
+from ftc_mj.estimation.consistency import anis
 from ftc_mj.model.kinematics import KinematicModel, inverse_rates
 
 DT = 0.01
@@ -37,8 +38,12 @@ def circle_truth(n: int, fault_step: int | None, b: float = 1.0) -> tuple[np.nda
 
 
 @pytest.mark.parametrize("member", ["ukf", "ekf"])
-def test_innovation_consistency_monte_carlo(member: str) -> None:
-    """200 seeds × 10 s, no fault, speed only: fraction of speed innovations inside ±2σ ≈ 0.954."""
+def test_paper_q_is_conservative_for_constant_radii(member: str) -> None:
+    """200 seeds × 10 s, no fault, speed only, true radii constant: the paper's Q lets the filter's radii
+    random-walk (0.02 m per step) that the truth does not, so S over-states the innovation variance and
+    the ANIS per dimension lies *below* its two-sided 95 % χ² bound for 200 000 samples (and more than
+    95.45 % of the innovations fall inside ±2σ, beyond the binomial 3σ band). The in-model test, where
+    the filter is consistent, is in test_estimation_consistency.py."""
     seeds, n = 200, 1000
     cfg = RunConfig()
     setup = FilterSetup.from_config(cfg)
@@ -49,7 +54,7 @@ def test_innovation_consistency_monte_carlo(member: str) -> None:
     X = np.repeat(setup.x0[None], seeds, axis=0)
     P = np.repeat(setup.P0[None], seeds, axis=0)
     inside = np.zeros(seeds)
-    nis_sum = np.zeros(seeds)
+    nis = np.empty((seeds, n))
     r = np.array([setup.speed_sigma**2])
     for k in range(n):
         X, P = core.predict(X, P, u[k])
@@ -57,12 +62,14 @@ def test_innovation_consistency_monte_carlo(member: str) -> None:
         res = core.update(X, P, u[k], a)
         X, P = res.X, 0.5 * (res.P + np.swapaxes(res.P, 1, 2))
         inside += np.abs(res.y[:, 0]) <= 2.0 * np.sqrt(res.S[:, 0, 0])
-        nis_sum += res.nis
+        nis[:, k] = res.nis
     frac = inside.sum() / (seeds * n)
-    mean_nis = nis_sum.sum() / (seeds * n)
-    print(f"{member}: fraction of innovations within ±2σ = {frac:.4f}, mean NIS = {mean_nis:.3f}")
-    assert 0.93 <= frac <= 0.97
-    assert 0.9 < mean_nis < 1.1
+    test = anis(nis, 1)
+    print(f"{member}: fraction of innovations within ±2σ = {frac:.4f}; ANIS {test.value:.4f} "
+          f"[{test.lo:.4f}, {test.hi:.4f}] (n_eff {test.n_eff:.0f})")
+    p = 0.9545
+    assert frac > p + 3.0 * np.sqrt(p * (1 - p) / (seeds * n))
+    assert test.value < test.lo
     # the batched core is exactly the single filter: seed 0 through the UKF/EKF class
     f = (UKF if member == "ukf" else EKF)(cfg)
     for k in range(200):
@@ -164,7 +171,7 @@ def test_speed_only_identifiability() -> None:
         assert v_err < 0.25
         # the other direction is a random walk driven by Q (0.02 m per step and radius): lost
         assert d_err > 10 * v_err and max(rr_err, rl_err) > 0.3
-    # UKF and EKF agree (the radii enter linearly; BASELINES §1)
+    # UKF and EKF agree: the radii enter the speed linearly, so the EKF linearisation is exact there
     np.testing.assert_allclose(results["UKF"], results["EKF"], rtol=1e-6)
     # the hypothesis IMM still isolates the left wheel from speed alone here, because after the
     # puncture the wheel rates are strongly asymmetric (ω_L ≈ 2 ω_R) and the 50 % right / 50 % left

@@ -83,3 +83,27 @@ def test_plant_and_sensors_deterministic_together() -> None:
         return out
 
     assert run() == run()
+
+
+def test_the_loop_hands_the_controller_the_sensors_pose(monkeypatch) -> None:
+    """The pose the controller receives is the :class:`Sensors` reading checked above (noise included),
+    not a second noise source of the loop's own."""
+    from ftc_mj.config import load_config
+    from ftc_mj.control.open_loop import OpenLoopController
+    from ftc_mj.sim.loop import simulate
+
+    readings: list[SensorReading] = []
+    poses: list[np.ndarray] = []
+    read = Sensors.read
+    monkeypatch.setattr(Sensors, "read", lambda self, *a: readings.append(read(self, *a)) or readings[-1])
+    solve = OpenLoopController.solve
+    monkeypatch.setattr(OpenLoopController, "solve",
+                        lambda self, t, pose, *a: poses.append(np.array(pose)) or solve(self, t, pose, *a))
+    cfg = load_config("scenario1", {"duration": 1.0, "controller.kind": "open-loop", "sensors.pose_sigma": 0.1,
+                                    "plant.kind": "kinematic"})
+    res = simulate(cfg)
+    assert len(poses) == 10 and len(readings) == 100  # 10 Hz controller, 100 Hz sensors
+    for j, pose in enumerate(poses):
+        np.testing.assert_array_equal(pose, readings[10 * j].pose)
+    truth = np.stack([res.trace[c][::10] for c in ("x", "y", "psi")], axis=1)
+    assert np.all(np.abs(np.array(poses) - truth) > 0)  # noise on every coordinate

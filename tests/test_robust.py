@@ -72,7 +72,7 @@ def _check_scenarios(ctl: RobustNMPC, X: np.ndarray, U: np.ndarray, x0: np.ndarr
         assert np.all(np.abs(U[i]) <= OMEGA_MAX * (1 + 1e-12))
         assert np.abs(col.D @ U[i] / col.h).max() <= sp.omega_rate_max + tol / col.h
         np.testing.assert_allclose(X[i, 0], x0, atol=tol)
-    assert np.abs(U[0, 0] - u_applied).max() <= sp.omega_rate_max * ctl.control_period + tol
+    assert np.abs(U[0, 0] - u_applied).max() <= sp.omega_rate_max * sp.sample_time + tol
 
 
 def test_ipopt_non_anticipativity_and_every_scenarios_constraints(ip4, setup) -> None:

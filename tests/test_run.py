@@ -12,10 +12,12 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow.parquet as pq
+import pytest
 from typer.testing import CliRunner
 
 from ftc_mj.cli import app
 from ftc_mj.config import load_config, read_toml, validate_config
+from ftc_mj.estimation.consistency import nees
 from ftc_mj.sim import cache
 from ftc_mj.sim.run import execute
 
@@ -40,6 +42,40 @@ def test_cli_run_writes_all_outputs(tmp_path: Path) -> None:
                 "omega_at_limit_fraction", "solve_time_ms", "solver_failures", "wall_time_s", "realtime_factor"):
         assert key in metrics
     assert set(metrics["solve_time_ms"]) == {"median", "p95", "max"}
+    # consistency with χ² bounds, recomputable from the trace alone (full 2x2 radius covariance)
+    for key in ("radius_nees", "nees", "nis"):
+        assert set(metrics[f"{key}_test"]) == {"lo", "hi", "n_eff", "samples", "tau", "dof"}
+        assert metrics[f"{key}_test"]["lo"] < metrics[f"{key}_test"]["hi"]
+    cols = trace.to_pydict()
+    e = np.stack([np.asarray(cols["R_R_hat"]) - cols["R_R"], np.asarray(cols["R_L_hat"]) - cols["R_L"]], axis=1)
+    sR, sL, c = (np.asarray(cols[k]) for k in ("R_R_std", "R_L_std", "R_RL_cov"))
+    P = np.stack([np.stack([sR**2, c], axis=1), np.stack([c, sL**2], axis=1)], axis=1)
+    assert np.nanmean(nees(e, P)) == pytest.approx(metrics["radius_nees_mean"], rel=1e-9)
+    assert metrics["exceptions"] == 0 and metrics["error"] is None
+    # the scenario's puncture at 10 s lies after the end of this 2 s run
+    assert metrics["onsets"] == [{"wheel": "left", "time": 10.0, "status": "after end"}]
+    assert metrics["missed_detection"] is None
+
+
+def test_cli_says_a_fault_after_the_end_is_neither_detected_nor_missed(tmp_path: Path) -> None:
+    res = CliRunner().invoke(app, ["run", "scenario2", "--duration", "1", "--no-rrd", "--out", str(tmp_path),
+                                   "--controller", "open-loop"])
+    assert res.exit_code == 0, res.output
+    text = " ".join(res.output.split())
+    assert "fault onset: left at t = 10 s: after the end of the run (1 s), neither detected nor missed" in text
+
+
+def test_scenario3_run_reports_both_onsets() -> None:
+    out = execute(load_config("scenario3", {"duration": 12.0, "plant.kind": "kinematic",
+                                            "sensors.yaw_rate_sigma": 0.01}))
+    m = out.metrics
+    assert [(e["wheel"], e["time"], e["status"]) for e in m["onsets"]] == [("left", 5.0, "in run"),
+                                                                         ("right", 10.0, "in run")]
+    print({k: [e[k] for e in m["onsets"]] for k in ("detection_delay", "time_to_correct_isolation",
+                                                     "false_isolations", "declared_at_onset")})
+    for e in m["onsets"]:
+        assert {"detection_delay", "time_to_correct_isolation", "false_isolations", "missed_detection"} <= set(e)
+    assert m["detection_delay"] == m["onsets"][0]["detection_delay"]
 
 
 def test_second_run_never_overwrites(tmp_path: Path) -> None:
@@ -73,15 +109,85 @@ def test_imm_run_has_mode_columns() -> None:
 
 
 def test_killed_run_leaves_no_output_under_final_name(tmp_path: Path) -> None:
+    """Kill the run inside its write window: as soon as the output folder gets its first entry (the
+    temporary directory, or — if the writes were not atomic — the run directory itself), while the
+    files are being written. Nothing may be visible under a final name. (Replacing ``atomic_dir`` by a
+    plain directory makes this test fail: the half-written run directory is left behind.)"""
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    proc = subprocess.Popen([sys.executable, "-m", "ftc_mj.cli", "run", "scenario2", "--duration", "40",
+    proc = subprocess.Popen([sys.executable, "-m", "ftc_mj.cli", "run", "scenario2", "--duration", "10",
                              "--out", str(tmp_path), "-q"], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
-    time.sleep(1.5)
+    deadline = time.monotonic() + 120.0
+    entries: list[Path] = []
+    while not entries and proc.poll() is None and time.monotonic() < deadline:
+        entries = list(tmp_path.iterdir())
+        time.sleep(0.001)
+    alive = proc.poll() is None
     proc.send_signal(signal.SIGKILL)
     proc.wait()
-    visible = [p for p in tmp_path.iterdir() if not p.name.startswith(".")] if tmp_path.exists() else []
+    assert alive and entries, "the run ended (or timed out) before its write window was seen"
+    visible = [p for p in tmp_path.iterdir() if not p.name.startswith(".")]
     assert visible == []
+    assert [p.name.endswith(".partial") for p in tmp_path.iterdir()] == [True]  # killed inside the window
+
+
+def _raise_type_error(self, *args, **kwargs):
+    raise TypeError("unsupported operand type(s) for +: 'NoneType' and 'float'")
+
+
+def test_a_component_exception_fails_the_run_and_is_recorded(tmp_path: Path, monkeypatch) -> None:
+    """A ``TypeError`` inside the NMPC's solve is a bug, not a solver failure: the run fails (exit 1)
+    with the error and where it was raised in ``metrics.json``, and no fallback is counted."""
+    from ftc_mj.control.nmpc import NMPC
+    from ftc_mj.sim.loop import STRICT_ENV
+
+    monkeypatch.setenv(STRICT_ENV, "0")
+    monkeypatch.setattr(NMPC, "_solve", _raise_type_error)
+    res = CliRunner().invoke(app, ["run", "scenario2", "--duration", "1", "--no-rrd", "--out", str(tmp_path), "-q"])
+    assert res.exit_code == 1 and "TypeError" in res.stderr
+    (run_dir,) = list(tmp_path.iterdir())
+    m = json.loads((run_dir / "metrics.json").read_text())
+    assert m["status"] == "failed" and m["error"].startswith("TypeError: unsupported operand")
+    assert "_raise_type_error" in m["error_where"]
+    assert m["exceptions"] == 1 and m["solver_failures"] == 0
+    assert pq.read_table(run_dir / "trace.parquet").num_rows == 0  # failed at the first control sample
+    # strict mode (the suite's default) re-raises instead of recording
+    monkeypatch.setenv(STRICT_ENV, "1")
+    with pytest.raises(TypeError, match="unsupported operand"):
+        execute(load_config("scenario2", {"duration": 1.0}))
+
+
+def test_solver_errors_still_become_fallbacks(monkeypatch) -> None:
+    """An error raised by CasADi inside a solve is a solver failure: the controller falls back to its
+    plan, the run goes on and counts it; a plain ``RuntimeError`` of our own code fails the run."""
+    import casadi as ca
+
+    from ftc_mj.control.nmpc import NMPC
+
+    def casadi_error(self, t, pose, radii, t_start):
+        ca.DM.ones(2, 3) @ ca.DM.ones(2, 3)  # dimension mismatch: CasADi raises RuntimeError
+        raise AssertionError("unreachable")
+
+    monkeypatch.setattr(NMPC, "_solve", casadi_error)
+    out = execute(load_config("scenario2", {"duration": 1.0}))
+    assert out.metrics["status"] == "ok" and out.metrics["exceptions"] == 0
+    assert out.metrics["solver_failures"] == 10  # every sample of 1 s at 10 Hz
+    assert all(s.status.startswith("fallback: solver error: RuntimeError") for s in out.result.solves)
+
+    def lapack_error(self, t, pose, radii, t_start):
+        np.linalg.cholesky(-np.eye(2))  # LinAlgError: not positive definite
+
+    monkeypatch.setattr(NMPC, "_solve", lapack_error)
+    out = execute(load_config("scenario2", {"duration": 0.5}))
+    assert out.metrics["status"] == "ok" and out.metrics["solver_failures"] == 5
+    assert out.result.solves[0].status.startswith("fallback: solver error: LinAlgError")
+
+    def own_error(self, t, pose, radii, t_start):
+        raise RuntimeError("a bug of ours")
+
+    monkeypatch.setattr(NMPC, "_solve", own_error)
+    with pytest.raises(RuntimeError, match="a bug of ours"):
+        execute(load_config("scenario2", {"duration": 1.0}))
 
 
 def test_view_bad_run_dir(tmp_path: Path) -> None:
@@ -94,7 +200,9 @@ def test_view_opens_the_recording(tmp_path: Path, monkeypatch) -> None:
     """``ftc-mj view`` hands the run's recording to the Rerun viewer binary."""
     import ftc_mj.recorder as recorder
 
-    (tmp_path / "run.rrd").write_bytes(b"")
+    trace, solves, events, ref = recorder.synthetic_run(2.0)
+    recorder.write_rrd(tmp_path / "run.rrd", trace, run_id="r", solves=solves, events=events, reference_path=ref)
+    monkeypatch.setenv("DISPLAY", ":99")
     seen: list[list[str]] = []
 
     class Done:

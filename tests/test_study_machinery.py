@@ -242,7 +242,7 @@ def test_bad_invocations_leave_results_untouched(tmp_path: Path) -> None:
         ([str(bad_key)], "axes[1].key (estimator.knd): unknown key 'knd' in estimator"),
         ([str(empty)], "axes[1].values: empty axis"),
         ([str(p), "--address", "tcp://host-without-port"], "expected tcp://HOST:PORT"),
-        ([str(p), "--address", "tcp://127.0.0.1:1"], "cannot reach a dask scheduler within 5 s"),
+        ([str(p), "--address", "tcp://127.0.0.1:1"], "cannot reach a dask scheduler within 6 s"),
         ([str(other)], "holds results of a different study"),
     ]
     runner = CliRunner()

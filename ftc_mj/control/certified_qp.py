@@ -16,11 +16,22 @@ An interior-point method needs ~13 iterations whatever the active set is. This c
    solution (slack below ``active_tol``),
 
 and in both cases solves the equality-constrained QP on that working set *exactly* (range-space
-method, Cholesky of H) and accepts the result only if it passes a KKT certificate: every bound and
-row holds within ``primal_tol`` (the absolute primal tolerance DAQP uses, 1e-6), every inequality
-multiplier has the right sign (within ``dual_tol`` relative), and the stationarity residual is at
-rounding level. A strictly convex QP has one KKT point, so a certified result is the solution DAQP
-would return, up to the two solvers' tolerances. A problem PIQP calls primal infeasible is reported
+method, Cholesky of H) and accepts the result only if it passes a KKT certificate, all four parts:
+
+* complementarity: every constraint of the working set holds with equality, within ``ws_tol``
+  relative to its bound (an exact solve lands there to ~1e-12; a refinement that did not converge
+  leaves ~1e-6, with multipliers that are then wrong along the ill-conditioned directions). With the
+  multipliers of inactive constraints zero by construction, this bounds the complementarity gap
+  ``Σ |λ_i| |slack_i| ≤ ‖λ‖₁ ws_tol (1 + max |b_W|)``;
+* primal feasibility: every bound and row holds within ``primal_tol`` (the absolute primal
+  tolerance DAQP uses, 1e-6);
+* dual feasibility: every inequality multiplier has the right sign (within ``dual_tol`` relative);
+* stationarity: ``|H u + g + lam_x + Aᵀ lam_a|`` is below ``stat_tol`` times the size of the terms
+  that were summed, ``1 + max(|H||u| + |g| + |lam_x| + |A|ᵀ|lam_a|)`` (the scale of their rounding:
+  with multipliers ~1e3 on rows with entries ~600, ``Aᵀλ`` alone is ~1e5 component by component).
+
+A strictly convex QP has one KKT point, so a certified result is the solution DAQP would return, up
+to the two solvers' tolerances. A problem PIQP calls primal infeasible is reported
 infeasible only with a Farkas certificate showing that every ``u`` violates some constraint by more
 than ``10 primal_tol`` (so DAQP could not have found a feasible point either). Anything else is
 ``"unresolved"`` and the caller must use its reference solver.
@@ -68,16 +79,23 @@ class CertifiedQP:
 
     Parameters: ``primal_tol`` (absolute constraint violation accepted, in the units of the rows;
     DAQP's default), ``dual_tol`` (wrong-sign multiplier accepted, relative to the largest
-    multiplier), ``active_tol`` (a constraint whose PIQP slack is below ``active_tol (1 + |bound|)``
-    is taken as active), ``ipm_eps`` (PIQP's absolute residual and duality-gap tolerance),
-    ``max_repairs`` (working-set repairs per candidate, see :meth:`_try`), ``max_repair_rows`` (a
-    candidate that violates more constraints than this is abandoned instead of repaired).
+    multiplier), ``ws_tol`` (working-set residual accepted, relative to ``1 + max |b_W|``),
+    ``stat_tol`` (stationarity residual accepted, relative to the rounding scale of its terms; on the
+    saturated-loop QPs of the tests the working-set residuals are ≤ 1e-12 and the stationarity ≤ 5e-16
+    of those scales, so both leave three orders of margin or more), ``active_tol`` (a constraint
+    whose PIQP slack is below ``active_tol (1 + |bound|)`` is taken as active), ``ipm_eps`` (PIQP's
+    absolute residual and duality-gap tolerance), ``max_repairs`` (working-set repairs per
+    candidate, see :meth:`_try`), ``max_repair_rows`` (a candidate that violates more constraints
+    than this is abandoned instead of repaired).
     The solver keeps no state between calls: the result is a function of the arguments.
     """
 
     def __init__(self, primal_tol: float = 1e-6, dual_tol: float = 1e-9, active_tol: float = 1e-6,
-                 ipm_eps: float = 1e-8, max_repairs: int = 3, max_repair_rows: int = 4) -> None:
+                 ipm_eps: float = 1e-8, max_repairs: int = 3, max_repair_rows: int = 4, ws_tol: float = 1e-9,
+                 stat_tol: float = 1e-10) -> None:
         self.primal_tol = float(primal_tol)
+        self.ws_tol = float(ws_tol)
+        self.stat_tol = float(stat_tol)
         self.max_repairs = int(max_repairs)
         self.max_repair_rows = int(max_repair_rows)
         self.dual_tol = float(dual_tol)
@@ -143,8 +161,10 @@ class CertifiedQP:
              hi: np.ndarray, eq: np.ndarray, ws: np.ndarray, path: str) -> CertifiedResult | None:
         """Solve the equality-constrained QP on working set ``ws`` and certify it; None if not optimal.
 
-        A working set that fails the certificate is repaired up to ``max_repairs`` times (add every
-        violated constraint, else drop the multiplier of worst sign) — an active set predicted from an
+        The certificate (module docstring) in this order: working-set residual (complementarity;
+        refused), primal feasibility and multiplier signs (repaired), stationarity (refused). A working
+        set that fails a repairable part is repaired up to ``max_repairs`` times (add every violated
+        constraint, else drop the multiplier of worst sign) — an active set predicted from an
         interior-point solution may miss a weakly active constraint; the repaired set must pass the same
         certificate.
         """
@@ -160,6 +180,8 @@ class CertifiedQP:
             u, lam_full = sol
             Au = A @ u
             r = np.concatenate([u, Au])
+            if self._ws_residual(r, lo, hi, ws) > self.ws_tol:
+                return None  # u is not on its working set: the refinement did not converge
             over, under = r - hi, lo - r
             viol = np.maximum(over, under)
             if viol.max(initial=0.0) > self.primal_tol:
@@ -175,13 +197,30 @@ class CertifiedQP:
                 ws[int(np.argmin(wrong))] = 0
                 continue
             lam_x, lam_a = lam_full[:n], lam_full[n:]
-            grad = H @ u + g
-            stat = grad + lam_x + A.T @ lam_a
-            if np.max(np.abs(stat)) > 1e-7 * (1.0 + float(np.max(np.abs(grad))) + float(np.max(np.abs(lam_x)))):
+            if self._stationarity(H, g, A, u, lam_x, lam_a) > self.stat_tol:
                 return None
             ws[n:][eq] = 0
             return CertifiedResult("optimal", path, u, lam_x, lam_a, ws)
         return None
+
+    @staticmethod
+    def _ws_residual(r: np.ndarray, lo: np.ndarray, hi: np.ndarray, ws: np.ndarray) -> float:
+        """``max_W |r_i − b_i| / (1 + max_W |b_i|)`` over the working set (``r = [u; A u]``, ``b_i`` the
+        bound the working set puts constraint ``i`` on); 0 for an empty working set."""
+        idx = np.nonzero(ws)[0]
+        if idx.size == 0:
+            return 0.0
+        b = np.where(ws[idx] > 0, hi[idx], lo[idx])
+        return float(np.max(np.abs(r[idx] - b)) / (1.0 + np.max(np.abs(b))))
+
+    @staticmethod
+    def _stationarity(H: np.ndarray, g: np.ndarray, A: np.ndarray, u: np.ndarray, lam_x: np.ndarray,
+                      lam_a: np.ndarray) -> float:
+        """``max |H u + g + lam_x + Aᵀ lam_a|`` relative to ``1 + max(|H||u| + |g| + |lam_x| + |A|ᵀ|lam_a|)``,
+        the size of the terms whose rounding it measures."""
+        stat = H @ u + g + lam_x + A.T @ lam_a
+        scale = np.abs(H) @ np.abs(u) + np.abs(g) + np.abs(lam_x) + np.abs(A).T @ np.abs(lam_a)
+        return float(np.max(np.abs(stat)) / (1.0 + np.max(scale)))
 
     @staticmethod
     def _eqp(Linv: np.ndarray, H: np.ndarray, g: np.ndarray, A: np.ndarray, lo: np.ndarray, hi: np.ndarray,

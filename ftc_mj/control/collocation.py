@@ -6,20 +6,29 @@ Stacking used everywhere: ``w = [x(N), y(N), psi(N), omega_R(N), omega_L(N)]``; 
 ``u = [omega_R(N), omega_L(N)]``.
 
 Constraints (paper §3): collocation ``(2/T) D X = f(X, U; R_R, R_L, b)`` at all N nodes, the
-initial-state equality ``X(t0) = pose``, input bounds ``|omega| ≤ omega_max`` and input-rate
-bounds ``|(2/T) D omega| ≤ omega_rate_max`` and, optionally, a lateral-acceleration (roll-over)
-bound ``|V psidot| ≤ max_lateral_accel`` at every node (linearised about the guess in the QP) and a
-longitudinal-acceleration (pitch-over) bound ``|dV/dt| ≤ max_longitudinal_accel`` (linear in the
-inputs for given radii, so exact in the QP).
+initial-state equality ``X(t0) = pose``, input bounds ``|omega| ≤ omega_max``, input-rate bounds
+``|(2/T) D omega| ≤ omega_rate_max`` inside the plan and, from the input in force on the plant before
+``t0`` (``u_prev``, held since the previous sample), the same bound over one controller period
+``T_s``: ``|U(t0) − u_prev| ≤ omega_rate_max T_s`` (a receding-horizon controller's rate bound ties
+the plan to the input it replaces; there is none before the first command). Optionally, a
+lateral-acceleration (roll-over) bound ``|V psidot| ≤ max_lateral_accel`` at every node (linearised
+about the guess in the QP) and a longitudinal-acceleration (pitch-over) bound
+``|dV/dt| ≤ max_longitudinal_accel`` (linear in the inputs for given radii, so exact in the QP).
 
 Cost (paper §3): ``(T/2) Σ_j w_j (q_pose ‖X_j − X_ref,j‖² + q_speed (V_j − V_ref,j)² +
 q_yaw_rate (psidot_j − psidot_ref,j)²)`` plus the optional ``rate_penalty (T/2) Σ_j w_j
-‖(2/T)(D U)_j‖²``. ``V`` and ``psidot`` are linear in the inputs for given radii, and the pose
-error is linear in the states, so the cost is an exact quadratic: its Gauss–Newton Hessian is
-exact, and only the collocation constraints are nonlinear (through cos psi, sin psi).
+‖(2/T)(D U)_j‖²``, the quadrature of ``rate_penalty ∫ ‖dU/dt‖² dt`` over the horizon. With
+``u_prev`` the penalty also covers the step into the plan, ``rate_penalty T_s ‖(U(t0) − u_prev)/T_s‖²``:
+the same integral over the sample period before ``t0`` with the step spread evenly over it (the
+smallest ``∫ ‖dU/dt‖² dt`` that reaches ``U(t0)`` from ``u_prev`` in ``T_s``). ``V`` and ``psidot``
+are linear in the inputs for given radii, and the pose error is linear in the states, so the cost is
+an exact quadratic: its Gauss–Newton Hessian is exact, and only the collocation constraints are
+nonlinear (through cos psi, sin psi).
 
 :class:`CondensedQP` linearises the collocation about a guess and eliminates the states exactly,
-which leaves a dense QP in the 2N inputs only (3 equality rows + 2N rate rows + box bounds). The
+which leaves a dense QP in the 2N inputs only (3 equality rows + 2N rate rows + box bounds; the
+bound from ``u_prev`` tightens the box of the two first inputs, so the CasADi plugin and the
+certified path receive it as the same ``lbx``/``ubx``). The
 elimination uses the structure of the kinematics (``f`` does not depend on x, y; psidot depends on
 the inputs only): with node 0 replaced by the initial condition, each state obeys
 ``X_s = Dt^{-1} [x0_s; rhs_s(1:)]`` with the constant matrix ``Dt = [e_0ᵀ; (2/T) D(1:, :)]``; the
@@ -104,6 +113,35 @@ class ProblemSpec:
     rate_penalty: float = 0.0
     max_lateral_accel: float | None = None  # m/s^2; None = no bound (the paper's problem)
     max_longitudinal_accel: float | None = None  # m/s^2; None = no bound
+    sample_time: float = 0.1  # s, controller period T_s (the command is held that long)
+    rate_bound_from_applied: bool = True  # |U(t0) - u_prev| <= omega_rate_max T_s; False = free first input
+    rate_penalty_first_step: bool = False  # rate_penalty also covers U(t0) - u_prev (with the bound on)
+
+
+def first_input_bounds(spec: ProblemSpec, u_prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds ``lo ≤ U(t0) ≤ hi`` (rad/s, each (2,) [omega_R, omega_L]) on the plan's first input.
+
+    ``u_prev`` (rad/s) is the input in force before ``t0``; the bound is
+    ``|U(t0) − u_prev| ≤ omega_rate_max T_s`` intersected with ``|U(t0)| ≤ omega_max``, with ``u_prev``
+    first clipped to the input bounds so that the interval is never empty. ``None``: no first-step
+    bound (only ``|U(t0)| ≤ omega_max``).
+    """
+    om = spec.omega_max
+    if u_prev is None:
+        return np.full(2, -om), np.full(2, om)
+    u = np.asarray(u_prev, dtype=float).ravel()
+    if u.shape != (2,) or not np.all(np.isfinite(u)):
+        raise ValueError(f"u_applied must be two finite wheel rates (rad/s), got {u_prev!r}")
+    u = np.clip(u, -om, om)
+    step = spec.omega_rate_max * spec.sample_time
+    return np.maximum(u - step, -om), np.minimum(u + step, om)
+
+
+def first_step_penalty(spec: ProblemSpec, u_prev: np.ndarray | None) -> float:
+    """Weight ``c`` of the first-step penalty ``c ‖U(t0) − u_prev‖²`` (rad/s)⁻² per unit cost:
+    ``rate_penalty T_s ‖(U(t0) − u_prev)/T_s‖² = (rate_penalty / T_s) ‖U(t0) − u_prev‖²``; 0 without
+    ``u_prev``, without the rate penalty or with ``rate_penalty_first_step`` off."""
+    return 0.0 if u_prev is None or not spec.rate_penalty_first_step else spec.rate_penalty / spec.sample_time
 
 
 class Collocation:
@@ -126,7 +164,7 @@ class Collocation:
         rates = self.model.casadi_rates()
         self.rates_jac = ca.Function("rj", [rs], [ca.densify(ca.jacobian(rates(ca.vertcat(0, 0, 0, rs), us), us))])
 
-    def nlp_terms(self, X: ca.SX, U: ca.SX, x0: ca.SX, radii: ca.SX, ref: ca.SX
+    def nlp_terms(self, X: ca.SX, U: ca.SX, x0: ca.SX, radii: ca.SX, ref: ca.SX, u_prev: ca.SX, c_step: ca.SX
                   ) -> tuple[ca.SX, ca.SX, np.ndarray, np.ndarray]:
         """Cost and constraints of one trajectory of the NLP (module docstring), symbolically.
 
@@ -140,11 +178,16 @@ class Collocation:
             Model radii [R_R, R_L] (m).
         ref : SX (5, N)
             Reference x, y, psi, V, psidot at the nodes.
+        u_prev, c_step : SX (2,), SX
+            Input in force before ``t0`` (rad/s) and the weight of the first-step penalty
+            ``c_step ‖U(t0) − u_prev‖²`` (:func:`first_step_penalty`; 0 switches it off). The first-step
+            *bound* is not a row here: it bounds the variables ``U(t0)`` (:func:`first_input_bounds`).
 
         Returns
         -------
         J : SX
-            Quadrature of the tracking cost (plus the rate penalty when enabled).
+            Quadrature of the tracking cost (plus the rate penalty and the first-step penalty when the
+            rate penalty is enabled).
         g, lbg, ubg
             Constraints ``lbg ≤ g ≤ ubg`` in this order: collocation (3N, node-major), initial state (3),
             input rates ``D U`` per unit tau (2N), then the optional lateral- (N) and longitudinal- (N)
@@ -166,6 +209,7 @@ class Collocation:
         dU = ca.mtimes(U, D.T)  # 2 x N, d/dtau
         if sp.rate_penalty > 0:
             J += sp.rate_penalty * ca.sum2(Wq * ca.sum1((dU / h) ** 2))
+            J += c_step * ca.sumsqr(U[:, 0] - u_prev)  # the step from the input in force
         g = ca.vertcat(ca.vec(colloc), X[:, 0] - x0, ca.vec(dU.T))
         rate = sp.omega_rate_max * h
         lbg = np.concatenate([np.zeros(3 * N + 3), -rate * np.ones(2 * N)])
@@ -211,6 +255,24 @@ class Collocation:
             Xn[~inside] = xe[None, :] + dt * dxe[None, :]
             Un[~inside] = ue[None, :]
         return Xn, Un
+
+    def project_first(self, U: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Plan inputs ``U`` (N, 2) (rad/s) moved so that ``lo ≤ U[0] ≤ hi`` (rad/s, (2,)).
+
+        The correction ``δ = clip(U[0], lo, hi) − U[0]`` of each wheel fades out linearly over
+        ``|δ| / omega_rate_max`` seconds, so it adds at most ``omega_rate_max`` to the plan's rate
+        (a node-0-only clip would put a step of ``δ`` over the first LGL interval, ~5 ms); the
+        result is clipped to ``±omega_max``. A ``U`` that meets the bounds is returned unchanged.
+        """
+        delta = np.clip(U[0], lo, hi) - U[0]
+        if not np.any(delta):
+            return U
+        dt = self.times(0.0)[:, None]  # time since t0 (s) of every node
+        fade = np.maximum(1.0 - dt * self.spec.omega_rate_max / np.maximum(np.abs(delta), 1e-300), 0.0)
+        om = self.spec.omega_max
+        V = np.clip(U + delta[None, :] * fade, -om, om)
+        V[0] = np.clip(U[0], lo, hi)  # exact at t0 whatever the rounding above
+        return V
 
 
 class BufferedFunction:
@@ -271,7 +333,9 @@ class CondensedQP:
 
     Constraint rows (``A u`` in the order of ``lam_a``): the 3 node-0 collocation equalities, the 2N
     rate rows, then the optional N lateral- and N longitudinal-acceleration rows. :meth:`_rows` assembles them densely
-    for the certified path; a new block of rows goes there and into the plugin's ``A`` alike.
+    for the certified path; a new block of rows goes there and into the plugin's ``A`` alike. The box
+    ``lbx ≤ u ≤ ubx`` is an input of both paths (:meth:`input_bounds`): ``±omega_max``, tightened on the
+    two first inputs by the bound from the input in force (:func:`first_input_bounds`).
     """
 
     def __init__(self, col: Collocation, qpsol: str = "daqp", qp_options: dict | None = None,
@@ -323,15 +387,16 @@ class CondensedQP:
                                      np.concatenate([idx, N + idx]).tolist())
         # longitudinal-acceleration rows dV/dt = J_V (D/h) u (dense N x 2N, values depend on the radii)
         Lo = ca.MX.sym("Lo", n_lon, n)
+        lbxs, ubxs = ca.MX.sym("lbx", n), ca.MX.sym("ubx", n)
         A = ca.vertcat(Es, ca.DM(Dblk), ca.MX(lat_sp, Lv), Lo)
         lon_b = (self.a_lon or 0.0) * np.ones(n_lon)
         r = self.solver(
             h=Hs, g=gs, a=A, lba=ca.vertcat(es, -rate * np.ones(n), ll, -lon_b),
             uba=ca.vertcat(es, rate * np.ones(n), lu, lon_b),
-            lbx=-sp.omega_max, ubx=sp.omega_max, x0=xs, lam_x0=lxs, lam_a0=las,
+            lbx=lbxs, ubx=ubxs, x0=xs, lam_x0=lxs, lam_a0=las,
         )
         self._qpfun = BufferedFunction(
-            ca.Function("rti_qp", [Hs, gs, Es, es, Lv, ll, lu, Lo, xs, lxs, las],
+            ca.Function("rti_qp", [Hs, gs, Es, es, Lv, ll, lu, Lo, lbxs, ubxs, xs, lxs, las],
                         [r["x"], r["lam_x"], r["lam_a"], r["cost"]])
         )
         self._lin = BufferedFunction(col.lin)
@@ -354,10 +419,12 @@ class CondensedQP:
         self._ws = None
 
     # ----------------------------------------------------------------------------------------
-    def build(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray, ref: np.ndarray):
+    def build(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray, ref: np.ndarray,
+              u_prev: np.ndarray | None = None):
         """QP data for the linearisation about (Xg (N,3), Ug (N,2)).
 
-        ``ref`` is (5, N): x, y, psi, V, psidot references at the nodes. Returns
+        ``ref`` is (5, N): x, y, psi, V, psidot references at the nodes; ``u_prev`` (rad/s, (2,) or
+        ``None``) the input in force before ``t0``, for the first-step rate penalty. Returns
         ``(H, g, E, e, G, hc)``: cost ``½ uᵀHu + gᵀu``, node-0 collocation rows ``E u = e``, and the
         states ``X = G u + hc`` (3N, stacked x, y, psi).
         """
@@ -408,7 +475,24 @@ class CondensedQP:
             g[:N] -= qW * a0 * ref[3 + k]
             g[N:] -= qW * a1 * ref[3 + k]
         H = 2.0 * H + self.R_rate
-        return H, 2.0 * g, E, e, Gf, hc.ravel()
+        g = 2.0 * g
+        c = first_step_penalty(sp, u_prev)
+        if c > 0:  # c ‖U(t0) − u_prev‖² on inputs 0 (omega_R) and N (omega_L)
+            assert u_prev is not None
+            for i, ui in ((0, u_prev[0]), (N, u_prev[1])):
+                H[i, i] += 2.0 * c
+                g[i] -= 2.0 * c * ui
+        return H, g, E, e, Gf, hc.ravel()
+
+    def input_bounds(self, u_prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """Box ``lbx ≤ u ≤ ubx`` (rad/s, (2N,)): ``±omega_max``, with the first inputs (``u[0]`` =
+        omega_R, ``u[N]`` = omega_L at ``t0``) tightened to :func:`first_input_bounds` of ``u_prev``."""
+        lo, hi = first_input_bounds(self.col.spec, u_prev)
+        lbx = np.full(self.nu, -self.omega_max)
+        ubx = np.full(self.nu, self.omega_max)
+        lbx[[0, self.col.N]] = lo
+        ubx[[0, self.col.N]] = hi
+        return lbx, ubx
 
     def lateral_rows(self, Ug: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Linearised bound ``ll ≤ L u ≤ lu`` of ``|V psidot| ≤ max_lateral_accel`` about ``Ug`` (N,2).
@@ -435,10 +519,10 @@ class CondensedQP:
 
     @contextlib.contextmanager
     def recording(self) -> Iterator[list[list[np.ndarray]]]:
-        """Record the data ``[H, g, E, e, Lv, ll, lu, Lo]`` of every QP solved inside the block (for tests
-        and benchmarks that replay them through both solve paths)."""
+        """Record the data ``[H, g, E, e, Lv, ll, lu, Lo, lbx, ubx]`` of every QP solved inside the block
+        (for tests and benchmarks that replay them through both solve paths: ``solve_qp(*q, u0)``)."""
         rec: list[list[np.ndarray]] = []
-        build, lateral, longitudinal = self.build, self.lateral_rows, self.longitudinal_rows
+        build, lateral, longitudinal, box = self.build, self.lateral_rows, self.longitudinal_rows, self.input_bounds
 
         def build_rec(*a):
             out = build(*a)
@@ -455,11 +539,17 @@ class CondensedQP:
             rec[-1].append(np.copy(out))
             return out
 
+        def box_rec(*a):
+            out = box(*a)
+            rec[-1].extend(np.copy(x) for x in out)
+            return out
+
         self.build, self.lateral_rows, self.longitudinal_rows = build_rec, lateral_rec, longitudinal_rec
+        self.input_bounds = box_rec
         try:
             yield rec
         finally:
-            del self.build, self.lateral_rows, self.longitudinal_rows
+            del self.build, self.lateral_rows, self.longitudinal_rows, self.input_bounds
 
     def _rows(self, E: np.ndarray, e: np.ndarray, Lv: np.ndarray, ll: np.ndarray, lu: np.ndarray,
               Lo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -485,13 +575,12 @@ class CondensedQP:
         return A, np.concatenate([e, -r, ll, -lon]), np.concatenate([e, r, lu, lon])
 
     def _solve_certified(self, H: np.ndarray, g: np.ndarray, E: np.ndarray, e: np.ndarray, Lv: np.ndarray,
-                         ll: np.ndarray, lu: np.ndarray, Lo: np.ndarray
+                         ll: np.ndarray, lu: np.ndarray, Lo: np.ndarray, lbx: np.ndarray, ubx: np.ndarray
                          ) -> tuple[str, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
         """The certified path: ``(verdict, u, lam_x, lam_a)`` with verdict ``optimal``/``infeasible``/
         ``unresolved``."""
         A, lba, uba = self._rows(E, e, Lv, ll, lu, Lo)
-        ob = np.full(self.nu, self.omega_max)
-        res = self._cqp.solve(H, g, A, lba, uba, -ob, ob, self._ws)
+        res = self._cqp.solve(H, g, A, lba, uba, lbx, ubx, self._ws)
         if res.status == "unresolved":
             return "unresolved", None, None, None
         self.path_counts[res.path] += 1
@@ -499,41 +588,44 @@ class CondensedQP:
         return res.status, res.u, res.lam_x, res.lam_a
 
     def solve_qp(self, H: np.ndarray, g: np.ndarray, E: np.ndarray, e: np.ndarray, Lv: np.ndarray, ll: np.ndarray,
-                 lu: np.ndarray, Lo: np.ndarray, u0: np.ndarray
+                 lu: np.ndarray, Lo: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, u0: np.ndarray
                  ) -> tuple[bool, dict, np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """Solve one built QP (the data :meth:`build`, :meth:`lateral_rows` and
-        :meth:`longitudinal_rows` return): the certified path first when enabled, the CasADi plugin
+        """Solve one built QP (the data :meth:`build`, :meth:`lateral_rows`, :meth:`longitudinal_rows`
+        and :meth:`input_bounds` return): the certified path first when enabled, the CasADi plugin
         (primal guess ``u0``) for what it leaves unresolved. Returns ``(ok, stats, u, lam_x, lam_a)``;
         ``ok`` is the solver's verdict, before :meth:`solve`'s independent feasibility check."""
         if self.certified:
-            verdict, u, lam_x, lam_a = self._solve_certified(H, g, E, e, Lv, ll, lu, Lo)
+            verdict, u, lam_x, lam_a = self._solve_certified(H, g, E, e, Lv, ll, lu, Lo, lbx, ubx)
             if verdict == "infeasible":
                 return False, {"success": False, "return_status": "infeasible (Farkas certificate)"}, \
                     np.full(self.nu, np.nan), None, None
             if verdict == "optimal":
                 assert u is not None
                 return True, {"success": True, "return_status": "optimal (certified active set)"}, u, lam_x, lam_a
-        u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, Lv, ll, lu, Lo, u0, self._lam_x, self._lam_a)
+        u, lam_x, lam_a, _ = self._qpfun(H, g, E, e, Lv, ll, lu, Lo, lbx, ubx, u0, self._lam_x, self._lam_a)
         st = self._qpfun.stats()
         ok = self._qpfun.ret == 0 and bool(st.get("success", True)) and bool(np.all(np.isfinite(u)))
         self.path_counts["plugin"] += 1
         self._ws = None
         return ok, st, u, lam_x, lam_a
 
-    def solve(self, Xg, Ug, radii, x0, ref, u_init: np.ndarray | None = None):
-        """Build and solve the QP. Returns ``(ok, status, X (N,3), U (N,2))``."""
+    def solve(self, Xg, Ug, radii, x0, ref, u_init: np.ndarray | None = None, u_prev: np.ndarray | None = None):
+        """Build and solve the QP; ``u_prev`` (rad/s, (2,)) is the input in force before ``t0`` (``None``:
+        no first-step bound or penalty). Returns ``(ok, status, X (N,3), U (N,2))``."""
         N = self.col.N
-        H, g, E, e, G, hc = self.build(Xg, Ug, radii, x0, ref)
+        H, g, E, e, G, hc = self.build(Xg, Ug, radii, x0, ref, u_prev)
         Lv, ll, lu = self.lateral_rows(Ug, radii)
         Lo = self.longitudinal_rows()
+        lbx, ubx = self.input_bounds(u_prev)
         if u_init is None:
             u_init = Ug.T.ravel()
-        u0 = np.clip(u_init, -self.omega_max, self.omega_max)
-        ok, st, u, lam_x, lam_a = self.solve_qp(H, g, E, e, Lv, ll, lu, Lo, u0)
+        u0 = np.clip(u_init, lbx, ubx)
+        ok, st, u, lam_x, lam_a = self.solve_qp(H, g, E, e, Lv, ll, lu, Lo, lbx, ubx, u0)
         if ok:  # independent feasibility check (solvers differ in what they call success)
             tol = 1e-5 * (1.0 + np.abs(e).max())
+            box_tol = 1e-6 * (1.0 + self.omega_max)
             ok = (np.abs(E @ u - e).max() < tol and np.abs(self.Dblk @ u).max() < self.rate_lim * (1 + 1e-6) + 1e-6
-                  and np.abs(u).max() < self.omega_max * (1 + 1e-6) + 1e-6)
+                  and bool(np.all(u >= lbx - box_tol) and np.all(u <= ubx + box_tol)))
             if ok and Lv.size:
                 lat = Lv[:N] * u[:N] + Lv[N:] * u[N:]
                 ok = bool(np.all(lat >= ll - 1e-6 * (1 + np.abs(ll))) and np.all(lat <= lu + 1e-6 * (1 + np.abs(lu))))
@@ -546,7 +638,7 @@ class CondensedQP:
             return False, str(st.get("return_status", "qp failed")), None, None
         self._lam_x[:] = lam_x
         self._lam_a[:] = lam_a
-        u = np.clip(u, -self.omega_max, self.omega_max)
+        u = np.clip(u, lbx, ubx)
         X = (G @ u + hc).reshape(3, N).T
         return True, str(st.get("unified_return_status", st.get("return_status", "ok"))), X, u.reshape(2, N).T
 

@@ -9,7 +9,8 @@ changes ``ω_R − ω_L`` and so the observed combination. It is added to the co
 
 with the radii the controller assumes, which leaves the model's speed ``(R_R ω_R + R_L ω_L)/2``
 unchanged and adds exactly ``δψ̇`` to its yaw rate (lateral acceleration ``V δψ̇``). The loop
-applies it only while a fault is suspected but not isolated, and clips to the wheel-rate limits.
+applies it only while a fault is suspected but not isolated, and clips to the wheel-rate limits and
+to the MPC's bound on the step from the command in force.
 """
 
 from __future__ import annotations
@@ -25,9 +26,19 @@ def yaw_dither(t: float, amplitude: float, period: float) -> float:
 
 
 def dither_wheel_rates(omega: np.ndarray, dpsi: float, radii: np.ndarray, half_track: float,
-                       omega_max: float) -> np.ndarray:
+                       omega_max: float, previous: np.ndarray | None = None, max_step: float = np.inf
+                       ) -> np.ndarray:
     """Wheel rates (rad/s) ``omega`` = [ω_R, ω_L] with the yaw-rate dither ``dpsi`` (rad/s) added at
     constant model speed, for model radii ``radii`` (m) and half track ``half_track`` (m); clipped to
-    ±``omega_max``."""
+    ±``omega_max``.
+
+    With ``previous`` (rad/s, the command in force, within ±``omega_max``) the result is also clipped
+    to ``previous ± max_step`` (rad/s) per wheel: the MPC's first input already meets that bound, and
+    the dither must not carry the applied command past it (where this clip acts, the dither is not at
+    constant speed)."""
     d = dpsi * half_track / np.asarray(radii, dtype=float)
-    return np.clip(np.asarray(omega, dtype=float) + d * np.array([1.0, -1.0]), -omega_max, omega_max)
+    out = np.clip(np.asarray(omega, dtype=float) + d * np.array([1.0, -1.0]), -omega_max, omega_max)
+    if previous is not None:
+        prev = np.asarray(previous, dtype=float)
+        out = np.clip(out, prev - max_step, prev + max_step)
+    return out

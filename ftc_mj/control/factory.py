@@ -12,7 +12,8 @@ from .robust import RobustNMPC
 
 
 def problem_spec(cfg: RunConfig) -> ProblemSpec:
-    """The MPC problem numbers of ``cfg`` (model half track, robot input limits, controller weights)."""
+    """The MPC problem numbers of ``cfg`` (model half track, robot input limits, controller weights and
+    period)."""
     c = cfg.controller
     return ProblemSpec(
         nodes=c.nodes,
@@ -26,6 +27,9 @@ def problem_spec(cfg: RunConfig) -> ProblemSpec:
         rate_penalty=c.rate_penalty,
         max_lateral_accel=c.max_lateral_accel,
         max_longitudinal_accel=c.max_longitudinal_accel,
+        sample_time=1.0 / c.rate,
+        rate_bound_from_applied=c.rate_bound_from_applied,
+        rate_penalty_first_step=c.rate_penalty_first_step,
     )
 
 
@@ -42,7 +46,7 @@ def build_controller(cfg: RunConfig, reference) -> Controller:
     if c.kind == "robust-nmpc":
         rb = c.robust
         return RobustNMPC(spec, reference, rb.scenarios, rb.weights, rb.robust_horizon_nodes, rb.objective,
-                          prune_below=rb.prune_below, solver=c.solver, control_period=1.0 / c.rate, max_iter=c.max_iter,
+                          prune_below=rb.prune_below, solver=c.solver, max_iter=c.max_iter,
                           time_budget=c.time_budget, nominal_radii=(R0, R0), cold_time_budget=c.cold_time_budget)
     return NMPC(spec, reference, solver=c.solver, max_iter=c.max_iter, time_budget=c.time_budget,
                 nominal_radii=(R0, R0), cold_time_budget=c.cold_time_budget)

@@ -5,7 +5,8 @@ Same horizon, LGL nodes, weights and constraints as :class:`~ftc_mj.control.nmpc
 are linearised about the reference trajectory at the node times — reference states and the
 feed-forward wheel rates that realise ``V_ref, psidot_ref`` with the *current* radius estimates —
 and the resulting QP (states eliminated exactly, 2N inputs) is solved once by a CasADi QP plugin
-(``daqp`` by default; ``qpoases``/``osqp`` selectable), warm-started from the shifted previous plan.
+(``daqp`` by default; ``qpoases``/``osqp`` selectable), warm-started from the shifted previous plan,
+with the same first-step bound from the command in force as the NMPC.
 Unlike the RTI NMPC, the linearisation point does not follow the robot, so large deviations from
 the reference (heading errors of tens of degrees) are predicted less accurately.
 """
@@ -48,7 +49,7 @@ class LinearMPC(PlanController):
         Xr = ref[:3].T
         Ur = self._reference_inputs(ref, r)
         u_init = self._guess(t, x0, ref, r)[1].T.ravel() if self._plan is not None else Ur.T.ravel()
-        ok, status, X, U = self._qp.solve(Xr, Ur, r, x0, ref, u_init)
+        ok, status, X, U = self._qp.solve(Xr, Ur, r, x0, ref, u_init, self._u_prev)
         if not ok:
             return self._fallback(t, f"qp: {status}", t_start, r, 1)
         return self._accept(t, X, U, f"qp: {status}", 1, t_start, self.time_budget, r)

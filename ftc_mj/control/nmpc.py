@@ -3,7 +3,9 @@
 Problem: see :mod:`ftc_mj.control.collocation`. Solver options:
 
 * ``ipopt`` — the full NLP (``nlpsol`` on an SX graph, parameter vector
-  ``p = [pose(3), radii(2), x_ref(N), y_ref(N), psi_ref(N), V_ref(N), psidot_ref(N)]``),
+  ``p = [pose(3), radii(2), x_ref(N), y_ref(N), psi_ref(N), V_ref(N), psidot_ref(N), u_prev(2),
+  c_step]`` with ``c_step`` the first-step penalty weight; the first-step bound is a per-solve bound
+  on ``U(t0)``),
   warm-started from the previous solution shifted by barycentric Lagrange interpolation
   (``warm_start_init_point`` with the previous multipliers).
 * ``rti-daqp`` / ``rti-qpoases`` / ``rti-osqp`` — real-time iteration: one Gauss–Newton SQP step
@@ -14,15 +16,24 @@ Problem: see :mod:`ftc_mj.control.collocation`. Solver options:
   :mod:`~ftc_mj.control.certified_qp`; the plugin only for QPs that stay unresolved). The first
   solve (and a re-seed after two consecutive failures) is an IPOPT solve.
 
-The first command of the plan (node 0, at ``t0``) is applied under zero-order hold. A failed or
-over-budget solve, or a non-finite pose/radii, never raises: the controller falls back to the
-previous plan shifted to the current time (or, with no plan yet, the reference feed-forward),
-counts it in ``failures`` and says why in ``status``. Outputs are always clipped to the bounds.
+The first command of the plan (node 0, at ``t0``) is applied under zero-order hold. Every plan's
+first input is bounded relative to the command in force on the plant (``u_applied``):
+``|U(t0) − u_applied| ≤ omega_rate_max T_s`` (``ProblemSpec.rate_bound_from_applied``; the IPOPT NLP
+as bounds on ``U(t0)``, the RTI QP as its box). A failed or over-budget solve, a solver error
+(CasADi/IPOPT/QP plugin error, linear-algebra failure), or a non-finite pose/radii never raises: the
+controller falls back to the previous plan shifted to the current time (or, with no plan yet, the
+reference feed-forward), moved so that its first input meets the same bound
+(:meth:`~ftc_mj.control.collocation.Collocation.project_first`, as is the warm start), counts it in
+``failures`` and says why in ``status``. Any other exception (a ``TypeError``, a shape bug, a
+non-finite ``u_applied``) propagates and fails the run. Outputs always meet the input bounds and the
+first-step bound.
 """
 
 from __future__ import annotations
 
+import os
 import time
+import traceback
 
 import casadi as ca
 import numpy as np
@@ -33,6 +44,8 @@ from .collocation import (
     Collocation,
     CondensedQP,
     ProblemSpec,
+    first_input_bounds,
+    first_step_penalty,
     limit_blas_threads,
     reference_at_nodes,
     sanitize_pose,
@@ -44,6 +57,14 @@ SOLVERS = ("ipopt", "rti-daqp", "rti-qpoases", "rti-osqp")
 
 RESEED_WAIT = 20
 """Samples (2 s at 10 Hz) without IPOPT re-seeds after a re-seed failed (RTI steps continue meanwhile)."""
+
+_CASADI_DIR = os.path.dirname(os.path.abspath(ca.__file__))
+
+
+def _raised_in(exc: BaseException, directory: str) -> bool:
+    """The innermost frame of ``exc``'s traceback is in a file under ``directory``."""
+    frames = traceback.extract_tb(exc.__traceback__)
+    return bool(frames) and os.path.abspath(frames[-1].filename).startswith(directory + os.sep)
 
 
 class PlanController:
@@ -66,6 +87,8 @@ class PlanController:
         self._last_radii = self.nominal_radii.copy()
         self._consecutive_failures = 0
         self._u_applied: np.ndarray | None = None
+        self._u_prev: np.ndarray | None = None  # the first step's anchor: u_applied when the bound is on
+        self._box = first_input_bounds(spec, None)  # (lo, hi) of U(t0) at this sample
 
     def reset(self) -> None:
         """Forget the plan, the warm start and the counters: a reset controller behaves exactly like a new one."""
@@ -77,6 +100,8 @@ class PlanController:
         self._consecutive_failures = 0
         self._reseed_wait = 0
         self._u_applied = None
+        self._u_prev = None
+        self._box = first_input_bounds(self.spec, None)
         qp = getattr(self, "_qp", None)
         if qp is not None:
             qp.reset()
@@ -87,14 +112,23 @@ class PlanController:
               u_applied: np.ndarray | None = None) -> ControlOutput:
         """Command [omega_R, omega_L] (rad/s) at time ``t`` (s) for the measured ``pose``
         [x, y, psi] (m, m, rad) and the model radii [R_R, R_L] (m); ``u_applied`` (rad/s) is the
-        command in force on the plant (``None`` before the first one)."""
+        command in force on the plant (``None`` before the first one). Raises ``ValueError`` for a
+        ``u_applied`` that is not two finite numbers (a caller's bug, not a solver failure)."""
         t_start = time.perf_counter()
         self.solves += 1
         self._u_applied = None if u_applied is None else np.asarray(u_applied, dtype=float).copy()
+        anchor = self._u_applied if self.spec.rate_bound_from_applied else None
+        self._box = first_input_bounds(self.spec, anchor)  # raises for a non-finite anchor
+        self._u_prev = None if anchor is None else np.clip(anchor, -self.spec.omega_max, self.spec.omega_max)
         try:
             out = self._solve(t, pose, radii, t_start)
-        except Exception as exc:  # noqa: BLE001 - a solve must never stop the loop
-            out = self._fallback(t, f"exception: {type(exc).__name__}: {exc}", t_start, None)
+        except (RuntimeError, np.linalg.LinAlgError) as exc:
+            # only solver errors become a fallback: a linear-algebra failure, or an error raised by
+            # CasADi (its plugins and IPOPT report through RuntimeError); anything else is a bug
+            # that fails the run
+            if not (isinstance(exc, np.linalg.LinAlgError) or _raised_in(exc, _CASADI_DIR)):
+                raise
+            out = self._fallback(t, f"solver error: {type(exc).__name__}: {exc}", t_start, None)
         self._consecutive_failures = self._consecutive_failures + 1 if out.fallback else 0
         return out
 
@@ -122,7 +156,9 @@ class PlanController:
         return np.clip(np.stack([wr, wl], axis=1), -om, om)
 
     def _guess(self, t: float, x0: np.ndarray, ref: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Shifted previous plan, or the reference if there is none. Heading moved to x0's branch."""
+        """Shifted previous plan, or the reference if there is none, with its first input moved into this
+        sample's first-step bound (a saturated previous sample must not leave an infeasible warm start).
+        Heading moved to x0's branch."""
         if self._plan is None:
             Xg = ref[:3].T.copy()
             Ug = self._reference_inputs(ref, radii)
@@ -131,7 +167,12 @@ class PlanController:
             Xg, Ug = self.col.shift(t_prev, Xp, Up, t, self.spec.half_track, radii)
             Xg[:, 2] += 2 * np.pi * np.round((x0[2] - Xg[0, 2]) / (2 * np.pi))
         Xg[0] = x0
-        return Xg, Ug
+        return Xg, self._into_first_step_bound(Ug)
+
+    def _into_first_step_bound(self, U: np.ndarray) -> np.ndarray:
+        """Plan inputs (N, 2) with the first input moved into this sample's first-step bound
+        (:meth:`~ftc_mj.control.collocation.Collocation.project_first`); unchanged without the bound."""
+        return U if self._u_prev is None else self.col.project_first(U, *self._box)
 
     def _fallback(self, t: float, status: str, t_start: float, radii: np.ndarray | None,
                   iterations: int = 0) -> ControlOutput:
@@ -142,18 +183,16 @@ class PlanController:
             t_prev, Xp, Up = self._plan
             r = self._last_radii if radii is None else radii
             X, U = self.col.shift(t_prev, Xp, Up, t, self.spec.half_track, r)
-            omega = U[0]
         else:
             r = self._last_radii if radii is None else radii
             ref = np.vstack([np.asarray(v, float) * np.ones_like(times) for v in self.reference.at(times)])
             U = self._reference_inputs(ref, r)
             X = ref[:3].T
-            omega = U[0]
-        omega = np.clip(np.nan_to_num(omega), -om, om)
+        U = self._into_first_step_bound(np.clip(np.nan_to_num(U), -om, om))
         return ControlOutput(
-            omega=omega, success=False, status=f"fallback: {status}", iterations=iterations,
+            omega=U[0].copy(), success=False, status=f"fallback: {status}", iterations=iterations,
             solve_time=time.perf_counter() - t_start, fallback=True, predicted=X, predicted_t=times,
-            predicted_omega=np.clip(U, -om, om),
+            predicted_omega=U,
         )
 
     def _accept(self, t: float, X: np.ndarray, U: np.ndarray, status: str, iterations: int, t_start: float,
@@ -164,6 +203,12 @@ class PlanController:
                                   t_start, radii, iterations)
         om = self.spec.omega_max
         U = np.clip(U, -om, om)
+        lo, hi = self._box
+        tol = 1e-6 * (1.0 + om)  # solvers meet bounds to ~1e-7 (IPOPT's bound relaxation, DAQP's 1e-6)
+        if np.any(U[0] < lo - tol) or np.any(U[0] > hi + tol):
+            return self._fallback(t, f"first input outside the first-step bound ({status})", t_start, radii,
+                                  iterations)
+        U[0] = np.clip(U[0], lo, hi)  # exact within the solver's tolerance
         self._plan = (t, X.copy(), U.copy())
         self._last_radii = radii.copy()
         return ControlOutput(
@@ -208,11 +253,12 @@ class NMPC(PlanController):
     def _build_nlp(self) -> None:
         col, sp, N = self.col, self.spec, self.col.N
         w = ca.SX.sym("w", 5 * N)
-        p = ca.SX.sym("p", 5 + 5 * N)
+        p = ca.SX.sym("p", 5 + 5 * N + 3)
         X = ca.reshape(w[: 3 * N], N, 3).T  # 3 x N
         U = ca.reshape(w[3 * N:], N, 2).T  # 2 x N
-        ref = ca.reshape(p[5:], N, 5).T  # 5 x N
-        J, g, self._lbg, self._ubg = col.nlp_terms(X, U, p[:3], p[3:5], ref)
+        ref = ca.reshape(p[5:5 + 5 * N], N, 5).T  # 5 x N
+        u_prev, c_step = p[5 + 5 * N:7 + 5 * N], p[7 + 5 * N]
+        J, g, self._lbg, self._ubg = col.nlp_terms(X, U, p[:3], p[3:5], ref, u_prev, c_step)
         self._lbx = np.concatenate([-np.inf * np.ones(3 * N), -sp.omega_max * np.ones(2 * N)])
         self._ubx = -self._lbx
         self._ubx[: 3 * N] = np.inf
@@ -238,9 +284,14 @@ class NMPC(PlanController):
 
     # ------------------------------------------------------------------------------------------
     def _ipopt(self, x0, radii, ref, Xg, Ug):
+        N = self.col.N
         wg = np.concatenate([Xg.T.ravel(), Ug.T.ravel()])
-        pv = np.concatenate([x0, radii, ref.ravel()])
-        args = {"x0": wg, "p": pv, "lbx": self._lbx, "ubx": self._ubx, "lbg": self._lbg, "ubg": self._ubg}
+        u_prev = np.zeros(2) if self._u_prev is None else self._u_prev
+        pv = np.concatenate([x0, radii, ref.ravel(), u_prev, [first_step_penalty(self.spec, self._u_prev)]])
+        lbx, ubx = self._lbx.copy(), self._ubx.copy()
+        first = [3 * N, 4 * N]  # omega_R, omega_L at t0
+        lbx[first], ubx[first] = self._box
+        args = {"x0": wg, "p": pv, "lbx": lbx, "ubx": ubx, "lbg": self._lbg, "ubg": self._ubg}
         if self._lam is not None:
             args["lam_x0"], args["lam_g0"] = self._lam
         res = self._nlp(**args)
@@ -252,14 +303,13 @@ class NMPC(PlanController):
             self._lam = None
             return False, str(st.get("return_status", "failed")), it, None, None
         self._lam = (np.asarray(res["lam_x"]).ravel(), np.asarray(res["lam_g"]).ravel())
-        N = self.col.N
         return True, str(st["return_status"]), it, wv[: 3 * N].reshape(3, N).T, wv[3 * N:].reshape(2, N).T
 
     def _rti_step(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray, ref: np.ndarray
                   ) -> tuple[bool, str, np.ndarray | None, np.ndarray | None]:
         """One real-time iteration about the guess: ``(ok, status, X, U)``."""
         assert self._qp is not None
-        return self._qp.solve(Xg, Ug, radii, x0, ref, Ug.T.ravel())
+        return self._qp.solve(Xg, Ug, radii, x0, ref, Ug.T.ravel(), self._u_prev)
 
     def _solve(self, t: float, pose: np.ndarray, radii: np.ndarray, t_start: float) -> ControlOutput:
         prep = self._prepare(t, pose, radii, t_start)
@@ -293,8 +343,10 @@ class NMPC(PlanController):
 class OptiNMPC:
     """The same NLP written plainly with ``casadi.Opti`` + IPOPT (verification and benchmark only).
 
-    ``solve(x0, radii, ref, X_init, U_init)`` returns ``(X (N,3), U (N,2), iterations)``;
-    primal and dual warm start from the previous call.
+    ``solve(x0, radii, ref, X_init, U_init, u_prev=None)`` returns ``(X (N,3), U (N,2), iterations)``;
+    ``u_prev`` (rad/s) is the input in force before ``t0`` (first-step bound and penalty, written here
+    as a bounded constraint on ``U(t0)`` and a plain penalty term); primal and dual warm start from
+    the previous call.
     """
 
     def __init__(self, spec: ProblemSpec) -> None:
@@ -307,6 +359,7 @@ class OptiNMPC:
         x0 = opti.parameter(3)
         r = opti.parameter(2)
         ref = opti.parameter(5, N)
+        u_prev, lo, hi, on = opti.parameter(2), opti.parameter(2), opti.parameter(2), opti.parameter()
         D = ca.DM(col.D)
         f = col.model.casadi_derivative()
         rates = col.model.casadi_rates()
@@ -324,15 +377,34 @@ class OptiNMPC:
         opti.subject_to(opti.bounded(-spec.omega_max, U, spec.omega_max))
         rate = spec.omega_rate_max * h
         opti.subject_to(opti.bounded(-rate, ca.mtimes(U, D.T), rate))
+        opti.subject_to(opti.bounded(lo, U[:, 0], hi))
+        if spec.rate_penalty > 0:  # rate_penalty T_s |(U(t0) - u_prev)/T_s|^2 (on = 0 without u_prev)
+            Ts = spec.sample_time
+            J += on * spec.rate_penalty * Ts * ca.sumsqr((U[:, 0] - u_prev) / Ts)
         opti.minimize(J)
         opti.solver("ipopt", {"print_time": False, "expand": True},
                     {"print_level": 0, "sb": "yes", "tol": 1e-8, "warm_start_init_point": "yes", "mu_init": 1e-4})
         self.opti, self.X, self.U, self.x0, self.r, self.ref = opti, X, U, x0, r, ref
+        self._first = (u_prev, lo, hi, on)
+        self.spec = spec
         self._lam = None
 
-    def solve(self, x0: np.ndarray, radii: np.ndarray, ref: np.ndarray, X_init: np.ndarray, U_init: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray, int]:
+    def solve(self, x0: np.ndarray, radii: np.ndarray, ref: np.ndarray, X_init: np.ndarray, U_init: np.ndarray,
+              u_prev: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
         o = self.opti
+        u_p, lo, hi, on = self._first
+        om, step = self.spec.omega_max, self.spec.omega_rate_max * self.spec.sample_time
+        if u_prev is None:
+            o.set_value(u_p, np.zeros(2))
+            o.set_value(on, 0.0)
+            o.set_value(lo, np.full(2, -om))
+            o.set_value(hi, np.full(2, om))
+        else:
+            ua = np.clip(u_prev, -om, om)
+            o.set_value(u_p, ua)
+            o.set_value(on, 1.0 if self.spec.rate_penalty_first_step else 0.0)
+            o.set_value(lo, np.maximum(ua - step, -om))
+            o.set_value(hi, np.minimum(ua + step, om))
         o.set_value(self.x0, x0)
         o.set_value(self.r, radii)
         o.set_value(self.ref, ref)

@@ -13,8 +13,10 @@ of :mod:`~ftc_mj.control.collocation`:
   decision variables shared by all scenarios. The default ``k`` covers every node inside the first
   control period, i.e. every input the plant may receive before the next measurement; beyond it each
   scenario has its own inputs (recourse: by then the controller has measured more);
-* the input-rate bound relative to the command in force, ``|U(t0) − u_applied| ≤ omega_rate_max T_s``,
-  on the shared first input;
+* the input-rate bound relative to the command in force, ``|U(t0) − u_applied| ≤ omega_rate_max T_s``
+  (:func:`~ftc_mj.control.collocation.first_input_bounds`), on the shared first input, and the optional
+  first-step penalty (:func:`~ftc_mj.control.collocation.first_step_penalty`) in every scenario's cost
+  (the same term in each, since the first input is shared);
 * objective ``Σ_i w_i J_i`` (``expected``; weights normalised to sum 1) or ``max_i J_i`` over the
   scenarios of positive weight (``worst``, as an epigraph ``J_i ≤ t``, minimise ``t``), with ``J_i``
   the nominal tracking cost of scenario ``i``.
@@ -59,7 +61,7 @@ import numpy as np
 
 from .base import ControlOutput
 from .certified_qp import CertifiedQP
-from .collocation import BufferedFunction, Collocation, CondensedQP, ProblemSpec
+from .collocation import BufferedFunction, Collocation, CondensedQP, ProblemSpec, first_input_bounds, first_step_penalty
 from .nmpc import NMPC
 
 OBJECTIVES = ("expected", "worst")
@@ -107,20 +109,20 @@ class MultiStageQP:
     """The RTI QP of the multi-stage problem: the scenarios' condensed QPs coupled by shared inputs.
 
     ``qp`` builds each scenario's QP in its own inputs ``u_i = z[idx_i]`` (2N,); this class sums the
-    weighted costs over ``z`` (:func:`stage_indices`), stacks every scenario's constraint rows, adds the
-    rate bound of the shared first input relative to the applied command (as bounds on ``z``) and
-    solves the dense QP: the certified active-set path first, DAQP for what it leaves unresolved.
-    ``path_counts`` counts how each QP was decided.
+    weighted costs over ``z`` (:func:`stage_indices`), stacks every scenario's constraint rows, bounds
+    the shared first input relative to the input in force
+    (:func:`~ftc_mj.control.collocation.first_input_bounds`, as bounds on ``z``) and solves the dense QP:
+    the certified active-set path first, DAQP for what it leaves unresolved. ``path_counts`` counts how
+    each QP was decided.
     """
 
-    def __init__(self, qp: CondensedQP, n_scen: int, k: int, first_step: float) -> None:
+    def __init__(self, qp: CondensedQP, n_scen: int, k: int) -> None:
         self.qp = qp
         N = qp.col.N
         self.N, self.S, self.k = N, n_scen, k
         self.idx = stage_indices(n_scen, N, k)
         self.own = np.concatenate([np.arange(k, N), N + np.arange(k, N)])  # a scenario's own inputs in u_i
         self.nz = 2 * k + n_scen * 2 * (N - k)
-        self.first_step = float(first_step)
         m_i = 3 + 2 * N + (N if qp.a_lat is not None else 0) + (N if qp.a_lon is not None else 0)
         self.m = n_scen * m_i
         self._cqp = CertifiedQP()
@@ -141,18 +143,20 @@ class MultiStageQP:
         self.qp.reset()
 
     def assemble(self, Xg: np.ndarray, Ug: np.ndarray, radii_s: np.ndarray, x0: np.ndarray, ref: np.ndarray,
-                 weights: np.ndarray, u_applied: np.ndarray | None):
+                 weights: np.ndarray, u_prev: np.ndarray | None):
         """QP data ``(H, g, A, lba, uba, lbx, ubx, G, hc)`` about the scenario guesses ``Xg`` (S, N, 3),
         ``Ug`` (S, N, 2) with scenario radii ``radii_s`` (S, 2) (m) and weights (S,) summing to 1; a
         scenario of weight NaN is pruned (its rows become ``0 ≤ 0 · z`` within ±1, so the row count stays
-        fixed). ``G`` (S, 3N, 2N) and ``hc`` (S, 3N) give each scenario's states ``X_i = G_i u_i + hc_i``."""
+        fixed). ``u_prev`` (rad/s, (2,) or ``None``) is the input in force before ``t0`` (first-step bound
+        and penalty). ``G`` (S, 3N, 2N) and ``hc`` (S, 3N) give each scenario's states
+        ``X_i = G_i u_i + hc_i``."""
         nz, qp = self.nz, self.qp
         H = np.zeros((nz, nz))
         g = np.zeros(nz)
         rows, lo, hi, Gs, hcs = [], [], [], [], []
         own = self.own
         for i in range(self.S):
-            Hi, gi, E, e, G, hc = qp.build(Xg[i], Ug[i], radii_s[i], x0, ref)
+            Hi, gi, E, e, G, hc = qp.build(Xg[i], Ug[i], radii_s[i], x0, ref, u_prev)
             Lv, ll, lu = qp.lateral_rows(Ug[i], radii_s[i])
             Ai, lbi, ubi = qp._rows(E, e, Lv, ll, lu, qp.longitudinal_rows())
             ix = self.idx[i]
@@ -175,21 +179,16 @@ class MultiStageQP:
             hcs.append(hc)
         om = np.full(nz, qp.omega_max)
         lbx, ubx = -om, om.copy()
-        if u_applied is not None:  # |U(t0) - u_applied| <= omega_rate_max T_s on the shared node-0 inputs
-            for c, j in ((0, 0), (1, self.k)):
-                lbx[j] = max(lbx[j], u_applied[c] - self.first_step)
-                ubx[j] = min(ubx[j], u_applied[c] + self.first_step)
+        lbx[[0, self.k]], ubx[[0, self.k]] = first_input_bounds(qp.col.spec, u_prev)  # shared node-0 inputs
         return (H, g, np.vstack(rows), np.concatenate(lo), np.concatenate(hi), lbx, ubx,
                 np.array(Gs), np.array(hcs))
 
     def solve(self, Xg: np.ndarray, Ug: np.ndarray, radii_s: np.ndarray, x0: np.ndarray, ref: np.ndarray,
-              weights: np.ndarray, u_applied: np.ndarray | None
+              weights: np.ndarray, u_prev: np.ndarray | None
               ) -> tuple[bool, str, np.ndarray | None, np.ndarray | None]:
         """One RTI step: ``(ok, status, X (S, N, 3), U (S, N, 2))``; the inputs of the first ``k``
         nodes are the same array values in every scenario."""
-        H, g, A, lba, uba, lbx, ubx, G, hc = self.assemble(Xg, Ug, radii_s, x0, ref, weights, u_applied)
-        if np.any(lbx > ubx):
-            return False, "applied command outside the input bounds", None, None
+        H, g, A, lba, uba, lbx, ubx, G, hc = self.assemble(Xg, Ug, radii_s, x0, ref, weights, u_prev)
         res = self._cqp.solve(H, g, A, lba, uba, lbx, ubx, self._ws)
         if res.status == "optimal":
             self.path_counts[res.path] += 1
@@ -250,17 +249,13 @@ class RobustNMPC(NMPC):
         A scenario whose normalised weight is below this leaves the problem (cost and constraints); the
         scenario of largest weight never does.
     solver : ``"ipopt"`` or ``"rti-daqp"``
-    control_period : float
-        Sample period T_s (s) of the loop: the first input moves at most ``omega_rate_max T_s`` from
-        the applied command.
     max_iter, time_budget, cold_time_budget, nominal_radii
         As for :class:`~ftc_mj.control.nmpc.NMPC`.
     """
 
     def __init__(self, spec: ProblemSpec, reference, fractions: np.ndarray, weights: np.ndarray | None = None,
                  robust_nodes: int | None = None, objective: str = "expected", prune_below: float = 0.0,
-                 solver: str = "rti-daqp",
-                 control_period: float = 0.1, max_iter: int = 30, time_budget: float | None = 0.1,
+                 solver: str = "rti-daqp", max_iter: int = 30, time_budget: float | None = 0.1,
                  nominal_radii: tuple[float, float] = (2.0, 2.0), cold_time_budget: float | None = 2.0) -> None:
         if solver not in ROBUST_SOLVERS:
             raise ValueError(f"unknown robust NMPC solver {solver!r}; expected one of {ROBUST_SOLVERS}")
@@ -271,13 +266,10 @@ class RobustNMPC(NMPC):
         f = np.asarray(fractions, dtype=float)
         if f.ndim != 2 or f.shape[1] != 2 or f.shape[0] < 1 or not np.all(f > 0):
             raise ValueError(f"scenario fractions must be (S, 2) positive numbers; got {f.tolist()}")
-        if not control_period > 0:
-            raise ValueError("control_period must be > 0")
         self.fractions = f
         self.S = f.shape[0]
         self.objective = objective
         self.prune_below = float(prune_below)
-        self.control_period = float(control_period)
         self.base_weights = normalised_weights(np.ones(self.S) if weights is None else weights, self.S)
         self.weights = self.base_weights.copy()
         self._robust_nodes = robust_nodes
@@ -285,9 +277,7 @@ class RobustNMPC(NMPC):
         self.telemetry_columns = tuple(f"scenario_weight_{i + 1}" for i in range(self.S))
         super().__init__(spec, reference, solver=solver, max_iter=max_iter, time_budget=time_budget,
                          nominal_radii=nominal_radii, cold_time_budget=cold_time_budget)
-        self.first_step = spec.omega_rate_max * self.control_period
-        self._stage_qp = (MultiStageQP(self._qp, self.S, self.k, self.first_step)
-                          if self._qp is not None else None)
+        self._stage_qp = MultiStageQP(self._qp, self.S, self.k) if self._qp is not None else None
 
     def reset(self) -> None:
         """Forget plans, warm starts, counters and weights set since: a reset controller is a new one."""
@@ -324,33 +314,30 @@ class RobustNMPC(NMPC):
     # ------------------------------------------------------------------------------------------
     def _build_nlp(self) -> None:
         col, sp, N, S = self.col, self.spec, self.col.N, self.S
-        k = self.k = (control_period_nodes(col, self.control_period) if self._robust_nodes is None
+        k = self.k = (control_period_nodes(col, sp.sample_time) if self._robust_nodes is None
                       else int(self._robust_nodes))
         if not 1 <= k <= N:
             raise ValueError(f"robust horizon must be 1..{N} nodes; got {k}")
         nv = 5 * N - 2 * k  # per scenario: 3N states and 2(N - k) own inputs
         worst = self.objective == "worst"
         w = ca.SX.sym("w", 2 * k + S * nv + int(worst))
-        p = ca.SX.sym("p", 5 + 5 * N + S + 2)  # pose, radii, reference, weights, applied command
+        p = ca.SX.sym("p", 5 + 5 * N + S + 3)  # pose, radii, reference, weights, u_prev, first-step weight
         x0, radii, ref = p[:3], p[3:5], ca.reshape(p[5:5 + 5 * N], N, 5).T
-        wt, ua = p[5 + 5 * N:5 + 5 * N + S], p[5 + 5 * N + S:]
+        wt, u_prev, c_step = p[5 + 5 * N:5 + 5 * N + S], p[5 + 5 * N + S:7 + 5 * N + S], p[7 + 5 * N + S]
         Us = ca.reshape(w[:2 * k], k, 2).T
         costs, gs, lbg, ubg, self._scen_rows = [], [], [], [], []
         for i in range(S):
             off = 2 * k + i * nv
             X = ca.reshape(w[off:off + 3 * N], N, 3).T
             V = ca.reshape(w[off + 3 * N:off + nv], N - k, 2).T
-            Ji, gi, lo, hi = col.nlp_terms(X, ca.horzcat(Us, V), x0, ca.DM(self.fractions[i]) * radii, ref)
+            Ji, gi, lo, hi = col.nlp_terms(X, ca.horzcat(Us, V), x0, ca.DM(self.fractions[i]) * radii, ref,
+                                           u_prev, c_step)
             costs.append(Ji)
             n0 = sum(len(v) for v in lbg)
             self._scen_rows.append(slice(n0, n0 + len(lo)))
             gs.append(gi)
             lbg.append(lo)
             ubg.append(hi)
-        self._rate_rows = slice(sum(len(v) for v in lbg), sum(len(v) for v in lbg) + 2)
-        gs.append(Us[:, 0] - ua)  # bounds set per solve (none before the first command)
-        lbg.append(np.full(2, -np.inf))
-        ubg.append(np.full(2, np.inf))
         J = ca.vertcat(*costs)
         if worst:
             gs.append(J - w[-1])  # J_i <= t for the scenarios of positive weight (bounds set per solve)
@@ -395,20 +382,22 @@ class RobustNMPC(NMPC):
 
     def _ipopt(self, x0, radii, ref, Xg, Ug):
         """The full multi-stage NLP from the scenario guesses: ``(ok, status, iterations, X, U)``."""
-        ua = self._u_applied
         w = self.stage_weights
         keep = ~np.isnan(w)
-        pv = np.concatenate([x0, radii, ref.ravel(), np.nan_to_num(w), np.zeros(2) if ua is None else ua])
+        u_prev = np.zeros(2) if self._u_prev is None else self._u_prev
+        pv = np.concatenate([x0, radii, ref.ravel(), np.nan_to_num(w), u_prev,
+                             [first_step_penalty(self.spec, self._u_prev)]])
         wg = self._pack(Xg, Ug)
         lbg, ubg = self._lbg.copy(), self._ubg.copy()
         for i in np.nonzero(~keep)[0]:  # a pruned scenario's constraints are relaxed
             lbg[self._scen_rows[i]], ubg[self._scen_rows[i]] = -np.inf, np.inf
-        if ua is not None:
-            lbg[self._rate_rows], ubg[self._rate_rows] = -self.first_step, self.first_step
+        lbx, ubx = self._lbx.copy(), self._ubx.copy()
+        first = [0, self.k]  # the shared omega_R, omega_L at t0
+        lbx[first], ubx[first] = self._box
         if self.objective == "worst":
             ubg[-self.S:] = np.where(keep, 0.0, np.inf)
             wg[-1] = float(np.max(np.asarray(self._costs(wg, pv)).ravel()[keep]))
-        args = {"x0": wg, "p": pv, "lbx": self._lbx, "ubx": self._ubx, "lbg": lbg, "ubg": ubg}
+        args = {"x0": wg, "p": pv, "lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
         if self._lam is not None:
             args["lam_x0"], args["lam_g0"] = self._lam
         res = self._nlp(**args)
@@ -427,18 +416,19 @@ class RobustNMPC(NMPC):
                        U: np.ndarray) -> np.ndarray:
         """Tracking cost ``J_i`` (S,) of scenario plans X (S, N, 3), U (S, N, 2) from pose ``x0`` with
         model radii ``radii`` (m) and the reference (5, N) at the nodes."""
-        pv = np.concatenate([x0, radii, ref.ravel(), np.ones(self.S), np.zeros(2)])
+        pv = np.concatenate([x0, radii, ref.ravel(), np.ones(self.S), np.zeros(3)])
         return np.asarray(self._costs(self._pack(X, U), pv)).ravel()
 
     def _rti_step(self, Xg, Ug, radii, x0, ref):
         """One real-time iteration of the multi-stage QP about the scenario guesses."""
         assert self._stage_qp is not None
         return self._stage_qp.solve(Xg, Ug, scenario_radii(self.fractions, radii), x0, ref, self.stage_weights,
-                                    self._u_applied)
+                                    self._u_prev)
 
     def _guess(self, t: float, x0: np.ndarray, ref: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Scenario guesses X (S, N, 3), U (S, N, 2): the shifted previous scenario plans, or the
-        reference with each scenario's feed-forward inputs. Heading moved to x0's branch."""
+        reference with each scenario's feed-forward inputs, each with its first input moved into this
+        sample's first-step bound (as the nominal NMPC's guess). Heading moved to x0's branch."""
         rs = scenario_radii(self.fractions, radii)
         N, S = self.col.N, self.S
         if self._stages is None:
@@ -451,15 +441,18 @@ class RobustNMPC(NMPC):
                 Xg[i], Ug[i] = self.col.shift(t_prev, Xp[i], Up[i], t, self.spec.half_track, rs[i])
                 Xg[i, :, 2] += 2 * np.pi * np.round((x0[2] - Xg[i, 0, 2]) / (2 * np.pi))
         Xg[:, 0] = x0
-        return Xg, Ug
+        return Xg, np.stack([self._into_first_step_bound(u) for u in Ug])
 
     def _accept(self, t: float, X: np.ndarray, U: np.ndarray, status: str, iterations: int, t_start: float,
                 budget: float | None, radii: np.ndarray) -> ControlOutput:
         """Keep the scenario plans; the plan of the scenario of largest weight is the one predicted
-        (and shifted on a fallback). Its first input is every scenario's."""
+        (and shifted on a fallback). Its first input, as applied (within the first-step bound), is every
+        scenario's."""
         rep = int(np.argmax(self.weights))
         out = super()._accept(t, X[rep], U[rep], status, iterations, t_start, budget, radii)
         if not out.fallback:
             om = self.spec.omega_max
-            self._stages = (t, X.copy(), np.clip(U, -om, om))
+            Us = np.clip(U, -om, om)
+            Us[:, 0] = out.omega
+            self._stages = (t, X.copy(), Us)
         return out

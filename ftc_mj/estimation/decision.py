@@ -3,15 +3,15 @@
 Rules (``estimator.decision.rule``):
 
 ``sigma``
-    A wheel is *suspect* when its radius estimate departs from nominal ``R0`` by more than
-    ``k_sigma`` of its standard deviation **and** by more than ``min_drop`` (m). The wheel is only
-    *isolated* when the filter's covariance says the split between the two radii is identified (σ
-    along the unobservable split direction ≤ ``max_split_sigma``, see
+    A wheel is *suspect* when its radius estimate lies **below** nominal ``R0`` by more than
+    ``k_sigma`` of its standard deviation **and** by more than ``min_drop`` (m): a puncture makes a
+    radius smaller. The wheel is only *isolated* when the filter's covariance says the split between
+    the two radii is identified (σ along the unobservable split direction ≤ ``max_split_sigma``, see
     :mod:`~ftc_mj.estimation.observability`); otherwise — and also when no single wheel is suspect
     but the observed radius combination ``w·R`` departs from ``w·R0`` by ``k_sigma`` σ and
-    ``min_drop`` — the candidate is ``'unknown'``: a fault is evident, which wheel is not. A fault is
-    declared when a candidate has held for ``dwell`` seconds; the isolated wheel is the set of
-    suspect wheels (``'both'`` if both) or ``'unknown'``.
+    ``min_drop`` in the direction a smaller radius moves it — the candidate is ``'unknown'``: a fault
+    is evident, which wheel is not. A fault is declared when a candidate has held for ``dwell``
+    seconds; the isolated wheel is the set of suspect wheels (``'both'`` if both) or ``'unknown'``.
 ``mode``
     For an IMM: the probability of a fault *class* — the sum of the mode probabilities of the
     members hypothesising that wheel (``right``; ``left`` = 50 % left + left ramp; ``both``) —
@@ -28,6 +28,9 @@ isolated wheel changes only when the new candidate has held for ``dwell`` second
 declaration, change of isolated wheel and clear is appended to :attr:`FaultDecision.events` as
 ``(t, text)`` so the loop can count false alarms. Severity is the fractional radius loss
 ``clip(1 - R̂/R0, 0, 1)`` of each wheel from the (combined) estimate.
+
+A radius estimate *above* nominal by ``k_sigma`` σ and ``min_drop`` (with any rule) is not a
+puncture: it is reported as :attr:`DecisionState.anomaly` and never declared.
 """
 
 from __future__ import annotations
@@ -69,6 +72,9 @@ class DecisionState:
     """σ (m) of the filter's radius split along the unobservable direction this step."""
     active_mode: int | None = None
     """Most probable IMM mode (index into the bank), ``None`` for single filters."""
+    anomaly: bool = False
+    """A radius estimate lies above nominal by ``k_sigma`` σ and ``min_drop``: not a puncture (a radius
+    does not grow), so not declared; reported separately."""
     events: list[tuple[float, str]] = field(default_factory=list)
     """All declaration / change / clear events so far (shared list, oldest first)."""
 
@@ -96,15 +102,29 @@ class FaultDecision:
 
     # ---------------------------------------------------------------- candidate wheel per rule
     def _departs(self, dep: float, std: float) -> bool:
+        """``dep`` (m) exceeds both ``k_sigma`` σ and ``min_drop`` in magnitude."""
         return math.isfinite(dep) and abs(dep) > self.k_sigma * std and abs(dep) > self.min_drop
 
-    def _sigma_candidate(self, out: FilterOutput, dirs: RadiusDirections) -> Wheel | None:
-        dR, dL = float(out.x[3]) - self.R0, float(out.x[4]) - self.R0
-        sus_R = self._departs(dR, math.sqrt(max(float(out.P[3, 3]), 0.0)))
-        sus_L = self._departs(dL, math.sqrt(max(float(out.P[4, 4]), 0.0)))
+    def _radius_departures(self, out: FilterOutput) -> tuple[tuple[bool, bool], tuple[bool, bool]]:
+        """Per wheel (right, left): significantly below nominal (puncture-like), and above it (anomaly)."""
+        below, above = [], []
+        for i in (3, 4):
+            dep = float(out.x[i]) - self.R0
+            sig = self._departs(dep, math.sqrt(max(float(out.P[i, i]), 0.0)))
+            below.append(sig and dep < 0.0)
+            above.append(sig and dep > 0.0)
+        return (below[0], below[1]), (above[0], above[1])
+
+    def _sigma_candidate(self, out: FilterOutput, dirs: RadiusDirections, below: tuple[bool, bool]) -> Wheel | None:
+        sus_R, sus_L = below
         if (sus_R or sus_L) and dirs.split_std <= self.max_split_sigma:
             return "both" if sus_R and sus_L else "right" if sus_R else "left"
-        if sus_R or sus_L or self._departs(dirs.w[0] * dR + dirs.w[1] * dL, dirs.sum_std):
+        if sus_R or sus_L:
+            return "unknown"
+        # the observed combination c = w·(R - R0) alone: a puncture-like departure is one that a smaller
+        # radius of some wheel i produces, i.e. c·w_i < 0
+        c = dirs.w[0] * (float(out.x[3]) - self.R0) + dirs.w[1] * (float(out.x[4]) - self.R0)
+        if self._departs(c, dirs.sum_std) and (c * dirs.w[0] < 0.0 or c * dirs.w[1] < 0.0):
             return "unknown"
         return None
 
@@ -128,11 +148,12 @@ class FaultDecision:
         """Feed the estimator output of time ``t`` (s) and the wheel rates ``omega`` (rad/s) it was
         predicted with (they set which radius combination is observable); returns the decision."""
         dirs = radius_directions(out.P, omega)
+        below, above = self._radius_departures(out)
         use_mode = self.rule == "mode" or (self.rule == "auto" and out.mode_probs is not None)
         if use_mode and out.mode_probs is not None:
             cand = self._mode_candidate(out)
         else:
-            cand = self._sigma_candidate(out, dirs)
+            cand = self._sigma_candidate(out, dirs, below)
         eps = 1e-9
         if cand is not None:
             self._clear_since = None
@@ -169,7 +190,7 @@ class FaultDecision:
         return DecisionState(
             detected=self.declared is not None, time=self.first_time, wheel=self.declared,
             severity_R=sev[0], severity_L=sev[1], suspected="unknown" in (cand, self.declared),
-            split_std=dirs.split_std, active_mode=active, events=self.events,
+            split_std=dirs.split_std, active_mode=active, anomaly=above[0] or above[1], events=self.events,
         )
 
 

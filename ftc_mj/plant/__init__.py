@@ -23,6 +23,7 @@ from .truth import (
     SCRAPE,
     SLIP,
     TIPPED,
+    UNSTABLE,
     Truth,
     flag_names,
 )
@@ -36,6 +37,7 @@ __all__ = [
     "SCRAPE",
     "SLIP",
     "TIPPED",
+    "UNSTABLE",
     "KinematicPlant",
     "Plant",
     "RadiusSchedule",

@@ -13,10 +13,15 @@ Speed: when no fault schedule changes within an ``advance`` window, all steps ru
 call (no per-step Python). :meth:`Plant.truth` reads the pose and velocities straight from ``qpos``/``qvel`` (exact
 at the current time, no ``mj_forward`` needed); contacts are those MuJoCo used in the last physics step.
 
-Failure handling: a non-finite state never raises. The plant restores the last finite state (the end of the
-previous successful ``advance`` call), freezes (time still advances, the physics does not) and reports
-``NAN | PHYSICS_WARNING`` in every later :class:`~ftc_mj.plant.truth.Truth`. MuJoCo warnings raise the sticky
-``PHYSICS_WARNING`` flag (checked in :meth:`Plant.truth`).
+Failure handling: an unstable simulation never raises. When the state becomes non-finite, or MuJoCo's own
+check reports NaN, Inf or huge values in ``qpos``/``qvel``/``qacc`` (it then silently resets the state to the
+model's initial one), the plant restores the last good state (the end of the previous successful ``advance``
+call), freezes (time still advances, the physics does not) and reports ``UNSTABLE | PHYSICS_WARNING`` (plus
+``NAN`` for a non-finite state) in every later :class:`~ftc_mj.plant.truth.Truth`. Other MuJoCo warnings raise
+the sticky ``PHYSICS_WARNING`` flag (checked in :meth:`Plant.truth`). MuJoCo's warning texts are neither
+printed nor appended to ``MUJOCO_LOG.TXT`` in the working directory (:func:`silence_mujoco_warnings`): the
+flags carry them. A model MuJoCo cannot allocate or simulate at all (``mujoco.FatalError``, e.g. tens of
+thousands of bodies) is a :class:`~ftc_mj.errors.BadInput` naming ``plant.model_file``.
 """
 
 from __future__ import annotations
@@ -27,10 +32,11 @@ import mujoco
 import numpy as np
 
 from ..config import RunConfig
+from ..errors import BadInput
 from ..model.kinematics import inverse_rates
 from .builder import build_model
 from .faults import RadiusSchedule
-from .truth import LARGE_ROLL, LIFTOFF, NAN, PHYSICS_WARNING, SCRAPE, SLIP, TIPPED, Truth, flag_names
+from .truth import LARGE_ROLL, LIFTOFF, NAN, PHYSICS_WARNING, SCRAPE, SLIP, TIPPED, UNSTABLE, Truth, flag_names
 
 _EPS_T = 1e-9  # s; schedule lookups happen at k*dt + _EPS_T so that breakpoints on step times are hit robustly
 
@@ -49,6 +55,23 @@ def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
+_BAD_STATE_WARNINGS = tuple(int(w) for w in (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
+                                             mujoco.mjtWarning.mjWARN_BADQACC))
+"""MuJoCo's "simulation is unstable" warnings (NaN, Inf or > 1e10 in qpos, qvel, qacc)."""
+
+
+def _drop_warning(message: str) -> None:
+    """MuJoCo warning handler: the plant reads the warning counters of ``MjData`` instead."""
+
+
+def silence_mujoco_warnings() -> None:
+    """Route MuJoCo's warning texts to a handler that drops them, instead of MuJoCo's default, which prints
+    them and appends them to ``MUJOCO_LOG.TXT`` in the current working directory. Process-wide and
+    idempotent; the counters in ``MjData.warning`` (and so the plant's flags) are unaffected."""
+    if mujoco.get_mju_user_warning() is not _drop_warning:
+        mujoco.set_mju_user_warning(_drop_warning)
+
+
 class Plant:
     """The MuJoCo truth plant of one run.
 
@@ -62,7 +85,17 @@ class Plant:
     def __init__(self, cfg: RunConfig) -> None:
         self.cfg = cfg
         pc = cfg.plant
+        silence_mujoco_warnings()
         self.model: mujoco.MjModel = build_model(pc, cfg.robot)
+        try:
+            self._setup(cfg)
+        except mujoco.FatalError as err:  # the model is too large for MuJoCo's arena or stack
+            why = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+            raise BadInput(f"plant.model_file: {pc.model_file}: MuJoCo cannot simulate it: {why}") from None
+
+    def _setup(self, cfg: RunConfig) -> None:
+        """Allocate the data, look up every named element, reset (the part of construction that runs MuJoCo)."""
+        pc = cfg.plant
         self.data: mujoco.MjData = mujoco.MjData(self.model)
         self._scratch = mujoco.MjData(self.model)  # mj_setConst overwrites the qpos of the data it is given
         m = self.model
@@ -133,6 +166,12 @@ class Plant:
         self._qvel_good = np.empty(m.nv)
         self._act_good = np.empty(m.na)
         self.reset()
+        # trial steps (0.05 s, the robot settling on its tyres and caster) from the initial state on the
+        # scratch data: a model whose arena cannot hold a step's contacts and constraints fails here, as
+        # bad input, instead of in the middle of a run
+        np.copyto(self._scratch.qpos, self.data.qpos)
+        mujoco.mj_step(m, self._scratch, max(1, round(0.05 / self.dt)))
+        mujoco.mj_resetData(m, self._scratch)  # the scratch data is back to what mj_setConst expects
 
     # ------------------------------------------------------------------ state
     def reset(self) -> None:
@@ -321,16 +360,19 @@ class Plant:
         self._k = k0 + n
         d.time = self._k * dt
         # sum() of a list is NaN if any entry is NaN or +-inf (much cheaper than numpy for these short vectors)
-        if not (math.isfinite(sum(self._qvel.tolist())) and math.isfinite(sum(self._qpos.tolist()))):
-            d.qpos[:] = self._qpos_good
-            d.qvel[:] = self._qvel_good
-            if m.na:
-                d.act[:] = self._act_good
-            mujoco.mj_forward(m, d)
-            self._frozen = True
-            self._sticky |= NAN | PHYSICS_WARNING
-        else:
+        finite = math.isfinite(sum(self._qvel.tolist())) and math.isfinite(sum(self._qpos.tolist()))
+        warn = self._warning_number
+        if finite and not (warn[_BAD_STATE_WARNINGS[0]] or warn[_BAD_STATE_WARNINGS[1]]
+                           or warn[_BAD_STATE_WARNINGS[2]]):
             self._save_good()
+            return
+        d.qpos[:] = self._qpos_good
+        d.qvel[:] = self._qvel_good
+        if m.na:
+            d.act[:] = self._act_good
+        mujoco.mj_forward(m, d)
+        self._frozen = True
+        self._sticky |= UNSTABLE | PHYSICS_WARNING | (0 if finite else NAN)
 
     def _save_good(self) -> None:
         """Remember the current (finite) state, restored if a later advance diverges."""

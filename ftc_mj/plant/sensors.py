@@ -1,4 +1,4 @@
-"""Sensors with seeded Gaussian noise on top of the plant's truth (DESIGN §3).
+"""Sensors with seeded Gaussian noise on top of the plant's truth.
 
 Every :meth:`Sensors.read` draws the same fixed block of standard normals, whichever sensors are configured, so
 a run is deterministic for a given config and seed, and switching a sensor on or off does not change the noise

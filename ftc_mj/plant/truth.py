@@ -6,7 +6,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 # Bit flags of Truth.flags: "the plant left the kinematic model's domain" (DESIGN §2). They describe the state at
-# the time of the Truth, except NAN and PHYSICS_WARNING, which are sticky (once raised they stay raised).
+# the time of the Truth, except NAN, UNSTABLE and PHYSICS_WARNING, which are sticky (once raised they stay raised).
 LIFTOFF = 1 << 0
 """A drive tyre has no contact with the floor."""
 SCRAPE = 1 << 1
@@ -21,6 +21,10 @@ PHYSICS_WARNING = 1 << 5
 """MuJoCo raised a warning (bad qacc/qpos/qvel, contact or constraint buffer full, bad inertia). Sticky."""
 NAN = 1 << 6
 """The physics state became non-finite; the plant froze at the last finite state. Sticky."""
+UNSTABLE = 1 << 7
+"""MuJoCo's own check found NaN, Inf or a huge value (above 1e10) in the positions, velocities or
+accelerations (its "simulation is unstable" warning, after which it resets the state); the plant froze at
+the last good state. Sticky. A run with UNSTABLE or NAN has the status ``unstable``."""
 
 FLAG_NAMES: dict[int, str] = {
     LIFTOFF: "LIFTOFF",
@@ -30,6 +34,7 @@ FLAG_NAMES: dict[int, str] = {
     SLIP: "SLIP",
     PHYSICS_WARNING: "PHYSICS_WARNING",
     NAN: "NAN",
+    UNSTABLE: "UNSTABLE",
 }
 
 
@@ -56,7 +61,7 @@ class Truth:
             velocity of the sphere's lowest point along the heading. Positive = spinning faster than the ground
             moves (driving slip), negative = skidding (braking slip); 0 = rolling without slip.
         contact_R, contact_L: the tyre had a floor contact in the last physics step.
-        flags: bitmask of LIFTOFF, SCRAPE, LARGE_ROLL, TIPPED, SLIP, PHYSICS_WARNING, NAN.
+        flags: bitmask of LIFTOFF, SCRAPE, LARGE_ROLL, TIPPED, SLIP, PHYSICS_WARNING, NAN, UNSTABLE.
     """
 
     t: float

@@ -1,23 +1,69 @@
-"""Columns of ``trace.parquet`` (DESIGN §6): one row per estimator step, SI units and radians.
+"""Columns of ``trace.parquet``: one row per estimator step, SI units and radians.
 
 Truth: ``x, y, psi, v, yaw_rate, R_R, R_L, omega_R, omega_L, roll, pitch, z, slip_R, slip_L,
-plant_flags``; sensors: ``v_meas, yaw_rate_meas, omega_*_meas``; estimator: ``*_hat, *_std,
-innovation, innovation_std, nis, fault_detected, fault_suspected`` (a fault is evident but its
-wheel is not identified), ``radius_split_std`` (m, σ of the unobservable radius split),
-``mode_prob_k``; reconfiguration: ``reconfig_state`` (0 nominal, 1 hold, 2 handed over,
-3 reverted), ``excitation`` (yaw-rate dither, rad/s, NaN when off); controller:
-``omega_*_cmd, R_*_model`` (radii the controller assumed), ``solve_time_ms, solver_iterations, solver_ok`` (on
-controller samples, NaN elsewhere); ``cross_track_error`` (m, positive = left of the path).
+plant_flags``; sensors: ``v_meas, yaw_rate_meas, omega_*_meas``; estimator: ``*_hat`` (the estimate
+of each state), ``*_std`` (σ of each state: m, m, rad, m, m), the off-diagonal covariances
+:data:`COVARIANCE_COLUMNS` (``R_RL_cov``, m², between the radii; ``cov_<a>_<b>`` between the others),
+so that any NEES can be recomputed from the trace alone, ``innovation, innovation_std`` (speed
+channel, m/s), ``nis`` (normalised innovation squared over all channels of the step), ``nis_dof``
+(channels in that update: 1 speed, +1 gyro, +2 on a position fix; 0 = no update),
+``fault_detected, fault_suspected`` (a fault is evident but its wheel is not identified),
+``declared_wheel`` (:data:`WHEEL_CODES`: the wheel the decision currently declares),
+``radius_anomaly`` (1 while a radius estimate lies above nominal beyond the decision's thresholds:
+not a puncture), ``radius_split_std`` (m, σ of the unobservable radius split), ``mode_prob_k``;
+reconfiguration: ``reconfig_state`` (0 nominal, 1 hold, 2 handed over, 3 reverted), ``excitation``
+(yaw-rate dither, rad/s, NaN when off); controller: ``omega_*_cmd, R_*_model`` (radii the
+controller assumed), ``solve_time_ms, solver_iterations, solver_ok`` (on controller samples, NaN
+elsewhere); ``cross_track_error`` (m, positive = left of the path).
 """
 
 from __future__ import annotations
 
+from ..plant.truth import FLAG_NAMES
+
+STATE = ("x", "y", "psi", "R_R", "R_L")
+"""Estimator state order; ``<name>_hat`` and ``<name>_std`` columns follow it."""
+
+COVARIANCE_COLUMNS: dict[tuple[int, int], str] = {
+    (i, j): ("R_RL_cov" if (i, j) == (3, 4) else f"cov_{STATE[i]}_{STATE[j]}")
+    for i in range(5) for j in range(i + 1, 5)
+}
+"""Upper off-diagonal entries ``P[i, j]`` of the 5×5 state covariance and their trace columns."""
+
+WHEEL_CODES: dict[str | None, int] = {None: 0, "right": 1, "left": 2, "both": 3, "unknown": 4}
+"""``declared_wheel`` codes: nothing declared, right, left, both, fault of unknown wheel."""
+
 BASE_COLUMNS: tuple[str, ...] = (
     "t", "x", "y", "psi", "v", "yaw_rate", "v_meas", "yaw_rate_meas", "R_R", "R_L",
-    "R_R_hat", "R_L_hat", "R_R_std", "R_L_std", "x_hat", "y_hat", "psi_hat",
-    "innovation", "innovation_std", "nis",
+    "R_R_hat", "R_L_hat", "R_R_std", "R_L_std", "x_hat", "y_hat", "psi_hat", "x_std", "y_std", "psi_std",
+    *COVARIANCE_COLUMNS.values(),
+    "innovation", "innovation_std", "nis", "nis_dof",
     "omega_R", "omega_L", "omega_R_meas", "omega_L_meas", "omega_R_cmd", "omega_L_cmd",
     "R_R_model", "R_L_model", "cross_track_error", "roll", "pitch", "z", "slip_R", "slip_L",
-    "plant_flags", "fault_detected", "fault_suspected", "radius_split_std", "reconfig_state", "excitation",
-    "solve_time_ms", "solver_iterations", "solver_ok",
+    "plant_flags", "fault_detected", "fault_suspected", "declared_wheel", "radius_anomaly", "radius_split_std",
+    "reconfig_state", "excitation", "solve_time_ms", "solver_iterations", "solver_ok",
 )
+
+
+CODED_COLUMNS: dict[str, str] = {
+    "plant_flags": "bitmask of the plant leaving the kinematic model's domain: " + ", ".join(
+        f"{bit} {name}" for bit, name in FLAG_NAMES.items()) + " (NAN, UNSTABLE, PHYSICS_WARNING are sticky)",
+    "reconfig_state": "reconfiguration policy state: 0 nominal radii, 1 hold (radii in use kept), "
+                      "2 handed over (estimates in use), 3 reverted (to the last trusted radii)",
+    "fault_detected": "1 while the fault decision declares a fault, else 0 (NaN without an estimator)",
+    "fault_suspected": "1 while a fault is evident but its wheel is not identified, else 0",
+    "solver_ok": "1 a controller sample whose solve converged without fallback, 0 otherwise; NaN between samples",
+    "declared_wheel": "wheel the fault decision declares: " + ", ".join(
+        f"{code} {name or 'nothing declared'}" for name, code in WHEEL_CODES.items()),
+    "excitation": "yaw-rate dither added to the command (rad/s); NaN when off",
+    "cross_track_error": "signed distance to the reference path (m), positive = left of it",
+}
+"""Meaning of the trace's coded columns, also stored in the Parquet schema metadata of ``trace.parquet``."""
+
+
+def trace_schema_metadata() -> dict[str, str]:
+    """Parquet key-value metadata of ``trace.parquet``: units and the coded columns (JSON)."""
+    import json
+
+    return {"ftc_mj.units": "SI units and radians; one row per estimator step",
+            "ftc_mj.columns": json.dumps(CODED_COLUMNS)}

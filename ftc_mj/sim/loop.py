@@ -9,7 +9,8 @@ hold) between controller samples. At estimator step ``k`` (time ``t_k``):
 1. read the truth and the sensors at ``t_k``;
 2. the filter predicts over ``[t_{k-1}, t_k]`` with the wheel rates measured at ``t_{k-1}`` and
    updates with the measurement at ``t_k``; the fault decision runs on its output;
-3. on a controller sample, the controller solves from the pose at ``t_k`` with the radii chosen by
+3. on a controller sample, the controller solves from the pose the sensors read at ``t_k`` (the true
+   pose, plus ``sensors.pose_sigma`` noise drawn by :class:`~ftc_mj.plant.Sensors`) with the radii chosen by
    the reconfiguration policy (a robust NMPC with ``posterior`` weighting is first handed the filter's
    scenario weights, :mod:`.scenario_weights`) (optionally dithered while a fault is suspected but not
    isolated), and its command is applied from ``t_k``;
@@ -20,7 +21,9 @@ Telemetry is buffered in preallocated arrays; nothing is logged call by call.
 
 from __future__ import annotations
 
+import os
 import time
+import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -35,7 +38,7 @@ from ..estimation.base import FilterOutput, Measurement
 from ..plant import Sensors
 from ..recorder import Event, RobotGeometry, Solve
 from .cache import controller_for, plant_for
-from .columns import BASE_COLUMNS
+from .columns import BASE_COLUMNS, COVARIANCE_COLUMNS, STATE, WHEEL_CODES
 from .metrics import fault_onsets
 from .reconfig import RadiusFeedback
 from .scenario_weights import ScenarioWeighting
@@ -55,7 +58,45 @@ class SimResult:
     reference_path: np.ndarray | None = None
     wall_time: float = 0.0
     error: str | None = None
+    """``"<ExceptionType>: <message>"`` of the exception that ended the run early, else ``None``."""
+    error_where: str | None = None
+    """``file:line in function`` where that exception was raised."""
     geometry: RobotGeometry | None = None
+
+
+STRICT_ENV = "FTC_MJ_STRICT"
+"""Environment variable: ``1`` makes :func:`simulate` re-raise a component's exception instead of
+recording it (the test suite sets it)."""
+
+
+def strict_default() -> bool:
+    """Strict mode from the environment (:data:`STRICT_ENV` = ``1``/``true``/``yes``)."""
+    return os.environ.get(STRICT_ENV, "").strip().lower() in ("1", "true", "yes")
+
+
+def _where(exc: BaseException) -> str:
+    """``file:line in function`` of the innermost frame of ``exc``'s traceback."""
+    frames = traceback.extract_tb(exc.__traceback__)
+    if not frames:
+        return "?"
+    f = frames[-1]
+    path = f.filename.replace(os.sep, "/")
+    path = path[path.rfind("ftc_mj/"):] if "ftc_mj/" in path else path
+    return f"{path}:{f.lineno} in {f.name}"
+
+
+def _log_estimate(c: dict[str, np.ndarray], k: int, out: FilterOutput) -> None:
+    """Estimate, σ of each state, off-diagonal covariances and the innovation statistics of row ``k``."""
+    P = out.P
+    for i, name in enumerate(STATE):
+        c[f"{name}_hat"][k] = out.x[i]
+        c[f"{name}_std"][k] = np.sqrt(max(P[i, i], 0.0))
+    for (i, j), name in COVARIANCE_COLUMNS.items():
+        c[name][k] = 0.5 * (P[i, j] + P[j, i])
+    c["innovation"][k] = out.speed_innovation
+    c["innovation_std"][k] = out.speed_innovation_std
+    c["nis"][k] = out.nis
+    c["nis_dof"][k] = float(np.size(out.innovation)) if np.isfinite(out.nis) else 0.0
 
 
 def robot_geometry(plant: object, cfg: RunConfig) -> RobotGeometry:
@@ -75,13 +116,28 @@ def robot_geometry(plant: object, cfg: RunConfig) -> RobotGeometry:
     )
 
 
-def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) -> SimResult:
+def step_bound(cfg: RunConfig, applied: np.ndarray | None) -> tuple[np.ndarray | None, float]:
+    """``(previous, max_step)`` for :func:`~ftc_mj.control.excitation.dither_wheel_rates`: the command in
+    force and the MPC's bound ``omega_rate_max / rate`` (rad/s) on the next step, or no bound (open loop,
+    ``controller.rate_bound_from_applied`` off, or no command yet)."""
+    c = cfg.controller
+    if applied is None or c.kind == "open-loop" or not c.rate_bound_from_applied:
+        return None, np.inf
+    return applied, c.omega_rate_max / c.rate
+
+
+def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
+             strict: bool | None = None) -> SimResult:
     """Run one closed-loop simulation for ``cfg`` and return its buffered telemetry.
 
     ``progress`` (optional) is called with the fraction done, a few hundred times per run.
-    Never raises for physics, filter or solver trouble: those are recorded as events/counters;
-    an unexpected exception ends the run early with ``error`` set.
+    Physics, filter and solver trouble is part of the study and is recorded as events/counters
+    (plant flags, filter rejections and resets, solver fallbacks). Any other exception of a
+    component (a ``TypeError``, a shape bug) ends the run early with ``error``/``error_where`` set
+    (the run's status is ``failed``), or, with ``strict`` (default: :func:`strict_default`), is
+    re-raised.
     """
+    strict = strict_default() if strict is None else strict
     wall0 = time.perf_counter()
     plant = plant_for(cfg)
     sensors = Sensors(cfg.sensors, cfg.seed)
@@ -95,7 +151,6 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
-    pose_rng = np.random.default_rng([cfg.seed, 7])
 
     n = cfg.n_estimator_steps
     dt = 1.0 / cfg.estimator.rate
@@ -125,10 +180,12 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
     last_resets = 0
     last_ds = None
     detected_before = False
+    anomaly_before = False
     suspected = False
     reset_since_solve = False
     flags_seen = 0
     error: str | None = None
+    error_where: str | None = None
     report_every = max(1, n // 200)
     rows = 0
     try:
@@ -166,15 +223,11 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
                 feedback.observe(out)
                 last_ds = ds
                 suspected = ds.suspected
-                c["x_hat"][k], c["y_hat"][k], c["psi_hat"][k] = out.x[0], out.x[1], out.x[2]
-                c["R_R_hat"][k], c["R_L_hat"][k] = out.x[3], out.x[4]
-                c["R_R_std"][k] = np.sqrt(max(out.P[3, 3], 0.0))
-                c["R_L_std"][k] = np.sqrt(max(out.P[4, 4], 0.0))
-                c["innovation"][k] = out.speed_innovation
-                c["innovation_std"][k] = out.speed_innovation_std
-                c["nis"][k] = out.nis
+                _log_estimate(c, k, out)
                 c["fault_detected"][k] = float(ds.detected)
                 c["fault_suspected"][k] = float(ds.suspected)
+                c["declared_wheel"][k] = float(WHEEL_CODES[ds.wheel])
+                c["radius_anomaly"][k] = float(ds.anomaly)
                 c["radius_split_std"][k] = ds.split_std
                 if out.mode_probs is not None:
                     for j in range(n_modes):
@@ -183,6 +236,10 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
                     events.append(Event(t, "warn", f"fault declared: {ds.wheel} wheel, severity "
                                                    f"R {ds.severity_R:.0%} / L {ds.severity_L:.0%}"))
                 detected_before = ds.detected
+                if ds.anomaly and not anomaly_before:
+                    events.append(Event(t, "warn", "radius anomaly: an estimate lies above nominal "
+                                                   "(not a puncture, not declared)"))
+                anomaly_before = ds.anomaly
                 resets = estimator.resets
                 if resets != last_resets:
                     reset_since_solve = True
@@ -194,16 +251,13 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
             if k % est_per_ctl == 0:
                 model_radii = feedback.radii(t, out, last_ds, reset_since_solve, u_meas, (tr.R_R, tr.R_L))
                 reset_since_solve = False
-                pose = np.array([tr.x, tr.y, tr.psi])
-                if cfg.sensors.pose_sigma > 0:
-                    pose = pose + pose_rng.normal(0.0, cfg.sensors.pose_sigma, 3)
                 if weighting is not None:
                     controller.set_scenario_weights(weighting.weights(out, model_radii))
-                cmd = controller.solve(t, pose, model_radii, applied)
+                cmd = controller.solve(t, rd.pose, model_radii, applied)
                 if exc.enabled and suspected:
                     dither = yaw_dither(t, exc.amplitude, exc.period)
                     cmd.omega = dither_wheel_rates(cmd.omega, dither, model_radii, cfg.model_half_track,
-                                                   cfg.robot.omega_max)
+                                                   cfg.robot.omega_max, *step_bound(cfg, applied))
                     c["excitation"][k] = dither
                 plant.set_command(float(cmd.omega[0]), float(cmd.omega[1]))
                 applied = np.array(cmd.omega, dtype=float)
@@ -227,8 +281,11 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
             if progress is not None and k % report_every == 0:
                 progress(k / n)
     except Exception as exc:  # noqa: BLE001 - a run records its failure instead of crashing the caller
+        if strict:
+            raise
         error = f"{type(exc).__name__}: {exc}"
-        events.append(Event(rows * dt, "error", f"run failed: {error}"))
+        error_where = _where(exc)
+        events.append(Event(rows * dt, "error", f"run failed: {error} ({error_where})"))
         cols = {k2: v[:rows] for k2, v in cols.items()}
     if progress is not None:
         progress(1.0)
@@ -238,10 +295,11 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None) ->
         "filter_rejections": float(getattr(estimator, "rejections", 0)),
         "solver_failures": float(getattr(controller, "failures", 0)),
         "plant_flags": float(flags_seen),
+        "exceptions": float(error is not None),
     }
     ref_path = reference.path_points(720)
     events.extend(feedback.events)
     return SimResult(trace=cols, solves=solves, events=sorted(events, key=lambda e: e.t), counters=counters,
                      decision=last_ds, n_modes=n_modes, reference_path=ref_path,
-                     wall_time=time.perf_counter() - wall0, error=error,
+                     wall_time=time.perf_counter() - wall0, error=error, error_where=error_where,
                      geometry=robot_geometry(plant, cfg))

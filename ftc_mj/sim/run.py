@@ -1,23 +1,37 @@
-"""One run from a resolved config to its output directory (DESIGN §6).
+"""One run from a resolved config to its output directory.
 
 ``DIR/<run-id>/`` receives ``config.toml`` (fully resolved), ``trace.parquet``, ``metrics.json`` and
 ``run.rrd``. The directory is assembled under a temporary name and renamed into place at the end,
 so a killed run leaves no half-written output under its final name; an existing run directory is
-never overwritten (a suffix is added).
+never overwritten (a suffix is added). Before simulating, :func:`check_output_root` makes sure the
+folder can take the run (a usage error otherwise); a write that still fails raises
+:class:`~ftc_mj.errors.OutputError` and leaves nothing behind.
+
+A run's ``status`` is ``ok``, ``failed`` (an exception ended it; ``error`` says which) or
+``unstable``: the physics blew up (plant flag ``UNSTABLE`` or ``NAN``, or a non-finite true pose) —
+its metrics describe a frozen or reset robot and must not be read as results.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
+import shutil
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..config import RunConfig, config_to_toml_dict
-from ..io import atomic_dir, unique_dir, write_json, write_parquet, write_toml
+from ..errors import BadInput, OutputError
+from ..io import atomic_dir, remove_stale_temporaries, unique_dir, write_json, write_parquet, write_toml
+from ..plant import NAN, UNSTABLE
+from .columns import trace_schema_metadata
 from .loop import SimResult, simulate
 from .metrics import compute_metrics, fault_onsets
 
@@ -64,18 +78,100 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "seed": cfg.seed,
         "status": "failed" if res.error else "ok",
         "error": res.error,
+        "error_where": res.error_where,
     }
     m.update(compute_metrics(cfg, res.trace, fault_onsets(cfg), res.counters))
+    # the radii the controller used departed from nominal at some sample (not just: a feeding policy)
+    m["feedback"] = bool((m.get("reconfig_handed_fraction") or 0.0) > 0.0)
+    t_bad = unstable_time(res.trace)
+    m["physics_unstable_time"] = t_bad
+    if t_bad is not None and not res.error:
+        m["status"] = "unstable"
+        m["error"] = (f"the physics became unstable at t = {t_bad:.3f} s (NaN, Inf or huge values in the "
+                      "MuJoCo state); the plant froze there, so these metrics are not results")
     ds = res.decision
     if ds is not None:
-        m["isolated_wheel"] = getattr(ds, "wheel", None)
         m["severity_R"] = getattr(ds, "severity_R", None)
         m["severity_L"] = getattr(ds, "severity_L", None)
-        true_w = m.get("true_fault_wheel")
-        m["isolation_correct"] = (m["isolated_wheel"] == true_w) if true_w is not None else None
     m["wall_time_s"] = res.wall_time
     m["realtime_factor"] = m["sim_time_s"] / res.wall_time if res.wall_time > 0 else float("nan")
     return m
+
+
+def unstable_time(trace: dict[str, np.ndarray]) -> float | None:
+    """First time (s) at which the plant flagged ``UNSTABLE``/``NAN`` or the true pose or speed is not
+    finite; None if the physics stayed sound."""
+    t = np.asarray(trace.get("t", []), dtype=float)
+    if t.size == 0:
+        return None
+    flags = np.nan_to_num(np.asarray(trace["plant_flags"], dtype=float)).astype(np.int64)
+    bad = (flags & (UNSTABLE | NAN)) != 0
+    for c in ("x", "y", "psi", "v"):
+        bad |= ~np.isfinite(np.asarray(trace[c], dtype=float))
+    idx = np.flatnonzero(bad)
+    return float(t[idx[0]]) if idx.size else None
+
+
+def output_bytes(cfg: RunConfig, rrd: bool) -> int:
+    """Generous estimate (bytes) of a run directory: 8 bytes per trace cell, twice with a recording, plus
+    the predicted paths of the solves and 1 MB of headroom."""
+    rows = cfg.n_estimator_steps
+    cells = rows * 64
+    solves = round(cfg.duration * cfg.controller.rate) * cfg.controller.nodes * 3 * 4
+    return cells * 8 * (2 if rrd else 1) + (solves if rrd else 0) + 2**20
+
+
+def _limits(folder: Path) -> tuple[int, int]:
+    """(NAME_MAX, PATH_MAX) of the file system holding ``folder`` (255, 4096 if not reported)."""
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX")), int(os.pathconf(folder, "PC_PATH_MAX"))
+    except (OSError, ValueError):
+        return 255, 4096
+
+
+def check_output_root(out_root: Path | str, run_id: str, need_bytes: int = 0) -> None:
+    """Raise :class:`BadInput` (naming ``--out``) unless ``out_root`` can take a run directory named
+    ``run_id``: a path the OS accepts (no NUL, components and whole path within the file system's
+    limits, counting the temporary names), no file where a folder must be, the nearest existing
+    folder writable (checked by creating and deleting a probe file there), and ``need_bytes`` free.
+    Writes nothing that stays."""
+    text = str(out_root)
+    if not text.strip() or "\0" in text:
+        raise BadInput(f"--out: expected a folder path, got {text[:60]!r}")
+    p = Path(text).absolute()
+    _check_lengths(p, run_id)
+    existing = p
+    try:
+        while not existing.exists():
+            existing = existing.parent
+    except OSError as err:  # e.g. a folder on the way that may not be searched
+        raise BadInput(f"--out: cannot use {text[:80]}: {err.strerror}") from None
+    if not existing.is_dir():
+        raise BadInput(f"--out: {existing} is a file, not a folder")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".ftc-mj-probe.", dir=existing)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as err:
+        raise BadInput(f"--out: cannot write in {existing}: {err.strerror}") from None
+    free = shutil.disk_usage(existing).free
+    if free < need_bytes:
+        raise BadInput(f"--out: {free / 1e6:.1f} MB free in {existing}; the run needs about {need_bytes / 1e6:.1f} MB")
+
+
+def _check_lengths(p: Path, run_id: str) -> None:
+    """Path components and the longest path a run writes (its temporaries) within NAME_MAX/PATH_MAX."""
+    name_max, path_max = _limits(Path("/"))
+    for part in p.parts[1:]:
+        if len(os.fsencode(part)) > name_max:
+            raise BadInput(f"--out: a path component is longer than {name_max} bytes ({part[:40]}…)")
+    temp_leaf = f".{run_id}-99.{os.getpid()}.abcdefgh.partial"
+    if len(os.fsencode(temp_leaf)) > name_max:
+        raise BadInput(f"--out: the run's folder name would exceed {name_max} bytes; use a shorter name")
+    extra = len(os.fsencode(f"/{temp_leaf}/.trace.parquet.{os.getpid()}.abcdefgh.tmp"))
+    if len(os.fsencode(str(p))) + extra >= path_max:
+        raise BadInput(f"--out: the path is too long ({len(os.fsencode(str(p)))} bytes; the run's files need it "
+                       f"under {path_max - extra})")
 
 
 def execute(
@@ -84,22 +180,40 @@ def execute(
     *,
     rrd: bool | None = None,
     progress: Callable[[float], None] | None = None,
+    strict: bool | None = None,
 ) -> RunOutcome:
     """Simulate ``cfg``; if ``out_root`` is given, write ``out_root/<run-id>/`` atomically.
 
-    ``rrd`` overrides ``cfg.output.rrd``. A failed run still writes its metrics (status ``failed``
-    and the reason) and trace up to the failure.
+    ``rrd`` overrides ``cfg.output.rrd``; ``strict`` is :func:`~ftc_mj.sim.loop.simulate`'s. A failed
+    run (a component raised; status ``failed``, ``error`` and ``error_where`` say what and where)
+    still writes its metrics and its trace up to the failure. ``out_root`` is checked before
+    simulating (:func:`check_output_root`, :class:`BadInput`); if writing fails anyway,
+    :class:`OutputError` and nothing is left (temporaries that killed runs left in ``out_root`` are
+    removed first).
     """
-    res = simulate(cfg, progress)
+    want_rrd = cfg.output.rrd if rrd is None else rrd
+    if out_root is not None:
+        check_output_root(out_root, run_id_for(cfg), output_bytes(cfg, want_rrd))
+    res = simulate(cfg, progress, strict=strict)
     metrics = run_metrics(cfg, res)
     run_id = metrics["run_id"]
     if out_root is None:
         return RunOutcome(run_id, metrics, res, None)
-    want_rrd = cfg.output.rrd if rrd is None else rrd
+    remove_stale_temporaries(Path(out_root))
     final = unique_dir(Path(out_root), run_id)
+    try:
+        _write_run(final, cfg, res, metrics, want_rrd)
+    except OSError as err:
+        raise OutputError(f"cannot write the run to {final.parent}: {err.strerror or err} (the simulation "
+                          f"finished with status {metrics['status']}; nothing was kept)") from None
+    return RunOutcome(run_id, metrics, res, final)
+
+
+def _write_run(final: Path, cfg: RunConfig, res: SimResult, metrics: dict[str, Any], want_rrd: bool) -> None:
+    """Assemble the run directory under a temporary name and rename it to ``final``."""
     with atomic_dir(final) as tmp:
         write_toml(tmp / "config.toml", config_to_toml_dict(cfg))
-        write_parquet(tmp / "trace.parquet", res.trace)
+        write_parquet(tmp / "trace.parquet", res.trace, metadata=trace_schema_metadata())
         if want_rrd:
             from ..recorder import write_rrd
 
@@ -113,4 +227,3 @@ def execute(
             metrics["rrd_write_s"] = time.perf_counter() - t0
         metrics["total_wall_time_s"] = res.wall_time + metrics.get("rrd_write_s", 0.0)
         write_json(tmp / "metrics.json", metrics)
-    return RunOutcome(run_id, metrics, res, final)

@@ -1,13 +1,53 @@
-"""The short summary table printed after a run."""
+"""The short summary table printed after a run: each metric with its unit, radii shown as truth and
+estimate at the end of the run, errors signed as estimate − truth; then one line per fault onset
+(detected, missed, or after the end of the run) and a note when the ``safe`` policy kept the
+nominal radii because the split between the radii was not identified."""
 
 from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 from rich.console import Console
 from rich.table import Table
 
 from .run import RunOutcome
+
+SUMMARY_ROWS: tuple[tuple[str, str, str], ...] = (
+    ("status", "status", ""),
+    ("radius_final_error_R", "R_R final error (estimate − truth)", "m"),
+    ("radius_final_error_L", "R_L final error (estimate − truth)", "m"),
+    ("radius_rmse_R", "R_R RMSE", "m"),
+    ("radius_rmse_L", "R_L RMSE", "m"),
+    ("innovation_in_2sigma", "speed innovations inside ±2σ", "fraction"),
+    ("nis_mean", "NIS per measurement dimension (mean; 1 if consistent)", ""),
+    ("radius_nees_mean", "radius NEES (mean; 2 if consistent)", ""),
+    ("detection_time", "fault declared at", "s"),
+    ("detection_delay", "detection delay after the onset", "s"),
+    ("time_to_correct_isolation", "correct isolation after the onset", "s"),
+    ("isolated_wheel", "isolated wheel", ""),
+    ("false_alarm", "false alarm", ""),
+    ("false_alarms", "false alarms", "count"),
+    ("false_isolations", "false isolations", "count"),
+    ("missed_detections", "missed detections", "count"),
+    ("cross_track_rms", "cross-track RMS", "m"),
+    ("cross_track_max", "cross-track max |e|", "m"),
+    ("cross_track_final", "cross-track final (+ = left of the path)", "m"),
+    ("cross_track_max_recovered", "cross-track max |e| from 5 s after the fault", "m"),
+    ("omega_at_limit_fraction", "time with a wheel command at its limit", "fraction"),
+    ("policy", "reconfiguration policy", ""),
+    ("reconfig_handovers", "hand-overs / holds / reverts", ""),
+    ("reconfig_handover_delay", "hand-over delay after the onset", "s"),
+    ("tipped", "tipped over", ""),
+    ("solve_time_ms", "solve time median / p95 / max", "ms"),
+    ("solver_failures", "solver failures", ""),
+    ("exceptions", "exceptions in the loop", "count"),
+    ("filter_resets", "filter divergence resets", ""),
+    ("plant_out_of_domain_fraction", "time outside the kinematic model's domain", "fraction"),
+    ("wall_time_s", "wall time", "s"),
+    ("realtime_factor", "real-time factor (sim / wall)", ""),
+)
+"""(metric key, row label, unit) of the table, in order."""
 
 
 def _fmt(v: Any) -> str:
@@ -16,30 +56,80 @@ def _fmt(v: Any) -> str:
     if isinstance(v, float):
         return f"{v:.4g}"
     if isinstance(v, dict):
-        return " / ".join(f"{k} {_fmt(x)}" for k, x in v.items())
+        return " / ".join(_fmt(x) for x in v.values())
     return str(v)
 
 
-SUMMARY_KEYS = (
-    "status", "radius_final_error_R", "radius_final_error_L", "radius_rmse_R", "radius_rmse_L",
-    "innovation_in_2sigma", "detection_time", "detection_delay", "isolated_wheel", "false_alarm",
-    "cross_track_rms", "cross_track_max", "cross_track_final", "cross_track_max_recovered", "omega_at_limit_fraction",
-    "policy", "reconfig_handovers", "reconfig_holds", "reconfig_reverts", "reconfig_handover_delay", "tipped",
-    "solve_time_ms", "solver_failures", "filter_resets", "plant_out_of_domain_fraction",
-    "wall_time_s", "realtime_factor",
-)
+def onset_lines(metrics: dict[str, Any]) -> list[str]:
+    """One line per fault onset: its detection and isolation, or that it lies after the end of the run."""
+    lines = []
+    for e in metrics.get("onsets") or []:
+        head = f"fault onset: {e['wheel']} at t = {e['time']:g} s"
+        if e.get("status") == "after end":
+            lines.append(f"{head}: after the end of the run ({_fmt(metrics.get('sim_time_s'))} s), "
+                         "neither detected nor missed")
+        elif "detection_time" in e:
+            lines.append(f"{head}: detection delay {_fmt(e['detection_delay'])} s, correct isolation after "
+                         f"{_fmt(e['time_to_correct_isolation'])} s, {e['false_isolations']} false isolation(s)"
+                         + (" — missed" if e["missed_detection"] else ""))
+    return lines
 
 
-def print_run_summary(outcome: RunOutcome) -> None:
-    """Print the key metrics of a run and where its files are."""
-    m = outcome.metrics
+def _final(trace: dict[str, np.ndarray], col: str) -> float | None:
+    a = np.asarray(trace.get(col, []), dtype=float)
+    a = a[np.isfinite(a)]
+    return float(a[-1]) if a.size else None
+
+
+def radii_rows(m: dict[str, Any], trace: dict[str, np.ndarray]) -> list[tuple[str, str, str]]:
+    """Rows ``(label, value, unit)`` with the true and estimated radii at the end of the run."""
+    rows = []
+    for s in ("R", "L"):
+        truth, est = _final(trace, f"R_{s}"), _final(trace, f"R_{s}_hat")
+        model = _final(trace, f"R_{s}_model")
+        rows.append((f"R_{s} at the end: truth / estimate / controller's model",
+                     f"{_fmt(truth)} / {_fmt(est)} / {_fmt(model)}", "m"))
+    return rows
+
+
+def nominal_hold_note(m: dict[str, Any], trace: dict[str, np.ndarray], max_sigma: float | None) -> str | None:
+    """One sentence when the ``safe`` policy never handed radii over although a fault was declared,
+    because the radius split was not identified (its σ above ``max_sigma``, or no isolated wheel)."""
+    if m.get("policy") != "safe" or m.get("reconfig_handovers") or m.get("detection_time") is None:
+        return None
+    split = _final(trace, "radius_split_std")
+    if m.get("isolated_wheel") not in (None, "unknown") and (split is None or max_sigma is None
+                                                             or split <= max_sigma):
+        return None
+    why = f"σ of the split {split:.2f} m > {max_sigma:g} m" if split is not None and max_sigma else "no wheel isolated"
+    return ("The safe policy kept the nominal radii: a fault was declared, but the speed alone cannot tell which "
+            f"tyre shrank ({why}); a yaw-rate gyro identifies it (--set sensors.yaw_rate_sigma=0.01).")
+
+
+def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None) -> None:
+    """Print the key metrics of a run (with units) and where its files are. ``max_sigma`` (m) is the
+    safe policy's identification bound, for the note on a nominal hold."""
+    m, trace = outcome.metrics, outcome.result.trace
     table = Table(title=f"run {outcome.run_id}", show_header=True)
     table.add_column("metric")
     table.add_column("value", justify="right")
-    for k in SUMMARY_KEYS:
-        if k in m:
-            table.add_row(k, _fmt(m[k]))
+    table.add_column("unit")
+    for key, label, unit in SUMMARY_ROWS:
+        if key not in m:
+            continue
+        value = m[key]
+        if key == "reconfig_handovers":
+            value = f"{m.get('reconfig_handovers')} / {m.get('reconfig_holds')} / {m.get('reconfig_reverts')}"
+        table.add_row(label, _fmt(value), unit)
+        if key == "radius_final_error_L":
+            for row in radii_rows(m, trace):
+                table.add_row(*row)
     console = Console()
     console.print(table)
+    for line in onset_lines(m):
+        console.print(line, soft_wrap=True)
+    note = nominal_hold_note(m, trace, max_sigma)
+    if note:
+        console.print(note)
     if outcome.run_dir is not None:
         console.print(f"written: {outcome.run_dir}")

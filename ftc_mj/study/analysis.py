@@ -2,8 +2,10 @@
 
 Every metric is grouped by each axis in turn (pooling the other axes and the Monte-Carlo seeds)
 and reported as mean ± half-width of the 95 % confidence interval (Student t for continuous
-metrics, Wilson score interval for rates). The study file's ``[[analysis.findings]]`` turn into
-sentences with numbers generated from the data; nothing in the summary is written by hand.
+metrics, Wilson score interval for rates). Filter consistency is reported as the Monte-Carlo ANEES
+and ANIS of each group with their two-sided 95 % χ² bounds (:func:`consistency_table`). The study
+file's ``[[analysis.findings]]`` turn into sentences with numbers generated from the data; nothing
+in the summary is written by hand.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from typing import Any
 import numpy as np
 import polars as pl
 
+from ..estimation.consistency import ChiSquareTest, combine
 from ..io import atomic_path
 from .spec import FindingSpec, StudyPlan
 
@@ -38,17 +41,22 @@ CORE_METRICS: tuple[MetricDef, ...] = (
     MetricDef("false_alarm", "false-alarm rate", rate=True),
     MetricDef("missed_detection", "missed-detection rate", rate=True),
     MetricDef("isolation_correct", "isolation accuracy", rate=True, lower_is_better=False),
+    MetricDef("time_to_correct_isolation", "time to correct isolation", "s"),
+    MetricDef("isolation_correct_fraction", "time correctly isolated", "fraction", lower_is_better=False),
+    MetricDef("false_isolations", "false isolations", "per run"),
     MetricDef("radius_rmse_R", "radius RMSE R", "m"),
     MetricDef("radius_rmse_L", "radius RMSE L", "m"),
     MetricDef("abs_radius_final_error_R", "final |R_R error|", "m"),
     MetricDef("abs_radius_final_error_L", "final |R_L error|", "m"),
-    MetricDef("nis_mean", "mean NIS"),
+    MetricDef("nis_mean", "mean NIS per dimension"),
     MetricDef("radius_nees_mean", "mean radius NEES (2 dof)"),
+    MetricDef("nees_mean", "mean NEES (5 dof)"),
     MetricDef("innovation_in_2sigma", "innovations within 2σ", rate=False, lower_is_better=False),
     MetricDef("cross_track_rms", "cross-track RMS", "m"),
     MetricDef("cross_track_max", "cross-track max", "m"),
     MetricDef("omega_at_limit_fraction", "time at wheel-rate limit", "fraction"),
     MetricDef("solver_failures", "solver failures", "per run"),
+    MetricDef("exceptions", "exceptions", "per run"),
     MetricDef("failed", "failed runs", rate=True),
 )
 METRIC_BY_COLUMN = {m.column: m for m in CORE_METRICS}
@@ -340,25 +348,81 @@ def ts_mean_ci(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def indicated_wheel(df: pl.DataFrame) -> np.ndarray:
-    """Per run and sample: 1 if a fault is declared and the estimates point to the true wheel.
+    """Per run and sample: 1 if the declared wheel equals the true faulty set at that time, 0 if not
+    (NaN where the run has no sample), over the samples with a fault in the plant (NaN elsewhere).
 
-    The trace has the decision flag but not the isolated wheel over time, so the indicated wheel is
-    the one whose estimate dropped more below nominal (``both`` if both dropped by over 25 %)."""
-    dR = _stack(df, "ts_R_R_hat")
-    dL = _stack(df, "ts_R_L_hat")
+    The faulty set comes from the true radii (a wheel is faulty once its radius has left its initial
+    value), the declared wheel from ``declared_wheel``. Results without that column (older studies)
+    fall back to the estimates: the wheel whose estimate dropped more below nominal (``both`` if both
+    dropped by over 25 %), while a fault is declared."""
     det = _stack(df, "ts_fault_detected")
-    if not (dR.size and dL.size and det.size):
+    rR, rL = _stack(df, "ts_R_R"), _stack(df, "ts_R_L")
+    if not (det.size and rR.size and rL.size):
         return np.zeros((0, 0))
-    rR = _stack(df, "ts_R_R")
-    rL = _stack(df, "ts_R_L")
-    nomR, nomL = rR[:, :1], rL[:, :1]
-    dropR, dropL = (nomR - dR) / nomR, (nomL - dL) / nomL
-    ind = np.where((dropR > 0.25) & (dropL > 0.25), 3, np.where(dropL > dropR, 2, 1))
-    truth = [{"right": 1, "left": 2, "both": 3}.get(v or "", 0) for v in df["true_fault_wheel"].to_list()] \
-        if "true_fault_wheel" in df.columns else [0] * df.height
-    tv = np.asarray(truth)[:, None]
-    ok = (det > 0.5) & (ind == tv) & (tv > 0)
-    return np.where(np.isfinite(det), ok.astype(float), np.nan)
+    fR, fL = np.abs(rR - rR[:, :1]) > 1e-9, np.abs(rL - rL[:, :1]) > 1e-9
+    truth = np.where(fR & fL, 3, np.where(fR, 1, np.where(fL, 2, 0)))
+    code = _stack(df, "ts_declared_wheel")
+    if code.size:
+        ind = np.where(det > 0.5, code, 0)
+    else:
+        eR, eL = _stack(df, "ts_R_R_hat"), _stack(df, "ts_R_L_hat")
+        dropR, dropL = (rR[:, :1] - eR) / rR[:, :1], (rL[:, :1] - eL) / rL[:, :1]
+        ind = np.where(det > 0.5, np.where((dropR > 0.25) & (dropL > 0.25), 3, np.where(dropL > dropR, 2, 1)), 0)
+    ok = (ind == truth).astype(float)
+    return np.where(np.isfinite(det) & (truth > 0), ok, np.nan)
+
+
+# ---------------------------------------------------------------------------- consistency
+CONSISTENCY: tuple[tuple[str, str, bool], ...] = (
+    ("nis", "ANIS per dimension (expected 1)", True),
+    ("radius_nees", "radius ANEES (2 dof, expected 2)", False),
+    ("nees", "ANEES (5 dof, expected 5)", False),
+)
+"""(metric prefix, label, averaged per degree of freedom) of the consistency statistics."""
+
+
+def run_tests(df: pl.DataFrame, prefix: str) -> list[ChiSquareTest]:
+    """Each run's time-averaged statistic ``<prefix>_mean`` with its ``<prefix>_test_*`` columns."""
+    cols = [f"{prefix}_mean", *(f"{prefix}_test_{k}" for k in ("lo", "hi", "n_eff", "samples", "tau", "dof"))]
+    if any(c not in df.columns for c in cols):
+        return []
+    out = []
+    for r in df.select(cols).iter_rows():
+        if any(v is None for v in r):
+            continue
+        v, lo, hi, n_eff, samples, tau, dof = (float(x) for x in r)
+        out.append(ChiSquareTest(v, lo, hi, n_eff, int(samples), tau, dof))
+    return out
+
+
+def consistency_cell(test: ChiSquareTest) -> str:
+    """``value [lo, hi]`` with ``inside``/``outside`` and the effective sample count."""
+    if test.samples == 0:
+        return "—"
+    where = "inside" if test.inside else "**outside**"
+    return f"{_g(test.value)} [{_g(test.lo)}, {_g(test.hi)}] {where}, n_eff {test.n_eff:.0f}"
+
+
+def consistency_table(df: pl.DataFrame, column: str, values: list[Any]) -> str:
+    """Markdown table: per axis value, each consistency statistic pooled over the group's runs
+    (:func:`~ftc_mj.estimation.consistency.combine`) with its two-sided 95 % χ² bounds."""
+    head = f"| {column} | runs | " + " | ".join(_md(label) for _, label, _ in CONSISTENCY) + " |"
+    lines = [head, "|" + "---|" * (len(CONSISTENCY) + 2)]
+    for v in values:
+        part = df.filter(_eq(column, v))
+        cells = [consistency_cell(combine(run_tests(part, p), per_dof=pd)) for p, _, pd in CONSISTENCY]
+        lines.append(f"| {_md(str(v))} | {part.height} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+CONSISTENCY_NOTE = (
+    "Filter consistency: each run's NEES/NIS is averaged over its steps; the runs of a group are pooled "
+    "(weighted by their samples) and the bounds are the two-sided 95 % χ² bounds for the pooled effective "
+    "number of independent samples, n_eff = Σ samples / τ, τ being each run's integrated autocorrelation "
+    "time of the statistic (successive NEES values are correlated; innovations of a consistent filter are "
+    "not). The truth plant is not the filters' model, so *outside* is expected on the MuJoCo plant; the "
+    "statistics test the filter only on in-model data."
+)
 
 
 # ---------------------------------------------------------------------------- figures
@@ -418,9 +482,11 @@ def fig_timeseries(df: pl.DataFrame, column: str, values: list[Any], path: Path)
             axs[2].plot(t[: det.shape[1]], np.nanmean(det > 0.5, axis=0), label=str(v))
         ind = indicated_wheel(part)
         if ind.size:
-            axs[3].plot(t[: ind.shape[1]], np.nanmean(ind, axis=0), label=str(v))
+            cnt = np.sum(np.isfinite(ind), axis=0)
+            frac = np.where(cnt > 0, np.nansum(ind, axis=0) / np.maximum(cnt, 1), np.nan)
+            axs[3].plot(t[: ind.shape[1]], frac, label=str(v))
     for ax, title in zip(axs, ("|R_R error| (m)", "|R_L error| (m)", "fault declared (fraction)",
-                               "declared & estimates point to true wheel"), strict=True):
+                               "declared wheel = true faulty set"), strict=True):
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("t (s)")
         ax.grid(alpha=0.3)
@@ -460,12 +526,16 @@ def analyse_study(plan: StudyPlan, results: pl.DataFrame, out: Path, *, figures:
     out = Path(out)
     df = prepare(results)
     spec = plan.spec
+    # runs whose physics blew up describe a frozen robot: counted apart, never averaged
+    unstable = df.filter(pl.col("status") == "unstable") if "status" in df.columns else df.clear()
+    df = df.filter(pl.col("status") != "unstable") if unstable.height else df
     metrics = [m for m in CORE_METRICS if m.column in df.columns and df[m.column].null_count() < df.height]
     n_ok = int((df["status"] == "ok").sum()) if "status" in df.columns else 0
     lines = [f"# Study `{spec.name}`", ""]
     if spec.description:
         lines += [spec.description.strip(), ""]
-    lines += [f"Runs: {df.height} of {len(plan.runs)} planned have results ({n_ok} ok, {df.height - n_ok} failed). "
+    lines += [f"Runs: {df.height + unstable.height} of {len(plan.runs)} planned have results ({n_ok} ok, "
+              f"{df.height - n_ok} failed, {unstable.height} with unstable physics, excluded from every statistic). "
               f"Axes: {', '.join(f'`{c}`' for c in plan.axis_columns) or 'none'}; seeds per combination: "
               f"{_n_seeds(plan)}.", ""]
     if plan.extra_overrides:
@@ -473,7 +543,7 @@ def analyse_study(plan: StudyPlan, results: pl.DataFrame, out: Path, *, figures:
                                                                      for k, v in plan.extra_overrides.items()), ""]
     lines += ["Values are mean ± half-width of the 95 % confidence interval over the runs of each group "
               "(Student t); rates are given as % [Wilson 95 % interval]. Each table pools all other axes "
-              "and the seeds.", ""]
+              "and the seeds.", "", CONSISTENCY_NOTE, ""]
     if spec.analysis.findings:
         lines += ["## Findings", ""]
         for f in spec.analysis.findings:
@@ -494,6 +564,8 @@ def analyse_study(plan: StudyPlan, results: pl.DataFrame, out: Path, *, figures:
             if "ts_t" in df.columns and len(vals) <= 10:
                 fig_timeseries(df, col, vals, fig_dir / f"time_{_safe(col)}.png")
                 lines += [f"![over time by {col}](figures/time_{_safe(col)}.png)", ""]
+        if any(run_tests(df, p) for p, _, _ in CONSISTENCY):
+            lines += [f"Filter consistency by `{col}`:", "", consistency_table(df, col, vals), ""]
     rows, cols, mat = confusion(df)
     if mat.size:
         lines += ["## Isolation: confusion matrix (true wheel × isolated wheel)", "", "All runs:", "",
@@ -507,9 +579,10 @@ def analyse_study(plan: StudyPlan, results: pl.DataFrame, out: Path, *, figures:
         if figures:
             fig_confusion(mats, fig_dir / "confusion.png")
             lines += ["![confusion](figures/confusion.png)", ""]
-    if "status" in df.columns and df.height - n_ok:
+    if "status" in df.columns and df.height - n_ok + unstable.height:
         lines += ["## Failed runs", ""]
-        for r in df.filter(pl.col("status") != "ok").head(20).iter_rows(named=True):
+        bad = pl.concat([df.filter(pl.col("status") != "ok"), unstable], how="diagonal_relaxed")
+        for r in bad.head(20).iter_rows(named=True):
             labs = ", ".join(f"{c}={r.get(c)}" for c in plan.axis_columns)
             lines.append(f"- `{r['run_key']}` ({labs}, seed {r.get('seed')}): {r.get('error')}")
         lines.append("")

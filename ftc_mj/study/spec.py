@@ -51,6 +51,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -61,6 +62,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from ..config import (
     RunConfig,
+    SafeName,
     config_to_toml_dict,
     read_toml,
     scenario_path,
@@ -72,6 +74,9 @@ from ..errors import BadInput
 Scalar = str | int | float | bool
 PLACEHOLDER = re.compile(r"^\{([A-Za-z_][A-Za-z0-9_]*)\}$")
 RESERVED_COLUMNS = frozenset({"run_key", "run_index", "seed", "status", "error", "invocation"})
+MAX_RUNS = 10_000
+"""Largest plan (runs, seeds included) a study may expand to: planning validates every run's config
+(about 0.5 ms each) and a run takes seconds, so beyond this a study is a typing slip; split it."""
 
 
 class _Strict(BaseModel):
@@ -156,7 +161,8 @@ class AxisSpec(_Strict):
 class StudySpec(_Strict):
     """A whole study file."""
 
-    name: str
+    name: SafeName
+    """Names the default output folder (runs/out/studies/<name>): one plain file-name component."""
     description: str = ""
     scenario: str
     """Base scenario: built-in name (``scenario1`` …) or a TOML path (relative to the study file)."""
@@ -354,6 +360,9 @@ class StudyPlan:
     runs: list[PlannedRun]
     axis_columns: list[str]
     extra_overrides: dict[str, Any] = field(default_factory=dict)
+    identity: dict[str, Any] = field(default_factory=dict)
+    """What ``study_hash`` hashes: the spec (without description and findings), the ``--set``
+    overrides and the base scenario's data."""
 
     def to_json(self) -> dict[str, Any]:
         """Plain-data form stored as ``plan.json`` in the output folder."""
@@ -362,6 +371,7 @@ class StudyPlan:
             "study_hash": self.study_hash,
             "study_file": str(self.path),
             "extra_overrides": self.extra_overrides,
+            "identity": self.identity,
             "axis_columns": self.axis_columns,
             "runs": [{"index": r.index, "key": r.key, "labels": r.labels, "seed": r.seed} for r in self.runs],
         }
@@ -523,6 +533,11 @@ def load_study(
         seed_list = list(range(spec.seeds))
     else:
         seed_list = [None]  # the base seed
+    size = math.prod(len(g) for g in group_rows) * len(seed_list)
+    if size > MAX_RUNS:
+        shape = " × ".join([str(len(g)) for g in group_rows] + [f"{len(seed_list)} seeds"])
+        raise BadInput(f"study {path}: the plan has {size} runs ({shape}); at most {MAX_RUNS} — split the study "
+                       "or use fewer values")
 
     runs: list[PlannedRun] = []
     keys: dict[str, int] = {}
@@ -562,7 +577,36 @@ def load_study(
     ident_spec["analysis"] = {"timeseries_rate": spec.analysis.timeseries_rate}
     ident_spec.pop("description", None)
     identity = {"spec": ident_spec, "extra": extra, "base": base_data}
-    return StudyPlan(spec, path, canonical_hash(identity), runs, [ax.column for ax in spec.axes], extra)
+    return StudyPlan(spec, path, canonical_hash(identity), runs, [ax.column for ax in spec.axes], extra,
+                     json.loads(json.dumps(identity, default=str)))
+
+
+def identity_diff(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
+    """``"key: old → new"`` for every leaf that differs between two plan identities, named as the user
+    wrote them (``seeds``, ``base.duration``, ``axes[0].values``, ``--set duration``, ``scenario.faults.left``)."""
+    def flat(d: Any, prefix: str = "") -> dict[str, Any]:
+        if isinstance(d, dict):
+            out: dict[str, Any] = {}
+            for k, v in d.items():
+                out.update(flat(v, f"{prefix}.{k}" if prefix else str(k)))
+            return out
+        if isinstance(d, list) and d and all(isinstance(x, dict) for x in d):
+            out = {}
+            for i, v in enumerate(d):
+                out.update(flat(v, f"{prefix}[{i}]"))
+            return out
+        return {prefix: d}
+
+    def name(key: str) -> str:
+        for pre, shown in (("spec.", ""), ("extra.", "--set "), ("base.", "scenario.")):
+            if key.startswith(pre):
+                return shown + key[len(pre):]
+        return key
+
+    a, b = flat(old), flat(new)
+    missing = "(unset)"
+    return [f"{name(k)}: {json.dumps(a.get(k, missing), default=str)} → {json.dumps(b.get(k, missing), default=str)}"
+            for k in sorted(set(a) | set(b)) if a.get(k, missing) != b.get(k, missing)]
 
 
 def _first_str(v: Any) -> str:

@@ -5,6 +5,7 @@ Layout of ``OUT/``::
     study.toml        copy of the study file (of the latest invocation; same identity)
     plan.json         the resolved plan (run keys, axis labels, seeds) and the study hash
     rows/<key>.parquet one metrics row per finished run, written atomically by the client
+    rows/quarantine/  row files that could not be read (moved aside; their runs are recomputed)
     log.jsonl         one line per invocation start/end and per persisted run (who computed what)
     runs/<run-id>/    per-run recordings (``--rrd failures|all``)
     results.parquet   all rows of the plan, collected atomically at the end
@@ -28,8 +29,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ..errors import BadInput
-from ..io import atomic_path, write_json
-from .spec import StudyPlan
+from ..io import atomic_path, remove_stale_temporaries, write_json
+from .spec import StudyPlan, identity_diff
 
 
 class StudyStore:
@@ -53,14 +54,17 @@ class StudyStore:
             except (OSError, json.JSONDecodeError) as err:
                 raise BadInput(f"--out: {pj} is unreadable ({err}); use another --out") from None
             if old.get("study_hash") != plan.study_hash:
-                raise BadInput(f"--out: {self.root} holds results of a different study "
-                               f"({old.get('study')!r} from {old.get('study_file')}); use another --out")
+                raise BadInput(f"--out: {self.root} holds results of a different study ({old.get('study')!r} from "
+                               f"{old.get('study_file')}; {describe_difference(old, plan)}); use another --out")
         elif self.rows_dir.is_dir() and any(self.rows_dir.glob("*.parquet")):
             raise BadInput(f"--out: {self.root} holds rows but no plan.json; use another --out")
 
     def init(self, plan: StudyPlan) -> None:
-        """Write the study file copy and (first invocation) the plan."""
+        """Write the study file copy and (first invocation) the plan; remove the temporaries a killed
+        invocation left (rows, recordings, figures)."""
         self.rows_dir.mkdir(parents=True, exist_ok=True)
+        for d in (self.root, self.rows_dir, self.runs_dir, self.runs_dir / ".staging", self.root / "figures"):
+            remove_stale_temporaries(d)
         # the copy follows the latest invocation (same identity; only [analysis] may have changed)
         with atomic_path(self.root / "study.toml") as tmp:
             shutil.copyfile(plan.path, tmp)
@@ -70,6 +74,26 @@ class StudyStore:
     # ------------------------------------------------------------------ rows
     def row_path(self, key: str) -> Path:
         return self.rows_dir / f"{key}.parquet"
+
+    def quarantine_corrupt(self) -> list[Path]:
+        """Move every row file that is not a readable one-row table with a ``status`` to
+        ``rows/quarantine/`` (so its run counts as missing and is recomputed); returns the moved files."""
+        if not self.rows_dir.is_dir():
+            return []
+        moved = []
+        for p in sorted(self.rows_dir.glob("[!.]*.parquet")):
+            try:
+                ok = pq.read_table(p, columns=["status"]).num_rows == 1
+            except Exception:  # noqa: BLE001 - pyarrow raises several types for a damaged file
+                ok = False
+            if ok:
+                continue
+            qdir = self.rows_dir / "quarantine"
+            qdir.mkdir(exist_ok=True)
+            dest = qdir / f"{p.stem}.{time.strftime('%Y%m%dT%H%M%S', time.gmtime())}.parquet"
+            os.replace(p, dest)
+            moved.append(dest)
+        return moved
 
     def done_keys(self) -> set[str]:
         """Keys of runs whose row has been persisted."""
@@ -150,3 +174,20 @@ class StudyStore:
             except json.JSONDecodeError:
                 continue
         return out
+
+
+def describe_difference(old_plan: dict[str, Any], plan: StudyPlan) -> str:
+    """What differs between a stored ``plan.json`` and ``plan``: from the stored identity when there is
+    one, else from its seeds and ``--set`` overrides."""
+    if isinstance(old_plan.get("identity"), dict):
+        diffs = identity_diff(old_plan["identity"], plan.identity)
+    else:
+        old_seeds = sorted({r.get("seed") for r in old_plan.get("runs", [])}, key=str)
+        new_seeds = sorted({r.seed for r in plan.runs}, key=str)
+        diffs = [f"seeds {old_seeds} → {new_seeds}"] if old_seeds != new_seeds else []
+        if old_plan.get("extra_overrides", {}) != plan.extra_overrides:
+            diffs.append(f"--set {old_plan.get('extra_overrides')} → {plan.extra_overrides}")
+    if not diffs:
+        return "the study file changed"
+    more = f" and {len(diffs) - 4} more" if len(diffs) > 4 else ""
+    return "differs in " + "; ".join(diffs[:4]) + more

@@ -28,7 +28,8 @@ from ..config import RunConfig, validate_config
 RunFn = Callable[[RunConfig, "Path | None", bool], Any]
 """``run_fn(cfg, out_root, rrd) -> RunOutcome``-like (``.metrics``, ``.result.trace``, ``.run_dir``)."""
 
-TS_COLUMNS = ("R_R", "R_L", "R_R_hat", "R_L_hat", "R_R_std", "R_L_std", "fault_detected", "cross_track_error")
+TS_COLUMNS = ("R_R", "R_L", "R_R_hat", "R_L_hat", "R_R_std", "R_L_std", "fault_detected", "declared_wheel",
+              "cross_track_error")
 """Trace columns kept (down-sampled) per run for over-time figures."""
 
 _STATE: dict[str, Any] = {"runs": 0}

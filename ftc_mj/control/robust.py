@@ -105,6 +105,25 @@ def stage_indices(n_scen: int, N: int, k: int) -> np.ndarray:
     return idx
 
 
+def moved_to(X: np.ndarray, x0: np.ndarray) -> np.ndarray:
+    """States X (N, 3) [x, y, psi] (m, m, rad) moved by the planar rigid motion that takes ``X[0]`` to
+    ``x0`` (3,): rotated by ``Δψ = ψ0 − ψ(0)`` about ``X[0]``, then translated to ``x0``.
+
+    The kinematics do not depend on the position, and a rotation turns the velocity with the heading,
+    so if X solves the dynamics for some inputs from ``X[0]``, the result solves them for the same
+    inputs from ``x0``.
+    """
+    d = x0[2] - X[0, 2]
+    c, s = np.cos(d), np.sin(d)
+    rel = X[:, :2] - X[0, :2]
+    out = np.empty_like(X)
+    out[:, 0] = x0[0] + c * rel[:, 0] - s * rel[:, 1]
+    out[:, 1] = x0[1] + s * rel[:, 0] + c * rel[:, 1]
+    out[:, 2] = X[:, 2] + d
+    out[0] = x0
+    return out
+
+
 class MultiStageQP:
     """The RTI QP of the multi-stage problem: the scenarios' condensed QPs coupled by shared inputs.
 
@@ -426,20 +445,28 @@ class RobustNMPC(NMPC):
                                     self._u_prev)
 
     def _guess(self, t: float, x0: np.ndarray, ref: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Scenario guesses X (S, N, 3), U (S, N, 2): the shifted previous scenario plans, or the
-        reference with each scenario's feed-forward inputs, each with its first input moved into this
-        sample's first-step bound (as the nominal NMPC's guess). Heading moved to x0's branch."""
+        """Scenario guesses X (S, N, 3), U (S, N, 2), each with its first input moved into this sample's
+        first-step bound (as the nominal NMPC's guess); the reference with each scenario's feed-forward
+        inputs before the first plan.
+
+        After it: the previous scenario plans *not* shifted in time, their states moved to start at
+        ``x0`` (:func:`moved_to`; heading on x0's branch). A multi-stage plan is not time-consistent:
+        each scenario's recourse inputs after the robust horizon differ from the shared ones (by
+        0.7 rad/s at the steady state of the kinematic acceptance loop), so a shift by one period puts
+        them into the new shared block and one Gauss–Newton step per sample settles at a fixed point
+        that is not the NLP's (−0.49 against −0.42 m offset there). The previous solution read as the
+        plan from ``t`` is the NLP's solution at a steady state on the circle (the problem seen from
+        the robot does not change) and a guess one period off in a transient."""
         rs = scenario_radii(self.fractions, radii)
         N, S = self.col.N, self.S
         if self._stages is None:
             Xg = np.repeat(ref[:3].T[None], S, axis=0)
             Ug = np.stack([self._reference_inputs(ref, r) for r in rs])
         else:
-            t_prev, Xp, Up = self._stages
+            Xp, Up = self._stages[1], self._stages[2]
             Xg, Ug = np.empty((S, N, 3)), np.empty((S, N, 2))
             for i in range(S):
-                Xg[i], Ug[i] = self.col.shift(t_prev, Xp[i], Up[i], t, self.spec.half_track, rs[i])
-                Xg[i, :, 2] += 2 * np.pi * np.round((x0[2] - Xg[i, 0, 2]) / (2 * np.pi))
+                Xg[i], Ug[i] = moved_to(Xp[i], x0), Up[i]
         Xg[:, 0] = x0
         return Xg, np.stack([self._into_first_step_bound(u) for u in Ug])
 

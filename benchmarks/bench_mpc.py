@@ -18,13 +18,19 @@ each QP is solved by both paths back to back, in alternating order.
 radius feedback and the NMPC — they leave the path and saturate the wheels — and scenario2 with
 ``sensors.yaw_rate_sigma`` 0.01), old and new path alternated R times in one process; medians.
 
+``--robust``: the robust multi-stage NMPC (:mod:`ftc_mj.control.robust`) against the nominal NMPC on
+the kinematic scenario 2 loop of the robust NMPC's acceptance test (start on the path, R_L 2 → 1 m at
+10 s, every controller told the nominal radii, the paper's cost), and against do-mpc's multi-stage MPC
+on the same loop (``benchmarks/dompc_multistage.py``: run here when ``do_mpc`` imports, else its
+number measured on this machine is printed with its date).
+
 ``--rate-bound R``: the same three 40 s MuJoCo runs plus scenario 2 without feedback, with the
 first-step bound and with the first input free, alternated R times in one process; medians of wall
 time and of the runs' solve-time median/p95, with the largest command step, solver failures and
 cross-track maximum of each formulation.
 
 Usage: ``.venv/bin/python benchmarks/bench_mpc.py [--duration 30] [--skip-opti] [--skip-table] [--qp]
-[--runs 3] [--rate-bound 3]``
+[--runs 3] [--rate-bound 3] [--robust]``
 """
 
 from __future__ import annotations
@@ -47,6 +53,7 @@ from ftc_mj.control import NMPC, LinearMPC, OptiNMPC, build_reference, problem_s
 from ftc_mj.control.base import ControlOutput  # noqa: E402
 from ftc_mj.control.collocation import Collocation, CondensedQP, reference_at_nodes  # noqa: E402
 from ftc_mj.control.kinsim import simulate  # noqa: E402
+from ftc_mj.control.robust import RobustNMPC  # noqa: E402
 
 
 def left_step(t: float) -> tuple[float, float]:
@@ -225,6 +232,50 @@ def run_table(repeats: int) -> None:
               f"{np.median(a[:, 5]):.1f} |")
 
 
+def robust_table(duration: float) -> None:
+    """Solve times and tracking of the robust NMPC next to the nominal NMPC and do-mpc (printed)."""
+    import dompc_multistage as dm
+
+    cfg = RunConfig()
+    ref, spec = build_reference(cfg), problem_spec(cfg)
+    four = [(1.0, 1.0), (0.5, 1.0), (1.0, 0.5), (0.5, 0.5)]
+    left = [(1.0, 1.0), (1.0, 0.5)]
+    free = {"time_budget": None, "cold_time_budget": None}  # measure, never stop IPOPT on the wall clock
+    cases = [("NMPC rti-daqp (nominal radii)", lambda: NMPC(spec, ref, "rti-daqp", **free), duration),
+             ("NMPC ipopt (nominal radii)", lambda: NMPC(spec, ref, "ipopt", **free), duration),
+             ("robust rti-daqp, 4 scenarios", lambda: RobustNMPC(spec, ref, four, **free), duration),
+             ("robust rti-daqp, {nominal, left 50 %}", lambda: RobustNMPC(spec, ref, left, **free), duration),
+             ("robust ipopt, {nominal, left 50 %}", lambda: RobustNMPC(spec, ref, left, solver="ipopt", **free),
+              duration)]
+    print(f"\nRobust NMPC: kinematic scenario 2 (R_L 2 -> 1 m at 10 s, nominal radii told), paper's cost; "
+          f"load avg {os.getloadavg()[0]:.2f}.\n")
+    print("| controller | build s | variables | warm solve median ms | p95 ms | pre-fault offset m | "
+          "max abs e after fault m | fallbacks | s simulated |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, make, dur in cases:
+        t0 = time.perf_counter()
+        ctl = make()
+        build = time.perf_counter() - t0
+        res = simulate(ctl, ref, dur, (0.0, 0.0, 0.0), true_radii=left_step, model_radii=lambda t: (2.0, 2.0))
+        st = res.solve_times[1:] * 1e3
+        pre = (res.t >= 5.0) & (res.t < 10.0)
+        after = f"{res.max_abs_error(10.0):.2f}" if dur > 10.0 else "—"
+        print(f"| {name} | {build:.1f} | {ctl.nlp_size[0]} | **{np.median(st):.1f}** | {np.percentile(st, 95):.1f} | "
+              f"{np.mean(res.cross_track[pre]):+.2f} | {after} | {ctl.failures} | {dur:.0f} |")
+    try:
+        import do_mpc  # noqa: F401
+    except ImportError:
+        m = dm.MEASURED
+        print(f"| do-mpc multi-stage, R_L in {{2, 1}} (not installed here: measured {m['date']}, load {m['load']}) "
+              f"| — | — | **{m['solve_ms_median']:.0f}** | — | {m['pre_fault_offset_m']:+.2f} | "
+              f"{m['max_error_after_fault_m']:.2f} | — | 25 |")
+    else:
+        r = dm.run()
+        print(f"| do-mpc multi-stage, R_L in {{2, 1}} | — | — | **{r['solve_ms_median']:.0f}** | "
+              f"{r['solve_ms_p95']:.0f} | {r['pre_fault_offset_m']:+.2f} | {r['max_error_after_fault_m']:.2f} | — "
+              "| 25 |")
+
+
 def rate_bound_table(repeats: int) -> None:
     """40 s MuJoCo runs with the first-step bound and with the first input free, alternated (printed)."""
     from ftc_mj.config import load_config
@@ -324,7 +375,10 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=0, help="whole MuJoCo runs, old vs new, this many times each")
     ap.add_argument("--rate-bound", type=int, default=0,
                     help="whole MuJoCo runs, first-step bound vs free first input, this many times each")
+    ap.add_argument("--robust", action="store_true", help="robust multi-stage NMPC vs nominal NMPC and do-mpc")
     args = ap.parse_args()
+    if args.robust:
+        robust_table(min(args.duration, 25.0))
     cfg = RunConfig()
     if args.qp:
         qp_table(problem_spec(cfg), build_reference(cfg), min(args.duration, 20.0))

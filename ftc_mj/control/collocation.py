@@ -164,6 +164,67 @@ class Collocation:
         rates = self.model.casadi_rates()
         self.rates_jac = ca.Function("rj", [rs], [ca.densify(ca.jacobian(rates(ca.vertcat(0, 0, 0, rs), us), us))])
 
+    def nlp_terms(self, X: ca.SX, U: ca.SX, x0: ca.SX, radii: ca.SX, ref: ca.SX, u_prev: ca.SX, c_step: ca.SX
+                  ) -> tuple[ca.SX, ca.SX, np.ndarray, np.ndarray]:
+        """Cost and constraints of one trajectory of the NLP (module docstring), symbolically.
+
+        Parameters
+        ----------
+        X, U : SX (3, N), (2, N)
+            States [x, y, psi] (m, m, rad) and inputs [omega_R, omega_L] (rad/s) at the nodes.
+        x0 : SX (3,)
+            Initial pose; the heading on the reference's branch (rad).
+        radii : SX (2,)
+            Model radii [R_R, R_L] (m).
+        ref : SX (5, N)
+            Reference x, y, psi, V, psidot at the nodes.
+        u_prev, c_step : SX (2,), SX
+            Input in force before ``t0`` (rad/s) and the weight of the first-step penalty
+            ``c_step ‖U(t0) − u_prev‖²`` (:func:`first_step_penalty`; 0 switches it off). The first-step
+            *bound* is not a row here: it bounds the variables ``U(t0)`` (:func:`first_input_bounds`).
+
+        Returns
+        -------
+        J : SX
+            Quadrature of the tracking cost (plus the rate penalty and the first-step penalty when the
+            rate penalty is enabled).
+        g, lbg, ubg
+            Constraints ``lbg ≤ g ≤ ubg`` in this order: collocation (3N, node-major), initial state (3),
+            input rates ``D U`` per unit tau (2N), then the optional lateral- (N) and longitudinal- (N)
+            acceleration rows.
+        """
+        sp, N, h = self.spec, self.N, self.h
+        f = self.model.casadi_derivative().map(N)
+        rates = self.model.casadi_rates().map(N)
+        Xfull = ca.vertcat(X, ca.repmat(radii, 1, N))
+        xdot = f(Xfull, U)[:3, :]
+        D = ca.DM(self.D)
+        colloc = (ca.mtimes(X, D.T) / h - xdot).T  # N x 3, rows = nodes
+        Vp = rates(Xfull, U)  # 2 x N
+        Wq = ca.DM(self.W).T
+        err = X - ref[:3, :]
+        J = sp.q_pose * ca.sum2(Wq * ca.sum1(err**2))
+        J += sp.q_speed * ca.sum2(Wq * (Vp[0, :] - ref[3, :]) ** 2)
+        J += sp.q_yaw_rate * ca.sum2(Wq * (Vp[1, :] - ref[4, :]) ** 2)
+        dU = ca.mtimes(U, D.T)  # 2 x N, d/dtau
+        if sp.rate_penalty > 0:
+            J += sp.rate_penalty * ca.sum2(Wq * ca.sum1((dU / h) ** 2))
+            J += c_step * ca.sumsqr(U[:, 0] - u_prev)  # the step from the input in force
+        g = ca.vertcat(ca.vec(colloc), X[:, 0] - x0, ca.vec(dU.T))
+        rate = sp.omega_rate_max * h
+        lbg = np.concatenate([np.zeros(3 * N + 3), -rate * np.ones(2 * N)])
+        ubg = np.concatenate([np.zeros(3 * N + 3), rate * np.ones(2 * N)])
+        if sp.max_lateral_accel is not None:  # roll-over bound |V psidot| at every node
+            g = ca.vertcat(g, (Vp[0, :] * Vp[1, :]).T)
+            lbg = np.concatenate([lbg, -sp.max_lateral_accel * np.ones(N)])
+            ubg = np.concatenate([ubg, sp.max_lateral_accel * np.ones(N)])
+        if sp.max_longitudinal_accel is not None:  # |dV/dt| at every node
+            Vd = rates(ca.vertcat(ca.DM.zeros(3, N), ca.repmat(radii, 1, N)), dU / h)[0, :]
+            g = ca.vertcat(g, Vd.T)
+            lbg = np.concatenate([lbg, -sp.max_longitudinal_accel * np.ones(N)])
+            ubg = np.concatenate([ubg, sp.max_longitudinal_accel * np.ones(N)])
+        return J, g, lbg, ubg
+
     def times(self, t0: float) -> np.ndarray:
         """Absolute node times (s) of a horizon starting at ``t0``."""
         return t0 + (self.tau + 1.0) * self.h

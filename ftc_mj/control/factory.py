@@ -22,6 +22,7 @@ from .lmpc import LinearMPC
 from .nmpc import NMPC
 from .open_loop import OpenLoopController
 from .pathfollow import PathFollowingNMPC, PathFollowingSpec, RobotLimits
+from .robust import RobustNMPC
 
 
 def problem_spec(cfg: RunConfig) -> ProblemSpec:
@@ -69,6 +70,17 @@ def nmpc(cfg: RunConfig, reference: object) -> NMPC:
     R0 = cfg.model_wheel_radius
     return NMPC(problem_spec(cfg), reference, solver=c.solver, max_iter=c.max_iter, time_budget=c.time_budget,
                 nominal_radii=(R0, R0), cold_time_budget=c.cold_time_budget)
+
+
+@controllers.register("robust-nmpc", origin=BUILTIN, reusable=True, rate_bounded=True)
+def robust_nmpc(cfg: RunConfig, reference: object) -> RobustNMPC:
+    """The multi-stage robust NMPC over the radius scenarios of ``controller.robust`` on :func:`problem_spec`."""
+    c = cfg.controller
+    R0 = cfg.model_wheel_radius
+    rb = c.robust
+    return RobustNMPC(problem_spec(cfg), reference, rb.scenarios, rb.weights, rb.robust_horizon_nodes, rb.objective,
+                      prune_below=rb.prune_below, solver=c.solver, max_iter=c.max_iter, time_budget=c.time_budget,
+                      nominal_radii=(R0, R0), cold_time_budget=c.cold_time_budget)
 
 
 def path_following_spec(cfg: RunConfig, limits: RobotLimits | None = None) -> PathFollowingSpec:
@@ -119,8 +131,8 @@ def controller_from_settings(controller: Any, reference: object, *, robot: Any =
 def build_controller(cfg: RunConfig, reference: object, limits: RobotLimits | None = None) -> Controller:
     """The controller ``cfg.controller.kind`` names (``nmpc`` → :class:`NMPC`, ``lmpc`` →
     :class:`LinearMPC`, ``open-loop`` → :class:`OpenLoopController`, ``pf-nmpc`` →
-    :class:`PathFollowingNMPC`, or a registered plug-in's); ``limits`` goes to a factory registered
-    with ``robot_limits``."""
+    :class:`PathFollowingNMPC`, ``robust-nmpc`` → :class:`RobustNMPC`, or a registered plug-in's);
+    ``limits`` goes to a factory registered with ``robot_limits``."""
     if controllers.get(cfg.controller.kind).meta.get("robot_limits", False):
         return controllers.build(cfg.controller.kind, cfg, reference, limits=limits)
     return controllers.build(cfg.controller.kind, cfg, reference)

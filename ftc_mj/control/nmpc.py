@@ -259,46 +259,21 @@ class NMPC(PlanController):
     # ------------------------------------------------------------------------------------------
     def _build_nlp(self) -> None:
         col, sp, N = self.col, self.spec, self.col.N
-        h = col.h
         w = ca.SX.sym("w", 5 * N)
         p = ca.SX.sym("p", 5 + 5 * N + 3)
         X = ca.reshape(w[: 3 * N], N, 3).T  # 3 x N
         U = ca.reshape(w[3 * N:], N, 2).T  # 2 x N
-        x0, radii = p[:3], p[3:5]
         ref = ca.reshape(p[5:5 + 5 * N], N, 5).T  # 5 x N
         u_prev, c_step = p[5 + 5 * N:7 + 5 * N], p[7 + 5 * N]
-        f = col.model.casadi_derivative().map(N)
-        rates = col.model.casadi_rates().map(N)
-        Xfull = ca.vertcat(X, ca.repmat(radii, 1, N))
-        xdot = f(Xfull, U)[:3, :]
-        D = ca.DM(col.D)
-        colloc = (ca.mtimes(X, D.T) / h - xdot).T  # N x 3, rows = nodes
-        Vp = rates(Xfull, U)  # 2 x N
-        Wq = ca.DM(col.W).T
-        err = X - ref[:3, :]
-        J = sp.q_pose * ca.sum2(Wq * ca.sum1(err**2))
-        J += sp.q_speed * ca.sum2(Wq * (Vp[0, :] - ref[3, :]) ** 2)
-        J += sp.q_yaw_rate * ca.sum2(Wq * (Vp[1, :] - ref[4, :]) ** 2)
-        dU = ca.mtimes(U, D.T)  # 2 x N, d/dtau
-        if sp.rate_penalty > 0:
-            J += sp.rate_penalty * ca.sum2(Wq * ca.sum1((dU / h) ** 2))
-            J += c_step * ca.sumsqr(U[:, 0] - u_prev)  # the step from the input in force (first_step_penalty)
-        g = ca.vertcat(ca.vec(colloc), X[:, 0] - x0, ca.vec(dU.T))
-        rate = sp.omega_rate_max * h
-        self._lbg = np.concatenate([np.zeros(3 * N + 3), -rate * np.ones(2 * N)])
-        self._ubg = np.concatenate([np.zeros(3 * N + 3), rate * np.ones(2 * N)])
-        if sp.max_lateral_accel is not None:  # roll-over bound |V psidot| at every node
-            g = ca.vertcat(g, (Vp[0, :] * Vp[1, :]).T)
-            self._lbg = np.concatenate([self._lbg, -sp.max_lateral_accel * np.ones(N)])
-            self._ubg = np.concatenate([self._ubg, sp.max_lateral_accel * np.ones(N)])
-        if sp.max_longitudinal_accel is not None:  # |dV/dt| at every node
-            Vd = rates(ca.vertcat(ca.DM.zeros(3, N), ca.repmat(radii, 1, N)), dU / h)[0, :]
-            g = ca.vertcat(g, Vd.T)
-            self._lbg = np.concatenate([self._lbg, -sp.max_longitudinal_accel * np.ones(N)])
-            self._ubg = np.concatenate([self._ubg, sp.max_longitudinal_accel * np.ones(N)])
+        J, g, self._lbg, self._ubg = col.nlp_terms(X, U, p[:3], p[3:5], ref, u_prev, c_step)
         self._lbx = np.concatenate([-np.inf * np.ones(3 * N), -sp.omega_max * np.ones(2 * N)])
         self._ubx = -self._lbx
         self._ubx[: 3 * N] = np.inf
+        self._nlp = ca.nlpsol("nmpc", "ipopt", {"x": w, "p": p, "f": J, "g": g}, self._ipopt_options())
+        self.nlp_size = (w.numel(), g.numel())
+
+    def _ipopt_options(self) -> dict:
+        """IPOPT options of every NLP of this controller (quiet, warm start, the wall-time budget)."""
         opts = {
             "print_time": False,
             "ipopt.print_level": 0,
@@ -312,8 +287,7 @@ class NMPC(PlanController):
         budgets = [b for b in (self.cold_time_budget, self.time_budget) if b is not None]
         if budgets:
             opts["ipopt.max_wall_time"] = max(budgets)
-        self._nlp = ca.nlpsol("nmpc", "ipopt", {"x": w, "p": p, "f": J, "g": g}, opts)
-        self.nlp_size = (w.numel(), g.numel())
+        return opts
 
     # ------------------------------------------------------------------------------------------
     def _ipopt(self, x0, radii, ref, Xg, Ug):
@@ -338,6 +312,12 @@ class NMPC(PlanController):
         self._lam = (np.asarray(res["lam_x"]).ravel(), np.asarray(res["lam_g"]).ravel())
         return True, str(st["return_status"]), it, wv[: 3 * N].reshape(3, N).T, wv[3 * N:].reshape(2, N).T
 
+    def _rti_step(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray, ref: np.ndarray
+                  ) -> tuple[bool, str, np.ndarray | None, np.ndarray | None]:
+        """One real-time iteration about the guess: ``(ok, status, X, U)``."""
+        assert self._qp is not None
+        return self._qp.solve(Xg, Ug, radii, x0, ref, Ug.T.ravel(), self._u_prev)
+
     def _solve(self, t: float, pose: np.ndarray, radii: np.ndarray, t_start: float) -> ControlOutput:
         prep = self._prepare(t, pose, radii, t_start)
         if isinstance(prep, ControlOutput):
@@ -355,7 +335,7 @@ class NMPC(PlanController):
             if cold and self._qp is not None:
                 status = f"ipopt seed: {status}"
         else:
-            ok, status, X, U = self._qp.solve(Xg, Ug, r, x0, ref, Ug.T.ravel(), self._u_prev)
+            ok, status, X, U = self._rti_step(Xg, Ug, r, x0, ref)
             it, budget = 1, self.time_budget
             status = f"rti: {status}"
         if not ok:

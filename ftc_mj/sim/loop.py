@@ -11,8 +11,9 @@ hold) between controller samples. At estimator step ``k`` (time ``t_k``):
    updates with the measurement at ``t_k``; the fault decision runs on its output;
 3. on a controller sample, the controller solves from the pose the sensors read at ``t_k`` (the true
    pose, plus ``sensors.pose_sigma`` noise drawn by :class:`~ftc_mj.plant.Sensors`) with the radii chosen by
-   the reconfiguration policy (optionally dithered while a fault is suspected but not isolated), and
-   its command is applied from ``t_k``;
+   the reconfiguration policy (a robust NMPC with ``posterior`` weighting is first handed the filter's
+   scenario weights, :mod:`.scenario_weights`) (optionally dithered while a fault is suspected but not
+   isolated), and its command is applied from ``t_k``;
 4. one trace row is stored; the plant advances to ``t_{k+1}``.
 
 Telemetry is buffered in preallocated arrays; nothing is logged call by call.
@@ -43,6 +44,7 @@ from .cache import controller_for, plant_for
 from .columns import BASE_COLUMNS, COVARIANCE_COLUMNS, STATE, WHEEL_CODES
 from .metrics import fault_onsets
 from .reconfig import build_policy
+from .scenario_weights import ScenarioWeighting
 
 
 @dataclass
@@ -149,6 +151,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
     estimator = build_estimator(cfg)
     decision = FaultDecision(cfg) if estimator is not None else None
     feedback = build_policy(cfg, with_estimator=estimator is not None)
+    weighting = ScenarioWeighting.for_config(cfg)  # robust NMPC re-weighted by the filter (None: as configured)
     exc = cfg.reconfiguration.excitation
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
@@ -255,6 +258,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
             if k % est_per_ctl == 0:
                 model_radii = feedback.radii(t, out, last_ds, reset_since_solve, u_meas, (tr.R_R, tr.R_L))
                 reset_since_solve = False
+                if weighting is not None:
+                    controller.set_scenario_weights(weighting.weights(out, model_radii))
                 cmd = controller.solve(t, rd.pose, model_radii, applied)
                 if exc.enabled and suspected:
                     dither = yaw_dither(t, exc.amplitude, exc.period)

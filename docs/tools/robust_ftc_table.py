@@ -1,0 +1,81 @@
+"""The passive / active / hybrid FTC table of docs/findings.md from the two robust-FTC studies.
+
+Usage: ``.venv/bin/python docs/tools/robust_ftc_table.py OUT_ROBUST_FTC OUT_ROBUST_FTC_FIXED`` with the
+output folders of ``ftc-mj study runs/studies/robust_ftc.toml`` and ``... robust_ftc_fixed.toml``. Reads
+``results.parquet`` or, for a study still running, the rows persisted so far (``n`` says how many seeds
+each cell has). Seed-dependent cells: mean over the seeds with a 95 % Student-t interval and the worst
+seed; the strategies that never see a sensor (nominal, passive, passive-left, oracle) are one run
+(checked identical over their seeds), shown once for both sensings.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import polars as pl
+from scipy import stats
+
+FIXED = ("nominal", "passive", "passive-left", "oracle")
+ORDER = {s: i for i, s in enumerate(("nominal", "passive", "passive-left", "safe", "direct", "hybrid", "oracle"))}
+
+
+def load(out: Path) -> pl.DataFrame:
+    """Rows of a study output folder (the final table, or the rows persisted so far)."""
+    res = out / "results.parquet"
+    if res.is_file():
+        return pl.read_parquet(res)
+    files = sorted((out / "rows").glob("*.parquet"))
+    return pl.concat([pl.read_parquet(f) for f in files], how="diagonal_relaxed") if files else pl.DataFrame()
+
+
+def cell(v: np.ndarray, fixed: bool) -> str:
+    """``mean [lo, hi] (worst)`` over seeds, or the single value of a seed-independent strategy."""
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return "—"
+    if fixed or v.size == 1:
+        return f"{v[0]:.2f}"
+    m = float(v.mean())
+    h = float(stats.t.ppf(0.975, v.size - 1) * v.std(ddof=1) / np.sqrt(v.size))
+    return f"{m:.2f} [{max(m - h, 0):.2f}, {m + h:.2f}] ({v.max():.2f})"
+
+
+def table(df: pl.DataFrame) -> str:
+    ok = df.filter(pl.col("status") == "ok")
+    lines = ["| scenario | plant | sensing | strategy | n | max \\|cte\\| from onset + 5 s (m) | final \\|cte\\| (m) | "
+             "RMS \\|cte\\| from 5 s (m) | tipped | solver fallbacks |", "|---|---|---|---|---|---|---|---|---|---|"]
+    keys = ok.select("fault", "plant", "sensing", "strategy").unique().rows()
+    keys = sorted(keys, key=lambda k: (k[0], k[1], k[2] if k[3] not in FIXED else "", ORDER.get(k[3], 99)))
+    seen = set()
+    for fault, plant, sensing, strategy in keys:
+        fixed = strategy in FIXED
+        if fixed and (fault, plant, strategy) in seen:
+            continue
+        seen.add((fault, plant, strategy))
+        c = ok.filter((pl.col("fault") == fault) & (pl.col("plant") == plant) & (pl.col("strategy") == strategy))
+        if not fixed:
+            c = c.filter(pl.col("sensing") == sensing)
+        rec = c["cross_track_max_recovered"].cast(pl.Float64).to_numpy()
+        if fixed and np.ptp(c["cross_track_rms"].to_numpy()) > 0:
+            raise SystemExit(f"{fault}/{plant}/{strategy}: runs differ between seeds")
+        fin = np.abs(c["cross_track_final"].to_numpy())
+        rms = c["cross_track_rms_settled"].to_numpy()
+        n_tip = int(c["tipped"].sum())
+        n = 1 if fixed else c.height
+        lines.append(f"| {fault[1:]} | {plant} | {'any' if fixed else sensing} | {strategy} | {n} | "
+                     f"{cell(rec, fixed)} | {cell(fin, fixed)} | {cell(rms, fixed)} | "
+                     f"{n_tip if not fixed else int(n_tip > 0)}/{n} | "
+                     f"{int(c['solver_failures'].max())} |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    frames = [load(Path(p)) for p in sys.argv[1:]]
+    df = pl.concat([f for f in frames if f.height], how="diagonal_relaxed")
+    print(table(df))
+
+
+if __name__ == "__main__":
+    main()

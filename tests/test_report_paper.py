@@ -21,7 +21,7 @@ def test_paper_list_prints_the_matrix() -> None:
     assert res.exit_code == 0, res.output
     assert len(res.output.strip().splitlines()) == 38
     res = runner.invoke(app, ["paper", "--list"])
-    assert len(res.output.strip().splitlines()) == 38 + 2 + 18  # + literal IMM + reconfiguration-policy axis
+    assert len(res.output.strip().splitlines()) == 38 + 2 + 18 + 11  # + literal IMM, policy and path-following axes
 
 
 def test_paper_bad_input_exits_2_and_writes_nothing(tmp_path: Path) -> None:

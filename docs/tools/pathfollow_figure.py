@@ -2,6 +2,9 @@
 the feasible speed and contouring error, scenario 3 lateral acceleration and wheel lift-off, time-parametrised
 NMPC vs path-following NMPC (UKF, safe policy, speed + yaw rate, held-out seed 3).
 
+It runs its four runs itself with the settings of the matching cells of the built-in study ``pathfollow``
+(``ftc_mj/data/studies/pathfollow.toml``, run as ``ftc-mj study pathfollow``); it does not read the study's output.
+
     .venv/bin/python docs/tools/pathfollow_figure.py [--seed 3] [--out docs/figures/pathfollow.png]
 """
 

@@ -1,7 +1,8 @@
 """The tables and verdicts of docs/findings.md, "A path-following NMPC that degrades gracefully", from the
-study ``runs/studies/pathfollow.toml`` (time-parametrised NMPC vs path-following NMPC).
+built-in study ``pathfollow`` (``ftc_mj/data/studies/pathfollow.toml``: time-parametrised NMPC vs path-following
+NMPC; its output folder is ``runs/out/studies/pathfollow`` unless ``--out`` says otherwise).
 
-    .venv/bin/ftc-mj study runs/studies/pathfollow.toml --workers 2
+    .venv/bin/ftc-mj study pathfollow --workers 2
     .venv/bin/python docs/tools/pathfollow_table.py [runs/out/studies/pathfollow]
 
 Means over the seeds with the Student-t 95 % interval (``mean ± half-width``), the worst seed in brackets;

@@ -1,7 +1,7 @@
 """The passive / active / hybrid FTC table of docs/findings.md from the two robust-FTC studies.
 
 Usage: ``.venv/bin/python docs/tools/robust_ftc_table.py OUT_ROBUST_FTC OUT_ROBUST_FTC_FIXED`` with the
-output folders of ``ftc-mj study runs/studies/robust_ftc.toml`` and ``... robust_ftc_fixed.toml``. Reads
+output folders of ``ftc-mj study robust_ftc`` and ``ftc-mj study robust_ftc_fixed``. Reads
 ``results.parquet`` or, for a study still running, the rows persisted so far (``n`` says how many seeds
 each cell has). Seed-dependent cells: mean over the seeds with a 95 % Student-t interval and the worst
 seed; the strategies that never see a sensor (nominal, passive, passive-left, oracle) are one run

@@ -454,8 +454,9 @@ def paper(
     only: Annotated[list[str] | None, typer.Option("--only", help="Run only labels matching this glob "
                                                    "(repeatable), e.g. 's2-*' or 's4-imm-ukf5-*'.")] = None,
     extras: Annotated[bool, typer.Option("--extras/--no-extras",
-                                         help="Add runs beyond the paper's 38: the literal 'paper' IMM (2) "
-                                              "and the reconfiguration-policy axis (18).")] = True,
+                                         help="Add runs beyond the paper's 38: the literal 'paper' IMM (2), "
+                                              "the reconfiguration-policy axis (18) and the path-following "
+                                              "axis (11).")] = True,
     rrd: Annotated[PaperRrd, typer.Option(help="Quick look: recordings runs (one per run), none, or compare (also "
                                                "OUT/compare/claim-<id>.rrd overlaying each claim's runs). Over seeds "
                                                "no recordings are written.")] = PaperRrd.runs,

@@ -1,7 +1,7 @@
 """Per-step cost (predict + update) of the project's filters next to filterpy's, in one run.
 
 Plain script: ``.venv/bin/python benchmarks/bench_filters.py [--steps N] [--repeats R]``.
-Scenario as BASELINES §1: excited wheel rates (wR = 5.1 + 0.8 sin 0.7t, wL = 4.9 + 0.8 cos 0.5t),
+Scenario: excited wheel rates (wR = 5.1 + 0.8 sin 0.7t, wL = 4.9 + 0.8 cos 0.5t),
 R_L drops linearly 2 → 1 m over t = 10–12 s, z = V + N(0, 0.5²) (and, for the "+yaw" rows, a gyro
 psidot + N(0, 0.01²)), dt = 0.01 s. Every filter of the project runs through both backends: the
 compiled step (``numba``, the default) and the numpy reference (``numpy``). Each implementation

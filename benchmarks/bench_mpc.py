@@ -1,4 +1,4 @@
-"""Benchmark of the MPCs on the kinematic plant (BASELINES §2 loop), printed as a markdown table.
+"""Benchmark of the MPCs on the kinematic plant, printed as a markdown table.
 
 Loop: 30 s at 10 Hz, RK4 plant (10 ms substeps) under ZOH, start (0, −5, 0) i.e. 5 m off the
 default circle (R = 50 m, 10 m/s), R_L steps 2 → 1 m at t = 10 s and the MPC is given the true
@@ -142,7 +142,7 @@ def replay_qps(qp: CondensedQP, qps: list[list[np.ndarray]]) -> dict:
 def qp_table(spec, ref, duration: float) -> None:
     """Per-QP time, old vs new, on the well-behaved and a saturated loop (printed)."""
     cases = {
-        "well-behaved (BASELINES §2 loop)": ((0.0, -5.0, 0.0), left_step, None),
+        "well-behaved (the loop above)": ((0.0, -5.0, 0.0), left_step, None),
         "saturated (model told swapped radii)": ((0.0, 0.0, 0.0), lambda t: (1.0, 2.0), lambda t: (2.0, 1.0)),
     }
     print("\nPer-QP time of the RTI QP (ms), old = CasADi daqp plugin alone, new = certified active set; "

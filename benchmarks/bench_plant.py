@@ -9,7 +9,7 @@ Prints a markdown table:
   re-seat), of ``truth()`` and of ``Sensors.read``;
 - the kinematic plant in the same loop pattern.
 
-Targets (DESIGN/brief): >= 80 000 physics steps/s in the loop, < 25 µs per radius change. Best of ``--repeat`` runs.
+Targets: >= 80 000 physics steps/s in the loop, < 25 µs per radius change. Best of ``--repeat`` runs.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Closed-loop fault-tolerant control on the MuJoCo plant (issue: closed-loop FTC runs).
+"""Closed-loop fault-tolerant control on the MuJoCo plant.
 
 Scenario 2 (left tyre 2 m -> 1 m at t = 10 s), UKF, NMPC with the estimated radii fed back, speed
 and yaw-rate sensing. The NMPC cost carries the actuation-rate term the paper proposes against wheel

@@ -360,7 +360,7 @@ def controller_table(duration: float, skip_opti: bool) -> None:
     print(f"\nMPC benchmark: {duration:.0f} s at 10 Hz, N={spec.nodes}, T={spec.horizon} s, 5 m initial offset, "
           f"R_L 2→1 m at 10 s (true radii). Times in ms unless noted; load avg {os.getloadavg()[0]:.2f}.\n")
     print("| controller | build s | first ms | warm median ms | warm p95 ms | warm max ms | iters med/max "
-          "| fallbacks | largest step rad/s | t(|e|<0.1 m) s | RMS |e| t>5 s (m) | max |e| t>5 s (m) |")
+          "| fallbacks | largest step rad/s | t(\\|e\\|<0.1 m) s | RMS \\|e\\| t>5 s (m) | max \\|e\\| t>5 s (m) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(r)

@@ -611,6 +611,13 @@ class ReconfigurationConfig(_Strict):
     domain (a lifted or skidding wheel), not the tyre; this rate still lets the model radius recover
     from a transient undershoot (0.2 m in 4 s). Reverts (filter trouble, withdrawn decision) are not
     limited by it."""
+    condition_on_healthy: Flag = False
+    """With one wheel isolated, hand over the filter's estimate of its radius *conditioned on the other wheel's
+    radius being nominal* (``R_iso + P_io / P_oo (R_nom − R_other)``, the Gaussian posterior given what the
+    decision asserts) instead of the raw estimate. The filter's two radii errors are strongly correlated (ρ ≈
+    0.995 with a yaw-rate gyro: a common scale error, while the ratio is well identified); pairing the raw
+    estimate of one wheel with the nominal other turns that scale error into a ratio, i.e. yaw-rate, error of
+    the controller's model. ``False``: the raw estimate (the behaviour before this setting)."""
     nis_window: PosFloat = 1.0
     """Window (s) of the innovation-consistency check (mean NIS)."""
     max_nis_ratio: PosFloat = 5.0

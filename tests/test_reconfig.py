@@ -174,3 +174,16 @@ def test_safe_reverts_to_the_radius_in_use_not_to_a_target_the_growth_limit_held
     r = _step(fb, 3.0, _out(2.0, 1.8, 0.01), "left", reset=True)
     assert fb.state == ReconfigState.REVERTED
     np.testing.assert_allclose(r, [2.0, in_use[20]])
+
+
+def test_safe_conditions_the_isolated_radius_on_the_healthy_one_being_nominal() -> None:
+    # a common scale error (ρ = 0.99): right estimate 1.9 (nominal 2.0), left 0.95; conditioned on R_R = 2.0
+    # the left radius is 0.95 + 0.99 (2.0 − 1.9) = 1.049, not the raw 0.95 paired with the nominal right
+    fb = _fb("safe", max_rate=100.0, condition_on_healthy=True)
+    np.testing.assert_allclose(_step(fb, 0.0, _out(1.9, 0.95, 0.01, corr=0.99), "left"), [2.0, 1.049])
+    fb = _fb("safe", max_rate=100.0, condition_on_healthy=True)  # uncorrelated: the raw estimate
+    np.testing.assert_allclose(_step(fb, 0.0, _out(1.9, 0.95, 0.01), "left"), [2.0, 0.95])
+    fb = _fb("safe", max_rate=100.0, condition_on_healthy=True)  # both isolated: both raw estimates
+    np.testing.assert_allclose(_step(fb, 0.0, _out(1.9, 0.95, 0.01, corr=0.99), "both"), [1.9, 0.95])
+    fb = _fb("safe", max_rate=100.0)  # off (default): the raw estimate
+    np.testing.assert_allclose(_step(fb, 0.0, _out(1.9, 0.95, 0.01, corr=0.99), "left"), [2.0, 0.95])

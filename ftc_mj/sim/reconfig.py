@@ -17,7 +17,8 @@ Built-in policies:
     at most ``max_sigma`` — and (c) the filter is healthy (no divergence reset since the last solve,
     mean NIS per measurement over ``nis_window`` at most ``max_nis_ratio``; a single NIS per
     measurement above ``spike_nis_ratio`` since the last solve holds instead). Only the isolated
-    wheel(s) are changed; radii are clamped to [``min_radius``, nominal] and rate-limited to
+    wheel(s) are changed (with ``condition_on_healthy`` and one wheel isolated, its radius is the filter's estimate
+    conditioned on the other radius being nominal); radii are clamped to [``min_radius``, nominal] and rate-limited to
     ``max_rate`` — and an isolated wheel's radius *grows* by at most ``max_growth_rate``: a punctured
     tyre does not re-inflate, and an estimate that climbs back quickly is the filter leaving the
     kinematic model's domain (measured in scenario 3: while the robot lifted a wheel the UKF's R_L
@@ -144,6 +145,7 @@ class SafePolicy(ReconfigurationPolicy):
         self.max_sigma = rc.max_sigma
         self.max_nis_ratio = rc.max_nis_ratio
         self.trust_lag = rc.trust_lag
+        self.condition_on_healthy = rc.condition_on_healthy
         self.max_step = rc.max_rate / cfg.controller.rate
         self.max_grow = min(rc.max_growth_rate, rc.max_rate) / cfg.controller.rate
         self._nis: deque[float] = deque(maxlen=max(1, round(rc.nis_window * cfg.estimator.rate)))
@@ -212,6 +214,8 @@ class SafePolicy(ReconfigurationPolicy):
                 why, tag = f"surprising innovation (NIS/dim {recent_nis:.1f})", "spike"
             self._enter(ReconfigState.HOLD, tag, t, "warn", f"reconfiguration hold: {why}")
             return self._move(self._current)
+        if self.condition_on_healthy and iso.count(True) == 1:
+            est = self._conditioned(est, out.P, iso.index(True))
         target = np.where(iso, np.clip(est, self.min_radius, self.nominal), self.nominal)
         self._enter(ReconfigState.HANDED, str(decision.wheel), t, "info",
                     f"reconfiguration hand-over ({decision.wheel}): R_R {target[0]:.2f} m, R_L {target[1]:.2f} m")
@@ -224,6 +228,17 @@ class SafePolicy(ReconfigurationPolicy):
         return in_use
 
     # ---------------------------------------------------------------- helpers
+    def _conditioned(self, est: np.ndarray, P: np.ndarray, i: int) -> np.ndarray:
+        """``est`` with radius ``i`` (0 R_R, 1 R_L) replaced by its Gaussian conditional mean given that the other
+        radius is nominal (``condition_on_healthy``); unchanged if the covariance is not usable."""
+        o = 1 - i
+        p_oo, p_io = float(P[3 + o, 3 + o]), float(P[3 + i, 3 + o])
+        if not (np.isfinite(p_oo) and np.isfinite(p_io) and p_oo > 0.0):
+            return est
+        out = est.copy()
+        out[i] = est[i] + p_io / p_oo * (self.nominal[o] - est[o])
+        return out
+
     def _enter(self, state: ReconfigState, why: str, t: float, level: str, text: str) -> None:
         """Switch to ``state`` for reason ``why``; an event when either changes."""
         if (state, why) != (self.state, self._why):

@@ -2,6 +2,8 @@
 FINDINGS markers), verbatim from each ``runs/out/studies/<name>/summary.md``.
 
     .venv/bin/python docs/tools/study_findings.py      # after `ftc-mj study <name>`
+
+A study without an output folder here keeps the section already in docs/studies.md.
 """
 
 from __future__ import annotations
@@ -26,7 +28,10 @@ def main() -> None:
     text = doc.read_text()
     head, rest = text.split(START, 1)
     tail = rest.split(END, 1)[1]
-    parts = [section(n) for n in STUDIES if (REPO / "runs" / "out" / "studies" / n / "summary.md").is_file()]
+    old = {m.group(1): m.group(0).strip() + "\n" for m in
+           re.finditer(r"^#### `([a-z_]+)`.*?(?=^#### `|\Z)", rest.split(END, 1)[0], re.M | re.S)}
+    parts = [section(n) if (REPO / "runs" / "out" / "studies" / n / "summary.md").is_file() else old[n]
+             for n in STUDIES if n in old or (REPO / "runs" / "out" / "studies" / n / "summary.md").is_file()]
     doc.write_text(head + START + "\n\n" + "\n".join(parts) + "\n" + END + tail)
 
 

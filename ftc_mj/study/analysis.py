@@ -490,7 +490,8 @@ def fig_timeseries(df: pl.DataFrame, column: str, values: list[Any], path: Path)
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("t (s)")
         ax.grid(alpha=0.3)
-    axs[0].legend(title=column, fontsize=7)
+    if axs[0].get_legend_handles_labels()[0]:  # no series when every run of the group is excluded
+        axs[0].legend(title=column, fontsize=7)
     fig.tight_layout()
     _save(fig, path)
 

@@ -40,6 +40,7 @@ every estimator step and ``radii`` at every controller sample, logs ``state`` an
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections import deque
 from enum import IntEnum
 
@@ -65,7 +66,7 @@ class ReconfigState(IntEnum):
 _ISOLATED = {"right": (True, False), "left": (False, True), "both": (True, True)}
 
 
-class ReconfigurationPolicy:
+class ReconfigurationPolicy(ABC):
     """Base of the policies: turns filter outputs and fault decisions into the radii [R_R, R_L] (m)
     handed to the controller.
 
@@ -85,9 +86,10 @@ class ReconfigurationPolicy:
         self.state: int = self.initial_state
         self.events: list[Event] = []
 
-    def observe(self, out: FilterOutput) -> None:
+    def observe(self, out: FilterOutput) -> None:  # noqa: B027 (an optional hook: the base keeps no history)
         """This estimator step's output (the base keeps nothing)."""
 
+    @abstractmethod
     def radii(self, t: float, out: FilterOutput | None, decision: DecisionState | None, filter_reset: bool,
               omega: np.ndarray, truth: tuple[float, float]) -> np.ndarray:
         """Radii (m) for the solve at ``t`` (s) from the latest filter output ``out`` and decision
@@ -95,7 +97,6 @@ class ReconfigurationPolicy:
         itself since the last solve; ``omega``: wheel rates (rad/s) measured at this sample (they set
         which radius combination the speed observes); ``truth``: the plant's true radii (m; only an
         oracle may use them)."""
-        raise NotImplementedError
 
 
 class NominalPolicy(ReconfigurationPolicy):
@@ -157,7 +158,7 @@ class SafePolicy(ReconfigurationPolicy):
         self._why = "nominal"
 
     # ---------------------------------------------------------------- estimator rate
-    def observe(self, out: FilterOutput) -> None:
+    def observe(self, out: FilterOutput) -> None:  # noqa: B027 (an optional hook: the base keeps no history)
         """Record this step's NIS per measurement (rejected measurements count as inconsistent)."""
         m = max(int(np.size(out.innovation)), 1)
         r = float(out.nis) / m if np.isfinite(out.nis) and not out.rejected else 1e3

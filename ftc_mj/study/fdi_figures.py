@@ -91,6 +91,18 @@ def _grid(rows: dict[Any, list[RuleCurves]], plt: Any) -> tuple[Any, Any, list[A
     return fig, axs, sevs
 
 
+def _panel(ax: Any, title: str, last_row: bool, first_col: bool, xlabel: str, ylabel: str,
+           which: str = "both") -> None:
+    """Title, ticks and grid of one panel of a rows × severities grid; axis labels on the outer panels."""
+    ax.set_title(title, fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.grid(alpha=0.3, which=which)
+    if last_row:
+        ax.set_xlabel(xlabel, fontsize=7)
+    if first_col:
+        ax.set_ylabel(ylabel, fontsize=7)
+
+
 def fig_delay(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> None:
     """Mean conditional delay (95 % CI band) against measured ARL0, per rule, with Lorden's bound."""
     plt = _plt()
@@ -111,13 +123,8 @@ def fig_delay(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> None
             la, lb = lorden_curve(rcs[0].cell, sev) if sev in rcs[0].cell.faults else (np.zeros(0), np.zeros(0))
             ax.plot(la, lb, "k--", lw=1)
             _log(ax)
-            ax.set_title(f"{rv}, severity {sev}", fontsize=8)
-            ax.tick_params(labelsize=7)
-            ax.grid(alpha=0.3, which="both")
-            if i == len(rows) - 1:
-                ax.set_xlabel("ARL0: mean time between false alarms (s)", fontsize=7)
-            if j == 0:
-                ax.set_ylabel("detection delay (s)", fontsize=7)
+            _panel(ax, f"{rv}, severity {sev}", i == len(rows) - 1, j == 0,
+                   "ARL0: mean time between false alarms (s)", "detection delay (s)")
     _legend(fig, rows, lorden=True)
     fig.suptitle(f"{title}: delay against mean time between false alarms\n(filled dots: design thresholds; open: no "
                  "false alarm in the fault-free seconds observed, drawn there)", fontsize=8, x=0.02, ha="left")
@@ -140,13 +147,8 @@ def fig_roc(rows: dict[Any, list[RuleCurves]], title: str, horizon: float, path:
             ax.plot([0, 1], [0, 1], color="0.7", lw=0.8)
             ax.set_xlim(-0.02, 1.02)
             ax.set_ylim(-0.02, 1.02)
-            ax.set_title(f"{rv}, severity {sev}", fontsize=8)
-            ax.tick_params(labelsize=7)
-            ax.grid(alpha=0.3)
-            if i == len(rows) - 1:
-                ax.set_xlabel(f"P(false alarm within {horizon:g} s)", fontsize=7)
-            if j == 0:
-                ax.set_ylabel(f"P(detection within {horizon:g} s)", fontsize=7)
+            _panel(ax, f"{rv}, severity {sev}", i == len(rows) - 1, j == 0,
+                   f"P(false alarm within {horizon:g} s)", f"P(detection within {horizon:g} s)", which="major")
     _legend(fig, rows)
     fig.suptitle(f"{title}: ROC (runs without an earlier alarm)", fontsize=9, x=0.02, ha="left")
     fig.tight_layout(rect=(0, 0, 1, 0.97))
@@ -168,13 +170,7 @@ def fig_isolation(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> 
                           np.array([v.hi for v in e]), COLOURS[rc.rule], rc.rule, cens)
             _log(ax, y=False)
             ax.set_ylim(-0.02, 1.02)
-            ax.set_title(f"{rv}, severity {sev}", fontsize=8)
-            ax.tick_params(labelsize=7)
-            ax.grid(alpha=0.3, which="both")
-            if i == len(rows) - 1:
-                ax.set_xlabel("ARL0 (s)", fontsize=7)
-            if j == 0:
-                ax.set_ylabel("isolated the true wheel", fontsize=7)
+            _panel(ax, f"{rv}, severity {sev}", i == len(rows) - 1, j == 0, "ARL0 (s)", "isolated the true wheel")
     _legend(fig, rows)
     fig.suptitle(f"{title}: isolation accuracy of the detections", fontsize=9, x=0.02, ha="left")
     fig.tight_layout(rect=(0, 0, 1, 0.97))

@@ -80,7 +80,7 @@ def test_growth_rule_keeps_r2_on_every_run_then_tracks_best() -> None:
 
 
 def test_tuned_defaults_are_the_config_values() -> None:
-    assert {t.key: t.default() for t in TUNED} == {"estimator.decision.dwell": 0.3,
+    assert {t.key: t.default() for t in TUNED} == {"estimator.decision.dwell": 0.5,
                                                   "reconfiguration.max_growth_rate": 0.05}
 
 

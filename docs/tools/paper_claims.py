@@ -47,10 +47,19 @@ def head_note(out: Path) -> str:
     for section in changes.read_text().split("## Against ")[1:] if changes.is_file() else []:
         src, _, rest = section.partition("\n")
         verdicts = [ln[2:] for ln in rest.splitlines() if ln.startswith("- ") and "→" in ln]
-        lines.append(f"> **What changed against the single-seed verdicts of {src.strip()}** (mechanical comparison; "
-                     f"every changed check is in the section *What changed against {src.strip()}*): "
+        lines.append(f"> **What changed against {src.strip()}**{_provenance(src.strip().strip('`'))} (mechanical "
+                     f"comparison; every changed check is in the section *What changed against {src.strip()}*): "
                      + ("; ".join(verdicts) if verdicts else "no verdict changed") + ".")
     return "\n>\n".join(lines) + "\n"
+
+
+def _provenance(src: str) -> str:
+    """`` (commit …, finished …; N seeds)`` for a baseline output folder that kept its ``paper_run.json``."""
+    run = Path(src) / "paper_run.json"
+    if not run.is_file():
+        return ""
+    info = json.loads(run.read_text())
+    return f" (the `ftc-mj paper` output of commit {info.get('commit')}, finished {info.get('finished_at')})"
 
 
 def body(out: Path) -> str:

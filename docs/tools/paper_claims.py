@@ -47,9 +47,12 @@ def head_note(out: Path) -> str:
     for section in changes.read_text().split("## Against ")[1:] if changes.is_file() else []:
         src, _, rest = section.partition("\n")
         verdicts = [ln[2:] for ln in rest.splitlines() if ln.startswith("- ") and "→" in ln]
+        checks = [ln.strip()[2:] for ln in rest.splitlines() if ln.startswith("  - ") and "→" in ln]
+        if checks:
+            verdicts.append(f"{len(checks)} check result(s) changed: " + "; ".join(checks))
         lines.append(f"> **What changed against {src.strip()}**{_provenance(src.strip().strip('`'))} (mechanical "
                      f"comparison; every changed check is in the section *What changed against {src.strip()}*): "
-                     + ("; ".join(verdicts) if verdicts else "no verdict changed") + ".")
+                     + ("; ".join(verdicts) if verdicts else "nothing changed") + ".")
     return "\n>\n".join(lines) + "\n"
 
 

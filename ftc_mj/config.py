@@ -295,9 +295,8 @@ class DecisionConfig(_Strict):
     dwell: NonNegFloat = 0.5
     """Time (s) the condition must hold before a fault is declared. It trades false alarms and false
     isolations against the delay of a reconfiguration. Chosen by the rule of the built-in study
-    ``tune_dwell`` on the development seeds 0–9 (the smallest dwell without a false alarm or false
-    isolation in any run): 0.3 s isolated the wrong wheel in 7 of 90 runs, 0.5 s in none, for about
-    0.26 s more detection delay (docs/studies.md)."""
+    ``tune_dwell`` on the development seeds 0–9: the smallest dwell without a false alarm or false
+    isolation in any run (the measurements: docs/studies.md)."""
     mode_threshold: Fraction = 0.9
     max_split_sigma: PosFloat = 0.15
     """Sigma rule: a wheel is isolated only when the σ (m) of the radius split along the direction
@@ -612,7 +611,8 @@ class ReconfigurationConfig(_Strict):
     does not re-inflate: an estimate that grows quickly is the filter leaving the kinematic model's
     domain (a lifted or skidding wheel), not the tyre; this rate still lets the model radius recover
     from a transient undershoot (0.2 m in 4 s). Reverts (filter trouble, withdrawn decision) are not
-    limited by it."""
+    limited by it. Chosen by the rule of the built-in study ``tune_growth`` on the development seeds
+    0–9 (docs/studies.md)."""
     condition_on_healthy: Flag = False
     """With one wheel isolated, hand over the filter's estimate of its radius *conditioned on the other wheel's
     radius being nominal* (``R_iso + P_io / P_oo (R_nom − R_other)``, the Gaussian posterior given what the

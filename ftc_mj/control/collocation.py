@@ -137,6 +137,37 @@ def first_input_bounds(spec: ProblemSpec, u_prev: np.ndarray | None) -> tuple[np
     return np.maximum(u - step, -om), np.minimum(u + step, om)
 
 
+def warm_started_solve(solver: ca.Function, args: dict, lam: tuple[np.ndarray, np.ndarray] | None
+                       ) -> tuple[bool, str, int, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """One call of an IPOPT ``nlpsol`` warm-started with the multipliers of the previous successful solve.
+
+    Parameters
+    ----------
+    solver
+        The ``nlpsol`` function.
+    args
+        Its arguments (``x0``, ``p``, bounds); the multipliers ``lam`` are added as ``lam_x0``, ``lam_g0``.
+    lam
+        ``(lam_x, lam_g)`` of the previous successful solve, or ``None``.
+
+    Returns
+    -------
+    ok, status, iterations, w, lam
+        ``ok`` when IPOPT reports success and the primal ``w`` is finite; ``lam`` the multipliers for the
+        next solve, ``None`` after a failure (a failed solve's multipliers are no start).
+    """
+    if lam is not None:
+        args = {**args, "lam_x0": lam[0], "lam_g0": lam[1]}
+    res = solver(**args)
+    st = solver.stats()
+    w = np.asarray(res["x"]).ravel()
+    ok = bool(st.get("success", False)) and bool(np.all(np.isfinite(w)))
+    it = int(st.get("iter_count", 0))
+    if not ok:
+        return False, str(st.get("return_status", "failed")), it, w, None
+    return True, str(st["return_status"]), it, w, (np.asarray(res["lam_x"]).ravel(), np.asarray(res["lam_g"]).ravel())
+
+
 def first_step_penalty(spec: ProblemSpec, u_prev: np.ndarray | None) -> float:
     """Weight ``c`` of the first-step penalty ``c ‖U(t0) − u_prev‖²`` (rad/s)⁻² per unit cost:
     ``rate_penalty T_s ‖(U(t0) − u_prev)/T_s‖² = (rate_penalty / T_s) ‖U(t0) − u_prev‖²``; 0 without

@@ -50,6 +50,7 @@ from .collocation import (
     reference_at_nodes,
     sanitize_pose,
     sanitize_radii,
+    warm_started_solve,
 )
 
 SOLVERS = ("ipopt", "rti-daqp", "rti-qpoases", "rti-osqp")
@@ -299,18 +300,10 @@ class NMPC(PlanController):
         first = [3 * N, 4 * N]  # omega_R, omega_L at t0
         lbx[first], ubx[first] = self._box
         args = {"x0": wg, "p": pv, "lbx": lbx, "ubx": ubx, "lbg": self._lbg, "ubg": self._ubg}
-        if self._lam is not None:
-            args["lam_x0"], args["lam_g0"] = self._lam
-        res = self._nlp(**args)
-        st = self._nlp.stats()
-        wv = np.asarray(res["x"]).ravel()
-        ok = bool(st.get("success", False)) and np.all(np.isfinite(wv))
-        it = int(st.get("iter_count", 0))
+        ok, status, it, wv, self._lam = warm_started_solve(self._nlp, args, self._lam)
         if not ok:
-            self._lam = None
-            return False, str(st.get("return_status", "failed")), it, None, None
-        self._lam = (np.asarray(res["lam_x"]).ravel(), np.asarray(res["lam_g"]).ravel())
-        return True, str(st["return_status"]), it, wv[: 3 * N].reshape(3, N).T, wv[3 * N:].reshape(2, N).T
+            return False, status, it, None, None
+        return True, status, it, wv[: 3 * N].reshape(3, N).T, wv[3 * N:].reshape(2, N).T
 
     def _rti_step(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray, ref: np.ndarray
                   ) -> tuple[bool, str, np.ndarray | None, np.ndarray | None]:

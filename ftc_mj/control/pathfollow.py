@@ -73,6 +73,7 @@ from .collocation import (
     limit_blas_threads,
     sanitize_pose,
     sanitize_radii,
+    warm_started_solve,
 )
 from .lgl import interpolation_matrix
 from .nmpc import RESEED_WAIT, solver_error
@@ -470,19 +471,11 @@ class PathNLP:
             ubg[i0:i0 + n0] = np.inf
         args = {"x0": wg, "p": np.concatenate([x0, radii, [V_applied or 0.0]]), "lbx": lbx, "ubx": ubx,
                 "lbg": lbg, "ubg": ubg}
-        if self._lam is not None:
-            args["lam_x0"], args["lam_g0"] = self._lam
-        res = self._solver(**args)
-        st = self._solver.stats()
-        wv = np.asarray(res["x"]).ravel()
-        ok = bool(st.get("success", False)) and bool(np.all(np.isfinite(wv)))
-        it = int(st.get("iter_count", 0))
+        ok, status, it, wv, self._lam = warm_started_solve(self._solver, args, self._lam)
         if not ok:
-            self._lam = None
-            return False, str(st.get("return_status", "failed")), it, None, None, float("nan")
-        self._lam = (np.asarray(res["lam_x"]).ravel(), np.asarray(res["lam_g"]).ravel())
-        return (True, str(st["return_status"]), it, wv[: 4 * N].reshape(4, N).T,
-                wv[4 * N: 7 * N].reshape(3, N).T, float(wv[7 * N]))
+            return False, status, it, None, None, float("nan")
+        return (True, status, it, wv[: 4 * N].reshape(4, N).T, wv[4 * N: 7 * N].reshape(3, N).T,
+                float(wv[7 * N]))
 
 
 # ----------------------------------------------------------------------------------------------

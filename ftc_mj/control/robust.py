@@ -61,7 +61,15 @@ import numpy as np
 
 from .base import ControlOutput
 from .certified_qp import CertifiedQP
-from .collocation import BufferedFunction, Collocation, CondensedQP, ProblemSpec, first_input_bounds, first_step_penalty
+from .collocation import (
+    BufferedFunction,
+    Collocation,
+    CondensedQP,
+    ProblemSpec,
+    first_input_bounds,
+    first_step_penalty,
+    warm_started_solve,
+)
 from .nmpc import NMPC
 
 OBJECTIVES = ("expected", "worst")
@@ -417,19 +425,11 @@ class RobustNMPC(NMPC):
             ubg[-self.S:] = np.where(keep, 0.0, np.inf)
             wg[-1] = float(np.max(np.asarray(self._costs(wg, pv)).ravel()[keep]))
         args = {"x0": wg, "p": pv, "lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
-        if self._lam is not None:
-            args["lam_x0"], args["lam_g0"] = self._lam
-        res = self._nlp(**args)
-        st = self._nlp.stats()
-        wv = np.asarray(res["x"]).ravel()
-        ok = bool(st.get("success", False)) and bool(np.all(np.isfinite(wv)))
-        it = int(st.get("iter_count", 0))
+        ok, status, it, wv, self._lam = warm_started_solve(self._nlp, args, self._lam)
         if not ok:
-            self._lam = None
-            return False, str(st.get("return_status", "failed")), it, None, None
-        self._lam = (np.asarray(res["lam_x"]).ravel(), np.asarray(res["lam_g"]).ravel())
+            return False, status, it, None, None
         X, U = self._unpack(wv)
-        return True, str(st["return_status"]), it, X, U
+        return True, status, it, X, U
 
     def scenario_costs(self, x0: np.ndarray, radii: np.ndarray, ref: np.ndarray, X: np.ndarray,
                        U: np.ndarray) -> np.ndarray:

@@ -158,7 +158,7 @@ class SafePolicy(ReconfigurationPolicy):
         self._why = "nominal"
 
     # ---------------------------------------------------------------- estimator rate
-    def observe(self, out: FilterOutput) -> None:  # noqa: B027 (an optional hook: the base keeps no history)
+    def observe(self, out: FilterOutput) -> None:
         """Record this step's NIS per measurement (rejected measurements count as inconsistent)."""
         m = max(int(np.size(out.innovation)), 1)
         r = float(out.nis) / m if np.isfinite(out.nis) and not out.rejected else 1e3

@@ -31,6 +31,7 @@ from pydantic import (
 )
 
 from . import registry, resources
+from .context import RunContext
 from .errors import BadInput
 
 DEFAULT_MODEL_FILE = resources.DEFAULT_MODEL
@@ -858,6 +859,17 @@ def from_sections(**sections: Any) -> RunConfig:
             raise BadInput(f"{name}: not a config section (sections: {', '.join(models)})")
         data[name] = section(models[name], value, name)
     return RunConfig.model_validate(data)
+
+
+def run_context(cfg: RunConfig) -> RunContext:
+    """The small run context every component may read beside its own settings (rates, the model's
+    nominal geometry, the seed, the sensors' settings); factories build components from it."""
+    return RunContext(
+        seed=int(cfg.seed), duration=float(cfg.duration), physics_dt=float(cfg.plant.timestep),
+        estimator_dt=1.0 / cfg.estimator.rate, controller_dt=1.0 / cfg.controller.rate,
+        nominal_radii=(cfg.model_wheel_radius, cfg.model_wheel_radius), half_track=cfg.model_half_track,
+        omega_max=float(cfg.robot.omega_max), initial_pose=tuple(float(v) for v in cfg.plant.initial_pose),
+        sensors=cfg.sensors)
 
 
 def scenario_path(name_or_path: str | Path) -> Path:

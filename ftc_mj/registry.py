@@ -24,7 +24,9 @@ A name is registered once: registering a taken name is an error unless ``replace
 from __future__ import annotations
 
 import importlib
+import inspect
 import re
+import warnings
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
@@ -54,6 +56,9 @@ class Entry:
     """What the simulation needs to know about the component (per registry, e.g. ``reusable``)."""
     origin: str = ""
     """Who registered it: ``built-in``, ``entry point <value>`` or the registering module."""
+    legacy: bool = False
+    """The factory takes the whole run config (``factory(cfg, ...)``, the contract before 0.3) instead
+    of its own settings and a :class:`~ftc_mj.context.RunContext`; still called, with a warning."""
 
 
 class Registry:
@@ -88,7 +93,7 @@ class Registry:
             raise ValueError(f"{self.kind} {name!r} is already registered ({self._entries[name].origin}); "
                              "pass replace=True to replace it")
         where = origin or str(getattr(factory, "__module__", "?"))
-        self._entries[name] = Entry(name, factory, settings, dict(meta), where)
+        self._entries[name] = Entry(name, factory, settings, dict(meta), where, takes_run_config(factory))
         return None
 
     def unregister(self, name: str) -> None:
@@ -134,6 +139,21 @@ class Registry:
         """``factory(*args, **kwargs)`` of ``name``."""
         return self.get(name).factory(*args, **kwargs)
 
+    def create(self, name: str, settings: Any, context: Any, *extra: Any, run_config: Any = None,
+               **kwargs: Any) -> Any:
+        """The component ``name`` built by the contract: ``factory(settings, context, *extra, **kwargs)``
+        (``settings``: the component's own config section; ``context``: the
+        :class:`~ftc_mj.context.RunContext`). A factory of the old contract, ``factory(cfg, *extra)``,
+        is called with ``run_config`` and a one-line :class:`DeprecationWarning` saying what to change."""
+        entry = self.get(name)
+        if not entry.legacy:
+            return entry.factory(settings, context, *extra, **kwargs)
+        if name not in _warned:
+            _warned.add(name)
+            warnings.warn(f"{self.kind} {name!r} ({entry.origin}): factory(cfg) is the old contract; take "
+                          "(settings, context) instead (docs/plugins.md)", DeprecationWarning, stacklevel=2)
+        return entry.factory(run_config, *extra, **kwargs)
+
     # ---------------------------------------------------------------- loading
     def _ensure(self) -> None:
         if self._state == "empty":
@@ -175,6 +195,19 @@ REGISTRIES: dict[str, Registry] = {"estimators": estimators, "decision_rules": d
 """Every registry by its name."""
 
 _loaded_plugins: set[str] = set()
+_warned: set[str] = set()
+
+
+def takes_run_config(factory: Callable[..., Any]) -> bool:
+    """Whether ``factory`` follows the old contract: its first parameter is named ``cfg`` or ``config``
+    (the whole run config) rather than ``settings``."""
+    try:
+        params = list(inspect.signature(factory).parameters.values())
+    except (TypeError, ValueError):  # builtins without a signature: the new contract
+        return False
+    if inspect.isclass(factory) and params and params[0].name == "self":
+        params = params[1:]
+    return bool(params) and params[0].name in ("cfg", "config")
 
 
 def load_plugins(modules: Iterable[str]) -> None:

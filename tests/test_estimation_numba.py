@@ -14,13 +14,13 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
-from test_estimation import excited_data
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import EKF, IMM, UKF, FilterOutput, Measurement
 from ftc_mj.estimation import _kernels as kernels
 from ftc_mj.estimation._codegen import KERNELS, generated_block, split
 from ftc_mj.model.kinematics import KinematicModel, body_rates, numpy_rates_jacobian, numpy_step_jacobian
+from tests.test_estimation import excited_data
 
 RTOL = 1e-9
 FIELDS = ("x", "P", "innovation", "S", "nis", "speed_innovation", "speed_innovation_std", "mode_probs", "model_x")

@@ -10,8 +10,6 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_report_claims import paper_like_rows
-from test_report_policy_claims import _rows as policy_rows
 
 from ftc_mj.config import load_config, validate_config
 from ftc_mj.errors import BadInput
@@ -23,6 +21,8 @@ from ftc_mj.report.matrix_study import AXIS, load_matrix_study
 from ftc_mj.report.policy_claims import evaluate_policy_claims
 from ftc_mj.report.seeded import FAILS, HOLDS, UNDECIDED, CheckStats, combine, summarise, verdict_over_seeds
 from ftc_mj.report.seeds import DEV_SEEDS, HELD_OUT_START, seed_set
+from tests.test_report_claims import paper_like_rows
+from tests.test_report_policy_claims import _rows as policy_rows
 
 
 # ---------------------------------------------------------------------------------------- outcome rules

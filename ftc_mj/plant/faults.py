@@ -21,6 +21,20 @@ from collections.abc import Iterable, Sequence
 from ..errors import BadInput
 
 
+def schedule_onset(breakpoints: Sequence[Sequence[float]], nominal: float) -> float | None:
+    """The fault onset of one wheel's schedule: the first time (s) its radius departs from ``nominal``
+    (m) by more than 1 nm; ``None`` = no fault. The one definition of an onset (metrics, reports).
+
+    Before its first breakpoint a schedule is at the nominal radius, so a departure at breakpoint ``i``
+    starts at breakpoint ``i-1`` (the start of a ramp, or the same time for a step). The time may lie
+    after the end of a run.
+    """
+    for i, (t, r) in enumerate(breakpoints):
+        if abs(float(r) - nominal) > 1e-9:
+            return float(breakpoints[i - 1][0]) if i > 0 else float(t)
+    return None
+
+
 class RadiusSchedule:
     """Piecewise-linear radius ``r(t)`` (m) of one wheel.
 

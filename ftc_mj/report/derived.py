@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..plant.faults import schedule_onset
+
 if TYPE_CHECKING:
     from ..config import RunConfig
 
@@ -284,16 +286,9 @@ def derived_metrics(trace: Mapping[str, Any], scenario: str, onsets: Mapping[str
 
 
 def onsets_from_faults(right: list[Any], left: list[Any], R0: float) -> dict[str, float | None]:
-    """First time each wheel's radius schedule departs from nominal (``None`` = healthy); the same rule
-    as the run metrics: a departure at breakpoint ``i`` starts at breakpoint ``i-1``."""
-    out: dict[str, float | None] = {}
-    for wheel, bps in (("right", right), ("left", left)):
-        out[wheel] = None
-        for i, (t, r) in enumerate(bps):
-            if abs(float(r) - R0) > 1e-9:
-                out[wheel] = float(bps[i - 1][0]) if i > 0 else float(t)
-                break
-    return out
+    """First time each wheel's radius schedule departs from nominal (``None`` = healthy):
+    :func:`~ftc_mj.plant.faults.schedule_onset`, the rule of the run metrics."""
+    return {"right": schedule_onset(right, R0), "left": schedule_onset(left, R0)}
 
 
 def onsets_of_config(cfg_dict: Mapping[str, Any]) -> dict[str, float | None]:

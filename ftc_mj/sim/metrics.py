@@ -105,6 +105,7 @@ import numpy as np
 from ..config import RunConfig
 from ..estimation.consistency import ChiSquareTest, anees, anis, nees
 from ..plant import LIFTOFF, TIPPED
+from ..plant.faults import schedule_onset
 from .columns import COVARIANCE_COLUMNS, STATE, WHEEL_CODES
 from .path_metrics import path_following_metrics
 
@@ -119,21 +120,10 @@ WHEEL_OF_CODE = {code: wheel for wheel, code in WHEEL_CODES.items()}
 
 
 def fault_onsets(cfg: RunConfig) -> dict[str, float | None]:
-    """First time (s) each wheel's scheduled radius departs from nominal; None = no fault.
-
-    Before its first breakpoint a schedule is at the nominal radius, so a departure at breakpoint
-    ``i`` starts at breakpoint ``i-1`` (the start of a ramp, or the same time for a step). The time
-    may lie after the end of the run.
-    """
+    """First time (s) each wheel's scheduled radius departs from nominal (:func:`schedule_onset`);
+    None = no fault."""
     R0 = cfg.plant_wheel_radius
-    onsets: dict[str, float | None] = {}
-    for wheel, bps in (("right", cfg.faults.right), ("left", cfg.faults.left)):
-        onsets[wheel] = None
-        for i, (t, r) in enumerate(bps):
-            if abs(r - R0) > 1e-9:
-                onsets[wheel] = bps[i - 1][0] if i > 0 else t
-                break
-    return onsets
+    return {"right": schedule_onset(cfg.faults.right, R0), "left": schedule_onset(cfg.faults.left, R0)}
 
 
 def _nanstat(a: np.ndarray, fn: Any) -> float:

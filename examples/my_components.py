@@ -12,6 +12,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 import ftc_mj
+from ftc_mj.config import ReconfigurationConfig
+from ftc_mj.context import RunContext
 from ftc_mj.model.kinematics import KinematicModel
 
 
@@ -67,9 +69,9 @@ class LateHandover(ftc_mj.ReconfigurationPolicy):
     """Nominal radii until ``delay`` s after the first declaration, while a wheel is isolated; then the
     isolated wheels' estimates, clamped to [``estimator.min_radius``, nominal]."""
 
-    def __init__(self, cfg: ftc_mj.RunConfig) -> None:
-        super().__init__(cfg)
-        self.delay = LateHandoverSettings.model_validate(cfg.reconfiguration.options).delay
+    def __init__(self, settings: ReconfigurationConfig, context: RunContext) -> None:
+        super().__init__(settings, context)
+        self.delay = LateHandoverSettings.model_validate(settings.options).delay
 
     def radii(self, t: float, out: ftc_mj.FilterOutput | None, decision: ftc_mj.DecisionState | None,
               filter_reset: bool, omega: np.ndarray, truth: tuple[float, float]) -> np.ndarray:

@@ -31,7 +31,7 @@ __version__ = "0.1.0"
 _API = ("Run", "Study", "load_config", "load_run", "load_study", "plan_study", "run", "run_study")
 _COMPONENTS = {"Event": "ftc_mj.telemetry", "FilterOutput": "ftc_mj.estimation.base",
                "Measurement": "ftc_mj.estimation.base", "Hypothesis": "ftc_mj.estimation.base",
-               "ControlOutput": "ftc_mj.control.base", "ReconfigurationPolicy": "ftc_mj.sim.reconfig",
+               "ControlOutput": "ftc_mj.control.base", "ReconfigurationPolicy": "ftc_mj.reconfiguration.policies",
                "DecisionState": "ftc_mj.estimation.decision", "BadInput": "ftc_mj.errors",
                "RunConfig": "ftc_mj.config"}
 _REGISTER = {"register_estimator": "estimators", "register_decision_rule": "decision_rules",

@@ -468,7 +468,7 @@ class RobustConfig(_Strict):
     scenarios of positive weight (an epigraph; needs ``controller.solver = "ipopt"``)."""
     weighting: Literal["fixed", "posterior"] = "fixed"
     """``fixed``: the configured weights (passive FTC). ``posterior``: at every solve the weights are
-    the filter's posterior probabilities of the scenario radii (:mod:`~ftc_mj.sim.scenario_weights`;
+    the filter's posterior probabilities of the scenario radii (:mod:`~ftc_mj.reconfiguration.scenario_weights`;
     needs an estimator): a hybrid of passive and active FTC."""
     posterior_tolerance: ranged(0.0, 10.0, lo_open=True, unit="m") = 0.25
     """``posterior`` weighting: standard deviation (m) added to the filter's radius σ in every direction
@@ -590,7 +590,7 @@ class ExcitationConfig(_Strict):
 
 
 class ReconfigurationConfig(_Strict):
-    """How the estimated radii reach the controller's model (:mod:`ftc_mj.sim.reconfig`)."""
+    """How the estimated radii reach the controller's model (:mod:`ftc_mj.reconfiguration.policies`)."""
 
     policy: component("policies") = "safe"
     """A registered reconfiguration policy (:data:`ftc_mj.registry.policies`). Built-in: ``none``:
@@ -869,7 +869,8 @@ def run_context(cfg: RunConfig) -> RunContext:
         estimator_dt=1.0 / cfg.estimator.rate, controller_dt=1.0 / cfg.controller.rate,
         nominal_radii=(cfg.model_wheel_radius, cfg.model_wheel_radius), half_track=cfg.model_half_track,
         omega_max=float(cfg.robot.omega_max), initial_pose=tuple(float(v) for v in cfg.plant.initial_pose),
-        sensors=cfg.sensors)
+        sensors=cfg.sensors, estimator_rate=cfg.estimator.rate, controller_rate=cfg.controller.rate,
+        min_radius=cfg.estimator.min_radius)
 
 
 def scenario_path(name_or_path: str | Path) -> Path:

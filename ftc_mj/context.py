@@ -38,3 +38,17 @@ class RunContext:
     sensors: Any = None
     """The sensors' settings (``speed_sigma``, ``yaw_rate_sigma``, ``position_sigma``, … in SI units;
     ``None`` σ = channel absent): the measurement model a filter must match."""
+    estimator_rate: float | None = None
+    """Estimator rate (Hz) as configured (``None``: ``1 / estimator_dt``); a component dividing by the
+    rate uses this, which ``1 / estimator_dt`` does not always give back to the last bit."""
+    controller_rate: float | None = None
+    """Controller rate (Hz) as configured (``None``: ``1 / controller_dt``)."""
+    min_radius: float | None = None
+    """Smallest wheel radius (m) the estimator reports (``estimator.min_radius``): the floor of the radii
+    a reconfiguration policy hands to the controller."""
+
+    def __post_init__(self) -> None:
+        if self.estimator_rate is None:
+            object.__setattr__(self, "estimator_rate", 1.0 / self.estimator_dt)
+        if self.controller_rate is None:
+            object.__setattr__(self, "controller_rate", 1.0 / self.controller_dt)

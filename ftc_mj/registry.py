@@ -184,9 +184,10 @@ controllers = Registry("controller", "ftc_mj.controllers", "ftc_mj.control.facto
 controller has ``reset()`` and is cached per process and structure (MPC solvers);
 ``rate_bounded=True``: its first input stays within ``controller.omega_rate_max / rate`` of the
 command in force (the loop clips a dither to that bound)."""
-policies = Registry("policy", "ftc_mj.policies", "ftc_mj.sim.reconfig", "reconfiguration.policy")
-"""``factory(cfg: RunConfig) -> ReconfigurationPolicy``; meta ``needs_estimator=False``: used even
-in runs without a filter (otherwise such runs use ``none``)."""
+policies = Registry("policy", "ftc_mj.policies", "ftc_mj.reconfiguration.policies", "reconfiguration.policy")
+"""``factory(settings: ReconfigurationConfig, context: RunContext) -> ReconfigurationPolicy``
+(``settings``: the ``[reconfiguration]`` section, a plug-in's ``options`` in ``settings.options``);
+meta ``needs_estimator=False``: used even in runs without a filter (otherwise such runs use ``none``)."""
 references = Registry("reference", "ftc_mj.references", "ftc_mj.control.reference", "reference.kind")
 """``factory(cfg: RunConfig) -> Reference`` (starting at ``cfg.plant.initial_pose``)."""
 

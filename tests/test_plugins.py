@@ -61,12 +61,12 @@ def test_entry_point_of_an_installed_package_registers(tmp_path: Path, monkeypat
     (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: ep-pkg\nVersion: 1.0\n")
     (dist / "entry_points.txt").write_text("[ftc_mj.policies]\nep-policy = ep_pkg:factory\n")
     monkeypatch.syspath_prepend(str(tmp_path))
-    fresh = registry.Registry("policy", "ftc_mj.policies", "ftc_mj.sim.reconfig", "reconfiguration.policy")
+    fresh = registry.Registry("policy", "ftc_mj.policies", "ftc_mj.reconfiguration.policies", "reconfiguration.policy")
     assert "ep-policy" in fresh.names() and "safe" not in fresh.names()  # built-ins registered in the global one
     assert fresh.build("ep-policy", None) == "built by ep_pkg"
     assert fresh.get("ep-policy").origin == "entry point ep_pkg:factory"
     (dist / "entry_points.txt").write_text("[ftc_mj.policies]\nbad-policy = ep_pkg:missing\n")
-    broken = registry.Registry("policy", "ftc_mj.policies", "ftc_mj.sim.reconfig", "reconfiguration.policy")
+    broken = registry.Registry("policy", "ftc_mj.policies", "ftc_mj.reconfiguration.policies", "reconfiguration.policy")
     with pytest.raises(BadInput, match=r"entry point ftc_mj.policies:bad-policy = 'ep_pkg:missing' cannot be loaded"):
         broken.names()
 

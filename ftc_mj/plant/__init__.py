@@ -4,6 +4,7 @@ Public API::
 
     plant = build_plant(cfg)            # Plant (MuJoCo) or KinematicPlant, by cfg.plant.kind
     plant = plant_from_settings({"kind": "kinematic"}, robot=None, faults={"left": [[10, 2], [10, 1]]})
+    plant = Plant(cfg.plant, cfg.robot, cfg.faults)   # from the sections (any objects with their fields)
     sensors = Sensors(cfg.sensors, seed=cfg.seed)
     plant.set_command(wR, wL); plant.advance(10); tr = plant.truth(); z = sensors.read(tr)
 """
@@ -12,7 +13,8 @@ from __future__ import annotations
 
 from .builder import build_model, load_spec
 from .faults import RadiusSchedule
-from .kinematic import KinematicPlant, build_plant, plant_from_settings
+from .factory import build_plant, build_sensors, make_plant, plant_from_settings
+from .kinematic import KinematicPlant
 from .robot import Plant
 from .sensors import SensorReading, Sensors
 from .truth import (
@@ -47,7 +49,9 @@ __all__ = [
     "Truth",
     "build_model",
     "build_plant",
+    "build_sensors",
     "flag_names",
     "load_spec",
+    "make_plant",
     "plant_from_settings",
 ]

@@ -1,7 +1,7 @@
-"""Build the compiled MuJoCo model of the truth plant from the MJCF file and the run config.
+"""Build the compiled MuJoCo model of the truth plant from the MJCF file and the plant and robot settings.
 
 The MJCF (``plant.model_file``; by default ``builtin:diffdrive.xml``, the robot shipped in
-``ftc_mj/data/models/``, :mod:`ftc_mj.resources`) is loaded through :class:`mujoco.MjSpec`; static edits from the config
+``ftc_mj/data/models/``, :mod:`ftc_mj.resources`) is loaded through :class:`mujoco.MjSpec`; static edits from the settings
 (variant, wheel radius, half track, masses, friction, actuator gain, rate limit, timestep) are applied to the
 spec, then it is compiled once. Runtime changes (punctures) never recompile: they edit ``geom_size`` in place
 (see :meth:`ftc_mj.plant.robot.Plant.set_wheel_radius`).
@@ -16,9 +16,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from ..config import PlantConfig, RobotConfig
 from ..errors import BadInput
 from ..resources import model_path
+from .settings import PlantSettings, RobotSettings, plant_geometry
 
 GRAVITY = 9.81
 """Standard gravity (m/s^2) used for the spring preload; the MJCF's ``option/gravity`` must agree."""
@@ -60,17 +60,29 @@ def load_spec(path: Path | str) -> mujoco.MjSpec:
     return spec
 
 
-def _edit_spec(spec: mujoco.MjSpec, plant: PlantConfig, robot: RobotConfig) -> None:
-    """Apply the static config edits to ``spec`` in place (units: m, kg, rad/s, N m s/rad, s)."""
-    R = float(plant.wheel_radius or robot.wheel_radius)
-    b = float(plant.half_track or robot.half_track)
+def _edit_spec(spec: mujoco.MjSpec, plant: PlantSettings, robot: RobotSettings) -> None:
+    """Apply the static settings edits to ``spec`` in place (units: m, kg, rad/s, N m s/rad, s)."""
+    R, b = (float(v) for v in plant_geometry(plant, robot))
     spec.option.timestep = float(plant.timestep)
+    m_c = _edit_chassis(spec, plant, R, b)
+    lam = float(plant.wheel_load_fraction)
+    for side, y in (("right", -b), ("left", b)):
+        _edit_wheel(spec, plant, robot, side, y, R)
+        _edit_slide(spec, plant, side, 0.5 * lam * m_c * GRAVITY)
+    caster = spec.geom("caster")
+    mu_c = float(plant.caster_friction)
+    caster.friction = [mu_c, 0.0, 0.0]
+    caster.condim = 1 if mu_c == 0.0 else 3
 
+
+def _edit_chassis(spec: mujoco.MjSpec, plant: PlantSettings, R: float, b: float) -> float:
+    """Put the chassis origin at hub height ``R`` (m) with everything below it at its height above ground,
+    the axle drawn across the half track ``b`` (m), the mass (kg) and the centre of mass between axle and
+    caster; returns the chassis mass (kg)."""
     chassis = spec.body("chassis")
     R_file = float(chassis.pos[2])  # the file's nominal hub height = its wheel radius
     dz = R - R_file
 
-    # Chassis: origin at the axle midpoint at hub height R; everything below keeps its height above ground.
     chassis.pos = [chassis.pos[0], chassis.pos[1], R]
     for g in spec.geoms:
         if g.parent is not None and g.parent.name == "chassis" and g.name not in ("axle_visual",):
@@ -95,51 +107,53 @@ def _edit_spec(spec: mujoco.MjSpec, plant: PlantConfig, robot: RobotConfig) -> N
     chassis.ipos = ipos
     chassis.inertia = np.array(chassis.inertia, dtype=float) * (m_c / m_c_file)
     chassis.mass = m_c
-
-    for side, y in (("right", -b), ("left", b)):
-        hub = spec.body(f"hub_{side}")
-        hub.pos = [0.0, y, 0.0]
-        tyre = spec.body(f"tyre_{side}")
-        m_w = float(plant.wheel_mass or tyre.mass)
-        tyre.mass = m_w
-        tyre.inertia = [m_w * R * R / 4.0, m_w * R * R / 2.0, m_w * R * R / 4.0]  # uniform disc
-        sphere = spec.geom(f"wheel_{side}")
-        sphere.size = [R, 0.0, 0.0]
-        if plant.tyre_friction is not None:
-            sphere.friction = [float(plant.tyre_friction), sphere.friction[1], sphere.friction[2]]
-        visual = spec.geom(f"wheel_{side}_visual")
-        visual.size = [R, visual.size[1], 0.0]
-        spoke = spec.geom(f"wheel_{side}_spoke")
-        if spoke is not None:
-            spoke.size = [0.9 * R, spoke.size[1], spoke.size[2]]
-        act = spec.actuator(f"act_{side}")
-        if plant.actuator_gain is not None:
-            kv = float(plant.actuator_gain)
-            gp = np.array(act.gainprm, dtype=float)
-            bp = np.array(act.biasprm, dtype=float)
-            gp[0], bp[2] = kv, -kv
-            act.gainprm, act.biasprm = gp, bp
-        act.ctrlrange = [-float(robot.omega_max), float(robot.omega_max)]
-
-        slide = spec.joint(f"slide_{side}")
-        if plant.variant == "rigid":
-            spec.delete(slide)
-        else:
-            # Preloaded soft spring: force = -k (q - springref) = -F at q = 0 (hub pushed down with F).
-            k = float(np.atleast_1d(slide.stiffness)[0])
-            if k <= 0:
-                raise BadInput(f"plant.model_file: slide_{side} needs a positive stiffness")
-            F = 0.5 * lam * m_c * GRAVITY
-            slide.springref = -F / k
-
-    caster = spec.geom("caster")
-    mu_c = float(plant.caster_friction)
-    caster.friction = [mu_c, 0.0, 0.0]
-    caster.condim = 1 if mu_c == 0.0 else 3
+    return m_c
 
 
-def build_model(plant: PlantConfig, robot: RobotConfig) -> mujoco.MjModel:
-    """Load ``plant.model_file``, apply the config's static edits and compile.
+def _edit_wheel(spec: mujoco.MjSpec, plant: PlantSettings, robot: RobotSettings, side: str, y: float,
+                R: float) -> None:
+    """One wheel: hub at lateral offset ``y`` (m), tyre of radius ``R`` (m) with its mass (kg) and disc
+    inertia, friction, drawn size, and its servo's gain (N m s/rad) and rate range (rad/s)."""
+    hub = spec.body(f"hub_{side}")
+    hub.pos = [0.0, y, 0.0]
+    tyre = spec.body(f"tyre_{side}")
+    m_w = float(plant.wheel_mass or tyre.mass)
+    tyre.mass = m_w
+    tyre.inertia = [m_w * R * R / 4.0, m_w * R * R / 2.0, m_w * R * R / 4.0]  # uniform disc
+    sphere = spec.geom(f"wheel_{side}")
+    sphere.size = [R, 0.0, 0.0]
+    if plant.tyre_friction is not None:
+        sphere.friction = [float(plant.tyre_friction), sphere.friction[1], sphere.friction[2]]
+    visual = spec.geom(f"wheel_{side}_visual")
+    visual.size = [R, visual.size[1], 0.0]
+    spoke = spec.geom(f"wheel_{side}_spoke")
+    if spoke is not None:
+        spoke.size = [0.9 * R, spoke.size[1], spoke.size[2]]
+    act = spec.actuator(f"act_{side}")
+    if plant.actuator_gain is not None:
+        kv = float(plant.actuator_gain)
+        gp = np.array(act.gainprm, dtype=float)
+        bp = np.array(act.biasprm, dtype=float)
+        gp[0], bp[2] = kv, -kv
+        act.gainprm, act.biasprm = gp, bp
+    act.ctrlrange = [-float(robot.omega_max), float(robot.omega_max)]
+
+
+def _edit_slide(spec: mujoco.MjSpec, plant: PlantSettings, side: str, F: float) -> None:
+    """The wheel's slide: deleted on the rigid variant, else its spring preloaded to push the hub down with
+    ``F`` (N) at q = 0 (force = -k (q - springref))."""
+    slide = spec.joint(f"slide_{side}")
+    if plant.variant == "rigid":
+        spec.delete(slide)
+        return
+    k = float(np.atleast_1d(slide.stiffness)[0])
+    if k <= 0:
+        raise BadInput(f"plant.model_file: slide_{side} needs a positive stiffness")
+    slide.springref = -F / k
+
+
+def build_model(plant: PlantSettings, robot: RobotSettings) -> mujoco.MjModel:
+    """Load ``plant.model_file``, apply the settings' static edits and compile.
 
     Raises :class:`~ftc_mj.errors.BadInput` (message starting with ``plant.model_file``) when the file is missing,
     unparsable, lacks a required name, or does not compile.

@@ -19,6 +19,21 @@ from bisect import bisect_right
 from collections.abc import Iterable, Sequence
 
 from ..errors import BadInput
+from .settings import FaultSettings
+
+EPS_T = 1e-9
+"""Tolerance (s): schedules are looked up at ``k * dt + EPS_T`` so that breakpoints on step times are hit
+robustly."""
+
+_WHEEL_INDEX = {"right": 0, "r": 0, "R": 0, "left": 1, "l": 1, "L": 1}
+
+
+def wheel_index(wheel: str) -> int:
+    """0 for ``"right"``/``"R"``, 1 for ``"left"``/``"L"``; ``ValueError`` otherwise."""
+    try:
+        return _WHEEL_INDEX[wheel]
+    except KeyError:
+        raise ValueError(f"wheel must be 'right' or 'left' (or 'R'/'L'), got {wheel!r}") from None
 
 
 def schedule_onset(breakpoints: Sequence[Sequence[float]], nominal: float) -> float | None:
@@ -135,3 +150,9 @@ class RadiusSchedule:
 
     def __repr__(self) -> str:
         return f"RadiusSchedule({self.breakpoints!r}, nominal={self.nominal})"
+
+
+def wheel_schedules(faults: FaultSettings, nominal: float) -> tuple[RadiusSchedule, RadiusSchedule]:
+    """The radius schedules ``(right, left)`` of the fault settings around the ``nominal`` radius (m)."""
+    return (RadiusSchedule(faults.right, nominal, "faults.right"),
+            RadiusSchedule(faults.left, nominal, "faults.left"))

@@ -14,43 +14,40 @@ windows where a fault schedule changes, each physics step is one RK4 step of
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
-from ..config import RunConfig, from_sections
 from ..model.kinematics import body_rates, inverse_rates, pose_rates
-from .faults import RadiusSchedule
-from .robot import _EPS_T, Plant, wheel_index
-from .truth import Truth, flag_names
+from .faults import EPS_T, RadiusSchedule, wheel_index, wheel_schedules
+from .settings import FaultSettings, PlantSettings, RobotSettings, plant_geometry
+from .truth import Truth, describe_flags
 
 
 class KinematicPlant:
-    """The kinematic model as a plant (see module docstring). ``cfg`` as for :class:`~ftc_mj.plant.robot.Plant`."""
+    """The kinematic model as a plant (see module docstring); settings as for :class:`~ftc_mj.plant.robot.Plant`
+    (of the plant settings it reads the timestep, the geometry overrides and the initial pose)."""
 
     kind = "kinematic"
     model = None
     data = None
+    describe_flags = staticmethod(describe_flags)
 
-    def __init__(self, cfg: RunConfig) -> None:
-        self.cfg = cfg
-        self.dt: float = float(cfg.plant.timestep)
-        self.nominal_radius: float = float(cfg.plant_wheel_radius)
-        self.half_track: float = float(cfg.plant_half_track)
-        self.omega_max: float = float(cfg.robot.omega_max)
-        self.schedules: tuple[RadiusSchedule, RadiusSchedule] = (
-            RadiusSchedule(cfg.faults.right, self.nominal_radius, "faults.right"),
-            RadiusSchedule(cfg.faults.left, self.nominal_radius, "faults.left"),
-        )
+    def __init__(self, plant: PlantSettings, robot: RobotSettings, faults: FaultSettings) -> None:
+        self.settings = plant
+        self.dt: float = float(plant.timestep)
+        self.nominal_radius, self.half_track = (float(v) for v in plant_geometry(plant, robot))
+        self.omega_max: float = float(robot.omega_max)
+        self.initial_pose: tuple[float, float, float] = tuple(float(v) for v in plant.initial_pose)  # type: ignore[assignment]
+        self.schedules: tuple[RadiusSchedule, RadiusSchedule] = wheel_schedules(faults, self.nominal_radius)
         self.reset()
 
     def reset(self) -> None:
-        """Back to t = 0 at ``cfg.plant.initial_pose``, commands zero, radii from the schedules at t = 0."""
-        x0, y0, psi0 = (float(v) for v in self.cfg.plant.initial_pose)
+        """Back to t = 0 at ``plant.initial_pose``, commands zero, radii from the schedules at t = 0."""
+        x0, y0, psi0 = self.initial_pose
         self._pose = [x0, y0, psi0]
         self._k = 0
         self._cmd = [0.0, 0.0]
-        self._radius = [s.value(_EPS_T) for s in self.schedules]
+        self._radius = [s.value(EPS_T) for s in self.schedules]
 
     @property
     def time(self) -> float:
@@ -77,11 +74,6 @@ class KinematicPlant:
         """The (clipped) commands ``(omega_R, omega_L)`` (rad/s)."""
         return self._cmd[0], self._cmd[1]
 
-    @staticmethod
-    def describe_flags(flags: int) -> str:
-        """Comma-separated names of the bits in a :attr:`Truth.flags` value (``"none"`` for 0)."""
-        return ", ".join(flag_names(flags)) or "none"
-
     def set_command(self, omega_R: float, omega_L: float) -> None:
         """Wheel rates (rad/s), clipped to ``±omega_max``; NaN becomes 0."""
         lim = self.omega_max
@@ -103,6 +95,7 @@ class KinematicPlant:
         self._radius[wheel_index(wheel)] = r
 
     def _arc(self, T: float) -> None:
+        """Move along the exact arc of the held commands and radii for ``T`` seconds."""
         x, y, psi = self._pose
         V, w = body_rates(self._radius[0], self._radius[1], self._cmd[0], self._cmd[1], self.half_track)
         h = 0.5 * w * T
@@ -111,6 +104,7 @@ class KinematicPlant:
         self._pose = [x + V * T * sinc * math.cos(mid), y + V * T * sinc * math.sin(mid), psi + w * T]
 
     def _rk4(self, dt: float) -> None:
+        """One classical Runge-Kutta step of ``dt`` seconds of the pose kinematics (radii held over the step)."""
         b, (R_R, R_L), (wR, wL) = self.half_track, self._radius, self._cmd
 
         def f(p: np.ndarray) -> np.ndarray:
@@ -129,8 +123,8 @@ class KinematicPlant:
         if n <= 0:
             return
         k0, dt = self._k, self.dt
-        t0 = k0 * dt + _EPS_T
-        t1 = (k0 + n - 1) * dt + _EPS_T
+        t0 = k0 * dt + EPS_T
+        t1 = (k0 + n - 1) * dt + EPS_T
         sR, sL = self.schedules
         for i, s in enumerate(self.schedules):
             if s.active and t0 <= s.end_time + dt:
@@ -139,7 +133,7 @@ class KinematicPlant:
             self._arc(n * dt)
         else:
             for j in range(n):
-                t = (k0 + j) * dt + _EPS_T
+                t = (k0 + j) * dt + EPS_T
                 self._radius[0] = sR.value(t)
                 self._radius[1] = sL.value(t)
                 self._rk4(dt)
@@ -170,18 +164,3 @@ class KinematicPlant:
             contact_L=True,
             flags=0,
         )
-
-
-def build_plant(cfg: RunConfig) -> Plant | KinematicPlant:
-    """The plant selected by ``cfg.plant.kind``: ``"mujoco"`` -> :class:`Plant`, ``"kinematic"`` ->
-    :class:`KinematicPlant`."""
-    if cfg.plant.kind == "kinematic":
-        return KinematicPlant(cfg)
-    return Plant(cfg)
-
-
-def plant_from_settings(plant: Any = None, robot: Any = None, faults: Any = None) -> Plant | KinematicPlant:
-    """The truth plant built from its own settings, without a run config: the ``[plant]``, ``[robot]`` and
-    ``[faults]`` sections (objects, plain tables or ``None`` = the defaults; :class:`~ftc_mj.errors.BadInput`
-    naming the field). The same plant a run with these sections gets."""
-    return build_plant(from_sections(plant=plant, robot=robot, faults=faults))

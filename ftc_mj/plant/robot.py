@@ -2,9 +2,9 @@
 
 Usage pattern (the sim loop)::
 
-    plant = Plant(cfg)              # builds and compiles the model once
+    plant = Plant(cfg.plant, cfg.robot, cfg.faults)   # builds and compiles the model once
     plant.reset()
-    while plant.time < cfg.duration:
+    while plant.time < duration:
         plant.set_command(wR, wL)   # rad/s, clipped to +-omega_max, held (zero-order hold)
         plant.advance(10)           # 10 physics steps (10 ms at 1 kHz), fault schedules applied per step
         tr = plant.truth()          # Truth at plant.time (computed only here, not per step)
@@ -31,126 +31,55 @@ import math
 import mujoco
 import numpy as np
 
-from ..config import RunConfig
 from ..errors import BadInput
 from ..model.kinematics import inverse_rates
 from .builder import build_model
-from .faults import RadiusSchedule
-from .truth import LARGE_ROLL, LIFTOFF, NAN, PHYSICS_WARNING, SCRAPE, SLIP, TIPPED, UNSTABLE, Truth, flag_names
-
-_EPS_T = 1e-9  # s; schedule lookups happen at k*dt + _EPS_T so that breakpoints on step times are hit robustly
-
-_WHEEL_INDEX = {"right": 0, "r": 0, "R": 0, "left": 1, "l": 1, "L": 1}
-
-
-def wheel_index(wheel: str) -> int:
-    """0 for ``"right"``/``"R"``, 1 for ``"left"``/``"L"``; ``ValueError`` otherwise."""
-    try:
-        return _WHEEL_INDEX[wheel]
-    except KeyError:
-        raise ValueError(f"wheel must be 'right' or 'left' (or 'R'/'L'), got {wheel!r}") from None
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
-_BAD_STATE_WARNINGS = tuple(int(w) for w in (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
-                                             mujoco.mjtWarning.mjWARN_BADQACC))
-"""MuJoCo's "simulation is unstable" warnings (NaN, Inf or > 1e10 in qpos, qvel, qacc)."""
-
-
-def _drop_warning(message: str) -> None:
-    """MuJoCo warning handler: the plant reads the warning counters of ``MjData`` instead."""
-
-
-def silence_mujoco_warnings() -> None:
-    """Route MuJoCo's warning texts to a handler that drops them, instead of MuJoCo's default, which prints
-    them and appends them to ``MUJOCO_LOG.TXT`` in the current working directory. Process-wide and
-    idempotent; the counters in ``MjData.warning`` (and so the plant's flags) are unaffected."""
-    if mujoco.get_mju_user_warning() is not _drop_warning:
-        mujoco.set_mju_user_warning(_drop_warning)
+from .faults import EPS_T, RadiusSchedule, wheel_index, wheel_schedules
+from .layout import model_layout
+from .mujoco_truth import attitude, axle_motion, chassis_rotation, domain_flags, world_rate, wrap_angle
+from .physics_warnings import BAD_STATE_WARNINGS, silence_mujoco_warnings
+from .settings import FaultSettings, PlantSettings, RobotSettings, plant_geometry
+from .truth import NAN, PHYSICS_WARNING, UNSTABLE, Truth, describe_flags
 
 
 class Plant:
     """The MuJoCo truth plant of one run.
 
     Args:
-        cfg: the run config; uses ``cfg.plant`` (model, variant, timestep, limits), ``cfg.robot`` (nominal radius,
-            half track, rate limit) and ``cfg.faults`` (radius schedules of the right and left wheel).
+        plant: the plant settings (model file, variant, timestep, geometry overrides, initial pose, flag
+            limits; :class:`~ftc_mj.plant.settings.PlantSettings`).
+        robot: the robot settings (nominal radius and half track, m; rate limit, rad/s).
+        faults: the radius schedules of the right and left wheel.
     """
 
     kind = "mujoco"
+    describe_flags = staticmethod(describe_flags)
 
-    def __init__(self, cfg: RunConfig) -> None:
-        self.cfg = cfg
-        pc = cfg.plant
+    def __init__(self, plant: PlantSettings, robot: RobotSettings, faults: FaultSettings) -> None:
+        self.settings = plant
         silence_mujoco_warnings()
-        self.model: mujoco.MjModel = build_model(pc, cfg.robot)
+        self.model: mujoco.MjModel = build_model(plant, robot)
+        self.nominal_radius, self.half_track = (float(v) for v in plant_geometry(plant, robot))
+        self.omega_max: float = float(robot.omega_max)
         try:
-            self._setup(cfg)
+            self._setup(plant, faults)
         except mujoco.FatalError as err:  # the model is too large for MuJoCo's arena or stack
             why = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-            raise BadInput(f"plant.model_file: {pc.model_file}: MuJoCo cannot simulate it: {why}") from None
+            raise BadInput(f"plant.model_file: {plant.model_file}: MuJoCo cannot simulate it: {why}") from None
 
-    def _setup(self, cfg: RunConfig) -> None:
+    def _setup(self, pc: PlantSettings, faults: FaultSettings) -> None:
         """Allocate the data, look up every named element, reset (the part of construction that runs MuJoCo)."""
-        pc = cfg.plant
         self.data: mujoco.MjData = mujoco.MjData(self.model)
         self._scratch = mujoco.MjData(self.model)  # mj_setConst overwrites the qpos of the data it is given
         m = self.model
         self.dt: float = float(m.opt.timestep)
-        self.nominal_radius: float = float(cfg.plant_wheel_radius)
-        self.half_track: float = float(cfg.plant_half_track)
-        self.omega_max: float = float(cfg.robot.omega_max)
         self.variant: str = pc.variant
         self.reseat_default: bool = bool(pc.reseat_hub)
-        self.schedules: tuple[RadiusSchedule, RadiusSchedule] = (
-            RadiusSchedule(cfg.faults.right, self.nominal_radius, "faults.right"),
-            RadiusSchedule(cfg.faults.left, self.nominal_radius, "faults.left"),
-        )
-        # ---- ids and addresses (by name: the MJCF contract)
-        self._g_sphere = (m.geom("wheel_right").id, m.geom("wheel_left").id)
-        self._g_visual = (m.geom("wheel_right_visual").id, m.geom("wheel_left_visual").id)
-        spokes = []
-        for side in ("right", "left"):
-            try:
-                spokes.append(m.geom(f"wheel_{side}_spoke").id)
-            except KeyError:
-                spokes.append(-1)
-        self._g_spoke = tuple(spokes)
-        self._visual_ratio = float(m.geom_size[self._g_visual[0], 0] / m.geom_size[self._g_sphere[0], 0])
-        self._spoke_ratio = (
-            float(m.geom_size[self._g_spoke[0], 0] / m.geom_size[self._g_sphere[0], 0]) if spokes[0] >= 0 else 0.0
-        )
-        root = m.joint("root")
-        self._root_q = int(root.qposadr[0])
-        self._root_v = int(root.dofadr[0])
-        self._hinge_v = tuple(int(m.joint(f"hinge_{s}").dofadr[0]) for s in ("right", "left"))
-        self._slide_q: tuple[int, int] | None
-        self._slide_v: tuple[int, int] | None
-        self._slide_range: tuple[tuple[float, float], tuple[float, float]] | None
-        if self.variant == "suspended":
-            js = (m.joint("slide_right"), m.joint("slide_left"))
-            self._slide_q = (int(js[0].qposadr[0]), int(js[1].qposadr[0]))
-            self._slide_v = (int(js[0].dofadr[0]), int(js[1].dofadr[0]))
-            self._slide_range = tuple((float(j.range[0]), float(j.range[1])) for j in js)  # type: ignore[assignment]
-        else:
-            self._slide_q = self._slide_v = self._slide_range = None
-        self._hub_y = (float(m.body("hub_right").pos[1]), float(m.body("hub_left").pos[1]))
-        self._act = (m.actuator("act_right").id, m.actuator("act_left").id)
-        floor = m.geom("floor").id
-        chassis_body = m.body("chassis").id
-        excluded = {floor, m.geom("caster").id, *self._g_sphere}
-        # Scrape = a colliding geom of the chassis or hubs (not the caster, not the tyres) touches the floor.
-        self._scrape_geoms = frozenset(
-            g
-            for g in range(m.ngeom)
-            if g not in excluded
-            and (m.geom_contype[g] or m.geom_conaffinity[g])
-            and m.geom_bodyid[g] != 0
-            and m.geom_bodyid[g] in {chassis_body, m.body("hub_right").id, m.body("hub_left").id}
-        )
+        self.initial_pose: tuple[float, float, float] = tuple(float(v) for v in pc.initial_pose)  # type: ignore[assignment]
+        self.schedules: tuple[RadiusSchedule, RadiusSchedule] = wheel_schedules(faults, self.nominal_radius)
+        self.layout = L = model_layout(m, self.variant)
+        self._g_sphere, self._g_visual, self._g_spoke = L.sphere_geoms, L.visual_geoms, L.spoke_geoms
+        self._root_q, self._slide_q, self._act = L.root_q, L.slide_q, L.actuators
         self._tilt_limit = math.radians(pc.tilt_limit_deg)
         self._tipped_limit = math.radians(pc.tipped_limit_deg)
         self._slip_limit = float(pc.slip_limit)
@@ -175,7 +104,7 @@ class Plant:
 
     # ------------------------------------------------------------------ state
     def reset(self) -> None:
-        """Back to t = 0: initial pose from ``cfg.plant.initial_pose``, wheels resting on the floor, at rest, radii
+        """Back to t = 0: initial pose from ``plant.initial_pose``, wheels resting on the floor, at rest, radii
         from the fault schedules at t = 0, commands zero, flags cleared."""
         m, d = self.model, self.data
         mujoco.mj_resetData(m, d)
@@ -184,7 +113,7 @@ class Plant:
         for i in (0, 1):
             self._write_radius(i, self.nominal_radius)
         self._refresh_bounds()
-        x0, y0, psi0 = (float(v) for v in self.cfg.plant.initial_pose)
+        x0, y0, psi0 = self.initial_pose
         q = self._root_q
         d.qpos[q : q + 7] = (x0, y0, self.nominal_radius, math.cos(psi0 / 2), 0.0, 0.0, math.sin(psi0 / 2))
         if self._slide_q is not None:
@@ -194,9 +123,9 @@ class Plant:
         self._frozen = False
         self._sticky = 0
         self._psi = psi0
-        self._psi_raw = _wrap(psi0)
+        self._psi_raw = wrap_angle(psi0)
         for i, s in enumerate(self.schedules):
-            r = s.value(_EPS_T)
+            r = s.value(EPS_T)
             if r != self._radius[i]:
                 self.set_wheel_radius("right" if i == 0 else "left", r, reseat=True)
         d.ctrl[:] = 0.0
@@ -209,14 +138,14 @@ class Plant:
         ``yaw_rate`` (rad/s), wheels spinning at the rolling rates and the servos commanded to them, so that a run can
         begin on the path at the reference speed instead of from rest (the torque limit allows only about 4 m/s^2)."""
         m, d = self.model, self.data
-        q, dv = self._root_q, self._root_v
+        q, dv = self._root_q, self.layout.root_v
         qw, qz = d.qpos[q + 3], d.qpos[q + 6]
         psi = 2.0 * math.atan2(qz, qw)
         d.qvel[dv : dv + 3] = (v * math.cos(psi), v * math.sin(psi), 0.0)
         d.qvel[dv + 3 : dv + 6] = (0.0, 0.0, yaw_rate)  # free joint: angular velocity in the body frame (level)
         wR, wL = inverse_rates(v, yaw_rate, self._radius[0], self._radius[1], self.half_track)
-        d.qvel[self._hinge_v[0]] = wR
-        d.qvel[self._hinge_v[1]] = wL
+        d.qvel[self.layout.hinge_v[0]] = wR
+        d.qvel[self.layout.hinge_v[1]] = wL
         self.set_command(wR, wL)
         mujoco.mj_forward(m, d)
         self._save_good()
@@ -256,11 +185,12 @@ class Plant:
         return float(self.data.ctrl[self._act[0]]), float(self.data.ctrl[self._act[1]])
 
     def _write_radius(self, i: int, r: float) -> None:
+        """Size the collision sphere, the drawn tyre and the spoke of wheel ``i`` for radius ``r`` (m)."""
         gs = self._geom_size
         gs[self._g_sphere[i], 0] = r
-        gs[self._g_visual[i], 0] = r * self._visual_ratio
+        gs[self._g_visual[i], 0] = r * self.layout.visual_ratio
         if self._g_spoke[i] >= 0:
-            gs[self._g_spoke[i], 0] = r * self._spoke_ratio
+            gs[self._g_spoke[i], 0] = r * self.layout.spoke_ratio
 
     def _refresh_bounds(self) -> None:
         """Recompute the geoms' bounding volumes (rbound, aabb, BVH) for the current sizes. ``mj_setConst``
@@ -273,8 +203,8 @@ class Plant:
 
         Refreshes the derived bounds with ``mj_setConst`` on a scratch ``MjData`` whenever the radius grows beyond
         the one the bounds were computed for (else the broadphase would cull real contacts). Shrinking keeps the
-        larger bounds, which is conservative (the broadphase only tests a few more pairs) and makes a per-step ramp
-        cost ~2 µs instead of ~9 µs per step; :meth:`reset` and any growth recompute them.
+        larger bounds, which is conservative (the broadphase only tests a few more pairs) and keeps a per-step ramp
+        cheap; :meth:`reset` and any growth recompute them.
 
         With ``reseat`` (suspended variant only) the hub moves along its slide by the radius change and the strut's
         spring reference moves with it (a levelling suspension), so the tyre stays on the floor with the same
@@ -296,17 +226,13 @@ class Plant:
     def _apply_radius(self, i: int, r: float, reseat: bool) -> None:
         """:meth:`set_wheel_radius` for wheel index ``i`` and a valid radius ``r`` (the per-step path of a ramp)."""
         dr = r - self._radius[i]
-        gs = self._geom_size
-        gs[self._g_sphere[i], 0] = r
-        gs[self._g_visual[i], 0] = r * self._visual_ratio
-        if self._g_spoke[i] >= 0:
-            gs[self._g_spoke[i], 0] = r * self._spoke_ratio
+        self._write_radius(i, r)
         self._radius[i] = r
         if r > self._bound_radius[i]:
             self._refresh_bounds()
         if reseat and self._slide_q is not None and dr != 0.0:
             a = self._slide_q[i]
-            lo, hi = self._slide_range[i]  # type: ignore[index]
+            lo, hi = self.layout.slide_range[i]  # type: ignore[index]
             qpos = self._qpos
             q = qpos[a] + dr
             qpos[a] = lo if q < lo else (hi if q > hi else q)
@@ -327,8 +253,8 @@ class Plant:
             self._k = k0 + n
             d.time = self._k * dt
             return
-        t0 = k0 * dt + _EPS_T
-        t1 = (k0 + n - 1) * dt + _EPS_T
+        t0 = k0 * dt + EPS_T
+        t1 = (k0 + n - 1) * dt + EPS_T
         sR, sL = self.schedules
         reseat = self.reseat_default
         # Values at the window start (covers steps exactly at t0 and the end of a ramp).
@@ -347,7 +273,7 @@ class Plant:
             step = mujoco.mj_step
             vR, vL = sR.value, sL.value
             for j in range(n):
-                t = (k0 + j) * dt + _EPS_T
+                t = (k0 + j) * dt + EPS_T
                 if chR:
                     r = vR(t)
                     if r != radius[0]:
@@ -362,8 +288,8 @@ class Plant:
         # sum() of a list is NaN if any entry is NaN or +-inf (much cheaper than numpy for these short vectors)
         finite = math.isfinite(sum(self._qvel.tolist())) and math.isfinite(sum(self._qpos.tolist()))
         warn = self._warning_number
-        if finite and not (warn[_BAD_STATE_WARNINGS[0]] or warn[_BAD_STATE_WARNINGS[1]]
-                           or warn[_BAD_STATE_WARNINGS[2]]):
+        if finite and not (warn[BAD_STATE_WARNINGS[0]] or warn[BAD_STATE_WARNINGS[1]]
+                           or warn[BAD_STATE_WARNINGS[2]]):
             self._save_good()
             return
         d.qpos[:] = self._qpos_good
@@ -387,92 +313,31 @@ class Plant:
         """The true state at :attr:`time` (see :class:`~ftc_mj.plant.truth.Truth` for definitions).
 
         Pose and velocities come directly from ``qpos``/``qvel`` (exact at the current time); contacts are those of
-        the last physics step. Call at the estimator rate (it costs about 12 µs), not per physics step. The heading is
-        unwrapped between calls, so call it at least once per half turn of the robot (any sim loop does).
+        the last physics step. Call it at the estimator rate, not per physics step. The heading is unwrapped between
+        calls, so call it at least once per half turn of the robot (any sim loop does).
         """
-        d = self.data
         if not self._sticky & PHYSICS_WARNING and any(self._warning_number.tolist()):
             self._sticky |= PHYSICS_WARNING
-        qp = self._qpos
-        qv = self._qvel
-        qp = qp.tolist()
-        qv = qv.tolist()
-        a = self._root_q
-        px, py, pz, w, qx, qy, qz = qp[a : a + 7]
-        nq = math.sqrt(w * w + qx * qx + qy * qy + qz * qz) or 1.0
-        w, qx, qy, qz = w / nq, qx / nq, qy / nq, qz / nq
-        # rotation matrix (world <- chassis)
-        r00 = 1 - 2 * (qy * qy + qz * qz)
-        r01 = 2 * (qx * qy - w * qz)
-        r02 = 2 * (qx * qz + w * qy)
-        r10 = 2 * (qx * qy + w * qz)
-        r11 = 1 - 2 * (qx * qx + qz * qz)
-        r12 = 2 * (qy * qz - w * qx)
-        r20 = 2 * (qx * qz - w * qy)
-        r21 = 2 * (qy * qz + w * qx)
-        r22 = 1 - 2 * (qx * qx + qy * qy)
-        roll = math.atan2(r21, r22)
-        pitch = math.asin(max(-1.0, min(1.0, -r20)))
-        psi_raw = math.atan2(r10, r00)
-        self._psi += _wrap(psi_raw - self._psi_raw)
+        L = self.layout
+        qp = self._qpos.tolist()
+        qv = self._qvel.tolist()
+        a, b = L.root_q, L.root_v
+        pos = qp[a : a + 3]
+        rot = chassis_rotation(qp[a + 3 : a + 7])
+        roll, pitch, psi_raw = attitude(rot)
+        self._psi += wrap_angle(psi_raw - self._psi_raw)
         self._psi_raw = psi_raw
         psi = self._psi
-        c, s = math.cos(psi), math.sin(psi)
-
-        b = self._root_v
-        vx, vy, vz, lx, ly, lz = qv[b : b + 6]
-        # world angular velocity of the chassis
-        wx = r00 * lx + r01 * ly + r02 * lz
-        wy = r10 * lx + r11 * ly + r12 * lz
-        wz = r20 * lx + r21 * ly + r22 * lz
-
-        if self._slide_q is not None:
-            qs = (qp[self._slide_q[0]], qp[self._slide_q[1]])
-            qsd = (qv[self._slide_v[0]], qv[self._slide_v[1]])  # type: ignore[index]
+        spin = world_rate(rot, qv[b + 3 : b + 6])
+        if L.slide_q is not None:
+            qs = (qp[L.slide_q[0]], qp[L.slide_q[1]])
+            qsd = (qv[L.slide_v[0]], qv[L.slide_v[1]])  # type: ignore[index]
         else:
             qs = qsd = (0.0, 0.0)
-        hubs = []
-        slips = []
-        omegas = (qv[self._hinge_v[0]], qv[self._hinge_v[1]])
-        for i in (0, 1):
-            ay, az = self._hub_y[i], qs[i]
-            # hub offset in world: R (0, ay, az)
-            ox, oy, oz = r01 * ay + r02 * az, r11 * ay + r12 * az, r21 * ay + r22 * az
-            hx, hy, hz = px + ox, py + oy, pz + oz
-            # hub velocity: v + w x o + R e_z qdot
-            hvx = vx + (wy * oz - wz * oy) + r02 * qsd[i]
-            hvy = vy + (wz * ox - wx * oz) + r12 * qsd[i]
-            hvz = vz + (wx * oy - wy * ox) + r22 * qsd[i]
-            # wheel angular velocity: chassis + R e_y * omega
-            Wx = wx + r01 * omegas[i]
-            Wy = wy + r11 * omegas[i]
-            r = self._radius[i]
-            # lowest point of the sphere: hub - r e_z; velocity = v_hub + W x (0, 0, -r)
-            cvx = hvx - r * Wy
-            cvy = hvy + r * Wx
-            slips.append(-(cvx * c + cvy * s))
-            hubs.append((hx, hy, hz, hvx, hvy, hvz))
-        x = 0.5 * (hubs[0][0] + hubs[1][0])
-        y = 0.5 * (hubs[0][1] + hubs[1][1])
-        v = 0.5 * ((hubs[0][3] + hubs[1][3]) * c + (hubs[0][4] + hubs[1][4]) * s)
-
-        geoms = set(d.contact.geom.ravel().tolist()) if d.ncon else set()
-        contact_R = self._g_sphere[0] in geoms
-        contact_L = self._g_sphere[1] in geoms
-        flags = self._sticky
-        if not (contact_R and contact_L):
-            flags |= LIFTOFF
-        if geoms & self._scrape_geoms:
-            flags |= SCRAPE
-        tilt = max(abs(roll), abs(pitch))
-        if tilt > self._tilt_limit:
-            flags |= LARGE_ROLL
-        if tilt > self._tipped_limit or r22 < 0.0:
-            flags |= TIPPED
-        if abs(slips[0]) > self._slip_limit or abs(slips[1]) > self._slip_limit:
-            flags |= SLIP
-        vals = (x, y, psi, v, wz, roll, pitch, pz)
-        if not all(math.isfinite(q) for q in vals):
+        omegas = (qv[L.hinge_v[0]], qv[L.hinge_v[1]])
+        x, y, v, slips = axle_motion(rot, pos, qv[b : b + 3], spin, psi, L.hub_y, qs, qsd, omegas, self._radius)
+        flags, contact_R, contact_L = self._flags(roll, pitch, rot[8], slips)
+        if not all(math.isfinite(q) for q in (x, y, psi, v, spin[2], roll, pitch, pos[2])):
             flags |= NAN
         return Truth(
             t=self._k * self.dt,
@@ -480,14 +345,14 @@ class Plant:
             y=y,
             psi=psi,
             v=v,
-            yaw_rate=wz,
+            yaw_rate=spin[2],
             omega_R=omegas[0],
             omega_L=omegas[1],
             R_R=self._radius[0],
             R_L=self._radius[1],
             roll=roll,
             pitch=pitch,
-            z_chassis=pz,
+            z_chassis=pos[2],
             slip_R=slips[0],
             slip_L=slips[1],
             contact_R=contact_R,
@@ -495,10 +360,16 @@ class Plant:
             flags=flags,
         )
 
-    @staticmethod
-    def describe_flags(flags: int) -> str:
-        """Comma-separated names of the bits in a :attr:`Truth.flags` value (``"none"`` for 0)."""
-        return ", ".join(flag_names(flags)) or "none"
+    def _flags(self, roll: float, pitch: float, upright: float, slips: list[float]) -> tuple[int, bool, bool]:
+        """The flags of this state (sticky ones included) and whether each tyre touched the floor in the last
+        physics step (``roll``, ``pitch`` in rad; ``upright``: r22 of the chassis rotation; slip speeds in m/s)."""
+        d = self.data
+        geoms = set(d.contact.geom.ravel().tolist()) if d.ncon else set()
+        contact_R = self._g_sphere[0] in geoms
+        contact_L = self._g_sphere[1] in geoms
+        flags = self._sticky | domain_flags(contact_R, contact_L, bool(geoms & self.layout.scrape_geoms), roll, pitch,
+                                            upright, slips, self._tilt_limit, self._tipped_limit, self._slip_limit)
+        return flags, contact_R, contact_L
 
     def forward(self) -> None:
         """Recompute all derived quantities (``xpos``, contacts, sensors) for the current state: call before

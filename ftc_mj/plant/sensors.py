@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import SensorConfig
+from .settings import SensorSettings
 from .truth import Truth
 
 _N_DRAWS = 9  # speed, yaw rate, position x, position y, omega_R, omega_L, pose x, pose y, pose psi
@@ -46,11 +46,12 @@ class Sensors:
     """The run's sensors with their own seeded ``numpy.random.Generator``.
 
     Args:
-        cfg: ``RunConfig.sensors`` (noise levels in SI units; ``None`` = sensor absent).
+        cfg: the sensor settings (noise levels in SI units; ``None`` = sensor absent;
+            :class:`~ftc_mj.plant.settings.SensorSettings`).
         seed: seed of the generator; the same config and seed give the same readings.
     """
 
-    def __init__(self, cfg: SensorConfig, seed: int) -> None:
+    def __init__(self, cfg: SensorSettings, seed: int) -> None:
         self.cfg = cfg
         self.seed = int(seed)
         self._fix_period = 1.0 / float(cfg.position_rate)

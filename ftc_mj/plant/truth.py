@@ -43,6 +43,11 @@ def flag_names(flags: int) -> list[str]:
     return [name for bit, name in FLAG_NAMES.items() if flags & bit]
 
 
+def describe_flags(flags: int) -> str:
+    """Comma-separated names of the bits in a :attr:`Truth.flags` value (``"none"`` for 0)."""
+    return ", ".join(flag_names(flags)) or "none"
+
+
 @dataclass(slots=True)
 class Truth:
     """Ground truth of the plant at time ``t``. SI units, radians.

@@ -12,7 +12,7 @@ hold) between controller samples. At estimator step ``k`` (time ``t_k``):
 3. on a controller sample, the controller solves from the pose the sensors read at ``t_k`` (the true
    pose, plus ``sensors.pose_sigma`` noise drawn by :class:`~ftc_mj.plant.Sensors`) with the radii chosen by
    the reconfiguration policy (a robust NMPC with ``posterior`` weighting is first handed the filter's
-   scenario weights, :mod:`.scenario_weights`) (optionally dithered while a fault is suspected but not
+   scenario weights, :mod:`ftc_mj.reconfiguration.scenario_weights`) (optionally dithered while a fault is suspected but not
    isolated), and its command is applied from ``t_k``;
 4. one trace row is stored; the plant advances to ``t_{k+1}``.
 
@@ -38,13 +38,12 @@ from ..estimation.decision import FaultDecision
 from ..estimation.factory import build_estimator
 from ..estimation.pcrb import pcrb_columns
 from ..plant import Sensors
+from ..reconfiguration.factory import build_policy, build_scenario_weighting
 from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
 from .cache import controller_for, plant_for
 from .columns import BASE_COLUMNS, COVARIANCE_COLUMNS, STATE, WHEEL_CODES
 from .metrics import fault_onsets
-from .reconfig import build_policy
-from .scenario_weights import ScenarioWeighting
 
 
 @dataclass
@@ -151,7 +150,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
     estimator = build_estimator(cfg)
     decision = FaultDecision(cfg) if estimator is not None else None
     feedback = build_policy(cfg, with_estimator=estimator is not None)
-    weighting = ScenarioWeighting.for_config(cfg)  # robust NMPC re-weighted by the filter (None: as configured)
+    weighting = build_scenario_weighting(cfg)  # robust NMPC re-weighted by the filter (None: as configured)
     exc = cfg.reconfiguration.excitation
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)

@@ -65,13 +65,14 @@ def test_limits_match_a_hand_derivation_from_the_xml(limits) -> None:
           f"{limits.braking_trade:.3f}, yaw compliance {limits.yaw_compliance:.4f} s/m")
 
 
-def test_plant_lifts_its_inner_wheel_near_the_derived_limit_and_turns_by_the_compliance(limits) -> None:
+def test_plant_lifts_its_inner_wheel_near_the_derived_limit_and_turns_by_the_compliance(
+        limits, default_plant: Plant) -> None:
     """Quasi-static ramp of the commanded lateral acceleration (0.1 m/s² per s) at 10 m/s on the MuJoCo plant:
     (1) the yaw rate lags the command by the derived compliance, psidot_cmd / psidot = 1 + c V, within 3 % (the
     servo's own dynamics and the tyres' creep are neglected in the derivation); (2) the inner wheel leaves the
     ground at an actual lateral acceleration within [1.0, 1.15] of the derived traction limit (measured 1.065:
     the derivation shares the lateral force in proportion to the loads and neglects the chassis roll)."""
-    p = Plant(RunConfig())
+    p = default_plant
     V, a_cmd = 10.0, 2.5
     p.set_motion(V, a_cmd / V)
     ratio, onset = [], None

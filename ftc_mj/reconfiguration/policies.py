@@ -21,9 +21,7 @@ Built-in policies:
     conditioned on the other radius being nominal); radii are clamped to [``min_radius``, nominal] and rate-limited to
     ``max_rate`` — and an isolated wheel's radius *grows* by at most ``max_growth_rate``: a punctured
     tyre does not re-inflate, and an estimate that climbs back quickly is the filter leaving the
-    kinematic model's domain (measured in scenario 3: while the robot lifted a wheel the UKF's R_L
-    ran from 1.0 to 2.7 m in 0.7 s with consistent innovations, and handing that over kept the wheel
-    lifted for seconds). A declared but unidentified fault *holds* the radii in use. Filter trouble
+    kinematic model's domain (a lifted wheel; the measured case is in docs/findings.md). A declared but unidentified fault *holds* the radii in use. Filter trouble
     *reverts* to the radii handed over (as rate-limited, i.e. as the controller used them) at least
     ``trust_lag`` before it (or nominal); a withdrawn decision reverts to nominal.
 ``truth``
@@ -43,15 +41,39 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections import deque
 from enum import IntEnum
+from typing import Any, Protocol
 
 import numpy as np
 
-from ..config import RunConfig
+from ..context import RunContext
 from ..estimation.base import FilterOutput
 from ..estimation.decision import DecisionState
 from ..estimation.observability import radius_directions
 from ..registry import BUILTIN, policies
 from ..telemetry import Event
+
+
+class SafeSettings(Protocol):
+    """What the ``safe`` policy reads of its settings (the ``[reconfiguration]`` section)."""
+
+    min_radius: float
+    """Lower clamp (m) of a handed-over radius."""
+    max_sigma: float
+    """Largest σ (m) of each radius and of the split accepted for hand-over."""
+    max_rate: float
+    """Largest change (m/s) of a handed-over radius."""
+    max_growth_rate: float
+    """Largest increase (m/s) of an isolated wheel's radius."""
+    condition_on_healthy: bool
+    """Hand over the isolated wheel's estimate conditioned on the other radius being nominal."""
+    nis_window: float
+    """Window (s) of the mean NIS."""
+    max_nis_ratio: float
+    """Mean NIS per measurement above which the filter is inconsistent."""
+    spike_nis_ratio: float
+    """NIS per measurement since the last solve above which the radii are held."""
+    trust_lag: float
+    """Age (s) of the last trusted radii a revert goes back to."""
 
 
 class ReconfigState(IntEnum):
@@ -74,15 +96,20 @@ class ReconfigurationPolicy(ABC):
     :meth:`radii` at every controller sample; ``state`` (a :class:`ReconfigState` value) is logged in
     the ``reconfig_state`` column at every step and ``events`` (:class:`~ftc_mj.telemetry.Event`)
     are the run's events. Subclasses override :meth:`radii` (and :meth:`observe` if they keep a
-    history); ``self.nominal`` (the model's nominal radii) and ``self.floor`` (the estimator's
-    ``min_radius``, m) are set here from the run config.
+    history); ``self.settings`` (the policy's settings: the ``[reconfiguration]`` section),
+    ``self.nominal`` (the model's nominal radii, m) and ``self.floor`` (the estimator's ``min_radius``, m)
+    are set here from the settings and the :class:`~ftc_mj.context.RunContext`.
     """
 
     initial_state = ReconfigState.NOMINAL
 
-    def __init__(self, cfg: RunConfig) -> None:
-        self.nominal = np.full(2, cfg.model_wheel_radius)
-        self.floor = cfg.estimator.min_radius
+    def __init__(self, settings: Any, context: RunContext | None = None) -> None:
+        if not isinstance(context, RunContext):
+            raise TypeError(f"{type(self).__name__}: ReconfigurationPolicy(cfg) is the old contract; take (settings, "
+                            "context) and call super().__init__(settings, context) (docs/plugins.md)")
+        self.settings = settings
+        self.nominal = np.array(context.nominal_radii, dtype=float)
+        self.floor = context.min_radius
         self.state: int = self.initial_state
         self.events: list[Event] = []
 
@@ -112,8 +139,8 @@ class DirectPolicy(ReconfigurationPolicy):
 
     initial_state = ReconfigState.HANDED
 
-    def __init__(self, cfg: RunConfig) -> None:
-        super().__init__(cfg)
+    def __init__(self, settings: Any, context: RunContext) -> None:
+        super().__init__(settings, context)
         self._current = self.nominal.copy()
 
     def radii(self, t: float, out: FilterOutput | None, decision: DecisionState | None, filter_reset: bool,
@@ -139,17 +166,17 @@ class TruthPolicy(ReconfigurationPolicy):
 class SafePolicy(ReconfigurationPolicy):
     """``safe``: gated, clamped, rate-limited hand-over with holds and reverts (module docstring)."""
 
-    def __init__(self, cfg: RunConfig) -> None:
-        super().__init__(cfg)
-        rc = cfg.reconfiguration
+    def __init__(self, settings: SafeSettings, context: RunContext) -> None:
+        super().__init__(settings, context)
+        rc = settings
         self.min_radius = rc.min_radius
         self.max_sigma = rc.max_sigma
         self.max_nis_ratio = rc.max_nis_ratio
         self.trust_lag = rc.trust_lag
         self.condition_on_healthy = rc.condition_on_healthy
-        self.max_step = rc.max_rate / cfg.controller.rate
-        self.max_grow = min(rc.max_growth_rate, rc.max_rate) / cfg.controller.rate
-        self._nis: deque[float] = deque(maxlen=max(1, round(rc.nis_window * cfg.estimator.rate)))
+        self.max_step = rc.max_rate / context.controller_rate
+        self.max_grow = min(rc.max_growth_rate, rc.max_rate) / context.controller_rate
+        self._nis: deque[float] = deque(maxlen=max(1, round(rc.nis_window * context.estimator_rate)))
         self._nis_sum = 0.0
         self.spike_nis_ratio = rc.spike_nis_ratio
         self._recent_max = 0.0
@@ -265,11 +292,3 @@ policies.register("direct", DirectPolicy, origin=BUILTIN)
 policies.register("safe", SafePolicy, origin=BUILTIN)
 policies.register("truth", TruthPolicy, origin=BUILTIN, needs_estimator=False)
 
-
-def build_policy(cfg: RunConfig, with_estimator: bool = True) -> ReconfigurationPolicy:
-    """The policy ``cfg.reconfiguration.policy`` names; in a run without an estimator
-    (``with_estimator=False``) ``none`` unless the policy is registered with ``needs_estimator=False``."""
-    name = cfg.reconfiguration.policy
-    if not with_estimator and policies.get(name).meta.get("needs_estimator", True):
-        name = "none"
-    return policies.build(name, cfg)

@@ -15,7 +15,7 @@ import pytest
 from ftc_mj.config import load_config
 from ftc_mj.estimation import build_estimator as real_build_estimator
 from ftc_mj.sim import loop as loop_module
-from ftc_mj.sim.reconfig import ReconfigState
+from ftc_mj.reconfiguration import ReconfigState
 from ftc_mj.sim.run import execute
 
 T_SABOTAGE = 20.0
@@ -43,12 +43,18 @@ class _Sabotaged:
         return self.inner.step(u, z)
 
 
+DURATION = {"safe": 40.0, "direct": 21.0}
+"""Simulated time (s) per policy: the safe run is checked to its end; the direct run only up to
+``T_SABOTAGE + 0.5`` s (a causal loop: its first 21 s are those of a longer run)."""
+
+
 def _cfg(policy: str):
     # the actuation-rate term over each plan only (the first-step rate bound stays on): with the step from
     # the command in force penalised too, this loop no longer holds the path after the puncture (see
     # tests/test_closed_loop.py)
     return load_config("scenario2", {"reconfiguration.policy": policy, "sensors.yaw_rate_sigma": 0.01,
-                                     "controller.rate_penalty": 1.0, "controller.rate_penalty_first_step": False})
+                                     "controller.rate_penalty": 1.0, "controller.rate_penalty_first_step": False,
+                                     "duration": DURATION[policy]})
 
 
 @pytest.fixture(scope="module")

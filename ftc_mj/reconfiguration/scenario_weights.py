@@ -23,9 +23,11 @@ it receives the weights through :meth:`~ftc_mj.control.robust.RobustNMPC.set_sce
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Protocol
+
 import numpy as np
 
-from ..config import RunConfig
 from ..control.robust import scenario_radii
 from ..estimation.base import FilterOutput
 
@@ -59,22 +61,25 @@ def posterior_weights(mean: np.ndarray, cov: np.ndarray, radii_s: np.ndarray, to
     return (1.0 - floor) * p + floor / len(p)
 
 
+class WeightingSettings(Protocol):
+    """What the weighting reads of the robust NMPC's settings (``controller.robust``)."""
+
+    scenarios: Sequence[Sequence[float]]
+    """Scenario radii as fractions of the model radii, (S, 2)."""
+    posterior_tolerance: float
+    """σ_t (m)."""
+    posterior_floor: float
+    """ε in [0, 1)."""
+
+
 class ScenarioWeighting:
-    """Weights for the robust NMPC at each controller sample (``weighting = "posterior"``)."""
+    """Weights for the robust NMPC at each controller sample (``weighting = "posterior"``), from the robust
+    NMPC's settings (its scenarios, ``posterior_tolerance`` and ``posterior_floor``)."""
 
-    def __init__(self, cfg: RunConfig) -> None:
-        rb = cfg.controller.robust
-        self.fractions = np.asarray(rb.scenarios, dtype=float)
-        self.tolerance = rb.posterior_tolerance
-        self.floor = rb.posterior_floor
-
-    @classmethod
-    def for_config(cls, cfg: RunConfig) -> ScenarioWeighting | None:
-        """The weighting of ``cfg``, or ``None`` when the controller's weights stay as configured."""
-        c = cfg.controller
-        if c.kind != "robust-nmpc" or c.robust.weighting == "fixed" or cfg.estimator.kind == "none":
-            return None
-        return cls(cfg)
+    def __init__(self, settings: WeightingSettings) -> None:
+        self.fractions = np.asarray(settings.scenarios, dtype=float)
+        self.tolerance = settings.posterior_tolerance
+        self.floor = settings.posterior_floor
 
     def weights(self, out: FilterOutput | None, model_radii: np.ndarray) -> np.ndarray | None:
         """Posterior weights (S,) of the scenarios around ``model_radii`` (m) given the filter output;

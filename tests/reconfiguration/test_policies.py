@@ -1,7 +1,7 @@
 """Reconfiguration policies: what the controller's model is handed, and why.
 
 The ``safe`` policy's rules are checked one by one against hand-made filter outputs and decisions;
-the closed-loop behaviour (revert after an injected divergence) is in test_reconfig_loop.py.
+the closed-loop behaviour (revert after an injected divergence) is in test_safe_in_the_loop.py.
 """
 
 from __future__ import annotations
@@ -11,12 +11,21 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from ftc_mj.config import load_config
+from ftc_mj.config import ReconfigurationConfig, load_config, run_context
+from ftc_mj.context import RunContext
 from ftc_mj.errors import BadInput
 from ftc_mj.estimation.base import FilterOutput
 from ftc_mj.estimation.decision import DecisionState
 from ftc_mj.estimation.observability import radius_directions
-from ftc_mj.sim.reconfig import ReconfigState, ReconfigurationPolicy, build_policy
+from ftc_mj.reconfiguration import (
+    DirectPolicy,
+    ReconfigState,
+    ReconfigurationPolicy,
+    SafePolicy,
+    ScenarioWeighting,
+    build_policy,
+    build_scenario_weighting,
+)
 
 OMEGA = np.array([5.0, 5.0])
 TRUTH = (2.0, 1.0)
@@ -187,3 +196,51 @@ def test_safe_conditions_the_isolated_radius_on_the_healthy_one_being_nominal() 
     np.testing.assert_allclose(_step(fb, 0.0, _out(1.9, 0.95, 0.01, corr=0.99), "both"), [1.9, 0.95])
     fb = _fb("safe", max_rate=100.0)  # off (default): the raw estimate
     np.testing.assert_allclose(_step(fb, 0.0, _out(1.9, 0.95, 0.01, corr=0.99), "left"), [2.0, 0.95])
+
+
+def _context(**kw: object) -> RunContext:
+    base = dict(seed=0, duration=10.0, physics_dt=1e-3, estimator_dt=0.01, controller_dt=1 / 49,
+                nominal_radii=(2.0, 2.0), half_track=1.0, omega_max=50.0, initial_pose=(0.0, 0.0, 0.0),
+                controller_rate=49.0, min_radius=0.05)
+    return RunContext(**{**base, **kw})  # type: ignore[arg-type]
+
+
+def test_policies_from_their_settings_and_the_run_context() -> None:
+    """No run config: the ``[reconfiguration]`` settings and a :class:`RunContext`. The rate limits divide by
+    the controller rate as configured (49 Hz, whose 1 / (1 / 49) is not 49 to the last bit); the floor is the
+    context's ``min_radius``; the built-in factory gives the same policy as ``build_policy``."""
+    fb = SafePolicy(ReconfigurationConfig(max_rate=1.0, max_growth_rate=0.5), _context())
+    assert fb.max_step == 1.0 / 49.0 and fb.max_grow == 0.5 / 49.0 and fb._nis.maxlen == 100
+    np.testing.assert_array_equal(fb.nominal, [2.0, 2.0])
+    direct = DirectPolicy(ReconfigurationConfig(), _context(nominal_radii=(1.5, 1.5), min_radius=0.2))
+    np.testing.assert_array_equal(direct.radii(0.0, _out(2.1, -0.3, 0.5), None, False, OMEGA, TRUTH), [2.1, 0.2])
+    cfg = load_config("scenario2", {"reconfiguration.max_rate": 1.0})
+    built, own = build_policy(cfg), SafePolicy(cfg.reconfiguration, run_context(cfg))
+    assert (built.max_step, built.max_grow, built.floor) == (own.max_step, own.max_grow, own.floor)
+
+
+def test_a_policy_of_the_old_contract_fails_in_one_line() -> None:
+    class Old(ReconfigurationPolicy):
+        def __init__(self, cfg: object) -> None:
+            super().__init__(cfg)
+
+        def radii(self, *args: object) -> np.ndarray:
+            return self.nominal
+
+    with pytest.raises(TypeError, match=r"^Old: ReconfigurationPolicy\(cfg\) is the old contract; take "
+                                        r"\(settings, context\)") as ei:
+        Old(load_config("scenario2"))
+    assert "\n" not in str(ei.value)
+
+
+def test_scenario_weighting_only_for_a_filtered_robust_nmpc() -> None:
+    robust = {"controller.kind": "robust-nmpc", "controller.robust.weighting": "posterior"}
+    assert build_scenario_weighting(load_config("scenario2")) is None
+    assert build_scenario_weighting(load_config("scenario2", {"controller.kind": "robust-nmpc"})) is None  # fixed
+    cfg = load_config("scenario2", robust)
+    w = build_scenario_weighting(cfg)
+    assert isinstance(w, ScenarioWeighting)
+    np.testing.assert_array_equal(w.fractions, np.asarray(cfg.controller.robust.scenarios, dtype=float))
+    assert w.weights(None, np.array([2.0, 2.0])) is None
+    p = w.weights(_out(2.0, 1.0, 0.01), np.array([2.0, 2.0]))
+    assert p is not None and p.sum() == pytest.approx(1.0)

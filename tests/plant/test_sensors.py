@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig, SensorConfig
-from ftc_mj.plant import Plant, SensorReading, Sensors, Truth
+from ftc_mj.plant import SensorReading, Sensors, Truth
+from tests.plant.helpers import mujoco_plant
 
 
 def truth_at(t: float, **kw: float) -> Truth:
@@ -71,7 +72,7 @@ def test_plant_and_sensors_deterministic_together() -> None:
         cfg = RunConfig(seed=5)
         cfg.sensors.yaw_rate_sigma = 0.01
         cfg.faults.right = [(0.2, 2.0), (0.2, 1.2)]
-        plant = Plant(cfg)
+        plant = mujoco_plant(cfg)
         sensors = Sensors(cfg.sensors, cfg.seed)
         plant.set_command(2.0, 1.5)
         out = []
@@ -100,7 +101,7 @@ def test_the_loop_hands_the_controller_the_sensors_pose(monkeypatch) -> None:
     monkeypatch.setattr(OpenLoopController, "solve",
                         lambda self, t, pose, *a: poses.append(np.array(pose)) or solve(self, t, pose, *a))
     cfg = load_config("scenario1", {"duration": 1.0, "controller.kind": "open-loop", "sensors.pose_sigma": 0.1,
-                                    "plant.kind": "kinematic"})
+                                    "plant.kind": "kinematic", "estimator.kind": "none"})
     res = simulate(cfg)
     assert len(poses) == 10 and len(readings) == 100  # 10 Hz controller, 100 Hz sensors
     for j, pose in enumerate(poses):

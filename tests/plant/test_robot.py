@@ -29,17 +29,12 @@ from ftc_mj.plant import (
     Truth,
     build_plant,
     flag_names,
+    plant_from_settings,
 )
+from tests.plant.helpers import make_cfg, mujoco_plant
 
 B = 1.0
 R0 = 2.0
-
-
-def make_cfg(**plant: object) -> RunConfig:
-    cfg = RunConfig()
-    for k, v in plant.items():
-        setattr(cfg.plant, k, v)
-    return cfg
 
 
 def drive_and_compare(
@@ -48,7 +43,7 @@ def drive_and_compare(
     """Ramp up to (V, yaw_rate) from rest at ``ramp_acc`` (m/s^2) with the kinematic inverse rates, then compare the
     plant over ``T`` s with the kinematic model fed the truth radii and the measured wheel rates (trapezoidal rule at
     the 1 kHz physics rate). Returns (position error m, distance m, final truth, OR of flags during the test)."""
-    p = Plant(cfg)
+    p = mujoco_plant(cfg)
     wR, wL = inverse_rates(V, yaw_rate, R0, R0, B)
     T_ramp = V / ramp_acc
     while p.time < T_ramp - 1e-9:
@@ -118,7 +113,7 @@ def test_hub_settles_to_new_radius_and_reinflates() -> None:
     cfg = make_cfg()
     cfg.faults.left = [(0.5, 2.0), (0.5, 1.0), (2.5, 1.0), (2.5, 2.0)]  # deflate, then re-inflate (grow) at once
     cfg.faults.right = [(0.5, 2.0), (1.5, 0.5)]  # ramp down
-    p = Plant(cfg)
+    p = mujoco_plant(cfg)
     p.set_command(1.0, 1.0)
     p.advance(2000)
     hR, hL = p.hub_heights()
@@ -134,8 +129,8 @@ def test_hub_settles_to_new_radius_and_reinflates() -> None:
     assert tr.R_L == 2.0 and tr.contact_L and not tr.flags & (TIPPED | SCRAPE)
 
 
-def test_manual_radius_change_grow_back() -> None:
-    p = Plant(make_cfg())
+def test_manual_radius_change_grow_back(default_plant: Plant) -> None:
+    p = default_plant
     p.set_wheel_radius("left", 1.2)
     p.advance(500)
     assert p.hub_heights()[1] == pytest.approx(1.2, rel=0.02)
@@ -153,7 +148,7 @@ def test_never_falls_through_floor_at_small_radius() -> None:
     cfg = make_cfg()
     cfg.faults.left = [(0.2, 2.0), (0.2, 0.1)]
     cfg.faults.right = [(0.2, 2.0), (2.0, 0.1)]
-    p = Plant(cfg)
+    p = mujoco_plant(cfg)
     p.set_command(2.0, 2.0)
     lowest = math.inf
     for _ in range(400):
@@ -173,7 +168,7 @@ def test_rigid_variant_rolls_under_puncture() -> None:
     deg (the chassis also pitches ~6 deg onto the caster, which mixes into the ZYX roll angle)."""
     cfg = make_cfg(variant="rigid")
     cfg.faults.left = [(0.5, 2.0), (0.5, 1.0)]
-    p = Plant(cfg)
+    p = mujoco_plant(cfg)
     assert p.model.nq == 9  # the slides are gone
     p.advance(3000)
     tr = p.truth()
@@ -187,17 +182,17 @@ def test_rigid_variant_rolls_under_puncture() -> None:
 def test_suspended_stays_level_under_puncture() -> None:
     cfg = make_cfg()
     cfg.faults.left = [(0.5, 2.0), (0.5, 1.0)]
-    p = Plant(cfg)
+    p = mujoco_plant(cfg)
     p.advance(3000)
     tr = p.truth()
     assert abs(tr.roll) < math.radians(0.5) and abs(tr.pitch) < math.radians(0.5)
     assert tr.flags == 0, flag_names(tr.flags)
 
 
-def test_pitch_stable_under_full_torque_steps() -> None:
+def test_pitch_stable_under_full_torque_steps(default_plant: Plant) -> None:
     """Step commands to full rate forward, to zero and to full rate backward: the motor reaction (2 x 1500 N m on
     2 m wheels) never lifts the caster or swings the chassis over the axle."""
-    p = Plant(make_cfg())
+    p = default_plant
     max_pitch = 0.0
     flags = 0
     for cmd in ((p.omega_max, p.omega_max), (0.0, 0.0), (-p.omega_max, -p.omega_max), (0.0, 0.0)):
@@ -215,7 +210,7 @@ def test_pitch_stable_under_full_torque_steps() -> None:
 def test_reset_puts_initial_pose_and_radii() -> None:
     cfg = make_cfg(initial_pose=(3.0, -4.0, 3.0))
     cfg.faults.right = [(0.0, 1.5)]
-    p = Plant(cfg)
+    p = mujoco_plant(cfg)
     tr = p.truth()
     assert (tr.x, tr.y, tr.psi) == pytest.approx((3.0, -4.0, 3.0), abs=1e-9)
     assert tr.R_R == 1.5 and tr.R_L == 2.0
@@ -228,8 +223,8 @@ def test_reset_puts_initial_pose_and_radii() -> None:
     assert p.command == (0.0, 0.0)
 
 
-def test_command_clipping() -> None:
-    p = Plant(make_cfg())
+def test_command_clipping(default_plant: Plant) -> None:
+    p = default_plant
     p.set_command(100.0, -100.0)
     lim = p.omega_max
     assert p.command == pytest.approx((lim, -lim))
@@ -237,8 +232,8 @@ def test_command_clipping() -> None:
     assert p.command == (0.0, 1.0)
 
 
-def test_heading_is_unwrapped_and_rates_consistent() -> None:
-    p = Plant(make_cfg())
+def test_heading_is_unwrapped_and_rates_consistent(default_plant: Plant) -> None:
+    p = default_plant
     p.set_command(1.0, -1.0)  # spin in place at 2 rad/s
     psis = []
     for _ in range(500):
@@ -251,8 +246,8 @@ def test_heading_is_unwrapped_and_rates_consistent() -> None:
     assert tr.v == pytest.approx(0.5 * (tr.R_R * tr.omega_R + tr.R_L * tr.omega_L), abs=0.02)
 
 
-def test_truth_speed_and_slip_in_steady_rolling() -> None:
-    p = Plant(make_cfg())
+def test_truth_speed_and_slip_in_steady_rolling(default_plant: Plant) -> None:
+    p = default_plant
     p.set_command(2.5, 2.5)
     p.advance(4000)
     tr = p.truth()
@@ -261,8 +256,8 @@ def test_truth_speed_and_slip_in_steady_rolling() -> None:
     assert tr.v == pytest.approx(0.5 * (tr.R_R * tr.omega_R + tr.R_L * tr.omega_L), rel=1e-3)
 
 
-def test_bulk_and_single_steps_agree_exactly() -> None:
-    a, b = Plant(make_cfg()), Plant(make_cfg())
+def test_bulk_and_single_steps_agree_exactly(default_plant: Plant) -> None:
+    a, b = default_plant, mujoco_plant(make_cfg())
     for p in (a, b):
         p.set_command(3.0, 2.0)
     a.advance(250)
@@ -273,8 +268,30 @@ def test_bulk_and_single_steps_agree_exactly() -> None:
     np.testing.assert_array_equal(a.data.qvel, b.data.qvel)
 
 
-def test_nan_is_flagged_not_raised() -> None:
-    p = Plant(make_cfg())
+def test_reset_plant_equals_a_new_one(default_plant: Plant) -> None:
+    """What the shared fixture relies on: after a run that punctured, froze and re-sized a wheel, ``reset``
+    gives the state, radii, geometry and truth of a newly built plant, and the same trajectory."""
+    p = default_plant
+    p.set_wheel_radius("left", 1.0)
+    p.set_command(2.0, 1.0)
+    p.advance(300)
+    p.data.qvel[0] = np.nan
+    p.advance(10)
+    assert p.frozen
+    p.reset()
+    new = mujoco_plant(make_cfg())
+    for q in (p, new):
+        q.set_command(2.0, 1.5)
+        q.advance(200)
+    np.testing.assert_array_equal(p.data.qpos, new.data.qpos)
+    np.testing.assert_array_equal(p.data.qvel, new.data.qvel)
+    np.testing.assert_array_equal(p.model.geom_size, new.model.geom_size)
+    np.testing.assert_array_equal(p.model.qpos_spring, new.model.qpos_spring)
+    assert p.truth() == new.truth()
+
+
+def test_nan_is_flagged_not_raised(default_plant: Plant) -> None:
+    p = default_plant
     p.set_command(1.0, 1.0)
     p.advance(100)
     good = p.truth()
@@ -296,7 +313,7 @@ def test_determinism_same_config_same_truth() -> None:
     def run() -> list[tuple]:
         cfg = make_cfg()
         cfg.faults.left = [(0.3, 2.0), (0.3, 1.0)]
-        p = Plant(cfg)
+        p = mujoco_plant(cfg)
         out = []
         for k in range(100):
             p.set_command(1.0 + 0.01 * k, 1.0)
@@ -315,13 +332,13 @@ def test_bad_model_file_names_field(tmp_path: Path) -> None:
     bad.write_text("<mujoco><worldbody><body name='x'></worldbody></mujoco>")
     cfg = validate_config({"plant": {"model_file": str(bad)}})
     with pytest.raises(BadInput, match=r"^plant\.model_file") as ei:
-        Plant(cfg)
+        mujoco_plant(cfg)
     assert "\n" not in str(ei.value)
     incomplete = tmp_path / "incomplete.xml"
     incomplete.write_text("<mujoco><worldbody><geom name='floor' type='plane' size='1 1 1'/></worldbody></mujoco>")
     cfg = validate_config({"plant": {"model_file": str(incomplete)}})
     with pytest.raises(BadInput, match=r"^plant\.model_file.*chassis"):
-        Plant(cfg)
+        mujoco_plant(cfg)
 
 
 def test_builder_applies_static_edits() -> None:
@@ -340,7 +357,7 @@ def test_builder_applies_static_edits() -> None:
             "estimator": {"rate": 100.0},
         }
     )
-    p = Plant(cfg)
+    p = mujoco_plant(cfg)
     m = p.model
     assert m.opt.timestep == 0.002
     assert m.geom("wheel_left").size[0] == 1.5 and m.geom("wheel_right_visual").size[0] == 1.5
@@ -359,9 +376,9 @@ def test_builder_applies_static_edits() -> None:
     assert tr.flags == 0, flag_names(tr.flags)
 
 
-def test_contacts_and_masses_plausible() -> None:
+def test_contacts_and_masses_plausible(default_plant: Plant) -> None:
     """Drive wheels carry most of the weight; the caster only balances."""
-    p = Plant(make_cfg())
+    p = default_plant
     p.advance(1000)
     m, d = p.model, p.data
     mujoco.mj_forward(m, d)
@@ -381,3 +398,20 @@ def test_contacts_and_masses_plausible() -> None:
 def test_build_plant_factory() -> None:
     assert isinstance(build_plant(make_cfg()), Plant)
     assert build_plant(make_cfg(kind="kinematic")).kind == "kinematic"
+
+
+def test_plant_from_its_own_sections_equals_the_run_configs() -> None:
+    """``plant_from_settings`` validates the three sections on their own (no run config) and gives the plant
+    a run with them gets; a bad field is named in one line."""
+    cfg = make_cfg(variant="rigid")
+    cfg.faults.left = [(0.1, 2.0), (0.1, 1.5)]
+    a = plant_from_settings({"variant": "rigid"}, None, {"left": [[0.1, 2.0], [0.1, 1.5]]})
+    b = build_plant(cfg)
+    for p in (a, b):
+        p.set_command(1.0, 1.0)
+        p.advance(300)
+    assert a.truth() == b.truth()
+    with pytest.raises(BadInput, match=r"^faults\.left"):
+        plant_from_settings(None, None, {"left": [[1.0, -1.0]]})
+    with pytest.raises(BadInput, match=r"^robot\.omega_max"):
+        plant_from_settings(None, {"omega_max": -1.0})

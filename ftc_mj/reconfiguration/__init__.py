@@ -1,0 +1,35 @@
+"""How the estimated radii reach the controller: the reconfiguration policies (which radii the
+controller's model uses at each solve) and the robust NMPC's scenario weights from the filter.
+
+Public API::
+
+    policy = build_policy(cfg, with_estimator=True)     # the registered policy cfg.reconfiguration.policy names
+    policy = SafePolicy(cfg.reconfiguration, run_context(cfg))   # a policy from its settings and the run context
+    weighting = build_scenario_weighting(cfg)           # None unless a robust NMPC is re-weighted by the filter
+"""
+
+from __future__ import annotations
+
+from .factory import build_policy, build_scenario_weighting
+from .policies import (
+    DirectPolicy,
+    NominalPolicy,
+    ReconfigState,
+    ReconfigurationPolicy,
+    SafePolicy,
+    TruthPolicy,
+)
+from .scenario_weights import ScenarioWeighting, posterior_weights
+
+__all__ = [
+    "DirectPolicy",
+    "NominalPolicy",
+    "ReconfigState",
+    "ReconfigurationPolicy",
+    "SafePolicy",
+    "ScenarioWeighting",
+    "TruthPolicy",
+    "build_policy",
+    "build_scenario_weighting",
+    "posterior_weights",
+]

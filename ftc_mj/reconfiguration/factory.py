@@ -1,0 +1,29 @@
+"""Reconfiguration policies and scenario weights from the application config: the only module of
+:mod:`ftc_mj.reconfiguration` that reads it."""
+
+from __future__ import annotations
+
+from ..config import RunConfig, run_context
+from ..registry import policies
+from .policies import ReconfigurationPolicy
+from .scenario_weights import ScenarioWeighting
+
+
+def build_policy(cfg: RunConfig, with_estimator: bool = True) -> ReconfigurationPolicy:
+    """The policy ``cfg.reconfiguration.policy`` names, built from the ``[reconfiguration]`` section and the
+    run context; in a run without an estimator (``with_estimator=False``) ``none`` unless the policy is
+    registered with ``needs_estimator=False``."""
+    name = cfg.reconfiguration.policy
+    if not with_estimator and policies.get(name).meta.get("needs_estimator", True):
+        name = "none"
+    return policies.create(name, cfg.reconfiguration, run_context(cfg), run_config=cfg)
+
+
+def build_scenario_weighting(cfg: RunConfig) -> ScenarioWeighting | None:
+    """The filter's re-weighting of the robust NMPC's scenarios (``controller.robust.weighting =
+    "posterior"``), or ``None`` when the controller's weights stay as configured (another controller,
+    fixed weights, or no filter)."""
+    c = cfg.controller
+    if c.kind != "robust-nmpc" or c.robust.weighting == "fixed" or cfg.estimator.kind == "none":
+        return None
+    return ScenarioWeighting(c.robust)

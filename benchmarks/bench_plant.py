@@ -22,7 +22,7 @@ import mujoco
 
 from ftc_mj.config import RunConfig
 from ftc_mj.model.kinematics import inverse_rates
-from ftc_mj.plant import Plant, Sensors, build_plant
+from ftc_mj.plant import Sensors, build_plant
 
 
 def _best(fn: Callable[[], float], repeat: int) -> float:
@@ -49,7 +49,7 @@ def loop_rate(cfg: RunConfig, sim_seconds: float) -> float:
 
 def bare_rate(n: int) -> tuple[float, float]:
     """(mj_step(m, d, n) steps/s, Python loop of mj_step steps/s) on the compiled plant model."""
-    p = Plant(RunConfig())
+    p = build_plant(RunConfig())
     m, d = p.model, p.data
     d.ctrl[:] = (5.1, 4.9)
     mujoco.mj_step(m, d, 1000)
@@ -66,7 +66,7 @@ def bare_rate(n: int) -> tuple[float, float]:
 def radius_change_us(n: int = 4000) -> tuple[float, float]:
     """Mean cost (µs) of one ``set_wheel_radius`` with re-seat: (growing, which runs ``mj_setConst``; shrinking,
     which keeps the conservative larger bounds)."""
-    p = Plant(RunConfig())
+    p = build_plant(RunConfig())
     p.advance(100)
     r = 2.0
     t0 = time.perf_counter()
@@ -87,7 +87,7 @@ def call_us(n: int = 4000) -> tuple[float, float]:
     """Mean cost (µs) of ``truth()`` and of ``Sensors.read``."""
     cfg = RunConfig()
     cfg.sensors.yaw_rate_sigma = 0.01
-    p = Plant(cfg)
+    p = build_plant(cfg)
     s = Sensors(cfg.sensors, 0)
     p.set_command(5.1, 4.9)
     p.advance(1000)

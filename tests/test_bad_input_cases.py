@@ -30,7 +30,7 @@ from ftc_mj import resources
 from ftc_mj.cli import app
 from ftc_mj.config import load_config
 from ftc_mj.errors import EXIT_UNSTABLE, BadInput
-from ftc_mj.plant import NAN, PHYSICS_WARNING, UNSTABLE, Plant
+from ftc_mj.plant import NAN, PHYSICS_WARNING, UNSTABLE, build_plant
 from ftc_mj.study.runner import run_study
 from ftc_mj.study.spec import load_study
 
@@ -114,7 +114,7 @@ def test_plant_flags_mujoco_instability_and_freezes() -> None:
     """A huge (finite) velocity trips MuJoCo's bad-qvel check, which resets the state to the model's
     initial one; the plant must flag UNSTABLE (not NAN: nothing became non-finite) and hold the last
     good state instead of the reset one."""
-    p = Plant(make_cfg())
+    p = build_plant(make_cfg())
     p.set_command(1.0, 1.0)
     p.advance(100)
     good = p.truth()
@@ -271,7 +271,7 @@ def test_model_mujoco_cannot_simulate_is_bad_input(tmp_path: Path) -> None:
     tiny.write_text(MODEL.read_text().replace('<mujoco model="ftc_mj_diffdrive">',
                                               '<mujoco model="ftc_mj_diffdrive">\n  <size memory="4K"/>', 1))
     with pytest.raises(BadInput, match=r"plant.model_file: .*tiny.xml: MuJoCo cannot simulate it: mj_stackAlloc"):
-        Plant(make_cfg(**{"plant.model_file": str(tiny)}))
+        build_plant(make_cfg(**{"plant.model_file": str(tiny)}))
     res = CliRunner().invoke(app, ["run", "scenario1", "--set", f"plant.model_file='{tiny}'", "--out",
                                    str(tmp_path / "o"), *QUICK])
     assert res.exit_code == 2 and "plant.model_file" in one_error_line(res)

@@ -16,8 +16,8 @@ from ftc_mj.control.kinsim import simulate
 from ftc_mj.control.robust import RobustNMPC, normalised_weights, scenario_radii
 from ftc_mj.errors import BadInput
 from ftc_mj.model.kinematics import pose_rates
-from ftc_mj.sim.loop import simulate as simulate_loop
 from ftc_mj.reconfiguration.scenario_weights import posterior_weights
+from ftc_mj.sim.loop import simulate as simulate_loop
 
 NOMINAL = np.array([2.0, 2.0])
 OFFSET_POSE = np.array([0.0, -5.0, 0.0])

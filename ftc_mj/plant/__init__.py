@@ -12,8 +12,8 @@ Public API::
 from __future__ import annotations
 
 from .builder import build_model, load_spec
-from .faults import RadiusSchedule
 from .factory import build_plant, build_sensors, make_plant, plant_from_settings
+from .faults import RadiusSchedule
 from .kinematic import KinematicPlant
 from .robot import Plant
 from .sensors import SensorReading, Sensors

@@ -1,10 +1,10 @@
 """Build the compiled MuJoCo model of the truth plant from the MJCF file and the plant and robot settings.
 
 The MJCF (``plant.model_file``; by default ``builtin:diffdrive.xml``, the robot shipped in
-``ftc_mj/data/models/``, :mod:`ftc_mj.resources`) is loaded through :class:`mujoco.MjSpec`; static edits from the settings
-(variant, wheel radius, half track, masses, friction, actuator gain, rate limit, timestep) are applied to the
-spec, then it is compiled once. Runtime changes (punctures) never recompile: they edit ``geom_size`` in place
-(see :meth:`ftc_mj.plant.robot.Plant.set_wheel_radius`).
+``ftc_mj/data/models/``, :mod:`ftc_mj.resources`) is loaded through :class:`mujoco.MjSpec`; static edits from the
+plant and robot settings (variant, wheel radius, half track, masses, friction, actuator gain, rate limit, timestep)
+are applied to the spec, then it is compiled once. Runtime changes (punctures) never recompile: they edit
+``geom_size`` in place (see :meth:`ftc_mj.plant.robot.Plant.set_wheel_radius`).
 
 Every element is looked up by name; the names are listed in :data:`REQUIRED_NAMES`.
 """

@@ -21,9 +21,10 @@ Built-in policies:
     conditioned on the other radius being nominal); radii are clamped to [``min_radius``, nominal] and rate-limited to
     ``max_rate`` — and an isolated wheel's radius *grows* by at most ``max_growth_rate``: a punctured
     tyre does not re-inflate, and an estimate that climbs back quickly is the filter leaving the
-    kinematic model's domain (a lifted wheel; the measured case is in docs/findings.md). A declared but unidentified fault *holds* the radii in use. Filter trouble
-    *reverts* to the radii handed over (as rate-limited, i.e. as the controller used them) at least
-    ``trust_lag`` before it (or nominal); a withdrawn decision reverts to nominal.
+    kinematic model's domain (a lifted wheel; the measured case is in docs/findings.md). A declared
+    but unidentified fault *holds* the radii in use. Filter trouble *reverts* to the radii handed over
+    (as rate-limited, i.e. as the controller used them) at least ``trust_lag`` before it (or
+    nominal); a withdrawn decision reverts to nominal.
 ``truth``
     The true radii (an oracle: the best any policy could do with this controller).
 

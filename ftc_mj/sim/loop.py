@@ -12,8 +12,8 @@ hold) between controller samples. At estimator step ``k`` (time ``t_k``):
 3. on a controller sample, the controller solves from the pose the sensors read at ``t_k`` (the true
    pose, plus ``sensors.pose_sigma`` noise drawn by :class:`~ftc_mj.plant.Sensors`) with the radii chosen by
    the reconfiguration policy (a robust NMPC with ``posterior`` weighting is first handed the filter's
-   scenario weights, :mod:`ftc_mj.reconfiguration.scenario_weights`) (optionally dithered while a fault is suspected but not
-   isolated), and its command is applied from ``t_k``;
+   scenario weights, :mod:`ftc_mj.reconfiguration.scenario_weights`) (optionally dithered while a fault is
+   suspected but not isolated), and its command is applied from ``t_k``;
 4. one trace row is stored; the plant advances to ``t_{k+1}``.
 
 Telemetry is buffered in preallocated arrays; nothing is logged call by call.

@@ -14,8 +14,8 @@ import pytest
 
 from ftc_mj.config import load_config
 from ftc_mj.estimation import build_estimator as real_build_estimator
-from ftc_mj.sim import loop as loop_module
 from ftc_mj.reconfiguration import ReconfigState
+from ftc_mj.sim import loop as loop_module
 from ftc_mj.sim.run import execute
 
 T_SABOTAGE = 20.0

@@ -12,7 +12,7 @@ Public API::
 from __future__ import annotations
 
 from .builder import build_model, load_spec
-from .factory import build_plant, build_sensors, make_plant, plant_from_settings
+from .factory import build_plant, make_plant, plant_from_settings
 from .faults import RadiusSchedule
 from .kinematic import KinematicPlant
 from .robot import Plant
@@ -49,7 +49,6 @@ __all__ = [
     "Truth",
     "build_model",
     "build_plant",
-    "build_sensors",
     "flag_names",
     "load_spec",
     "make_plant",

@@ -1,8 +1,8 @@
-"""The plant and its sensors from the application config: the only module of :mod:`ftc_mj.plant` that reads it.
+"""The plant from the application config: the only module of :mod:`ftc_mj.plant` that reads it.
 
 :func:`build_plant` takes a run config apart into the plant, robot and fault settings;
 :func:`plant_from_settings` validates those sections on their own (no run config is built), for use without a
-run; :func:`build_sensors` gives the sensors their settings and the run's seed.
+run. (The sensors need no factory: ``Sensors(cfg.sensors, cfg.seed)`` is already their own settings and the seed.)
 """
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ from typing import Any
 from ..config import FaultConfig, PlantConfig, RobotConfig, RunConfig, section
 from .kinematic import KinematicPlant
 from .robot import Plant
-from .sensors import Sensors
 from .settings import FaultSettings, PlantSettings, RobotSettings
 
 
@@ -34,8 +33,3 @@ def plant_from_settings(plant: Any = None, robot: Any = None, faults: Any = None
     naming the field). The same plant a run with these sections gets."""
     return make_plant(section(PlantConfig, plant, "plant"), section(RobotConfig, robot, "robot"),
                       section(FaultConfig, faults, "faults"))
-
-
-def build_sensors(cfg: RunConfig) -> Sensors:
-    """The run's sensors: the ``[sensors]`` settings with the run's seed."""
-    return Sensors(cfg.sensors, cfg.seed)

@@ -46,15 +46,15 @@ class Sensors:
     """The run's sensors with their own seeded ``numpy.random.Generator``.
 
     Args:
-        cfg: the sensor settings (noise levels in SI units; ``None`` = sensor absent;
+        settings: the sensor settings (noise levels in SI units; ``None`` = sensor absent;
             :class:`~ftc_mj.plant.settings.SensorSettings`).
-        seed: seed of the generator; the same config and seed give the same readings.
+        seed: seed of the generator; the same settings and seed give the same readings.
     """
 
-    def __init__(self, cfg: SensorSettings, seed: int) -> None:
-        self.cfg = cfg
+    def __init__(self, settings: SensorSettings, seed: int) -> None:
+        self.settings = settings
         self.seed = int(seed)
-        self._fix_period = 1.0 / float(cfg.position_rate)
+        self._fix_period = 1.0 / float(settings.position_rate)
         self.reset()
 
     def reset(self) -> None:
@@ -64,7 +64,7 @@ class Sensors:
 
     def read(self, truth: Truth, t: float | None = None) -> SensorReading:
         """Sample all sensors from ``truth`` at time ``t`` (s; default ``truth.t``)."""
-        c = self.cfg
+        c = self.settings
         t = truth.t if t is None else float(t)
         e = self.rng.standard_normal(_N_DRAWS).tolist()
         speed = truth.v + c.speed_sigma * e[0]

@@ -18,19 +18,19 @@ import math
 import numpy as np
 
 from ..model.kinematics import body_rates, inverse_rates, pose_rates
+from .base import PlantClock
 from .faults import EPS_T, RadiusSchedule, wheel_index, wheel_schedules
 from .settings import FaultSettings, PlantSettings, RobotSettings, plant_geometry
-from .truth import Truth, describe_flags
+from .truth import Truth
 
 
-class KinematicPlant:
+class KinematicPlant(PlantClock):
     """The kinematic model as a plant (see module docstring); settings as for :class:`~ftc_mj.plant.robot.Plant`
     (of the plant settings it reads the timestep, the geometry overrides and the initial pose)."""
 
     kind = "kinematic"
     model = None
     data = None
-    describe_flags = staticmethod(describe_flags)
 
     def __init__(self, plant: PlantSettings, robot: RobotSettings, faults: FaultSettings) -> None:
         self.settings = plant
@@ -50,24 +50,9 @@ class KinematicPlant:
         self._radius = [s.value(EPS_T) for s in self.schedules]
 
     @property
-    def time(self) -> float:
-        """Simulation time (s)."""
-        return self._k * self.dt
-
-    @property
-    def steps(self) -> int:
-        """Physics steps taken since :meth:`reset`."""
-        return self._k
-
-    @property
     def frozen(self) -> bool:
         """Always False (the kinematic plant cannot diverge)."""
         return False
-
-    @property
-    def radii(self) -> tuple[float, float]:
-        """Current radii ``(R_R, R_L)`` (m)."""
-        return self._radius[0], self._radius[1]
 
     @property
     def command(self) -> tuple[float, float]:

@@ -19,7 +19,7 @@ model's initial one), the plant restores the last good state (the end of the pre
 call), freezes (time still advances, the physics does not) and reports ``UNSTABLE | PHYSICS_WARNING`` (plus
 ``NAN`` for a non-finite state) in every later :class:`~ftc_mj.plant.truth.Truth`. Other MuJoCo warnings raise
 the sticky ``PHYSICS_WARNING`` flag (checked in :meth:`Plant.truth`). MuJoCo's warning texts are neither
-printed nor appended to ``MUJOCO_LOG.TXT`` in the working directory (:func:`silence_mujoco_warnings`): the
+printed nor appended to ``MUJOCO_LOG.TXT`` in the working directory (:mod:`~ftc_mj.plant.physics_warnings`): the
 flags carry them. A model MuJoCo cannot allocate or simulate at all (``mujoco.FatalError``, e.g. tens of
 thousands of bodies) is a :class:`~ftc_mj.errors.BadInput` naming ``plant.model_file``.
 """
@@ -33,16 +33,17 @@ import numpy as np
 
 from ..errors import BadInput
 from ..model.kinematics import inverse_rates
+from .base import PlantClock
 from .builder import build_model
 from .faults import EPS_T, RadiusSchedule, wheel_index, wheel_schedules
 from .layout import model_layout
 from .mujoco_truth import attitude, axle_motion, chassis_rotation, domain_flags, world_rate, wrap_angle
 from .physics_warnings import BAD_STATE_WARNINGS, silence_mujoco_warnings
 from .settings import FaultSettings, PlantSettings, RobotSettings, plant_geometry
-from .truth import NAN, PHYSICS_WARNING, UNSTABLE, Truth, describe_flags
+from .truth import NAN, PHYSICS_WARNING, UNSTABLE, Truth
 
 
-class Plant:
+class Plant(PlantClock):
     """The MuJoCo truth plant of one run.
 
     Args:
@@ -53,7 +54,6 @@ class Plant:
     """
 
     kind = "mujoco"
-    describe_flags = staticmethod(describe_flags)
 
     def __init__(self, plant: PlantSettings, robot: RobotSettings, faults: FaultSettings) -> None:
         self.settings = plant
@@ -151,24 +151,9 @@ class Plant:
         self._save_good()
 
     @property
-    def time(self) -> float:
-        """Simulation time (s): number of physics steps taken times the timestep."""
-        return self._k * self.dt
-
-    @property
-    def steps(self) -> int:
-        """Physics steps taken since :meth:`reset`."""
-        return self._k
-
-    @property
     def frozen(self) -> bool:
         """True after a non-finite state: the physics no longer advances."""
         return self._frozen
-
-    @property
-    def radii(self) -> tuple[float, float]:
-        """Current true radii ``(R_R, R_L)`` (m)."""
-        return self._radius[0], self._radius[1]
 
     # ------------------------------------------------------------------ inputs
     def set_command(self, omega_R: float, omega_L: float) -> None:

@@ -3,7 +3,7 @@
 Quasi-steady turn at lateral acceleration ``a`` (m/s², towards the centre) while braking at ``a_x``
 (m/s²), wheels rolling without slip, frictionless caster (it carries load but no lateral force).
 Every number is read by name from the compiled model (``ftc_mj/plant/builder.py`` applies the
-config's edits first): body masses and centres of mass (``chassis``, ``hub_*``, ``tyre_*``), the half
+settings' edits first): body masses and centres of mass (``chassis``, ``hub_*``, ``tyre_*``), the half
 track ``b`` (``hub_*`` positions), the tyre radius ``R`` (``wheel_*`` spheres) and friction ``μ``, the
 tyres' axle inertia ``I``, the caster position ``x_c``, the servo gain ``k_v`` (``act_*``).
 
@@ -25,7 +25,7 @@ lateral force, so the tyres' lateral force ``M a`` acts at the axle while the in
 force, ``M a_x / 2``. With the lateral force shared in proportion to the loads, ``F_y,in = M a N_in /
 (N_in + N_out)``, the limit is the smallest ``a`` with ``F_x,in² + F_y,in² = (μ N_in)²``. Once the inner
 tyre slides it skids and hops: that is the onset of lift-off measured on the plant
-(``tests/test_plant_limits.py``, ``docs/findings.md``). ``a_trac`` falls almost linearly with ``a_x``;
+(``tests/plant/test_limits.py``, ``docs/findings.md``). ``a_trac`` falls almost linearly with ``a_x``;
 ``braking_trade`` is its secant slope up to :data:`BRAKING_REF`.
 
 *Yaw compliance* ``c``: the velocity servos carry the couple's torque ``F_x R`` with a rate error

@@ -1,4 +1,4 @@
-"""Benchmark of the Rerun recorder: column-wise :func:`ftc_mj.recorder.write_rrd` against the naive
+"""Benchmark of the Rerun recorder: column-wise :func:`ftc_mj.rerun.record.write_rrd` against the naive
 per-step ``log()`` approach for the same data (a synthetic 40 s, 100 Hz run with 400 NMPC solves).
 
 Usage::
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -21,7 +22,11 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 
-from ftc_mj.recorder import Event, Solve, synthetic_run, write_rrd
+from ftc_mj.rerun.record import write_rrd
+from ftc_mj.telemetry import Event, Solve
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository root: tests.support
+from tests.support.synthetic import synthetic_run  # noqa: E402
 
 RUN_BUDGET_S = 1.5
 """Wall time of a whole 40 s run the recorder budget is compared with (≤ 5 %)."""

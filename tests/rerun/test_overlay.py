@@ -16,9 +16,9 @@ from rerun.chunk import RrdReader
 from typer.testing import CliRunner
 
 from ftc_mj.cli import app
-from ftc_mj.comparison import claim_run_dirs, entity_token, load_runs, write_comparison
 from ftc_mj.errors import BadInput
-from ftc_mj.recorder import read_scalar_series
+from ftc_mj.rerun.overlay import claim_run_dirs, entity_token, load_runs, write_comparison
+from ftc_mj.rerun.read import read_scalar_series
 
 
 @pytest.fixture(scope="module")
@@ -90,7 +90,7 @@ def test_events_come_from_the_run_recordings(runs: list[Path]) -> None:
 
 
 def test_view_of_several_runs_opens_their_comparison(runs: list[Path], monkeypatch: pytest.MonkeyPatch) -> None:
-    import ftc_mj.recorder as recorder
+    import ftc_mj.rerun.viewer as viewer
 
     seen: list[tuple[list[str], set[str]]] = []
 
@@ -101,7 +101,7 @@ def test_view_of_several_runs_opens_their_comparison(runs: list[Path], monkeypat
         seen.append((cmd, entities(Path(cmd[1]))))
         return Done()
 
-    monkeypatch.setattr(recorder.subprocess, "run", fake_viewer)
+    monkeypatch.setattr(viewer.subprocess, "run", fake_viewer)
     monkeypatch.setenv("DISPLAY", ":99")
     res = CliRunner().invoke(app, ["view", *map(str, runs)])
     assert res.exit_code == 0, res.stderr

@@ -1,4 +1,5 @@
-"""Tests of :mod:`ftc_mj.recorder`: a synthetic 40 s run is written and read back with RrdReader."""
+"""Tests of :mod:`ftc_mj.rerun.record` and :mod:`ftc_mj.rerun.viewer`: a synthetic 40 s run is written and read
+back with RrdReader."""
 
 from __future__ import annotations
 
@@ -11,17 +12,13 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
-from ftc_mj import recorder
 from ftc_mj.errors import BadInput
-from ftc_mj.recorder import (
-    Event,
-    RobotGeometry,
-    Solve,
-    open_viewer,
-    read_scalar_series,
-    synthetic_run,
-    write_rrd,
-)
+from ftc_mj.rerun import viewer
+from ftc_mj.rerun.read import read_scalar_series
+from ftc_mj.rerun.record import REQUIRED_COLUMNS, write_rrd
+from ftc_mj.rerun.viewer import open_viewer
+from ftc_mj.telemetry import Event, RobotGeometry, Solve
+from tests.support.synthetic import synthetic_run
 
 N_MODES = 3
 DURATION = 40.0
@@ -271,7 +268,7 @@ def test_bad_trace_raises_and_writes_nothing(tmp_path: Path, run_data: tuple) ->
 def test_solver_from_trace_columns_minimal_run(tmp_path: Path) -> None:
     """No solves list, no optional columns, no IMM: solver series come from the trace's solve rows."""
     trace, _, _, _ = synthetic_run(5.0, n_modes=0)
-    keep = set(recorder.REQUIRED_COLUMNS) | {"solve_time_ms", "solver_iterations", "solver_ok"}
+    keep = set(REQUIRED_COLUMNS) | {"solve_time_ms", "solver_iterations", "solver_ok"}
     trace = {k: v for k, v in trace.items() if k in keep}
     path = tmp_path / "min.rrd"
     write_rrd(path, trace, run_id="min")
@@ -327,6 +324,6 @@ def test_open_viewer(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
         seen.append(cmd)
         return Done()
 
-    monkeypatch.setattr(recorder.subprocess, "run", fake_run)
+    monkeypatch.setattr(viewer.subprocess, "run", fake_run)
     open_viewer(tmp_path)
     assert seen and seen[0][-1] == str(tmp_path / "run.rrd") and Path(seen[0][0]).name == "rerun"

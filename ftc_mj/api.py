@@ -125,8 +125,9 @@ def load_run(path: str | Path) -> Run:
     before it existed: from the trace)."""
     from .rundir import read_run
 
-    rd = read_run(path)
-    return Run(rd.config, str(rd.metrics.get("run_id", rd.path.name)), rd.metrics, rd.trace, rd.events, rd.path)
+    d = Path(path)
+    cfg, metrics, trace, events = read_run(d)
+    return Run(cfg, str(metrics.get("run_id", d.name)), metrics, trace, events, d)
 
 
 @dataclass

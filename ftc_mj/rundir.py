@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import json
 import tomllib
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -40,18 +39,6 @@ EVENTS = "events.json"
 RECORDING = "run.rrd"
 
 
-@dataclass
-class RunFiles:
-    """The contents of a complete run directory."""
-
-    path: Path
-    config: RunConfig
-    metrics: dict[str, Any]
-    trace: pl.DataFrame
-    """One row per estimator step."""
-    events: list[Event] = field(default_factory=list)
-
-
 def require(run_dir: Path, *names: str) -> None:
     """:class:`~ftc_mj.errors.BadInput` naming the first of the files ``names`` missing from ``run_dir``."""
     for name in names:
@@ -59,9 +46,9 @@ def require(run_dir: Path, *names: str) -> None:
             raise BadInput(f"RUN_DIR: {run_dir} is not a run directory (no {name})")
 
 
-def read_run(path: str | Path) -> RunFiles:
-    """A complete run directory read back (config, metrics, trace and events);
-    :class:`~ftc_mj.errors.BadInput` if a file is missing or unreadable."""
+def read_run(path: str | Path) -> tuple[RunConfig, dict[str, Any], pl.DataFrame, list[Event]]:
+    """A complete run directory read back: ``(config, metrics, trace, events)``, the trace one row per
+    estimator step; :class:`~ftc_mj.errors.BadInput` if a file is missing or unreadable."""
     import polars as pl
 
     d = Path(path)
@@ -72,7 +59,7 @@ def read_run(path: str | Path) -> RunFiles:
         trace = pl.read_parquet(d / TRACE)
     except (OSError, ValueError, tomllib.TOMLDecodeError) as err:
         raise BadInput(f"RUN_DIR: {d}: unreadable run ({str(err).splitlines()[0][:120]})") from None
-    return RunFiles(d, cfg, metrics, trace, read_events(d, trace))
+    return cfg, metrics, trace, read_events(d, trace)
 
 
 def read_config(run_dir: Path) -> RunConfig:

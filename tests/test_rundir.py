@@ -20,11 +20,11 @@ from ftc_mj.errors import BadInput
 
 def test_read_run_gives_config_metrics_trace_events(policy_runs: list[Path]) -> None:
     safe = policy_runs[1]
-    rd = rundir.read_run(safe)
-    assert rd.path == safe and rd.config.reconfiguration.policy == "safe"
-    assert rd.metrics == json.loads((safe / "metrics.json").read_text())
-    assert rd.trace.columns == pq.read_schema(safe / "trace.parquet").names and rd.trace.height > 100
-    assert [(e.t, e.level, e.text) for e in rd.events] == [
+    cfg, metrics, trace, events = rundir.read_run(safe)
+    assert cfg.reconfiguration.policy == "safe"
+    assert metrics == json.loads((safe / "metrics.json").read_text())
+    assert trace.columns == pq.read_schema(safe / "trace.parquet").names and trace.height > 100
+    assert [(e.t, e.level, e.text) for e in events] == [
         (e["t"], e["level"], e["text"]) for e in json.loads((safe / "events.json").read_text())]
 
 
@@ -32,7 +32,7 @@ def test_events_of_a_run_without_events_json_come_from_the_trace(policy_runs: li
     old = tmp_path / "old"
     shutil.copytree(policy_runs[1], old)
     (old / "events.json").unlink()
-    events = rundir.read_run(old).events
+    events = rundir.read_run(old)[3]
     texts = [e.text for e in events]
     assert texts[0] == "fault_detected: fault declared" and "reconfig_state: radii handed over" in texts
     trace = rundir.read_trace(old)

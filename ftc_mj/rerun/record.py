@@ -2,7 +2,7 @@
 
 The simulation loop buffers its telemetry in arrays and calls :func:`write_rrd` **once** at the end
 of a run. Every entity is sent with ``RecordingStream.send_columns`` (one call per entity, never a
-per-step ``log()``), which costs a few milliseconds for a 40 s run instead of seconds. The file is
+per-step ``log()``; ``benchmarks/bench_recorder.py`` times both ways). The file is
 written by :func:`~ftc_mj.rerun.stream.recording_file` (its own stream, atomic rename); the layout
 is :func:`~ftc_mj.rerun.blueprint.run_blueprint`.
 

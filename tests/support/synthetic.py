@@ -63,6 +63,28 @@ def synthetic_run(duration: float = 40.0, *, rate_hz: float = 100.0, solve_rate_
         p /= p.sum(axis=1, keepdims=True)
         for k in range(n_modes):
             trace[f"mode_prob_{k + 1}"] = p[:, k]
+    trace["solve_time_ms"], trace["solver_iterations"], trace["solver_ok"], solves = _solves(
+        t, x, y, rng, rate_hz=rate_hz, solve_rate_hz=solve_rate_hz, horizon=horizon, fault_time=fault_time)
+    events = [
+        Event(0.0, "info", "run started: scenario2 (synthetic), UKF, feedback on"),
+        Event(fault_time, "warn", "fault onset: right tyre deflating 2.0 m -> 1.0 m over 1 s"),
+        Event(fault_time + 0.8, "warn", "decision: fault isolated on the RIGHT wheel"),
+        Event(fault_time + 2.0, "info", "reconfiguration: feeding back R_R_hat"),
+        Event(duration - 1.0 / rate_hz, "info", "run finished"),
+    ]
+    ang = np.linspace(0.0, 2 * np.pi, 361)
+    reference = np.column_stack([Rc * np.cos(ang), Rc * np.sin(ang)])
+    return trace, solves, events, reference
+
+
+def _solves(t: np.ndarray, x: np.ndarray, y: np.ndarray, rng: np.random.Generator, *, rate_hz: float,
+            solve_rate_hz: float, horizon: int, fault_time: float,
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[Solve]]:
+    """NMPC solves every ``1 / solve_rate_hz`` s (the one near ``fault_time + 0.3`` s fails and falls back):
+    solve time (ms), iterations and success (1/0) on the solve rows (NaN elsewhere), and the solves."""
+    n = len(t)
+    Rc, V = 50.0, 10.0
+    w = V / Rc
     every = max(1, int(round(rate_hz / solve_rate_hz)))
     rows = np.arange(0, n, every)
     solves: list[Solve] = []
@@ -79,14 +101,4 @@ def synthetic_run(duration: float = 40.0, *, rate_hz: float = 100.0, solve_rate_
                   status="Maximum_Iterations_Exceeded" if fail else "Solve_Succeeded", fallback=fail)
         solves.append(s)
         st[i], it[i], ok[i] = s.solve_time_ms, s.iterations, float(s.ok)
-    trace["solve_time_ms"], trace["solver_iterations"], trace["solver_ok"] = st, it, ok
-    events = [
-        Event(0.0, "info", "run started: scenario2 (synthetic), UKF, feedback on"),
-        Event(fault_time, "warn", "fault onset: right tyre deflating 2.0 m -> 1.0 m over 1 s"),
-        Event(fault_time + 0.8, "warn", "decision: fault isolated on the RIGHT wheel"),
-        Event(fault_time + 2.0, "info", "reconfiguration: feeding back R_R_hat"),
-        Event(duration - 1.0 / rate_hz, "info", "run finished"),
-    ]
-    ang = np.linspace(0.0, 2 * np.pi, 361)
-    reference = np.column_stack([Rc * np.cos(ang), Rc * np.sin(ang)])
-    return trace, solves, events, reference
+    return st, it, ok, solves

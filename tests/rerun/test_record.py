@@ -18,7 +18,7 @@ from ftc_mj.rerun.read import read_scalar_series
 from ftc_mj.rerun.record import REQUIRED_COLUMNS, write_rrd
 from ftc_mj.rerun.viewer import open_viewer
 from ftc_mj.telemetry import Event, RobotGeometry, Solve
-from tests.support.synthetic import synthetic_run
+from tests.support.synthetic import scalar_series, synthetic_run
 
 N_MODES = 3
 DURATION = 40.0
@@ -80,27 +80,10 @@ OTHER_ENTITIES = [
 
 
 def _expected(trace: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    e = {
-        "/radius/right/truth": trace["R_R"], "/radius/right/estimate": trace["R_R_hat"],
-        "/radius/right/upper": trace["R_R_hat"] + 2 * trace["R_R_std"],
-        "/radius/right/lower": trace["R_R_hat"] - 2 * trace["R_R_std"],
-        "/radius/left/truth": trace["R_L"], "/radius/left/estimate": trace["R_L_hat"],
-        "/radius/left/upper": trace["R_L_hat"] + 2 * trace["R_L_std"],
-        "/radius/left/lower": trace["R_L_hat"] - 2 * trace["R_L_std"],
-        "/innovation/value": trace["innovation"], "/innovation/upper": 2 * trace["innovation_std"],
-        "/innovation/lower": -2 * trace["innovation_std"],
-        "/wheel_rate/right/measured": trace["omega_R"], "/wheel_rate/right/command": trace["omega_R_cmd"],
-        "/wheel_rate/left/measured": trace["omega_L"], "/wheel_rate/left/command": trace["omega_L_cmd"],
-        "/tracking/cross_track_error": trace["cross_track_error"], "/speed/truth": trace["v"],
-        "/speed/measured": trace["v_meas"], "/innovation/nis": trace["nis"],
-        "/yaw_rate/truth": trace["yaw_rate"], "/yaw_rate/measured": trace["yaw_rate_meas"],
-        "/attitude/roll": trace["roll"], "/attitude/pitch": trace["pitch"], "/attitude/z": trace["z"],
-        "/fault/detected": trace["fault_detected"],
-        "/reconfiguration/state": trace["reconfig_state"],
-        "/radius/right/model": trace["R_R_model"], "/radius/left/model": trace["R_L_model"],
-    }
-    for k in range(1, N_MODES + 1):
-        e[f"/imm/mode_prob_{k}"] = trace[f"mode_prob_{k}"]
+    e = scalar_series(trace)
+    e.update({"/reconfiguration/state": trace["reconfig_state"], "/radius/right/model": trace["R_R_model"],
+              "/radius/left/model": trace["R_L_model"]})
+    assert [k for k in e if k.startswith("/imm/")] == [f"/imm/mode_prob_{k}" for k in range(1, N_MODES + 1)]
     return e
 
 

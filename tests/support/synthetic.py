@@ -102,3 +102,31 @@ def _solves(t: np.ndarray, x: np.ndarray, y: np.ndarray, rng: np.random.Generato
         solves.append(s)
         st[i], it[i], ok[i] = s.solve_time_ms, s.iterations, float(s.ok)
     return st, it, ok, solves
+
+
+def scalar_series(trace: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The values a recording of ``trace`` holds at every row, by ``Scalars`` entity (radii in m, rates
+    in rad/s, speeds in m/s): radii with ±2σ, innovation with ±2σ and NIS, wheel rates, cross-track
+    error, speed, yaw rate, attitude, fault flag and the IMM mode probabilities present."""
+    series: dict[str, np.ndarray] = {
+        "/radius/right/truth": trace["R_R"], "/radius/right/estimate": trace["R_R_hat"],
+        "/radius/right/upper": trace["R_R_hat"] + 2 * trace["R_R_std"],
+        "/radius/right/lower": trace["R_R_hat"] - 2 * trace["R_R_std"],
+        "/radius/left/truth": trace["R_L"], "/radius/left/estimate": trace["R_L_hat"],
+        "/radius/left/upper": trace["R_L_hat"] + 2 * trace["R_L_std"],
+        "/radius/left/lower": trace["R_L_hat"] - 2 * trace["R_L_std"],
+        "/innovation/value": trace["innovation"], "/innovation/upper": 2 * trace["innovation_std"],
+        "/innovation/lower": -2 * trace["innovation_std"], "/innovation/nis": trace["nis"],
+        "/wheel_rate/right/measured": trace["omega_R"], "/wheel_rate/right/command": trace["omega_R_cmd"],
+        "/wheel_rate/left/measured": trace["omega_L"], "/wheel_rate/left/command": trace["omega_L_cmd"],
+        "/tracking/cross_track_error": trace["cross_track_error"], "/speed/truth": trace["v"],
+        "/speed/measured": trace["v_meas"], "/yaw_rate/truth": trace["yaw_rate"],
+        "/yaw_rate/measured": trace["yaw_rate_meas"], "/attitude/roll": trace["roll"],
+        "/attitude/pitch": trace["pitch"], "/attitude/z": trace["z"],
+        "/fault/detected": trace["fault_detected"],
+    }
+    k = 1
+    while f"mode_prob_{k}" in trace:
+        series[f"/imm/mode_prob_{k}"] = trace[f"mode_prob_{k}"]
+        k += 1
+    return series

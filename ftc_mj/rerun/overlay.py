@@ -126,6 +126,7 @@ def default_labels(runs: Sequence[RunData]) -> list[str]:
 
 
 def _unique(labels: list[str]) -> list[str]:
+    """``labels`` with repeats numbered ``#2``, ``#3``, …"""
     out: list[str] = []
     for lb in labels:
         cand, k = lb, 2
@@ -190,14 +191,17 @@ def write_comparison(run_dirs: Sequence[Path | str], out: Path | str, labels: Se
 
 
 def _color(k: int) -> list[int]:
+    """RGB colour of the k-th run (:data:`RUN_COLORS`, cycled)."""
     return list(RUN_COLORS[k % len(RUN_COLORS)])
 
 
 def _lighter(c: list[int], f: float = 0.5) -> list[int]:
+    """RGB colour ``c`` moved the fraction ``f`` towards white."""
     return [int(round(v + (255 - v) * f)) for v in c]
 
 
 def _log_runs(rec: rr.RecordingStream, runs: list[RunData]) -> None:
+    """The shared entities (axes, ``/reference``, ``/summary``), then every run under its prefix."""
     rec.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     ref = next((r.reference for r in runs if r.reference is not None and len(r.reference)), None)
     if ref is not None:
@@ -209,6 +213,7 @@ def _log_runs(rec: rr.RecordingStream, runs: list[RunData]) -> None:
 
 
 def _log_run(rec: rr.RecordingStream, run: RunData, prefix: str, color: list[int]) -> None:
+    """One run under ``prefix``: path, robot marker, the series of the module docstring, events."""
     tr, label = run.trace, run.label
     t = tr["t"]
     T = seconds_to_ns(t)
@@ -261,6 +266,7 @@ def summary_markdown(runs: Sequence[RunData]) -> str:
 
 
 def _cell(v: Any) -> str:
+    """A summary-table cell: 3 significant digits for floats, an em dash for a missing metric."""
     if v is None:
         return "—"
     if isinstance(v, float):
@@ -305,6 +311,7 @@ def comparison_blueprint(runs: Sequence[RunData]) -> rrb.Blueprint:
 
 
 def _overview_eye(runs: Sequence[RunData]) -> rrb.EyeControls3D:
+    """An eye that sees every run's path and reference (:func:`~ftc_mj.rerun.blueprint.overview_eye`)."""
     pts = [np.column_stack([r.trace["x"], r.trace["y"]]) for r in runs]
     return overview_eye(np.vstack(pts + [r.reference[:, :2] for r in runs if r.reference is not None]))
 

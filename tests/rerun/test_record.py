@@ -1,4 +1,4 @@
-"""Tests of :mod:`ftc_mj.rerun.record` and :mod:`ftc_mj.rerun.viewer`: a synthetic 40 s run is written and read
+"""Tests of :mod:`ftc_mj.rerun.record` (and :mod:`ftc_mj.rerun.read`): a synthetic 40 s run is written and read
 back with RrdReader."""
 
 from __future__ import annotations
@@ -12,11 +12,8 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
-from ftc_mj.errors import BadInput
-from ftc_mj.rerun import viewer
 from ftc_mj.rerun.read import read_scalar_series
 from ftc_mj.rerun.record import REQUIRED_COLUMNS, write_rrd
-from ftc_mj.rerun.viewer import open_viewer
 from ftc_mj.telemetry import Event, RobotGeometry, Solve
 from tests.support.synthetic import scalar_series, synthetic_run
 
@@ -287,23 +284,3 @@ def test_parallel_writes_do_not_mix(tmp_path: Path) -> None:
 def test_file_size_bound(rrd: Path) -> None:
     """A 40 s run's recording stays below the 10 MB budget (speed is measured in benchmarks/)."""
     assert rrd.stat().st_size < 10e6
-
-
-def test_open_viewer(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    with pytest.raises(BadInput):
-        open_viewer(tmp_path / "missing.rrd")
-    with pytest.raises(BadInput):
-        open_viewer(tmp_path)                            # a run dir without run.rrd
-    (tmp_path / "run.rrd").write_bytes(b"x")
-    seen: list[list[str]] = []
-
-    class Done:
-        returncode = 0
-
-    def fake_run(cmd: list[str], check: bool = False) -> Done:
-        seen.append(cmd)
-        return Done()
-
-    monkeypatch.setattr(viewer.subprocess, "run", fake_run)
-    open_viewer(tmp_path)
-    assert seen and seen[0][-1] == str(tmp_path / "run.rrd") and Path(seen[0][0]).name == "rerun"

@@ -1,4 +1,4 @@
-"""Benchmark of the Rerun recorder: column-wise :func:`ftc_mj.recorder.write_rrd` against the naive
+"""Benchmark of the Rerun recorder: column-wise :func:`ftc_mj.rerun.record.write_rrd` against the naive
 per-step ``log()`` approach for the same data (a synthetic 40 s, 100 Hz run with 400 NMPC solves).
 
 Usage::
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -21,7 +22,11 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 
-from ftc_mj.recorder import Event, Solve, synthetic_run, write_rrd
+from ftc_mj.rerun.record import write_rrd
+from ftc_mj.telemetry import Event, Solve
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository root: tests.support
+from tests.support.synthetic import scalar_series, synthetic_run  # noqa: E402
 
 RUN_BUDGET_S = 1.5
 """Wall time of a whole 40 s run the recorder budget is compared with (≤ 5 %)."""
@@ -34,27 +39,7 @@ def naive_write(path: Path, trace: dict[str, np.ndarray], solves: list[Solve], e
     rec.save(path)
     rec.log("/world/reference", rr.LineStrips3D([np.column_stack([reference, np.zeros(len(reference))])]),
             static=True)
-    scal = {
-        "/radius/right/truth": trace["R_R"], "/radius/right/estimate": trace["R_R_hat"],
-        "/radius/right/upper": trace["R_R_hat"] + 2 * trace["R_R_std"],
-        "/radius/right/lower": trace["R_R_hat"] - 2 * trace["R_R_std"],
-        "/radius/left/truth": trace["R_L"], "/radius/left/estimate": trace["R_L_hat"],
-        "/radius/left/upper": trace["R_L_hat"] + 2 * trace["R_L_std"],
-        "/radius/left/lower": trace["R_L_hat"] - 2 * trace["R_L_std"],
-        "/innovation/value": trace["innovation"], "/innovation/upper": 2 * trace["innovation_std"],
-        "/innovation/lower": -2 * trace["innovation_std"], "/innovation/nis": trace["nis"],
-        "/wheel_rate/right/measured": trace["omega_R"], "/wheel_rate/right/command": trace["omega_R_cmd"],
-        "/wheel_rate/left/measured": trace["omega_L"], "/wheel_rate/left/command": trace["omega_L_cmd"],
-        "/tracking/cross_track_error": trace["cross_track_error"], "/speed/truth": trace["v"],
-        "/speed/measured": trace["v_meas"], "/yaw_rate/truth": trace["yaw_rate"],
-        "/yaw_rate/measured": trace["yaw_rate_meas"], "/attitude/roll": trace["roll"],
-        "/attitude/pitch": trace["pitch"], "/attitude/z": trace["z"],
-        "/fault/detected": trace["fault_detected"],
-    }
-    k = 1
-    while f"mode_prob_{k}" in trace:
-        scal[f"/imm/mode_prob_{k}"] = trace[f"mode_prob_{k}"]
-        k += 1
+    scal = scalar_series(trace)
     t = trace["t"]
     solve_at = {int(round(s.t * 100)): s for s in solves}
     ev_at: dict[int, list[Event]] = {}

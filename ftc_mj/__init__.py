@@ -15,7 +15,7 @@ Layers (data flows downwards; lower layers never import higher ones)::
             ├─> model (kinematics, one definition)
             ├─> estimation (EKF, UKF, IMM, fault decision)   uses model
             ├─> control (reference, NMPC, LMPC, open loop)   uses model
-            └─> sim (multi-rate loop) -> trace, metrics; recorder (Rerun) only to write a .rrd
+            └─> sim (multi-rate loop) -> trace, metrics; rerun/ (Rerun) only to write a .rrd
     report (paper matrix, claims, figures), study (dask sweeps), api, cli
 
 Names are imported on first use, so ``import ftc_mj`` stays light.

@@ -22,7 +22,6 @@ Components are plugged in through :mod:`ftc_mj.registry` (``ftc_mj.register_esti
 from __future__ import annotations
 
 import json
-import tomllib
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -121,29 +120,14 @@ def run(config: RunConfig | str | Path | Mapping[str, Any] = "scenario2", out: s
 
 
 def load_run(path: str | Path) -> Run:
-    """A finished run directory (``OUT/<run-id>/``) read back; :class:`~ftc_mj.errors.BadInput` if it is
-    not one. Events come from ``events.json`` (runs written before it existed: from the trace)."""
+    """A finished run directory (``OUT/<run-id>/``) read back by :func:`ftc_mj.rundir.read_run`;
+    :class:`~ftc_mj.errors.BadInput` if it is not one. Events come from ``events.json`` (runs written
+    before it existed: from the trace)."""
+    from .rundir import read_run
+
     d = Path(path)
-    for name in ("config.toml", "trace.parquet", "metrics.json"):
-        if not (d / name).is_file():
-            raise BadInput(f"RUN_DIR: {d} is not a run directory (no {name})")
-    try:
-        cfg = validate_config(tomllib.loads((d / "config.toml").read_text()))
-        metrics = json.loads((d / "metrics.json").read_text())
-        trace = pl.read_parquet(d / "trace.parquet")
-    except (OSError, ValueError, tomllib.TOMLDecodeError) as err:
-        raise BadInput(f"RUN_DIR: {d}: unreadable run ({str(err).splitlines()[0][:120]})") from None
-    return Run(cfg, str(metrics.get("run_id", d.name)), metrics, trace, _events(d, trace), d)
-
-
-def _events(d: Path, trace: pl.DataFrame) -> list[Event]:
-    p = d / "events.json"
-    if p.is_file():
-        return [Event(float(e["t"]), str(e["level"]), str(e["text"])) for e in json.loads(p.read_text())]
-    from .comparison import trace_events
-
-    return trace_events({c: trace[c].to_numpy() for c in ("t", "fault_detected", "reconfig_state")
-                         if c in trace.columns})
+    cfg, metrics, trace, events = read_run(d)
+    return Run(cfg, str(metrics.get("run_id", d.name)), metrics, trace, events, d)
 
 
 @dataclass

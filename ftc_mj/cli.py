@@ -347,7 +347,7 @@ def view(run_dirs: Annotated[list[str], typer.Argument(
         help="A run directory (or a .rrd file); several run directories open their comparison.",
         metavar="RUN_DIR...", show_default=False)]) -> None:
     """Open a run's Rerun recording in the Rerun viewer, or the comparison of several runs."""
-    from .recorder import check_display, check_recording, open_viewer
+    from .rerun.viewer import check_display, check_recording, open_viewer
 
     try:
         if len(run_dirs) == 1:
@@ -355,7 +355,7 @@ def view(run_dirs: Annotated[list[str], typer.Argument(
             check_display(f"docs/screenshot.sh {rrd} OUT.png")
             open_viewer(rrd)
             return
-        from .comparison import load_runs
+        from .rerun.overlay import load_runs
 
         load_runs(run_dirs)  # bad input first: exit 2 before anything else
         check_display(f"ftc-mj compare {' '.join(run_dirs)} --out compare.rrd && "
@@ -370,7 +370,7 @@ def view(run_dirs: Annotated[list[str], typer.Argument(
 
 
 def _compare(run_dirs: list[str], out: Path, labels: list[str] | None) -> Path:
-    from .comparison import write_comparison
+    from .rerun.overlay import write_comparison
 
     return write_comparison([Path(d) for d in run_dirs], out, labels)
 
@@ -408,7 +408,7 @@ def compare(
             raise BadInput(f"--out: {out} is a folder; give a file name ending in .rrd")
         if target.exists() and not overwrite:
             raise BadInput(f"--out: {out} exists (give another name, or --overwrite)")
-        from .comparison import load_runs
+        from .rerun.overlay import load_runs
 
         load_runs(run_dirs, _labels(labels, len(run_dirs)))  # every input checked before writing
         check_output_root(target.parent if str(target.parent) else Path("."), target.name)
@@ -517,7 +517,7 @@ def paper(
 
 
 def _claim_comparisons(res: Any, out_dir: Path) -> list[Path]:
-    from .comparison import claim_run_dirs, write_comparison
+    from .rerun.overlay import claim_run_dirs, write_comparison
 
     paths = []
     for claim_id, labels, dirs in claim_run_dirs(res.claims, res.rows):

@@ -1,7 +1,7 @@
 """What a run records besides its trace: controller solves, events and the robot's drawn geometry.
 
 Plain data, without Rerun: the simulation loop fills these records, and only writing a recording
-(:mod:`ftc_mj.recorder`) loads rerun-sdk.
+(:mod:`ftc_mj.rerun`) loads rerun-sdk.
 """
 
 from __future__ import annotations

@@ -339,7 +339,8 @@ def test_view_of_a_non_recording_is_bad_input(tmp_path: Path) -> None:
 
 def test_view_without_display_points_to_the_screenshot_script(tmp_path: Path,
                                                               monkeypatch: pytest.MonkeyPatch) -> None:
-    from ftc_mj.recorder import synthetic_run, write_rrd
+    from ftc_mj.rerun.record import write_rrd
+    from tests.support.synthetic import synthetic_run
 
     trace, solves, events, ref = synthetic_run(2.0)
     write_rrd(tmp_path / "run.rrd", trace, run_id="r", solves=solves, events=events, reference_path=ref)

@@ -202,7 +202,7 @@ def test_factory_and_sim_hand_over_the_robot_limits() -> None:
 def test_mujoco_run_writes_the_telemetry_and_rerun_entities(tmp_path) -> None:
     """A short MuJoCo run with ``--controller pf-nmpc``: the pf_* trace columns are filled at the controller
     samples, the path metrics are in metrics.json and the Rerun recording has the path-following series."""
-    from ftc_mj.recorder import read_scalar_series
+    from ftc_mj.rerun.read import read_scalar_series
     from ftc_mj.sim.run import execute
 
     cfg = load_config("scenario1", {"controller.kind": "pf-nmpc", "duration": 2.0, "controller.rate_penalty": 1.0})

@@ -202,17 +202,19 @@ def test_view_bad_run_dir(tmp_path: Path) -> None:
 
 def test_view_opens_the_recording(tmp_path: Path, monkeypatch) -> None:
     """``ftc-mj view`` hands the run's recording to the Rerun viewer binary."""
-    import ftc_mj.recorder as recorder
+    import ftc_mj.rerun.viewer as viewer
+    from ftc_mj.rerun.record import write_rrd
+    from tests.support.synthetic import synthetic_run
 
-    trace, solves, events, ref = recorder.synthetic_run(2.0)
-    recorder.write_rrd(tmp_path / "run.rrd", trace, run_id="r", solves=solves, events=events, reference_path=ref)
+    trace, solves, events, ref = synthetic_run(2.0)
+    write_rrd(tmp_path / "run.rrd", trace, run_id="r", solves=solves, events=events, reference_path=ref)
     monkeypatch.setenv("DISPLAY", ":99")
     seen: list[list[str]] = []
 
     class Done:
         returncode = 0
 
-    monkeypatch.setattr(recorder.subprocess, "run", lambda cmd, check=False: seen.append(cmd) or Done())
+    monkeypatch.setattr(viewer.subprocess, "run", lambda cmd, check=False: seen.append(cmd) or Done())
     assert CliRunner().invoke(app, ["view", str(tmp_path)]).exit_code == 0
     assert seen and seen[0][1] == str(tmp_path / "run.rrd")
 

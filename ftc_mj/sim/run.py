@@ -206,7 +206,7 @@ def _write_run(final: Path, cfg: RunConfig, res: SimResult, metrics: dict[str, A
         write_toml(tmp / "config.toml", config_to_toml_dict(cfg))
         write_parquet(tmp / "trace.parquet", res.trace, metadata=trace_schema_metadata())
         if want_rrd:
-            from ..recorder import write_rrd
+            from ..rerun.record import write_rrd
 
             t0 = time.perf_counter()
             # the suspended chassis stays level at constant height, so the robot is drawn on the ground with

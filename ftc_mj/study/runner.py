@@ -414,9 +414,9 @@ def _run_dask(client: Any, todo: list[PlannedRun], kw: dict[str, Any], persist: 
 def write_study_comparison(plan: StudyPlan, results: pl.DataFrame, out: Path) -> tuple[Path, int] | None:
     """Overlay the study's runs that have a run folder in one recording (``out``), labelled by the axis
     values that vary (and the seed if there are several); at most the first
-    :data:`~ftc_mj.comparison.MAX_RUNS` in covering order (:func:`covering_order`). None if fewer than
+    :data:`~ftc_mj.rerun.overlay.MAX_RUNS` in covering order (:func:`covering_order`). None if fewer than
     two runs have a folder."""
-    from ..comparison import MAX_RUNS, distinct_labels, write_comparison
+    from ..rerun.overlay import MAX_RUNS, distinct_labels, write_comparison
 
     if "run_dir" not in results.columns:
         return None

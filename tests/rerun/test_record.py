@@ -1,4 +1,5 @@
-"""Tests of :mod:`ftc_mj.recorder`: a synthetic 40 s run is written and read back with RrdReader."""
+"""Tests of :mod:`ftc_mj.rerun.record` (and :mod:`ftc_mj.rerun.read`): a synthetic 40 s run is written and read
+back with RrdReader."""
 
 from __future__ import annotations
 
@@ -11,17 +12,10 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
-from ftc_mj import recorder
-from ftc_mj.errors import BadInput
-from ftc_mj.recorder import (
-    Event,
-    RobotGeometry,
-    Solve,
-    open_viewer,
-    read_scalar_series,
-    synthetic_run,
-    write_rrd,
-)
+from ftc_mj.rerun.read import read_scalar_series
+from ftc_mj.rerun.record import REQUIRED_COLUMNS, write_rrd
+from ftc_mj.telemetry import Event, RobotGeometry, Solve
+from tests.support.synthetic import scalar_series, synthetic_run
 
 N_MODES = 3
 DURATION = 40.0
@@ -83,27 +77,10 @@ OTHER_ENTITIES = [
 
 
 def _expected(trace: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    e = {
-        "/radius/right/truth": trace["R_R"], "/radius/right/estimate": trace["R_R_hat"],
-        "/radius/right/upper": trace["R_R_hat"] + 2 * trace["R_R_std"],
-        "/radius/right/lower": trace["R_R_hat"] - 2 * trace["R_R_std"],
-        "/radius/left/truth": trace["R_L"], "/radius/left/estimate": trace["R_L_hat"],
-        "/radius/left/upper": trace["R_L_hat"] + 2 * trace["R_L_std"],
-        "/radius/left/lower": trace["R_L_hat"] - 2 * trace["R_L_std"],
-        "/innovation/value": trace["innovation"], "/innovation/upper": 2 * trace["innovation_std"],
-        "/innovation/lower": -2 * trace["innovation_std"],
-        "/wheel_rate/right/measured": trace["omega_R"], "/wheel_rate/right/command": trace["omega_R_cmd"],
-        "/wheel_rate/left/measured": trace["omega_L"], "/wheel_rate/left/command": trace["omega_L_cmd"],
-        "/tracking/cross_track_error": trace["cross_track_error"], "/speed/truth": trace["v"],
-        "/speed/measured": trace["v_meas"], "/innovation/nis": trace["nis"],
-        "/yaw_rate/truth": trace["yaw_rate"], "/yaw_rate/measured": trace["yaw_rate_meas"],
-        "/attitude/roll": trace["roll"], "/attitude/pitch": trace["pitch"], "/attitude/z": trace["z"],
-        "/fault/detected": trace["fault_detected"],
-        "/reconfiguration/state": trace["reconfig_state"],
-        "/radius/right/model": trace["R_R_model"], "/radius/left/model": trace["R_L_model"],
-    }
-    for k in range(1, N_MODES + 1):
-        e[f"/imm/mode_prob_{k}"] = trace[f"mode_prob_{k}"]
+    e = scalar_series(trace)
+    e.update({"/reconfiguration/state": trace["reconfig_state"], "/radius/right/model": trace["R_R_model"],
+              "/radius/left/model": trace["R_L_model"]})
+    assert [k for k in e if k.startswith("/imm/")] == [f"/imm/mode_prob_{k}" for k in range(1, N_MODES + 1)]
     return e
 
 
@@ -271,7 +248,7 @@ def test_bad_trace_raises_and_writes_nothing(tmp_path: Path, run_data: tuple) ->
 def test_solver_from_trace_columns_minimal_run(tmp_path: Path) -> None:
     """No solves list, no optional columns, no IMM: solver series come from the trace's solve rows."""
     trace, _, _, _ = synthetic_run(5.0, n_modes=0)
-    keep = set(recorder.REQUIRED_COLUMNS) | {"solve_time_ms", "solver_iterations", "solver_ok"}
+    keep = set(REQUIRED_COLUMNS) | {"solve_time_ms", "solver_iterations", "solver_ok"}
     trace = {k: v for k, v in trace.items() if k in keep}
     path = tmp_path / "min.rrd"
     write_rrd(path, trace, run_id="min")
@@ -304,29 +281,6 @@ def test_parallel_writes_do_not_mix(tmp_path: Path) -> None:
         np.testing.assert_allclose(v, runs[i][0]["v_meas"], atol=1e-12)
 
 
-def test_file_size_bound(tmp_path: Path, run_data: tuple) -> None:
+def test_file_size_bound(rrd: Path) -> None:
     """A 40 s run's recording stays below the 10 MB budget (speed is measured in benchmarks/)."""
-    trace, solves, events, ref = run_data
-    write_rrd(tmp_path / "s.rrd", trace, run_id="s", solves=solves, events=events, reference_path=ref,
-              n_modes=N_MODES)
-    assert (tmp_path / "s.rrd").stat().st_size < 10e6
-
-
-def test_open_viewer(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    with pytest.raises(BadInput):
-        open_viewer(tmp_path / "missing.rrd")
-    with pytest.raises(BadInput):
-        open_viewer(tmp_path)                            # a run dir without run.rrd
-    (tmp_path / "run.rrd").write_bytes(b"x")
-    seen: list[list[str]] = []
-
-    class Done:
-        returncode = 0
-
-    def fake_run(cmd: list[str], check: bool = False) -> Done:
-        seen.append(cmd)
-        return Done()
-
-    monkeypatch.setattr(recorder.subprocess, "run", fake_run)
-    open_viewer(tmp_path)
-    assert seen and seen[0][-1] == str(tmp_path / "run.rrd") and Path(seen[0][0]).name == "rerun"
+    assert rrd.stat().st_size < 10e6

@@ -26,28 +26,22 @@ from __future__ import annotations
 
 import json
 import re
-import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pyarrow.parquet as pq
 import rerun as rr
 import rerun.blueprint as rrb
 
-from .errors import BadInput
-from .recorder import (
-    TEXT_LEVELS,
-    Event,
-    growing_path,
-    overview_eye,
-    recording_file,
-    seconds_to_ns,
-    series_style,
-    strips_column,
-)
+from ftc_mj.errors import BadInput
+from ftc_mj.rundir import RECORDING, read_config, read_metrics, read_run_trace, trace_events
+from ftc_mj.telemetry import Event
+
+from .blueprint import overview_eye
+from .read import read_events
+from .stream import growing_path, recording_file, seconds_to_ns, send_events, send_series, sim_time, strips_column
 
 RUN_COLORS = ((31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75),
               (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207))
@@ -76,87 +70,39 @@ class RunData:
     label: str = ""
 
 
-def load_run(run_dir: Path | str) -> RunData:
-    """Read a run directory; :class:`BadInput` (naming ``RUN_DIR``) if it has no readable trace."""
+def read_run_data(run_dir: Path | str) -> RunData:
+    """What the comparison shows of a run directory (:mod:`ftc_mj.rundir`): its trace (required,
+    :class:`BadInput` naming ``RUN_DIR`` if missing or unreadable), metrics and reference path if readable,
+    and events."""
     d = Path(run_dir)
-    tp = d / "trace.parquet"
-    if not tp.is_file():
-        raise BadInput(f"RUN_DIR: {d} is not a run directory (no trace.parquet)")
-    try:
-        table = pq.read_table(tp)
-    except Exception as err:  # noqa: BLE001 - pyarrow raises several types for a damaged file
-        raise BadInput(f"RUN_DIR: {tp}: not a readable Parquet file ({str(err).splitlines()[0][:100]})") from None
-    trace = {c: table.column(c).to_numpy(zero_copy_only=False).astype(np.float64)
-             for c in table.column_names if _numeric(table.schema.field(c).type)}
-    for c in ("t", "x", "y"):
-        if c not in trace:
-            raise BadInput(f"RUN_DIR: {tp}: no column {c!r}; not a run trace")
+    trace = read_run_trace(d)
     metrics: dict[str, Any] = {}
     try:
-        metrics = json.loads((d / "metrics.json").read_text())
+        metrics = read_metrics(d)
     except (OSError, ValueError):
         pass
     return RunData(d, trace, metrics, _events_of(d, trace), _reference_of(d))
 
 
-def _numeric(typ: Any) -> bool:
-    import pyarrow as pa
-
-    return bool(pa.types.is_floating(typ) or pa.types.is_integer(typ) or pa.types.is_boolean(typ))
-
-
 def _events_of(d: Path, trace: dict[str, np.ndarray]) -> list[Event]:
     """The ``/events`` of the run's recording, else the decision and reconfiguration changes in the trace."""
-    rrd = d / "run.rrd"
+    rrd = d / RECORDING
     if rrd.is_file():
         try:
-            return _recorded_events(rrd)
+            return read_events(rrd)
         except (RuntimeError, OSError, KeyError, ValueError):
             pass
     return trace_events(trace)
 
 
-def _recorded_events(rrd: Path) -> list[Event]:
-    import pyarrow as pa
-    from rerun.chunk import RrdReader
-
-    out: list[Event] = []
-    for ch in RrdReader(str(rrd)).stream().filter(content="/events", is_static=False).to_chunks():
-        if str(ch.entity_path) != "/events":
-            continue
-        rb = ch.to_record_batch()
-        ts = rb.column("sim_time").cast(pa.int64()).to_numpy(zero_copy_only=False) * 1e-9
-        for t, texts, levels in zip(ts, rb.column("TextLog:text").to_pylist(),
-                                    rb.column("TextLog:level").to_pylist(), strict=True):
-            for i, text in enumerate(texts or []):
-                level = (levels or ["INFO"])[min(i, len(levels or [""]) - 1)] or "INFO"
-                out.append(Event(float(t), str(level).lower(), str(text)))
-    return sorted(out, key=lambda e: e.t)
-
-
-def trace_events(trace: dict[str, np.ndarray]) -> list[Event]:
-    """Events read off the trace: each change of ``fault_detected`` and of ``reconfig_state``."""
-    t = trace["t"]
-    out: list[Event] = []
-    names = {0: "nominal radii", 1: "hold", 2: "radii handed over", 3: "reverted"}
-    for col, text in (("fault_detected", {1: "fault declared", 0: "fault withdrawn"}), ("reconfig_state", names)):
-        if col not in trace:
-            continue
-        v = np.nan_to_num(trace[col], nan=-1.0).astype(np.int64)
-        for i in np.flatnonzero(v[1:] != v[:-1]) + 1:
-            if int(v[i]) in text:
-                out.append(Event(float(t[i]), "info", f"{col}: {text[int(v[i])]}"))
-    return out
-
-
 def _reference_of(d: Path) -> np.ndarray | None:
     """The reference path ``(N, 2)`` (m) of the run's resolved config, or None if it cannot be rebuilt."""
-    try:
-        from .config import validate_config
-        from .control import build_reference
+    import tomllib
 
-        cfg = validate_config(tomllib.loads((d / "config.toml").read_text()))
-        return np.asarray(build_reference(cfg).path_points(720), dtype=np.float64)
+    try:
+        from ftc_mj.control import build_reference
+
+        return np.asarray(build_reference(read_config(d)).path_points(720), dtype=np.float64)
     except (OSError, ValueError, KeyError, tomllib.TOMLDecodeError):
         return None
 
@@ -180,6 +126,7 @@ def default_labels(runs: Sequence[RunData]) -> list[str]:
 
 
 def _unique(labels: list[str]) -> list[str]:
+    """``labels`` with repeats numbered ``#2``, ``#3``, …"""
     out: list[str] = []
     for lb in labels:
         cand, k = lb, 2
@@ -215,7 +162,7 @@ def load_runs(run_dirs: Sequence[Path | str], labels: Sequence[str] | None = Non
         raise BadInput("RUN_DIR: give at least one run directory")
     if len(run_dirs) > MAX_RUNS:
         raise BadInput(f"RUN_DIR: {len(run_dirs)} runs; a comparison takes at most {MAX_RUNS}")
-    runs = [load_run(d) for d in run_dirs]
+    runs = [read_run_data(d) for d in run_dirs]
     names = check_labels(labels, len(runs)) if labels else distinct_labels(default_labels(runs))
     for r, lb in zip(runs, names, strict=True):
         r.label = lb
@@ -244,14 +191,17 @@ def write_comparison(run_dirs: Sequence[Path | str], out: Path | str, labels: Se
 
 
 def _color(k: int) -> list[int]:
+    """RGB colour of the k-th run (:data:`RUN_COLORS`, cycled)."""
     return list(RUN_COLORS[k % len(RUN_COLORS)])
 
 
 def _lighter(c: list[int], f: float = 0.5) -> list[int]:
+    """RGB colour ``c`` moved the fraction ``f`` towards white."""
     return [int(round(v + (255 - v) * f)) for v in c]
 
 
 def _log_runs(rec: rr.RecordingStream, runs: list[RunData]) -> None:
+    """The shared entities (axes, ``/reference``, ``/summary``), then every run under its prefix."""
     rec.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     ref = next((r.reference for r in runs if r.reference is not None and len(r.reference)), None)
     if ref is not None:
@@ -263,19 +213,17 @@ def _log_runs(rec: rr.RecordingStream, runs: list[RunData]) -> None:
 
 
 def _log_run(rec: rr.RecordingStream, run: RunData, prefix: str, color: list[int]) -> None:
+    """One run under ``prefix``: path, robot marker, the series of the module docstring, events."""
     tr, label = run.trace, run.label
     t = tr["t"]
     T = seconds_to_ns(t)
 
     def at(rows: np.ndarray) -> list[rr.TimeColumn]:
-        return [rr.TimeColumn("sim_time", duration=T[rows])]
+        return [sim_time(T[rows])]
 
     def series(entity: str, column: str, name: str, c: list[int], width: float) -> None:
-        if column not in tr:
-            return
-        rec.log(f"{prefix}/{entity}", series_style(tuple(c), f"{label}: {name}", width), static=True)
-        rec.send_columns(f"{prefix}/{entity}", indexes=at(np.arange(len(t))),
-                         columns=rr.Scalars.columns(scalars=tr[column]))
+        if column in tr:
+            send_series(rec, f"{prefix}/{entity}", at(np.arange(len(t))), tr[column], c, f"{label}: {name}", width)
 
     rows, strips = growing_path(tr["x"], tr["y"], t)
     rec.log(f"{prefix}/path", rr.LineStrips3D.from_fields(radii=[0.06], colors=[color]), static=True)
@@ -303,11 +251,7 @@ def _log_run(rec: rr.RecordingStream, run: RunData, prefix: str, color: list[int
         k += 1
     if run.events:
         et = np.array([e.t for e in run.events], dtype=np.float64)
-        rec.send_columns(f"{prefix}/events", indexes=[rr.TimeColumn("sim_time", duration=seconds_to_ns(et))],
-                         columns=rr.TextLog.columns(
-                             text=[f"[{label}] {e.text}" for e in run.events],
-                             level=[str(TEXT_LEVELS.get(e.level.strip().lower(), rr.TextLogLevel.INFO))
-                                    for e in run.events]))
+        send_events(rec, f"{prefix}/events", [sim_time(seconds_to_ns(et))], run.events, f"[{label}] ")
 
 
 def summary_markdown(runs: Sequence[RunData]) -> str:
@@ -322,6 +266,7 @@ def summary_markdown(runs: Sequence[RunData]) -> str:
 
 
 def _cell(v: Any) -> str:
+    """A summary-table cell: 3 significant digits for floats, an em dash for a missing metric."""
     if v is None:
         return "—"
     if isinstance(v, float):
@@ -366,6 +311,7 @@ def comparison_blueprint(runs: Sequence[RunData]) -> rrb.Blueprint:
 
 
 def _overview_eye(runs: Sequence[RunData]) -> rrb.EyeControls3D:
+    """An eye that sees every run's path and reference (:func:`~ftc_mj.rerun.blueprint.overview_eye`)."""
     pts = [np.column_stack([r.trace["x"], r.trace["y"]]) for r in runs]
     return overview_eye(np.vstack(pts + [r.reference[:, :2] for r in runs if r.reference is not None]))
 

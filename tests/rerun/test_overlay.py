@@ -16,24 +16,16 @@ from rerun.chunk import RrdReader
 from typer.testing import CliRunner
 
 from ftc_mj.cli import app
-from ftc_mj.comparison import claim_run_dirs, entity_token, load_runs, write_comparison
 from ftc_mj.errors import BadInput
-from ftc_mj.recorder import read_scalar_series
+from ftc_mj.rerun.overlay import claim_run_dirs, entity_token, load_runs, write_comparison
+from ftc_mj.rerun.read import read_scalar_series
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
-    """Scenario 2 with a gyro and the rate penalty, policy none vs safe (12 s: the
-    puncture at 10 s, the safe hand-over about 1 s later)."""
-    out = tmp_path_factory.mktemp("runs")
-    dirs = []
-    for policy in ("none", "safe"):
-        res = CliRunner().invoke(app, ["run", "scenario2", "--reconfig", policy, "--duration", "12", "--set",
-                                       "sensors.yaw_rate_sigma=0.01", "--set", "controller.rate_penalty=1",
-                                       "--out", str(out), "-q"])
-        assert res.exit_code == 0, res.output + res.stderr
-        dirs.append(Path(res.stdout.strip()))
-    return dirs
+def runs(policy_runs: list[Path]) -> list[Path]:
+    """Scenario 2 shortened (puncture at 3 s, 5 s) with a gyro and the rate penalty, policy none vs safe
+    (the session's ``policy_runs``: the safe hand-over follows the puncture within a second)."""
+    return policy_runs
 
 
 def entities(path: Path) -> set[str]:
@@ -90,7 +82,7 @@ def test_events_come_from_the_run_recordings(runs: list[Path]) -> None:
 
 
 def test_view_of_several_runs_opens_their_comparison(runs: list[Path], monkeypatch: pytest.MonkeyPatch) -> None:
-    import ftc_mj.recorder as recorder
+    import ftc_mj.rerun.viewer as viewer
 
     seen: list[tuple[list[str], set[str]]] = []
 
@@ -101,7 +93,7 @@ def test_view_of_several_runs_opens_their_comparison(runs: list[Path], monkeypat
         seen.append((cmd, entities(Path(cmd[1]))))
         return Done()
 
-    monkeypatch.setattr(recorder.subprocess, "run", fake_viewer)
+    monkeypatch.setattr(viewer.subprocess, "run", fake_viewer)
     monkeypatch.setenv("DISPLAY", ":99")
     res = CliRunner().invoke(app, ["view", *map(str, runs)])
     assert res.exit_code == 0, res.stderr

@@ -43,9 +43,9 @@ class Run:
     """The fully resolved configuration."""
     run_id: str
     metrics: dict[str, Any]
-    """The metrics of ``metrics.json`` (keys documented in :mod:`ftc_mj.sim.metrics`)."""
+    """The metrics of ``metrics.json`` (keys documented in :mod:`ftc_mj.metrics`)."""
     trace: pl.DataFrame
-    """One row per estimator step (columns in :mod:`ftc_mj.sim.columns`; SI units, radians)."""
+    """One row per estimator step (columns in :mod:`ftc_mj.telemetry.columns`; SI units, radians)."""
     events: list[Event] = field(default_factory=list)
     """Fault onsets, declarations, hand-overs, solver fallbacks, …, in time order."""
     path: Path | None = None

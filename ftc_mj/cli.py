@@ -397,7 +397,7 @@ def compare(
     """Write one Rerun recording overlaying several runs: each under /runs/<label>/ on a shared sim_time
     timeline, with a blueprint that plots them together (trajectories, radii, cross-track error, wheel
     rates, IMM mode probabilities, reconfiguration state; legend by run label)."""
-    from .sim.run import check_output_root
+    from .sim.output import check_output_root
 
     try:
         target = _folder(out, "--out")

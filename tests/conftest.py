@@ -1,5 +1,9 @@
-"""Test-suite settings: strict mode, so that an exception inside a simulation fails the test that
-caused it instead of being recorded as a failed run (the tests of the recorded failure turn it off)."""
+"""Test-suite settings and session fixtures.
+
+Strict mode: an exception inside a simulation fails the test that caused it instead of being recorded
+as a failed run (the tests of the recorded failure turn it off). ``shared_runs``: the closed-loop runs
+of :data:`tests.support.shared_runs.SHARED_RUNS`, each simulated once per session on first use;
+``policy_runs``: two of them written as run directories with recordings."""
 
 from __future__ import annotations
 
@@ -9,14 +13,20 @@ from pathlib import Path
 import pytest
 
 from ftc_mj.sim.loop import STRICT_ENV
+from tests.support.shared_runs import SharedRuns
 
 os.environ[STRICT_ENV] = "1"
 
 
 @pytest.fixture(scope="session")
-def policy_runs(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
-    """Two short scenario-2 run directories with recordings, reconfiguration policy none and safe
-    (:func:`tests.support.runs.write_policy_runs`)."""
-    from tests.support.runs import write_policy_runs
+def shared_runs(tmp_path_factory: pytest.TempPathFactory) -> SharedRuns:
+    """The session's shared closed-loop runs by name (``shared_runs["s2-puncture-5s-safe"]`` is a
+    :class:`~ftc_mj.sim.run.RunOutcome`; ``shared_runs.run_dir(name)`` its run directory)."""
+    return SharedRuns(tmp_path_factory.mktemp("shared-runs"))
 
-    return write_policy_runs(tmp_path_factory.mktemp("policy_runs"))
+
+@pytest.fixture(scope="session")
+def policy_runs(shared_runs: SharedRuns) -> list[Path]:
+    """Two short scenario-2 run directories with recordings, reconfiguration policy none and safe (the
+    shared 5 s runs with the puncture at 3 s: declared at about 3.7 s, handed over at about 3.8 s)."""
+    return [shared_runs.run_dir(f"s2-puncture-5s-{policy}", rrd=True) for policy in ("none", "safe")]

@@ -196,7 +196,9 @@ def test_output_problems_are_found_before_simulating(tmp_path: Path, monkeypatch
     for out, msg in cases:
         res = CliRunner().invoke(app, ["run", "scenario1", "--out", out, *QUICK])
         assert res.exit_code == 2 and msg in one_error_line(res), (out, res.stderr)
-    monkeypatch.setattr(run_mod.shutil, "disk_usage", lambda p: type("U", (), {"free": 1000})())
+    import ftc_mj.sim.output as output_mod
+
+    monkeypatch.setattr(output_mod.shutil, "disk_usage", lambda p: type("U", (), {"free": 1000})())
     res = CliRunner().invoke(app, ["run", "scenario1", "--out", str(tmp_path / "o"), *QUICK])
     assert res.exit_code == 2 and "MB free in" in one_error_line(res)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]

@@ -19,8 +19,8 @@ from ftc_mj.estimation.change import (
 )
 from ftc_mj.estimation.imm import BANK_4
 from ftc_mj.estimation.rule_statistics import sigma_isolation
+from ftc_mj.metrics.fdi import first_alarm_records
 from ftc_mj.model.kinematics import KinematicModel
-from ftc_mj.sim.fdi_metrics import first_alarm_records
 
 ONSET = 300  # step of the puncture in the synthetic runs
 DROP = 0.8  # m, left radius 2.0 -> 1.2

@@ -184,8 +184,9 @@ def test_command_step_metrics() -> None:
     """``command_step_max`` and ``command_at_rate_limit_s`` on a held (100 Hz) command trace: steps of
     2.0 (the bound), 1.0 and 5.0 rad/s at three controller samples -> max 5.0 rad/s, two periods (0.2 s)
     at or beyond the bound."""
-    from ftc_mj.sim.columns import BASE_COLUMNS
-    from ftc_mj.sim.metrics import compute_metrics, fault_onsets
+    from ftc_mj.metrics.onsets import fault_onsets
+    from ftc_mj.metrics.run import compute_metrics
+    from ftc_mj.telemetry.columns import BASE_COLUMNS
 
     cfg = load_config("scenario1", {"duration": 2.0})
     n = 200

@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 from ftc_mj.cli import app
 from ftc_mj.config import RunConfig
-from ftc_mj.sim.fdi_metrics import cumulative_kl
+from ftc_mj.metrics.fdi import cumulative_kl
 from ftc_mj.study.fdi_curves import Cell, Run, lorden_bound, operating_point, poisson_rate
 from ftc_mj.study.runner import run_study
 from ftc_mj.study.spec import load_study

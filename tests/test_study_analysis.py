@@ -7,10 +7,11 @@ import polars as pl
 
 from ftc_mj.config import load_config
 from ftc_mj.estimation.consistency import anees_bounds
-from ftc_mj.sim.columns import BASE_COLUMNS
-from ftc_mj.sim.metrics import compute_metrics, fault_onsets
+from ftc_mj.metrics.onsets import fault_onsets
+from ftc_mj.metrics.run import compute_metrics
 from ftc_mj.study.analysis import consistency_table, run_tests
 from ftc_mj.study.runner import flatten_metrics
+from ftc_mj.telemetry.columns import BASE_COLUMNS
 
 STD = 0.1
 

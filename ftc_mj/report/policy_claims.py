@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..sim.metrics import FAULT_TRANSIENT_S
+from ..metrics.run import FAULT_TRANSIENT_S
 from .checks import Claim, Rows, evaluate, fmt, le, num, truthy
 from .claims import chk
 from .matrix import POLICY_RATE_PENALTY, POLICY_SCENARIOS, make_label

@@ -1,22 +1,26 @@
 """The multi-rate closed loop: the one place that wires plant, sensors, estimator, fault decision,
-controller and telemetry together.
+reconfiguration policy and controller together (:func:`wire`, from the packages' factories).
 
 Clocks (all integer step counts, so there is no floating-point drift): physics at
 ``plant.timestep`` (1 kHz), estimator every ``physics_per_estimator`` physics steps (100 Hz),
 controller every ``estimator_per_controller`` estimator steps (10 Hz). Commands are held (zero-order
-hold) between controller samples. At estimator step ``k`` (time ``t_k``):
+hold) between controller samples. Estimator step ``k`` (time ``t_k``, :meth:`ClosedLoop.step`) is a
+fixed sequence of named steps:
 
-1. read the truth and the sensors at ``t_k``;
-2. the filter predicts over ``[t_{k-1}, t_k]`` with the wheel rates measured at ``t_{k-1}`` and
-   updates with the measurement at ``t_k``; the fault decision runs on its output;
-3. on a controller sample, the controller solves from the pose the sensors read at ``t_k`` (the true
-   pose, plus ``sensors.pose_sigma`` noise drawn by :class:`~ftc_mj.plant.Sensors`) with the radii chosen by
-   the reconfiguration policy (a robust NMPC with ``posterior`` weighting is first handed the filter's
-   scenario weights, :mod:`ftc_mj.reconfiguration.scenario_weights`) (optionally dithered while a fault is
-   suspected but not isolated), and its command is applied from ``t_k``;
-4. one trace row is stored; the plant advances to ``t_{k+1}``.
+1. ``sense``: read the truth and the sensors at ``t_k``;
+2. ``estimate``: the filter predicts over ``[t_{k-1}, t_k]`` with the wheel rates measured at
+   ``t_{k-1}`` and updates with the measurement at ``t_k``; ``decide``: the fault decision runs on its
+   output and the policy observes it; ``record_estimate``;
+3. on a controller sample, ``reconfigure``: the policy chooses the radii (a robust NMPC with
+   ``posterior`` weighting is first handed the filter's scenario weights,
+   :mod:`ftc_mj.reconfiguration.scenario_weights`);
+   ``control``: the controller solves from the pose the sensors read at ``t_k`` (the true pose, plus
+   ``sensors.pose_sigma`` noise drawn by :class:`~ftc_mj.plant.Sensors`), optionally dithered while a
+   fault is suspected but not isolated; ``apply``: its command is held on the plant from ``t_k``;
+4. ``record``: the row is complete; the plant advances to ``t_{k+1}``.
 
-Telemetry is buffered in preallocated arrays; nothing is logged call by call.
+The trace is buffered in preallocated arrays (:class:`~ftc_mj.sim.trace.TraceWriter`); nothing is
+logged call by call.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -34,16 +39,17 @@ from ..control.base import ControlOutput
 from ..control.excitation import dither_wheel_rates, yaw_dither
 from ..control.reference import build_reference
 from ..estimation.base import FilterOutput, Measurement
-from ..estimation.decision import FaultDecision
+from ..estimation.decision import DecisionState, FaultDecision
 from ..estimation.factory import build_estimator
 from ..estimation.pcrb import pcrb_columns
-from ..plant import Sensors
+from ..metrics.onsets import fault_onsets
+from ..plant import SensorReading, Sensors, Truth
 from ..reconfiguration.factory import build_policy, build_scenario_weighting
+from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
 from .cache import controller_for, plant_for
-from .columns import BASE_COLUMNS, COVARIANCE_COLUMNS, STATE, WHEEL_CODES
-from .metrics import fault_onsets
+from .trace import TraceWriter
 
 
 @dataclass
@@ -87,20 +93,6 @@ def _where(exc: BaseException) -> str:
     return f"{path}:{f.lineno} in {f.name}"
 
 
-def _log_estimate(c: dict[str, np.ndarray], k: int, out: FilterOutput) -> None:
-    """Estimate, σ of each state, off-diagonal covariances and the innovation statistics of row ``k``."""
-    P = out.P
-    for i, name in enumerate(STATE):
-        c[f"{name}_hat"][k] = out.x[i]
-        c[f"{name}_std"][k] = np.sqrt(max(P[i, i], 0.0))
-    for (i, j), name in COVARIANCE_COLUMNS.items():
-        c[name][k] = 0.5 * (P[i, j] + P[j, i])
-    c["innovation"][k] = out.speed_innovation
-    c["innovation_std"][k] = out.speed_innovation_std
-    c["nis"][k] = out.nis
-    c["nis_dof"][k] = float(np.size(out.innovation)) if np.isfinite(out.nis) else 0.0
-
-
 def robot_geometry(plant: object, cfg: RunConfig) -> RobotGeometry:
     """Sizes (m) to draw the robot, read by name from the MuJoCo model (defaults for the kinematic plant)."""
     m = getattr(plant, "model", None)
@@ -130,6 +122,213 @@ def step_bound(cfg: RunConfig, applied: np.ndarray | None) -> tuple[np.ndarray |
     return applied, c.omega_rate_max / c.rate
 
 
+@dataclass
+class Components:
+    """The parts of one run, each built by its package's factory from the run config."""
+
+    plant: Any
+    sensors: Sensors
+    reference: Any
+    controller: Any
+    estimator: Any
+    """``None``: the run has no filter (and then no fault decision)."""
+    decision: FaultDecision | None
+    policy: Any
+    """The reconfiguration policy: which radii the controller is given."""
+    weighting: ScenarioWeighting | None
+    """A robust NMPC's scenario weights from the filter (``None``: as configured)."""
+
+
+def wire(cfg: RunConfig) -> Components:
+    """Build (or take from the per-process :mod:`.cache`, reset) every component of the run ``cfg``; with
+    ``plant.start_moving`` the plant starts at the reference's speed (m/s) and yaw rate (rad/s) at t = 0."""
+    plant = plant_for(cfg)
+    sensors = Sensors(cfg.sensors, cfg.seed)
+    reference = build_reference(cfg)
+    controller = controller_for(cfg, reference)
+    estimator = build_estimator(cfg)
+    decision = FaultDecision(cfg) if estimator is not None else None
+    policy = build_policy(cfg, with_estimator=estimator is not None)
+    weighting = build_scenario_weighting(cfg)
+    if cfg.plant.start_moving:
+        r0 = reference.at(0.0)
+        plant.set_motion(float(r0.V), float(r0.psidot))
+    return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting)
+
+
+class ClosedLoop:
+    """One run in progress: its components, its trace and events, and what one estimator step hands
+    the next (the wheel rates measured, the last decision, the command in force, …).
+
+    :meth:`step` is one estimator step ``k``, a fixed sequence of named steps: :meth:`sense` (truth and
+    sensors), :meth:`estimate`, :meth:`decide`, :meth:`record_estimate`, and on a controller sample
+    :meth:`reconfigure`, :meth:`control`, :meth:`apply`; then :meth:`record` and the plant's advance.
+    """
+
+    def __init__(self, cfg: RunConfig) -> None:
+        self.cfg = cfg
+        self.parts = wire(cfg)
+        self.n = cfg.n_estimator_steps
+        self.dt = 1.0 / cfg.estimator.rate
+        self.phys_per_est = cfg.physics_per_estimator
+        self.est_per_ctl = cfg.estimator_per_controller
+        estimator = self.parts.estimator
+        self.n_modes = len(getattr(estimator, "hypotheses", None) or ())
+        self.trace = TraceWriter(self.n, tuple(getattr(self.parts.controller, "telemetry_columns", ())),
+                                 self.n_modes)
+        self.solves: list[Solve] = []
+        self.events: list[Event] = [Event(t_on, "warn", f"fault injected: {wheel} tyre radius schedule starts")
+                                    for wheel, t_on in fault_onsets(cfg).items() if t_on is not None]
+        self.u_prev: np.ndarray | None = None
+        self.out: FilterOutput | None = None
+        self.cmd = ControlOutput(omega=np.zeros(2))
+        self.applied: np.ndarray | None = None  # the command in force on the plant (after any dither)
+        self.model_radii = np.full(2, cfg.model_wheel_radius)
+        self.last_resets = 0
+        self.last_ds: DecisionState | None = None
+        self.detected_before = False
+        self.anomaly_before = False
+        self.suspected = False
+        self.reset_since_solve = False
+        self.flags_seen = 0
+        self.rows = 0
+        self.error: str | None = None
+        self.error_where: str | None = None
+
+    def step(self, k: int) -> None:
+        """Estimator step ``k`` (time ``k * dt``, s), then the plant's advance to the next one."""
+        t = k * self.dt
+        truth, reading, u_meas = self.sense(k, t)
+        if self.parts.estimator is not None:
+            out, u_pred = self.estimate(reading, u_meas)
+            ds = self.decide(t, out, u_pred)
+            self.record_estimate(k, t, out, ds)
+        self.u_prev = u_meas
+        if k % self.est_per_ctl == 0:
+            radii = self.reconfigure(t, u_meas, truth)
+            cmd = self.control(k, t, reading, radii)
+            self.apply(k, t, cmd)
+        self.record(k)
+        self.parts.plant.advance(self.phys_per_est)
+
+    def sense(self, k: int, t: float) -> tuple[Truth, SensorReading, np.ndarray]:
+        """Read the truth and the sensors at ``t`` (s) into row ``k``; the measured wheel rates (rad/s)."""
+        plant = self.parts.plant
+        tr = plant.truth()
+        rd = self.parts.sensors.read(tr, t)
+        u_meas = np.array([rd.omega_R, rd.omega_L])
+        self.trace.truth(k, t, tr, rd, u_meas)
+        new = tr.flags & ~self.flags_seen
+        if new:
+            self.flags_seen |= new
+            self.events.append(Event(t, "warn", f"plant left the kinematic model's domain: "
+                                                f"{plant.describe_flags(new)}"))
+        self.trace.cross_track(k, float(self.parts.reference.cross_track(tr.x, tr.y)))
+        return tr, rd, u_meas
+
+    def estimate(self, rd: SensorReading, u_meas: np.ndarray) -> tuple[FilterOutput, np.ndarray]:
+        """One filter step: predict with the wheel rates measured at the previous step (at the first step,
+        this one's) and update with the readings; returns the output and the wheel rates (rad/s) used."""
+        z = Measurement(speed=rd.speed, yaw_rate=rd.yaw_rate, position=rd.position)
+        u_pred = self.u_prev if self.u_prev is not None else u_meas
+        self.out = self.parts.estimator.step(u_pred, z)
+        return self.out, u_pred
+
+    def decide(self, t: float, out: FilterOutput, u_pred: np.ndarray) -> DecisionState:
+        """The fault decision on the filter's output at ``t`` (s); the policy observes the output."""
+        assert self.parts.decision is not None
+        ds = self.parts.decision.update(t, out, u_pred)
+        self.parts.policy.observe(out)
+        self.last_ds = ds
+        self.suspected = ds.suspected
+        return ds
+
+    def record_estimate(self, k: int, t: float, out: FilterOutput, ds: DecisionState) -> None:
+        """Row ``k``'s estimate and decision, and the events they start: a declaration, a radius anomaly,
+        a filter reset."""
+        self.trace.estimate(k, out)
+        self.trace.decision(k, ds, out.mode_probs)
+        if ds.detected and not self.detected_before:
+            self.events.append(Event(t, "warn", f"fault declared: {ds.wheel} wheel, severity "
+                                                f"R {ds.severity_R:.0%} / L {ds.severity_L:.0%}"))
+        self.detected_before = ds.detected
+        if ds.anomaly and not self.anomaly_before:
+            self.events.append(Event(t, "warn", "radius anomaly: an estimate lies above nominal "
+                                                "(not a puncture, not declared)"))
+        self.anomaly_before = ds.anomaly
+        resets = getattr(self.parts.estimator, "resets", 0)
+        if resets != self.last_resets:
+            self.reset_since_solve = True
+            self.events.append(Event(t, "error", f"filter divergence: reset #{resets}"))
+        self.last_resets = resets
+
+    def reconfigure(self, t: float, u_meas: np.ndarray, tr: Truth) -> np.ndarray:
+        """The radii (m) the policy gives the controller at ``t`` (s); a robust NMPC weighted by the filter
+        gets its scenario weights."""
+        self.model_radii = self.parts.policy.radii(t, self.out, self.last_ds, self.reset_since_solve, u_meas,
+                                                   (tr.R_R, tr.R_L))
+        self.reset_since_solve = False
+        if self.parts.weighting is not None:
+            self.parts.controller.set_scenario_weights(self.parts.weighting.weights(self.out, self.model_radii))
+        return self.model_radii
+
+    def control(self, k: int, t: float, rd: SensorReading, radii: np.ndarray) -> ControlOutput:
+        """The controller's command from the pose the sensors read, with ``radii`` (m); while a fault is
+        suspected but not isolated (and the excitation is on), a yaw-rate dither is added."""
+        cfg = self.cfg
+        exc = cfg.reconfiguration.excitation
+        cmd = self.parts.controller.solve(t, rd.pose, radii, self.applied)
+        if exc.enabled and self.suspected:
+            dither = yaw_dither(t, exc.amplitude, exc.period)
+            cmd.omega = dither_wheel_rates(cmd.omega, dither, radii, cfg.model_half_track,
+                                           cfg.robot.omega_max, *step_bound(cfg, self.applied))
+            self.trace.excitation(k, dither)
+        return cmd
+
+    def apply(self, k: int, t: float, cmd: ControlOutput) -> None:
+        """Hold ``cmd`` on the plant from ``t`` (s); record the solve (and a fallback event)."""
+        self.cmd = cmd
+        self.parts.plant.set_command(float(cmd.omega[0]), float(cmd.omega[1]))
+        self.applied = np.array(cmd.omega, dtype=float)
+        self.trace.solve(k, cmd)
+        if cmd.predicted is not None:  # a controller that plans (not open loop)
+            self.solves.append(Solve(t=t, predicted=cmd.predicted, solve_time_ms=cmd.solve_time * 1e3,
+                                     iterations=cmd.iterations, status=cmd.status, fallback=cmd.fallback,
+                                     success=cmd.success))
+            if cmd.fallback:
+                self.events.append(Event(t, "error", f"solver fallback: {cmd.status}"))
+
+    def record(self, k: int) -> None:
+        """Row ``k``'s policy state, command in force and model radii; the row is complete."""
+        self.trace.held(k, float(self.parts.policy.state), self.cmd.omega, self.model_radii)
+        self.rows = k + 1
+
+    def fail(self, exc: Exception) -> None:
+        """End the run at the first unfinished row: the error, where it was raised, an event."""
+        self.error = f"{type(exc).__name__}: {exc}"
+        self.error_where = _where(exc)
+        self.events.append(Event(self.rows * self.dt, "error", f"run failed: {self.error} ({self.error_where})"))
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The trace (cut at the failure of a failed run) with the posterior Cramér–Rao bound columns of a
+        run with a filter."""
+        cols = self.trace.first_rows(self.rows) if self.error is not None else self.trace.columns
+        if self.parts.estimator is not None and self.rows:
+            cols.update(pcrb_columns(self.cfg, cols))
+        return cols
+
+    def counters(self) -> dict[str, float]:
+        """Filter resets and rejections, solver failures, the plant's flags seen, exceptions."""
+        p = self.parts
+        return {
+            "filter_resets": float(getattr(p.estimator, "resets", 0)),
+            "filter_rejections": float(getattr(p.estimator, "rejections", 0)),
+            "solver_failures": float(getattr(p.controller, "failures", 0)),
+            "plant_flags": float(self.flags_seen),
+            "exceptions": float(self.error is not None),
+        }
+
+
 def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
              strict: bool | None = None) -> SimResult:
     """Run one closed-loop simulation for ``cfg`` and return its buffered telemetry.
@@ -143,171 +342,24 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
     """
     strict = strict_default() if strict is None else strict
     wall0 = time.perf_counter()
-    plant = plant_for(cfg)
-    sensors = Sensors(cfg.sensors, cfg.seed)
-    reference = build_reference(cfg)
-    controller = controller_for(cfg, reference)
-    estimator = build_estimator(cfg)
-    decision = FaultDecision(cfg) if estimator is not None else None
-    feedback = build_policy(cfg, with_estimator=estimator is not None)
-    weighting = build_scenario_weighting(cfg)  # robust NMPC re-weighted by the filter (None: as configured)
-    exc = cfg.reconfiguration.excitation
-    if cfg.plant.start_moving:
-        r0 = reference.at(0.0)
-        plant.set_motion(float(r0.V), float(r0.psidot))
-
-    n = cfg.n_estimator_steps
-    dt = 1.0 / cfg.estimator.rate
-    phys_per_est = cfg.physics_per_estimator
-    est_per_ctl = cfg.estimator_per_controller
-    n_modes = len(getattr(estimator, "hypotheses", None) or ())
-    tele_cols = tuple(getattr(controller, "telemetry_columns", ()))
-    cols = {c: np.full(n, np.nan) for c in (*BASE_COLUMNS, *tele_cols)}
-    for j in range(n_modes):
-        cols[f"mode_prob_{j + 1}"] = np.full(n, np.nan)
-
-    solves: list[Solve] = []
-    events: list[Event] = []
-    onsets = fault_onsets(cfg)
-    for wheel, t_on in onsets.items():
-        if t_on is not None:
-            events.append(Event(t_on, "warn", f"fault injected: {wheel} tyre radius schedule starts"))
-
-    R0 = cfg.model_wheel_radius
-    u_prev: np.ndarray | None = None
-    out: FilterOutput | None = None
-    cmd = ControlOutput(omega=np.zeros(2))
-    applied: np.ndarray | None = None  # the command in force on the plant (after any dither)
-    model_radii = np.full(2, R0)
-    last_resets = 0
-    last_ds = None
-    detected_before = False
-    anomaly_before = False
-    suspected = False
-    reset_since_solve = False
-    flags_seen = 0
-    error: str | None = None
-    error_where: str | None = None
-    report_every = max(1, n // 200)
-    rows = 0
+    loop = ClosedLoop(cfg)
+    report_every = max(1, loop.n // 200)
     try:
-        for k in range(n):
-            t = k * dt
-            tr = plant.truth()
-            rd = sensors.read(tr, t)
-            u_meas = np.array([rd.omega_R, rd.omega_L])
-            c = cols
-            c["t"][k] = t
-            c["x"][k], c["y"][k], c["psi"][k] = tr.x, tr.y, tr.psi
-            c["v"][k], c["yaw_rate"][k] = tr.v, tr.yaw_rate
-            c["R_R"][k], c["R_L"][k] = tr.R_R, tr.R_L
-            c["omega_R"][k], c["omega_L"][k] = tr.omega_R, tr.omega_L
-            c["omega_R_meas"][k], c["omega_L_meas"][k] = u_meas
-            c["v_meas"][k] = rd.speed
-            if rd.yaw_rate is not None:
-                c["yaw_rate_meas"][k] = rd.yaw_rate
-            if rd.position is not None:
-                c["x_meas"][k], c["y_meas"][k] = rd.position
-            c["roll"][k], c["pitch"][k], c["z"][k] = tr.roll, tr.pitch, tr.z_chassis
-            c["slip_R"][k], c["slip_L"][k] = tr.slip_R, tr.slip_L
-            c["plant_flags"][k] = tr.flags
-            new = tr.flags & ~flags_seen
-            if new:
-                flags_seen |= new
-                events.append(Event(t, "warn", f"plant left the kinematic model's domain: {plant.describe_flags(new)}"))
-            c["cross_track_error"][k] = float(reference.cross_track(tr.x, tr.y))
-
-            # ---- estimator (100 Hz)
-            if estimator is not None:
-                z = Measurement(speed=rd.speed, yaw_rate=rd.yaw_rate, position=rd.position)
-                u_pred = u_prev if u_prev is not None else u_meas
-                out = estimator.step(u_pred, z)
-                assert decision is not None
-                ds = decision.update(t, out, u_pred)
-                feedback.observe(out)
-                last_ds = ds
-                suspected = ds.suspected
-                _log_estimate(c, k, out)
-                c["fault_detected"][k] = float(ds.detected)
-                c["fault_suspected"][k] = float(ds.suspected)
-                c["declared_wheel"][k] = float(WHEEL_CODES[ds.wheel])
-                c["radius_anomaly"][k] = float(ds.anomaly)
-                c["radius_split_std"][k] = ds.split_std
-                for name, value in ds.statistics.items():
-                    c[name][k] = value
-                if out.mode_probs is not None:
-                    for j in range(n_modes):
-                        c[f"mode_prob_{j + 1}"][k] = out.mode_probs[j]
-                if ds.detected and not detected_before:
-                    events.append(Event(t, "warn", f"fault declared: {ds.wheel} wheel, severity "
-                                                   f"R {ds.severity_R:.0%} / L {ds.severity_L:.0%}"))
-                detected_before = ds.detected
-                if ds.anomaly and not anomaly_before:
-                    events.append(Event(t, "warn", "radius anomaly: an estimate lies above nominal "
-                                                   "(not a puncture, not declared)"))
-                anomaly_before = ds.anomaly
-                resets = getattr(estimator, "resets", 0)
-                if resets != last_resets:
-                    reset_since_solve = True
-                    events.append(Event(t, "error", f"filter divergence: reset #{resets}"))
-                last_resets = resets
-            u_prev = u_meas
-
-            # ---- controller (10 Hz)
-            if k % est_per_ctl == 0:
-                model_radii = feedback.radii(t, out, last_ds, reset_since_solve, u_meas, (tr.R_R, tr.R_L))
-                reset_since_solve = False
-                if weighting is not None:
-                    controller.set_scenario_weights(weighting.weights(out, model_radii))
-                cmd = controller.solve(t, rd.pose, model_radii, applied)
-                if exc.enabled and suspected:
-                    dither = yaw_dither(t, exc.amplitude, exc.period)
-                    cmd.omega = dither_wheel_rates(cmd.omega, dither, model_radii, cfg.model_half_track,
-                                                   cfg.robot.omega_max, *step_bound(cfg, applied))
-                    c["excitation"][k] = dither
-                plant.set_command(float(cmd.omega[0]), float(cmd.omega[1]))
-                applied = np.array(cmd.omega, dtype=float)
-                for name in tele_cols:
-                    c[name][k] = cmd.telemetry.get(name, np.nan)
-                c["solve_time_ms"][k] = cmd.solve_time * 1e3
-                c["solver_iterations"][k] = cmd.iterations
-                c["solver_ok"][k] = float(cmd.success and not cmd.fallback)
-                if cmd.predicted is not None:  # a controller that plans (not open loop)
-                    solves.append(Solve(t=t, predicted=cmd.predicted, solve_time_ms=cmd.solve_time * 1e3,
-                                        iterations=cmd.iterations, status=cmd.status, fallback=cmd.fallback,
-                                        success=cmd.success))
-                    if cmd.fallback:
-                        events.append(Event(t, "error", f"solver fallback: {cmd.status}"))
-            c["reconfig_state"][k] = float(feedback.state)
-            c["omega_R_cmd"][k], c["omega_L_cmd"][k] = cmd.omega[0], cmd.omega[1]
-            c["R_R_model"][k], c["R_L_model"][k] = model_radii
-            rows = k + 1
-
-            plant.advance(phys_per_est)
+        for k in range(loop.n):
+            loop.step(k)
             if progress is not None and k % report_every == 0:
-                progress(k / n)
+                progress(k / loop.n)
     except Exception as exc:  # noqa: BLE001 - a run records its failure instead of crashing the caller
         if strict:
             raise
-        error = f"{type(exc).__name__}: {exc}"
-        error_where = _where(exc)
-        events.append(Event(rows * dt, "error", f"run failed: {error} ({error_where})"))
-        cols = {k2: v[:rows] for k2, v in cols.items()}
-    if estimator is not None and rows:
-        cols.update(pcrb_columns(cfg, cols))
+        loop.fail(exc)
+    cols = loop.columns()
     if progress is not None:
         progress(1.0)
-
-    counters = {
-        "filter_resets": float(getattr(estimator, "resets", 0)),
-        "filter_rejections": float(getattr(estimator, "rejections", 0)),
-        "solver_failures": float(getattr(controller, "failures", 0)),
-        "plant_flags": float(flags_seen),
-        "exceptions": float(error is not None),
-    }
-    ref_path = reference.path_points(720)
-    events.extend(feedback.events)
-    return SimResult(trace=cols, solves=solves, events=sorted(events, key=lambda e: e.t), counters=counters,
-                     decision=last_ds, n_modes=n_modes, reference_path=ref_path,
-                     wall_time=time.perf_counter() - wall0, error=error, error_where=error_where,
-                     geometry=robot_geometry(plant, cfg))
+    counters = loop.counters()
+    ref_path = loop.parts.reference.path_points(720)
+    events = loop.events + list(loop.parts.policy.events)
+    return SimResult(trace=cols, solves=loop.solves, events=sorted(events, key=lambda e: e.t), counters=counters,
+                     decision=loop.last_ds, n_modes=loop.n_modes, reference_path=ref_path,
+                     wall_time=time.perf_counter() - wall0, error=loop.error, error_where=loop.error_where,
+                     geometry=robot_geometry(loop.parts.plant, cfg))

@@ -4,7 +4,7 @@
 ``events.json`` (the run's events: ``t`` in s, ``level``, ``text``) and ``run.rrd``. The directory
 is assembled under a temporary name and renamed into place at the end, so a killed run leaves no
 half-written output under its final name; an existing run directory is never overwritten (a
-suffix is added). Before simulating, :func:`check_output_root` makes sure the folder can take the
+suffix is added). Before simulating, :func:`~ftc_mj.sim.output.check_output_root` makes sure the folder can take the
 run (a usage error otherwise); a write that still fails raises
 :class:`~ftc_mj.errors.OutputError` and leaves nothing behind.
 
@@ -15,9 +15,7 @@ its metrics describe a frozen or reset robot and must not be read as results.
 
 from __future__ import annotations
 
-import os
-import shutil
-import tempfile
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -27,14 +25,16 @@ from typing import Any
 import numpy as np
 
 from ..config import RunConfig, config_to_toml_dict
-from ..errors import BadInput, OutputError
+from ..errors import OutputError
 from ..identity import run_id
 from ..io import atomic_dir, remove_stale_temporaries, unique_dir, write_json, write_parquet, write_toml
+from ..metrics.fdi import fdi_sweep_metrics
+from ..metrics.onsets import fault_onsets
+from ..metrics.run import compute_metrics
 from ..plant import NAN, UNSTABLE
-from .columns import trace_schema_metadata
-from .fdi_metrics import fdi_metrics
+from ..telemetry.columns import trace_schema_metadata
 from .loop import SimResult, simulate
-from .metrics import compute_metrics, fault_onsets
+from .output import check_output_root, output_bytes
 
 
 def run_id_for(cfg: RunConfig) -> str:
@@ -71,7 +71,7 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
     }
     onsets = fault_onsets(cfg)
     m.update(compute_metrics(cfg, res.trace, onsets, res.counters))
-    m.update(fdi_metrics(cfg, res.trace, min((o for o in onsets.values() if o is not None), default=None)))
+    m.update(fdi_sweep_metrics(cfg, res.trace, min((o for o in onsets.values() if o is not None), default=None)))
     # the radii the controller used departed from nominal at some sample (not just: a feeding policy)
     m["feedback"] = bool((m.get("reconfig_handed_fraction") or 0.0) > 0.0)
     t_bad = unstable_time(res.trace)
@@ -103,68 +103,6 @@ def unstable_time(trace: dict[str, np.ndarray]) -> float | None:
     return float(t[idx[0]]) if idx.size else None
 
 
-def output_bytes(cfg: RunConfig, rrd: bool) -> int:
-    """Generous estimate (bytes) of a run directory: 8 bytes per trace cell, twice with a recording, plus
-    the predicted paths of the solves and 1 MB of headroom."""
-    rows = cfg.n_estimator_steps
-    cells = rows * 64
-    solves = round(cfg.duration * cfg.controller.rate) * cfg.controller.nodes * 3 * 4
-    return cells * 8 * (2 if rrd else 1) + (solves if rrd else 0) + 2**20
-
-
-def _limits(folder: Path) -> tuple[int, int]:
-    """(NAME_MAX, PATH_MAX) of the file system holding ``folder`` (255, 4096 if not reported)."""
-    try:
-        return int(os.pathconf(folder, "PC_NAME_MAX")), int(os.pathconf(folder, "PC_PATH_MAX"))
-    except (OSError, ValueError):
-        return 255, 4096
-
-
-def check_output_root(out_root: Path | str, run_id: str, need_bytes: int = 0) -> None:
-    """Raise :class:`BadInput` (naming ``--out``) unless ``out_root`` can take a run directory named
-    ``run_id``: a path the OS accepts (no NUL, components and whole path within the file system's
-    limits, counting the temporary names), no file where a folder must be, the nearest existing
-    folder writable (checked by creating and deleting a probe file there), and ``need_bytes`` free.
-    Writes nothing that stays."""
-    text = str(out_root)
-    if not text.strip() or "\0" in text:
-        raise BadInput(f"--out: expected a folder path, got {text[:60]!r}")
-    p = Path(text).absolute()
-    _check_lengths(p, run_id)
-    existing = p
-    try:
-        while not existing.exists():
-            existing = existing.parent
-    except OSError as err:  # e.g. a folder on the way that may not be searched
-        raise BadInput(f"--out: cannot use {text[:80]}: {err.strerror}") from None
-    if not existing.is_dir():
-        raise BadInput(f"--out: {existing} is a file, not a folder")
-    try:
-        fd, probe = tempfile.mkstemp(prefix=".ftc-mj-probe.", dir=existing)
-        os.close(fd)
-        os.unlink(probe)
-    except OSError as err:
-        raise BadInput(f"--out: cannot write in {existing}: {err.strerror}") from None
-    free = shutil.disk_usage(existing).free
-    if free < need_bytes:
-        raise BadInput(f"--out: {free / 1e6:.1f} MB free in {existing}; the run needs about {need_bytes / 1e6:.1f} MB")
-
-
-def _check_lengths(p: Path, run_id: str) -> None:
-    """Path components and the longest path a run writes (its temporaries) within NAME_MAX/PATH_MAX."""
-    name_max, path_max = _limits(Path("/"))
-    for part in p.parts[1:]:
-        if len(os.fsencode(part)) > name_max:
-            raise BadInput(f"--out: a path component is longer than {name_max} bytes ({part[:40]}…)")
-    temp_leaf = f".{run_id}-99.{os.getpid()}.abcdefgh.partial"
-    if len(os.fsencode(temp_leaf)) > name_max:
-        raise BadInput(f"--out: the run's folder name would exceed {name_max} bytes; use a shorter name")
-    extra = len(os.fsencode(f"/{temp_leaf}/.trace.parquet.{os.getpid()}.abcdefgh.tmp"))
-    if len(os.fsencode(str(p))) + extra >= path_max:
-        raise BadInput(f"--out: the path is too long ({len(os.fsencode(str(p)))} bytes; the run's files need it "
-                       f"under {path_max - extra})")
-
-
 def execute(
     cfg: RunConfig,
     out_root: Path | None = None,
@@ -173,7 +111,7 @@ def execute(
     progress: Callable[[float], None] | None = None,
     strict: bool | None = None,
 ) -> RunOutcome:
-    """Simulate ``cfg``; if ``out_root`` is given, write ``out_root/<run-id>/`` atomically.
+    """Simulate ``cfg``; if ``out_root`` is given, write ``out_root/<run-id>/`` atomically (:func:`write_outcome`).
 
     ``rrd`` overrides ``cfg.output.rrd``; ``strict`` is :func:`~ftc_mj.sim.loop.simulate`'s. A failed
     run (a component raised; status ``failed``, ``error`` and ``error_where`` say what and where)
@@ -187,17 +125,25 @@ def execute(
         check_output_root(out_root, run_id_for(cfg), output_bytes(cfg, want_rrd))
     res = simulate(cfg, progress, strict=strict)
     metrics = run_metrics(cfg, res)
-    run_id = metrics["run_id"]
+    outcome = RunOutcome(metrics["run_id"], metrics, res, None)
     if out_root is None:
-        return RunOutcome(run_id, metrics, res, None)
-    remove_stale_temporaries(Path(out_root))
-    final = unique_dir(Path(out_root), run_id)
+        return outcome
+    return write_outcome(outcome, cfg, Path(out_root), want_rrd)
+
+
+def write_outcome(outcome: RunOutcome, cfg: RunConfig, out_root: Path, rrd: bool) -> RunOutcome:
+    """Write a simulated run to ``out_root/<run-id>/`` (a suffix if taken) atomically, with its Rerun
+    recording if ``rrd``; the outcome with its ``run_dir``. The metrics gain the write times (s).
+    :class:`OutputError` if writing fails (nothing is left; stale temporaries of killed runs in
+    ``out_root`` are removed first)."""
+    remove_stale_temporaries(out_root)
+    final = unique_dir(out_root, outcome.run_id)
     try:
-        _write_run(final, cfg, res, metrics, want_rrd)
+        _write_run(final, cfg, outcome.result, outcome.metrics, rrd)
     except OSError as err:
         raise OutputError(f"cannot write the run to {final.parent}: {err.strerror or err} (the simulation "
-                          f"finished with status {metrics['status']}; nothing was kept)") from None
-    return RunOutcome(run_id, metrics, res, final)
+                          f"finished with status {outcome.metrics['status']}; nothing was kept)") from None
+    return dataclasses.replace(outcome, run_dir=final)
 
 
 def _write_run(final: Path, cfg: RunConfig, res: SimResult, metrics: dict[str, Any], want_rrd: bool) -> None:

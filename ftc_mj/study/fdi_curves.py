@@ -1,7 +1,7 @@
 """Operating characteristics of the fault-decision rules from a Monte-Carlo study (``ftc-mj fdi-curves``).
 
 Every run of a study carries, per rule, the records of its decision statistic's running maximum
-(:mod:`ftc_mj.sim.fdi_metrics`), from which its first alarm at *any* threshold ``h`` follows. Sweeping
+(:mod:`ftc_mj.metrics.fdi`), from which its first alarm at *any* threshold ``h`` follows. Sweeping
 ``h`` over a grid gives, for each cell of the study (every axis but the fault axis, e.g. plant ×
 sensors × filter) and each rule:
 
@@ -24,7 +24,7 @@ time ``ARL0`` between false alarms has a (worst-case) delay below ``log(ARL0)/KL
 asymptotically, ``KL`` the Kullback–Leibler information per sample; with an information that varies
 from sample to sample the delay is at least the number of samples whose cumulative information reaches
 ``log(ARL0)`` (Lai 1998). Each fault run records the cumulative information the puncture actually put
-into the measurements (:func:`ftc_mj.sim.fdi_metrics.cumulative_kl`: the true speed and yaw rate
+into the measurements (:func:`ftc_mj.metrics.fdi.cumulative_kl`: the true speed and yaw rate
 against the nominal model, over the sensor noise); the bound drawn is ``dt · n``, ``n`` the first
 row after the onset at which the mean over the cell's seeds reaches ``log(ARL0/dt)``, and ``inf``
 (not drawn) if it does not within the recorded profile. It holds for the raw measurements, hence for

@@ -1,7 +1,9 @@
-"""What a run records besides its trace: controller solves, events and the robot's drawn geometry.
+"""What a run records: its trace (columns in :mod:`ftc_mj.telemetry.columns`) and, beside it, the
+controller solves, the events and the robot's drawn geometry defined here.
 
 Plain data, without Rerun: the simulation loop fills these records, and only writing a recording
-(:mod:`ftc_mj.rerun`) loads rerun-sdk.
+(:mod:`ftc_mj.rerun`) loads rerun-sdk. This module imports nothing of the package (the trace's
+column schema, which names the estimators' statistics, is imported from ``columns`` explicitly).
 """
 
 from __future__ import annotations

@@ -15,17 +15,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.config import load_config
-from ftc_mj.sim.run import execute
+from tests.support.shared_runs import SharedRuns
+
+RUN = "s2-gyro-rate-plan-direct-40s"
+"""The shared 40 s run: gyro, the rate term over each plan only, direct feedback."""
 
 
 @pytest.fixture(scope="module")
-def scenario2_gyro() -> dict:
-    cfg = load_config("scenario2", {"sensors.yaw_rate_sigma": 0.01, "controller.rate_penalty": 1.0,
-                                    "controller.rate_penalty_first_step": False, "reconfiguration.policy": "direct"})
-    out = execute(cfg)
+def scenario2_gyro(shared_runs: SharedRuns) -> dict:
+    out = shared_runs[RUN]
     assert out.metrics["status"] == "ok"
-    return {"trace": out.result.trace, "metrics": out.metrics, "cfg": cfg}
+    return {"trace": out.result.trace, "metrics": out.metrics, "cfg": shared_runs.config(RUN)}
 
 
 def test_radius_identified_after_puncture(scenario2_gyro: dict) -> None:
@@ -56,7 +56,10 @@ def test_commands_within_bounds_and_model_radii_are_the_estimates(scenario2_gyro
     np.testing.assert_allclose(tr["R_L_model"][k], np.maximum(tr["R_L_hat"][k], cfg.estimator.min_radius))
 
 
-def test_feedback_off_uses_nominal_radii() -> None:
-    out = execute(load_config("scenario2", {"duration": 12.0, "feedback": False}))
+def test_feedback_off_uses_nominal_radii(shared_runs: SharedRuns) -> None:
+    """Policy ``none`` (what ``feedback = false`` selects): the controller's model keeps the nominal radii
+    through the puncture (at 3 s of 5 s)."""
+    out = shared_runs["s2-puncture-5s-none"]
+    assert out.metrics["feedback"] is False
     tr = out.result.trace
     assert np.all(tr["R_L_model"] == 2.0) and np.all(tr["R_R_model"] == 2.0)

@@ -20,6 +20,7 @@ from ftc_mj.config import load_config, read_toml, validate_config
 from ftc_mj.estimation.consistency import nees
 from ftc_mj.sim import cache
 from ftc_mj.sim.run import execute
+from tests.support.shared_runs import SHARED_RUNS, SharedRuns
 
 
 def test_cli_run_writes_all_outputs(tmp_path: Path) -> None:
@@ -66,10 +67,8 @@ def test_cli_says_a_fault_after_the_end_is_neither_detected_nor_missed(tmp_path:
     assert "fault onset: left at t = 10 s: after the end of the run (1 s), neither detected nor missed" in text
 
 
-def test_scenario3_run_reports_both_onsets() -> None:
-    out = execute(load_config("scenario3", {"duration": 12.0, "plant.kind": "kinematic",
-                                            "sensors.yaw_rate_sigma": 0.01}))
-    m = out.metrics
+def test_scenario3_run_reports_both_onsets(shared_runs: SharedRuns) -> None:
+    m = shared_runs["s3-kinematic-gyro-12s"].metrics
     assert [(e["wheel"], e["time"], e["status"]) for e in m["onsets"]] == [("left", 5.0, "in run"),
                                                                          ("right", 10.0, "in run")]
     print({k: [e[k] for e in m["onsets"]] for k in ("detection_delay", "time_to_correct_isolation",
@@ -88,18 +87,34 @@ def test_second_run_never_overwrites(tmp_path: Path) -> None:
     assert len(names) == 2 and names[1] == names[0] + "-2"
 
 
-def test_run_is_pure_function_of_config_and_seed() -> None:
-    cfg = load_config("scenario2", {"duration": 12.0, "estimator.kind": "ukf", "controller.kind": "nmpc"})
-    cache.clear()
-    a = execute(cfg).result.trace  # built fresh
-    b = execute(cfg).result.trace  # plant and solver reused from the per-process cache, after reset()
-    assert cache.stats["controller_hits"] >= 1 and cache.stats["plant_hits"] >= 1
+def _assert_same_trace(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> None:
+    assert list(a) == list(b)
     for col in a:
         if col == "solve_time_ms":  # wall-clock, the only column that may differ
             continue
         np.testing.assert_array_equal(a[col], b[col], err_msg=col)
-    c = execute(load_config("scenario2", {"duration": 12.0, "seed": 1})).result.trace
-    assert not np.array_equal(a["v_meas"], c["v_meas"])
+
+
+def test_run_is_pure_function_of_config_and_seed(shared_runs: SharedRuns) -> None:
+    """Scenario 2 with a gyro and the puncture at 3 s, 5 s (the puncture, its detection and the safe policy's
+    hand-over): a run on a freshly built plant and solver equals one on the per-process cache's (reset)
+    plant and solver, bit for bit."""
+    name = "s2-puncture-5s-safe"
+    shared = shared_runs[name].result.trace
+    cfg = shared_runs.config(name)
+    builds = cache.stats["controller_builds"], cache.stats["plant_builds"]
+    cache.clear()
+    fresh = execute(cfg).result.trace  # built fresh
+    assert (cache.stats["controller_builds"], cache.stats["plant_builds"]) == (builds[0] + 1, builds[1] + 1)
+    _assert_same_trace(fresh, shared)
+    if not shared_runs.reused_solver(name):  # the shared run was a fresh build too: run once more, cached
+        hits = cache.stats["controller_hits"], cache.stats["plant_hits"]
+        _assert_same_trace(fresh, execute(cfg).result.trace)
+        assert cache.stats["controller_hits"] > hits[0] and cache.stats["plant_hits"] > hits[1]
+    # another seed draws other sensor noise from the first step on (1 s is enough to see it)
+    scenario, overrides = SHARED_RUNS[name]
+    other = execute(load_config(scenario, {**overrides, "seed": 1, "duration": 1.0})).result.trace
+    assert not np.array_equal(fresh["v_meas"][: other["v_meas"].size], other["v_meas"])
 
 
 def test_imm_run_has_mode_columns() -> None:
@@ -237,3 +252,22 @@ def test_cli_reconfig_option_and_feedback_aliases(tmp_path: Path) -> None:
         res = r.invoke(app, ["run", "scenario2", "--duration", "0.5", "--out", str(out), "-q", *args])
         assert res.exit_code == 2 and msg in res.output, (args, res.output)
         assert not out.exists()
+
+
+def test_a_simulated_run_written_afterwards_reads_back_the_same(shared_runs: SharedRuns) -> None:
+    """:func:`~ftc_mj.sim.run.write_outcome` (what ``execute`` does with ``out_root``) on a run simulated
+    earlier: the directory reads back with the run's trace, metrics, events and config."""
+    import ftc_mj
+
+    name = "s2-puncture-5s-none"
+    out = shared_runs[name]
+    d = shared_runs.run_dir(name)
+    assert d.name == out.run_id and sorted(p.name for p in d.iterdir()) == ["config.toml", "events.json",
+                                                                          "metrics.json", "trace.parquet"]
+    back = ftc_mj.load_run(d)
+    assert back.config == shared_runs.config(name) and back.run_id == out.run_id
+    for col, values in out.result.trace.items():
+        np.testing.assert_array_equal(back.trace[col].to_numpy(), values, err_msg=col)
+    assert [(e.t, e.level, e.text) for e in back.events] == [(e.t, e.level, e.text) for e in out.result.events]
+    assert back.metrics["detection_time"] == out.metrics["detection_time"]
+    assert "total_wall_time_s" in back.metrics and "total_wall_time_s" not in out.metrics  # the shared run is unchanged

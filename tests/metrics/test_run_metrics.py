@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import load_config
-from ftc_mj.sim.columns import BASE_COLUMNS, WHEEL_CODES
-from ftc_mj.sim.metrics import compute_metrics, fault_onsets
+from ftc_mj.metrics.onsets import fault_onsets
+from ftc_mj.metrics.run import compute_metrics
+from ftc_mj.telemetry.columns import BASE_COLUMNS, WHEEL_CODES
 
 
 def _trace(n: int = 1000, dt: float = 0.01) -> dict[str, np.ndarray]:

@@ -84,7 +84,7 @@ def cumulative_kl(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float) ->
     return [float(v) for v in (K[: stop[0] + 1] if stop.size else K)]
 
 
-def fdi_metrics(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float | None,
+def fdi_sweep_metrics(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float | None,
                 settle_time: float = 5.0) -> dict[str, Any]:
     """First-alarm records, the fault's cumulative information (``onset``: the first fault onset, s, or
     ``None``) and PCRB ratios of a run."""

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig
-from ftc_mj.sim.path_metrics import feasible_speed, path_following_metrics
+from ftc_mj.metrics.path import feasible_speed, path_following_metrics
 
 
 def _trace() -> dict[str, np.ndarray]:

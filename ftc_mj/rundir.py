@@ -3,8 +3,8 @@
 A run directory holds
 
 - ``config.toml``: the fully resolved run configuration (:class:`~ftc_mj.config.RunConfig`);
-- ``trace.parquet``: one row per estimator step (SI units, radians; columns in :mod:`ftc_mj.sim.columns`);
-- ``metrics.json``: the run's metrics (keys in :mod:`ftc_mj.sim.metrics`);
+- ``trace.parquet``: one row per estimator step (SI units, radians; columns in :mod:`ftc_mj.telemetry.columns`);
+- ``metrics.json``: the run's metrics (keys in :mod:`ftc_mj.metrics`);
 - ``events.json``: the events in time order (runs written before it existed: derived from the trace
   by :func:`trace_events`);
 - ``run.rrd`` (optional): the Rerun recording, read by :mod:`ftc_mj.rerun.read`.

@@ -4,6 +4,10 @@ Name this module in a config (``plugins = ["my_components"]``) or on the command
 (``ftc-mj run scenario2 --plugin my_components --estimator textbook-ekf``); importing it registers
 both, in the client and in every Dask worker (it must be importable there: same folder on
 ``sys.path`` for a LocalCluster, an installed package on a remote cluster).
+
+Both follow the factory contract of ``docs/plugins.md``: built from their own config section
+(``settings``: ``estimator`` / ``reconfiguration``, whose ``options`` table holds the plug-in's own
+settings) and the small run context (``context``: rates, nominal geometry, initial pose, sensors).
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 import ftc_mj
-from ftc_mj.config import ReconfigurationConfig
+from ftc_mj.config import EstimatorConfig, ReconfigurationConfig
 from ftc_mj.context import RunContext
 from ftc_mj.model.kinematics import KinematicModel
 
@@ -29,15 +33,14 @@ class TextbookEKF:
     """A plain EKF over ``[x, y, psi, R_R, R_L]``: Euler prediction through the kinematic model, the
     speed (and yaw-rate, if the config has a gyro) measurement, no gating or resets."""
 
-    def __init__(self, cfg: ftc_mj.RunConfig) -> None:
-        est, sen = cfg.estimator, cfg.sensors
-        dt = 1.0 / est.rate
-        self.model = KinematicModel(b=cfg.model_half_track, dt=dt)
-        R0 = cfg.model_wheel_radius
-        self.x = np.array([*cfg.plant.initial_pose, R0, R0], dtype=float)
-        self.P = np.diag(np.square(est.p0_sigma))
-        q_scale = TextbookEKFSettings.model_validate(est.options).q_scale
-        self.Q = q_scale * np.diag(np.square(np.asarray(est.q_rate) * dt))
+    def __init__(self, settings: EstimatorConfig, context: RunContext) -> None:
+        dt = context.estimator_dt
+        self.model = KinematicModel(b=context.half_track, dt=dt)
+        self.x = np.array([*context.initial_pose, *context.nominal_radii], dtype=float)
+        self.P = np.diag(np.square(settings.p0_sigma))
+        q_scale = TextbookEKFSettings.model_validate(settings.options).q_scale
+        self.Q = q_scale * np.diag(np.square(np.asarray(settings.q_rate) * dt))
+        sen = context.sensors
         self.r = [sen.speed_sigma**2] + ([sen.yaw_rate_sigma**2] if sen.yaw_rate_sigma else [])
 
     def step(self, u: np.ndarray, z: ftc_mj.Measurement) -> ftc_mj.FilterOutput:
@@ -67,7 +70,7 @@ class LateHandoverSettings(BaseModel):
 
 class LateHandover(ftc_mj.ReconfigurationPolicy):
     """Nominal radii until ``delay`` s after the first declaration, while a wheel is isolated; then the
-    isolated wheels' estimates, clamped to [``estimator.min_radius``, nominal]."""
+    isolated wheels' estimates, clamped to [``estimator.min_radius``, nominal] (m)."""
 
     def __init__(self, settings: ReconfigurationConfig, context: RunContext) -> None:
         super().__init__(settings, context)

@@ -7,7 +7,7 @@ The public API (:mod:`ftc_mj.api`, :mod:`ftc_mj.registry`)::
     cfg = ftc_mj.load_config("scenario2", {"sensors.yaw_rate_sigma": 0.01})
     run = ftc_mj.run(cfg, "runs/out")          # run.trace (polars), run.metrics, run.events, run.path
     ftc_mj.load_run(run.path); ftc_mj.run_study("observability", workers=2); ftc_mj.load_study(dir)
-    ftc_mj.register_estimator("my-filter", lambda cfg: MyFilter(cfg))   # then estimator.kind = "my-filter"
+    ftc_mj.register_estimator("my-filter", MyFilter)   # MyFilter(settings, context); estimator.kind = "my-filter"
 
 Layers (data flows downwards; lower layers never import higher ones)::
 
@@ -33,7 +33,7 @@ _COMPONENTS = {"Event": "ftc_mj.telemetry", "FilterOutput": "ftc_mj.estimation.b
                "Measurement": "ftc_mj.estimation.base", "Hypothesis": "ftc_mj.estimation.base",
                "ControlOutput": "ftc_mj.control.base", "ReconfigurationPolicy": "ftc_mj.reconfiguration.policies",
                "DecisionState": "ftc_mj.estimation.decision", "BadInput": "ftc_mj.errors",
-               "RunConfig": "ftc_mj.config"}
+               "RunConfig": "ftc_mj.config", "RunContext": "ftc_mj.context"}
 _REGISTER = {"register_estimator": "estimators", "register_decision_rule": "decision_rules",
              "register_controller": "controllers", "register_policy": "policies",
              "register_reference": "references"}

@@ -203,23 +203,12 @@ def run(
         ov = _overrides(set_ or [])
         if reconfig is not None and feedback is not None:
             raise BadInput("--feedback/--no-feedback: give either it or --reconfig, not both")
-        _flag_overrides(ov, flags)
-        try:
-            cfg = api.load_config(scenario, ov, plugins=plugin or [])
-        except BadInput as err:
-            raise _named_by_flag(err, [*flags, ("--plugin", "plugins", plugin)]) from None
-        if not cfg.estimator.kind.startswith("imm"):
-            for flag, key in (("--imm-models", "estimator.imm_models"), ("--imm-variant", "estimator.imm_variant")):
-                if key in ov:
-                    raise BadInput(f"{flag}: only for the imm-ekf and imm-ukf estimators (estimator.kind is "
-                                   f"{cfg.estimator.kind!r})")
+        cfg = _run_config(scenario, ov, flags, plugin or [])
         out_root = _folder(out) or cfg.output.dir
     except BadInput as err:
         _fail(str(err))
         return
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    from .sim.summary import print_run_summary
-
     show = cfg.output.progress and not quiet and sys.stderr.isatty()
     try:
         outcome = api.run(cfg, out_root, rrd=not no_rrd and cfg.output.rrd, progress=show).outcome
@@ -232,6 +221,31 @@ def run(
     except KeyboardInterrupt:
         _interrupted("interrupted; nothing of this run was written")
         return
+    _report_run(outcome, cfg, quiet)
+
+
+def _run_config(scenario: str, ov: dict[str, Any], flags: list[tuple[str, str, Any]], plugins: list[str]) -> Any:
+    """The config of ``ftc-mj run``: the scenario, the ``--set`` overrides ``ov`` and the flags' values (a
+    flag contradicting a ``--set`` is an error); a :class:`BadInput` about a key a flag set names the flag."""
+    from . import api
+
+    _flag_overrides(ov, flags)
+    try:
+        cfg = api.load_config(scenario, ov, plugins=plugins)
+    except BadInput as err:
+        raise _named_by_flag(err, [*flags, ("--plugin", "plugins", plugins or None)]) from None
+    if not cfg.estimator.kind.startswith("imm"):
+        for flag, key in (("--imm-models", "estimator.imm_models"), ("--imm-variant", "estimator.imm_variant")):
+            if key in ov:
+                raise BadInput(f"{flag}: only for the imm-ekf and imm-ukf estimators (estimator.kind is "
+                               f"{cfg.estimator.kind!r})")
+    return cfg
+
+
+def _report_run(outcome: Any, cfg: Any, quiet: bool) -> None:
+    """Print the run folder (``-q``) or the summary table; exit 3 for unstable physics, 1 for a failed run."""
+    from .sim.summary import print_run_summary
+
     if quiet:
         typer.echo(str(outcome.run_dir))
     else:

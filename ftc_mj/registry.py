@@ -229,8 +229,9 @@ def load_plugins(modules: Iterable[str]) -> None:
 
 def check_options(registry: Registry, name: str, options: Mapping[str, Any]) -> dict[str, Any]:
     """``options`` validated by the ``settings`` model ``name`` was registered with (as plain data, the
-    settings' defaults filled in); ``ValueError`` ``<key>: why`` if they do not fit, or if the
-    component takes none."""
+    settings' defaults filled in); ``ValueError`` if the component takes none, pydantic's
+    ``ValidationError`` if they do not fit (the config words it in one line,
+    :func:`ftc_mj.config.errors.one_line`)."""
     # empty options of a registry not loaded yet (a default config): nothing to fill in, and the
     # components' modules stay unimported (a given name has loaded the registry when it was checked)
     entry = registry.get(name) if options or registry.loaded else registry.peek(name)
@@ -239,12 +240,4 @@ def check_options(registry: Registry, name: str, options: Mapping[str, Any]) -> 
         if options:
             raise ValueError(f"{registry.kind} {name!r} takes no options (got {', '.join(map(str, options))})")
         return {}
-    from pydantic import ValidationError
-
-    try:
-        return settings.model_validate(dict(options)).model_dump(mode="json")  # type: ignore[attr-defined]
-    except ValidationError as err:
-        e = err.errors()[0]
-        loc = ".".join(str(p) for p in e["loc"])
-        msg = "unknown key" if e["type"] == "extra_forbidden" else e["msg"].removeprefix("Value error, ")
-        raise ValueError(f"{loc}: {msg}") from None
+    return settings.model_validate(dict(options)).model_dump(mode="json")  # type: ignore[attr-defined]

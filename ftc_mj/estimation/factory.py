@@ -6,7 +6,7 @@ Every factory takes the run config and returns an :class:`~ftc_mj.estimation.bas
 
 from __future__ import annotations
 
-from ..config import RunConfig
+from ..config import RunConfig, run_context
 from ..registry import BUILTIN, estimators
 from .base import Estimator
 from .ekf import EKF
@@ -25,4 +25,4 @@ def build_estimator(cfg: RunConfig) -> Estimator | None:
     ``imm-ekf``/``imm-ukf`` → :class:`IMM` with EKF/UKF members (the bank ``estimator.imm_bank``, else
     the paper's of ``estimator.imm_models`` members; variant ``estimator.imm_variant``), ``none`` →
     ``None`` (the loop runs without a filter), or a registered plug-in's."""
-    return estimators.build(cfg.estimator.kind, cfg)
+    return estimators.create(cfg.estimator.kind, cfg.estimator, run_context(cfg), run_config=cfg)

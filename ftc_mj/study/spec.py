@@ -65,6 +65,7 @@ from ..config import (
     RunConfig,
     SafeName,
     existing_file,
+    one_line,
     read_toml,
     scenario_path,
     set_dotted,
@@ -230,31 +231,6 @@ class AnalysisSpec(_Strict):
 
 
 StudySpec.model_rebuild()
-
-
-# ---------------------------------------------------------------------------- errors
-def _fmt_loc(loc: tuple[Any, ...]) -> str:
-    out = ""
-    for p in loc:
-        if isinstance(p, int):
-            out += f"[{p}]"
-        elif not str(p).isidentifier():
-            continue  # a union member tag such as "constrained-int" or "list[...]"
-        else:
-            out += ("." if out else "") + str(p)
-    return out or "<root>"
-
-
-def _one_line(err: ValidationError) -> str:
-    e = err.errors()[0]
-    loc = _fmt_loc(tuple(e["loc"]))
-    msg = "unknown key" if e["type"] == "extra_forbidden" else e["msg"].removeprefix("Value error, ")
-    # a model-level validator reports "field: message"; attach it to the location
-    m = re.match(r"^([A-Za-z_][\w.\[\]]*): (.*)$", msg)
-    if m and e["type"] == "value_error":
-        loc = f"{loc}.{m.group(1)}" if loc != "<root>" else m.group(1)
-        msg = m.group(2)
-    return f"{loc}: {msg}"
 
 
 # ---------------------------------------------------------------------------- keys
@@ -462,7 +438,7 @@ def load_study(
     try:
         spec = StudySpec.model_validate(raw)
     except ValidationError as err:
-        raise BadInput(f"study {path}: {_one_line(err)}") from None
+        raise BadInput(f"study {path}: {one_line(err)}") from None
     if seeds is not None:
         if seeds < 1:
             raise BadInput("--seeds: must be >= 1")

@@ -1,149 +1,42 @@
-"""Run configuration: a pydantic schema loaded from TOML, with the paper's values as defaults.
+"""The sections of a run config (``robot``, ``plant``, ``model``, ``faults``, ``sensors``,
+``estimator``, ``controller``, ``reconfiguration``, ``reference``, ``output``): one pydantic model
+each, with the paper's values as defaults. SI units and radians throughout; the only
+degree-valued fields end in ``_deg``.
 
-Everything a run depends on is in :class:`RunConfig`; a run is a pure function of the resolved
-config (including ``seed``). SI units and radians throughout; the only degree-valued inputs are
-fields whose name ends in ``_deg``.
-
-Loading goes through :func:`load_config`, which accepts a built-in scenario name (``scenario1`` …
-``scenario4``) or a TOML path, applies ``--set dotted.key=value`` overrides, validates, and raises
-:class:`~ftc_mj.errors.BadInput` with a one-line message naming the offending field.
+A component's factory receives its own section (``estimator``, ``controller``, …) as its settings.
 """
 
 from __future__ import annotations
 
 import math
-import re
-import tomllib
-from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal
 
-from pydantic import (
-    AfterValidator,
-    BaseModel,
-    BeforeValidator,
-    ConfigDict,
-    Field,
-    Strict,
-    ValidationError,
-    field_validator,
-    model_validator,
+from pydantic import BeforeValidator, Field, Strict, field_validator, model_validator
+
+from .. import resources
+from .types import (
+    DEFAULT_MODEL_FILE,
+    OMEGA_MAX,
+    AngleDeg,
+    FiniteFloat,
+    Flag,
+    Fraction,
+    Length,
+    NonNegFloat,
+    Options,
+    PathText,
+    PosFloat,
+    Rate,
+    StrictModel,
+    component,
+    options_of,
+    ranged,
+    ranged_int,
 )
 
-from . import registry, resources
-from .context import RunContext
-from .errors import BadInput
 
-DEFAULT_MODEL_FILE = resources.DEFAULT_MODEL
-"""``plant.model_file`` default: the robot shipped in the package (``builtin:diffdrive.xml``)."""
-
-OMEGA_MAX = math.radians(1000.0)  # rad/s, the paper's wheel-rate limit (±1000 deg/s)
-
-FLOAT_BOUND = 1.0e6
-"""Magnitude bound of every config float without a tighter physical range: finite numbers beyond it
-(1e15 s, 1e308 kg) are typing slips, not experiments, and overflow the physics or the allocations."""
-
-
-def _interval(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:
-    return f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
-
-
-def ranged(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False, unit: str = "") -> Any:
-    """A strict float type: a finite number (an integer is accepted, a boolean or string is not) in
-    the interval from ``lo`` to ``hi`` (open ends as flagged); the error names the interval and unit."""
-    where = _interval(lo, hi, lo_open, hi_open) + (f" {unit}" if unit else "")
-
-    def check(v: float) -> float:
-        inside = (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
-        if not (math.isfinite(v) and inside):
-            raise ValueError(f"must be a finite number in {where}, got {v!r}")
-        return v
-
-    return Annotated[float, Strict(), AfterValidator(check)]
-
-
-def _plain_int(v: Any) -> Any:
-    """A numpy integer as a Python int (callers computing seeds or sizes with numpy); anything else as is."""
-    return int(v) if hasattr(v, "dtype") and getattr(v.dtype, "kind", "") in "iu" and v.shape == () else v
-
-
-def ranged_int(lo: int, hi: int) -> Any:
-    """A strict integer type in ``[lo, hi]`` (a float or boolean is not an integer; a numpy integer is)."""
-    return Annotated[int, BeforeValidator(_plain_int), Strict(), Field(ge=lo, le=hi)]
-
-
-PosFloat = ranged(0.0, FLOAT_BOUND, lo_open=True)
-"""A finite float in (0, 1e6]."""
-NonNegFloat = ranged(0.0, FLOAT_BOUND)
-"""A finite float in [0, 1e6]."""
-FiniteFloat = ranged(-FLOAT_BOUND, FLOAT_BOUND)
-"""A finite float in [-1e6, 1e6]."""
-Fraction = ranged(0.0, 1.0, lo_open=True, hi_open=True)
-"""A finite float in (0, 1)."""
-Flag = Annotated[bool, Strict()]
-"""``true`` or ``false`` only (not 1, "yes")."""
-Rate = ranged(0.0, 1.0e4, lo_open=True, unit="Hz")
-Length = ranged(1.0e-3, 100.0, unit="m")
-"""A robot dimension (m)."""
-AngleDeg = ranged(0.0, 180.0, lo_open=True, unit="deg")
-
-NAME_RE = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]{0,99}$")
-"""A run or study name: one safe file-name component (it names the output folder)."""
-
-
-def check_name(v: str) -> str:
-    """``v`` if it is a plain file-name component (see :data:`NAME_RE`), else ``ValueError``."""
-    if not NAME_RE.match(v):
-        shown = v[:40].encode("unicode_escape").decode() + ("…" if len(v) > 40 else "")
-        raise ValueError("must be a plain file name: letters, digits, '_', '-', '.', '+', starting with a "
-                         f"letter, digit or '_', at most 100 characters (got '{shown}')")
-    return v
-
-
-SafeName = Annotated[str, Strict(), AfterValidator(check_name)]
-
-
-def _path_text(v: Any) -> Any:
-    """Reject an empty path or one with a NUL byte before it becomes a ``Path`` (``Path("")`` is ``.``)."""
-    if isinstance(v, str) and (not v.strip() or "\0" in v):
-        raise ValueError("must be a non-empty path without NUL bytes")
-    return v
-
-
-PathText = Annotated[Path, BeforeValidator(_path_text)]
-
-
-def component(name: str) -> Any:
-    """A strict string type naming a component registered in :data:`ftc_mj.registry.REGISTRIES` ``[name]``;
-    the error of an unknown name lists the registered ones."""
-    def check(v: str) -> str:
-        return registry.REGISTRIES[name].check(v)
-
-    return Annotated[str, Strict(), AfterValidator(check)]
-
-
-Options = Annotated[dict[str, Any], Strict(), Field(max_length=100)]
-"""A component's own settings (a TOML table), checked against the ``settings`` model the component was
-registered with (:func:`ftc_mj.registry.check_options`); built-ins take none."""
-
-
-def options_of(registry_name: str, kind_field: str) -> Any:
-    """A field validator of ``options``: validated for the component named in ``kind_field`` (fields are
-    validated in order, so the name is known), returned with the settings' defaults filled in."""
-    def check(cls: type, v: dict[str, Any], info: Any) -> dict[str, Any]:
-        kind = info.data.get(kind_field)
-        return v if kind is None else registry.check_options(registry.REGISTRIES[registry_name], kind, v)
-
-    return field_validator("options")(classmethod(check))  # type: ignore[arg-type]
-
-
-class _Strict(BaseModel):
-    """Base: unknown keys are errors, assignments are validated."""
-
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
-
-
-class RobotConfig(_Strict):
+class RobotConfig(StrictModel):
     """Nominal design shared by plant and model unless overridden there."""
 
     wheel_radius: Length = 2.0
@@ -154,7 +47,7 @@ class RobotConfig(_Strict):
     """Wheel-rate limit (rad/s), symmetric."""
 
 
-class PlantConfig(_Strict):
+class PlantConfig(StrictModel):
     """Truth plant (MuJoCo). ``None`` means: take the value from ``robot``."""
 
     model_file: Annotated[str, BeforeValidator(lambda v: str(v) if isinstance(v, Path) else v), Strict()] = (
@@ -217,7 +110,7 @@ class PlantConfig(_Strict):
         return str(p)
 
 
-class ModelConfig(_Strict):
+class ModelConfig(StrictModel):
     """What the filters and controllers assume. ``None`` means: take the value from ``robot``."""
 
     half_track: Length | None = None
@@ -246,7 +139,7 @@ def _check_schedule(v: Breakpoints) -> Breakpoints:
     return v
 
 
-class FaultConfig(_Strict):
+class FaultConfig(StrictModel):
     """Piecewise-linear wheel-radius schedules: lists of ``[t, radius]`` breakpoints.
 
     Before the first breakpoint the radius is the nominal one; after the last it is held. A step is
@@ -262,7 +155,7 @@ class FaultConfig(_Strict):
         return _check_schedule(v)
 
 
-class SensorConfig(_Strict):
+class SensorConfig(StrictModel):
     """Sensors with seeded Gaussian noise. ``None`` sigma = that sensor is absent."""
 
     speed_sigma: PosFloat = 0.5
@@ -279,7 +172,7 @@ class SensorConfig(_Strict):
     """Noise (m, and rad for heading) on the pose handed to the controller; 0 = true pose."""
 
 
-class DecisionConfig(_Strict):
+class DecisionConfig(StrictModel):
     """Fault-decision rule on top of the estimator."""
 
     rule: component("decision_rules") = "auto"
@@ -314,16 +207,16 @@ class DecisionConfig(_Strict):
     ratio (nats; 4.6 ≈ 99:1 odds); otherwise the declared wheel is ``'unknown'``."""
     statistics: Flag = False
     """Compute every rule's decision statistic each step and log it in the trace (``*_stat`` columns), so
-    that thresholds can be swept afterwards without re-running (``ftc-mj fdi-curves``). Costs about 30 µs
-    per filter step, 15–45 % of a run's CPU time (``benchmarks/bench_fdi.py``); the ``cusum`` and ``glr``
-    rules compute their own statistic regardless."""
+    that thresholds can be swept afterwards without re-running (``ftc-mj fdi-curves``); it costs CPU time
+    at every filter step (measured in docs/fdi.md). The ``cusum`` and ``glr`` rules compute their own
+    statistic regardless."""
     options: Options = Field(default_factory=dict, validate_default=True)
     """Settings of a plug-in rule (its registered settings model); built-in rules take none."""
 
     _options = options_of("decision_rules", "rule")
 
 
-class HypothesisConfig(_Strict):
+class HypothesisConfig(StrictModel):
     """One member of a custom IMM bank (``estimator.imm_bank``): what it assumes about the wheel radii."""
 
     name: Annotated[str, Strict(), Field(min_length=1, max_length=60)]
@@ -337,7 +230,7 @@ class HypothesisConfig(_Strict):
     hypothesis; ``frac_L`` is then not used) instead of a step to ``frac_L``."""
 
 
-class EstimatorConfig(_Strict):
+class EstimatorConfig(StrictModel):
     """The FDI filter (paper §3). Defaults are exactly the paper's values."""
 
     kind: component("estimators") = "ukf"
@@ -401,7 +294,7 @@ class EstimatorConfig(_Strict):
         return len(self.imm_bank) if self.imm_bank is not None else self.imm_models
 
 
-class PathFollowingConfig(_Strict):
+class PathFollowingConfig(StrictModel):
     """Settings of the path-following NMPC (``controller.kind = "pf-nmpc"``,
     :mod:`ftc_mj.control.pathfollow`). It shares ``nodes``, ``horizon``, ``rate_penalty``,
     ``omega_rate_max``, ``solver``, ``max_iter`` and the budgets with the NMPC; its desired speed is
@@ -447,7 +340,7 @@ ScenarioFraction = ranged(0.0, 2.0, lo_open=True)
 """A scenario radius as a fraction of the model radius, in (0, 2]."""
 
 
-class RobustConfig(_Strict):
+class RobustConfig(StrictModel):
     """Multi-stage robust NMPC (``controller.kind = "robust-nmpc"``; :mod:`~ftc_mj.control.robust`): one
     state trajectory per radius scenario, shared inputs over the robust horizon, all constraints in
     every scenario."""
@@ -461,8 +354,8 @@ class RobustConfig(_Strict):
     """Scenario weights (one per scenario, not all zero; normalised); unset = uniform."""
     robust_horizon_nodes: ranged_int(1, 200) | None = None
     """Input nodes shared by all scenarios (non-anticipativity); unset = every node inside the first
-    control period (5 of the default 50). More shared nodes make the NLP harder: with a 50 % scenario
-    IPOPT needed 22 iterations at 12 nodes and did not converge in 200 at 20."""
+    control period (5 of the default 50). More shared nodes make the NLP harder
+    (docs/config-defaults.md)."""
     objective: Literal["expected", "worst"] = "expected"
     """``expected``: the weighted mean of the scenario costs; ``worst``: their maximum over the
     scenarios of positive weight (an epigraph; needs ``controller.solver = "ipopt"``)."""
@@ -478,11 +371,8 @@ class RobustConfig(_Strict):
     filter says (no scenario is dismissed outright)."""
     prune_below: ranged(0.0, 1.0, hi_open=True) = 0.0
     """A scenario whose (normalised) weight is below this leaves the problem, cost and constraints (the
-    one of largest weight never does); 0 = never. The default (floor 0.01, no pruning) was chosen on the
-    development study ``robust_hybrid_dev`` (seeds 0-2, scenarios 2 and 3 x both plants x both sensings,
-    24 runs per setting, rule stated in its header): worst runs 6.68 m (floor 0.01), 6.57 m (floor 0,
-    pruning at 1e-3) and 6.55 m (floor 1e-3) of ``cross_track_max_recovered`` lie within 5 % of each
-    other, so the mean decides: 1.61, 1.68 and 1.67 m (docs/findings.md)."""
+    one of largest weight never does); 0 = never. The default (floor 0.01, no pruning) was chosen by the
+    rule of the development study ``robust_hybrid_dev`` (docs/findings.md)."""
 
     @model_validator(mode="after")
     def _weights_match(self) -> RobustConfig:
@@ -494,7 +384,7 @@ class RobustConfig(_Strict):
         return self
 
 
-class ControllerConfig(_Strict):
+class ControllerConfig(StrictModel):
     """Trajectory-tracking controller (paper §3)."""
 
     kind: component("controllers") = "nmpc"
@@ -549,11 +439,9 @@ class ControllerConfig(_Strict):
     cold_time_budget: PosFloat | None = None
     """Wall-time budget (s) of a cold (first or re-seeding) solve; ``None`` = not enforced."""
     max_iter: ranged_int(0, 10_000) = 30
-    """Iteration limit of the NLP solver (IPOPT); 0 forces a failure (used in tests). In the 58 runs of
-    ``ftc-mj paper`` every IPOPT solve that succeeded needed at most 14 iterations and every one that
-    failed (re-seeds of a diverging loop) ran to the limit, at 4–8 ms per iteration: 30 keeps every
-    success; the scenario 4 UKF benchmark run (three hopeless re-seeds) went from 6.7 to 5.45 s with
-    the same trace."""
+    """Iteration limit of the NLP solver (IPOPT); 0 forces a failure (used in tests). 30 is above what
+    every successful solve of the paper's runs needed and bounds the time lost on a failing re-seed
+    (docs/config-defaults.md)."""
     time_budget: PosFloat | None = None
     """Wall-time budget of one solve (s); an over-budget solve is counted and falls back to the shifted
     previous plan. ``None`` (default) = not enforced: a wall-clock rule makes results depend on machine
@@ -573,7 +461,7 @@ class ControllerConfig(_Strict):
     """Settings of the robust multi-stage NMPC (``kind = "robust-nmpc"``)."""
 
 
-class ExcitationConfig(_Strict):
+class ExcitationConfig(StrictModel):
     """Yaw-rate dither while a fault is suspected but not isolated (off by default).
 
     With speed-only sensing the split between the radii is seen only through turning
@@ -589,7 +477,7 @@ class ExcitationConfig(_Strict):
     """Dither period (s)."""
 
 
-class ReconfigurationConfig(_Strict):
+class ReconfigurationConfig(StrictModel):
     """How the estimated radii reach the controller's model (:mod:`ftc_mj.reconfiguration.policies`)."""
 
     policy: component("policies") = "safe"
@@ -639,7 +527,7 @@ class ReconfigurationConfig(_Strict):
     _options = options_of("policies", "policy")
 
 
-class ReferenceConfig(_Strict):
+class ReferenceConfig(StrictModel):
     """Reference path and its time law."""
 
     kind: component("references") = "circle"
@@ -656,332 +544,8 @@ class ReferenceConfig(_Strict):
     _options = options_of("references", "kind")
 
 
-class OutputConfig(_Strict):
+class OutputConfig(StrictModel):
     dir: PathText = Path("runs/out")
     rrd: Flag = True
     progress: Flag = True
 
-
-class RunConfig(_Strict):
-    """A complete run. The keys scripts rely on keep their names: ``duration``, ``seed``, ``feedback``,
-    ``sensors.*``, ``estimator.kind``, ``controller.kind``."""
-
-    name: SafeName = "run"
-    """Names the run's output folder: one plain file-name component (:data:`NAME_RE`)."""
-    plugins: Annotated[list[Annotated[str, Strict()]], Field(max_length=50)] = Field(default_factory=list)
-    """Modules to import before the rest is validated (``["my_pkg.filters"]``): importing them registers
-    the components they define (:func:`ftc_mj.registry.load_plugins`), in every process that validates
-    the config — Dask workers included."""
-    description: Annotated[str, Strict(), Field(max_length=2000)] = ""
-    duration: ranged(0.0, 3600.0, lo_open=True, unit="s") = 40.0
-    """Simulated time (s); an hour is 360 000 trace rows (about 130 MB in memory)."""
-    seed: ranged_int(0, 2**63 - 1) = 0
-    robot: RobotConfig = Field(default_factory=RobotConfig)
-    plant: PlantConfig = Field(default_factory=PlantConfig)
-    model: ModelConfig = Field(default_factory=ModelConfig)
-    faults: FaultConfig = Field(default_factory=FaultConfig)
-    sensors: SensorConfig = Field(default_factory=SensorConfig)
-    estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
-    controller: ControllerConfig = Field(default_factory=ControllerConfig)
-    reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
-    reference: ReferenceConfig = Field(default_factory=ReferenceConfig)
-    output: OutputConfig = Field(default_factory=OutputConfig)
-
-    @model_validator(mode="before")
-    @classmethod
-    def _plugins_first(cls, data: Any) -> Any:
-        """Import the ``plugins`` modules before any component name is checked."""
-        mods = data.get("plugins") if isinstance(data, dict) else None
-        if isinstance(mods, list) and all(isinstance(m, str) for m in mods):
-            registry.load_plugins(mods)
-        return data
-
-    @model_validator(mode="before")
-    @classmethod
-    def _feedback_alias(cls, data: Any) -> Any:
-        """``feedback = true|false`` (the paper's switch) is an alias: false = policy ``none``; true =
-        policy ``direct`` unless a feeding policy is given. A contradiction is an error."""
-        if not isinstance(data, dict) or "feedback" not in data:
-            return data
-        data = dict(data)
-        fb = data.pop("feedback")
-        if not isinstance(fb, bool):
-            raise ValueError("feedback: must be true or false (alias of reconfiguration.policy)")
-        rc = data.get("reconfiguration")
-        rc = dict(rc) if isinstance(rc, dict) else {}
-        given = rc.get("policy")
-        if given is None:
-            rc["policy"] = "direct" if fb else "none"
-        elif fb and given == "none":
-            raise ValueError("feedback: true contradicts reconfiguration.policy = 'none'")
-        elif not fb and given != "none":
-            raise ValueError(f"feedback: false contradicts reconfiguration.policy = {given!r}")
-        data["reconfiguration"] = rc
-        return data
-
-    @property
-    def feedback(self) -> bool:
-        """The controller's model is handed estimated (or true) radii: the policy is not ``none``."""
-        return self.reconfiguration.policy != "none"
-
-    @model_validator(mode="after")
-    def _rates(self) -> RunConfig:
-        dt = self.plant.timestep
-        for label, rate in (("estimator.rate", self.estimator.rate), ("controller.rate", self.controller.rate)):
-            ratio = 1.0 / (rate * dt)
-            if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-                raise ValueError(f"{label}: 1/rate must be a whole multiple of plant.timestep ({dt} s)")
-        r_est = 1.0 / (self.estimator.rate * dt)
-        r_ctl = 1.0 / (self.controller.rate * dt)
-        if abs(r_ctl / r_est - round(r_ctl / r_est)) > 1e-9:
-            raise ValueError("controller.rate: the control period must be a multiple of the estimator period")
-        return self
-
-    @model_validator(mode="after")
-    def _robust(self) -> RunConfig:
-        c = self.controller
-        if c.kind != "robust-nmpc":
-            return self
-        if c.solver not in ("ipopt", "rti-daqp"):
-            raise ValueError(f"controller.solver: robust-nmpc is solved by 'ipopt' or 'rti-daqp', not {c.solver!r}")
-        if c.robust.objective == "worst" and c.solver != "ipopt":
-            raise ValueError("controller.robust.objective: 'worst' is not a QP; it needs controller.solver = 'ipopt'")
-        if c.robust.robust_horizon_nodes is not None and c.robust.robust_horizon_nodes > c.nodes:
-            raise ValueError(f"controller.robust.robust_horizon_nodes: at most controller.nodes = {c.nodes}")
-        if c.robust.weighting == "posterior" and self.estimator.kind == "none":
-            raise ValueError("controller.robust.weighting: 'posterior' needs an estimator (estimator.kind is 'none')")
-        return self
-
-    # ---------------------------------------------------------------- resolved values
-    @property
-    def plant_wheel_radius(self) -> float:
-        return self.plant.wheel_radius or self.robot.wheel_radius
-
-    @property
-    def plant_half_track(self) -> float:
-        return self.plant.half_track or self.robot.half_track
-
-    @property
-    def model_wheel_radius(self) -> float:
-        return self.model.wheel_radius or self.robot.wheel_radius
-
-    @property
-    def model_half_track(self) -> float:
-        return self.model.half_track or self.robot.half_track
-
-    @property
-    def physics_per_estimator(self) -> int:
-        return round(1.0 / (self.estimator.rate * self.plant.timestep))
-
-    @property
-    def estimator_per_controller(self) -> int:
-        return round(self.estimator.rate / self.controller.rate)
-
-    @property
-    def n_estimator_steps(self) -> int:
-        return int(round(self.duration * self.estimator.rate))
-
-
-# ---------------------------------------------------------------------------- loading
-BUILTIN_SCENARIOS = resources.builtin_scenarios()
-"""Names of the scenarios shipped in the package (``scenario1`` … ``scenario4``)."""
-MAX_TOML_BYTES = 4 * 2**20
-"""Largest scenario or study file read (bytes): config files are a few kB."""
-
-
-def _fmt_loc(loc: tuple[Any, ...]) -> str:
-    return ".".join(str(p) for p in loc if not isinstance(p, int)) or "<root>"
-
-
-def shown_value(v: Any, width: int = 40) -> str:
-    """A value as the user wrote it in TOML (``true``, ``"yes"``, ``[1, 2]``), cut to ``width`` characters."""
-    if isinstance(v, bool):
-        text = "true" if v else "false"
-    elif isinstance(v, str):
-        text = '"' + v.encode("unicode_escape").decode() + '"'
-    else:
-        text = repr(v)
-    return text if len(text) <= width else text[: width - 1] + "…"
-
-
-def _one_line(err: ValidationError) -> str:
-    e = err.errors()[0]
-    loc = _fmt_loc(tuple(e["loc"]))
-    msg = e["msg"]
-    if e["type"] == "extra_forbidden":
-        msg = "unknown key"
-    msg = msg.removeprefix("Value error, ")
-    if e["type"] not in ("value_error", "extra_forbidden", "missing") and "input" in e:
-        msg += f", got {shown_value(e['input'])}"
-    extra = f" (and {err.error_count() - 1} more)" if err.error_count() > 1 else ""
-    if loc == "<root>" and ": " in msg:  # model-level checks name their field themselves
-        return f"{msg}{extra}"
-    named = re.match(r"^([A-Za-z_][\w.]*): (.*)$", msg)
-    if named and e["type"] == "value_error":  # a section's check naming its field: estimator.imm_models
-        return f"{loc}.{named.group(1)}: {named.group(2)}{extra}"
-    return f"{loc}: {msg}{extra}"
-
-
-def validate_config(data: dict[str, Any]) -> RunConfig:
-    """Validate a raw dict into a :class:`RunConfig`; :class:`BadInput` names the field."""
-    try:
-        return RunConfig.model_validate(data)
-    except ValidationError as err:
-        raise BadInput(_one_line(err)) from None
-    except RecursionError:
-        raise BadInput("config: values nested too deeply") from None
-
-
-def section(model: type[BaseModel], value: Any, where: str) -> Any:
-    """One config section from an instance of ``model``, a plain table or ``None`` (the defaults), for
-    components built without a run config; :class:`BadInput` naming ``<where>.<field>``."""
-    if isinstance(value, model):
-        return value
-    try:
-        return model.model_validate({} if value is None else dict(value))
-    except ValidationError as err:
-        line = _one_line(err)
-        raise BadInput(f"{where}: {line.removeprefix('<root>: ')}" if line.startswith("<root>")
-                       else f"{where}.{line}") from None
-    except TypeError:
-        raise BadInput(f"{where}: expected a table of settings, got {type(value).__name__}") from None
-
-
-def from_sections(**sections: Any) -> RunConfig:
-    """A run config holding the given sections (instances, plain tables or ``None``; the rest the
-    defaults), for a component built from its own settings: ``from_sections(plant={"kind":
-    "kinematic"}, robot=None)``. :class:`BadInput` naming ``<section>.<field>``."""
-    models = {name: f.annotation for name, f in RunConfig.model_fields.items()
-              if isinstance(f.annotation, type) and issubclass(f.annotation, BaseModel)}
-    data = {}
-    for name, value in sections.items():
-        if name not in models:
-            raise BadInput(f"{name}: not a config section (sections: {', '.join(models)})")
-        data[name] = section(models[name], value, name)
-    return RunConfig.model_validate(data)
-
-
-def run_context(cfg: RunConfig) -> RunContext:
-    """The small run context every component may read beside its own settings (rates, the model's
-    nominal geometry, the seed, the sensors' settings); factories build components from it."""
-    return RunContext(
-        seed=int(cfg.seed), duration=float(cfg.duration), physics_dt=float(cfg.plant.timestep),
-        estimator_dt=1.0 / cfg.estimator.rate, controller_dt=1.0 / cfg.controller.rate,
-        nominal_radii=(cfg.model_wheel_radius, cfg.model_wheel_radius), half_track=cfg.model_half_track,
-        omega_max=float(cfg.robot.omega_max), initial_pose=tuple(float(v) for v in cfg.plant.initial_pose),
-        sensors=cfg.sensors, estimator_rate=cfg.estimator.rate, controller_rate=cfg.controller.rate,
-        min_radius=cfg.estimator.min_radius)
-
-
-def scenario_path(name_or_path: str | Path) -> Path:
-    """Resolve a built-in scenario name or a TOML path."""
-    s = str(name_or_path)
-    if s in BUILTIN_SCENARIOS:
-        return resources.scenario_file(s)
-    return existing_file(s, "scenario", "no such built-in scenario or file")
-
-
-def existing_file(s: str, what: str, missing: str = "no such file") -> Path:
-    """``Path(s)`` if it names a readable regular file; else :class:`BadInput` (``what: why``), also for
-    names the OS rejects (NUL bytes, too long)."""
-    shown = s if len(s) <= 120 else s[:120] + "…"
-    if not s or "\0" in s:
-        raise BadInput(f"{what}: expected a file path, got {shown!r}")
-    p = Path(s)
-    try:
-        found = p.is_file()
-    except OSError as err:
-        raise BadInput(f"{what}: {shown}: {err.strerror}") from None
-    if not found:
-        raise BadInput(f"{what}: {missing}: {shown}")
-    return p
-
-
-def read_toml(path: Path, what: str = "config") -> dict[str, Any]:
-    try:
-        with open(path, "rb") as fh:
-            raw = fh.read(MAX_TOML_BYTES + 1)
-    except OSError as err:
-        raise BadInput(f"{what} {path}: cannot read: {err.strerror}") from None
-    if len(raw) > MAX_TOML_BYTES:
-        raise BadInput(f"{what} {path}: larger than {MAX_TOML_BYTES // 2**20} MiB; not a config file")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as err:
-        raise BadInput(f"{what} {path}: not UTF-8 text (byte 0x{raw[err.start]:02x} at offset {err.start})") from None
-    return parse_toml(text, f"{what} {path}")
-
-
-def parse_toml(text: str, what: str) -> dict[str, Any]:
-    """``tomllib.loads`` with every failure as a one-line :class:`BadInput` naming ``what``."""
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise BadInput(f"{what}: invalid TOML: {str(err).splitlines()[0]}") from None
-    except RecursionError:
-        raise BadInput(f"{what}: invalid TOML: nested too deeply") from None
-
-
-def parse_override(item: str) -> tuple[str, Any]:
-    """Parse ``dotted.key=value``; the value is read as a TOML value, else taken as a string."""
-    if "=" not in item:
-        raise BadInput(f"--set {item}: expected dotted.key=value")
-    key, raw = item.split("=", 1)
-    key = key.strip()
-    if not key or any(not part for part in key.split(".")):
-        raise BadInput(f"--set {item}: empty key")
-    if "\n" in raw or "\r" in raw or "\0" in raw:
-        raise BadInput(f"--set {key}: the value must be one line of text without NUL bytes")
-    try:
-        value = tomllib.loads(f"v = {raw}")["v"]
-    except tomllib.TOMLDecodeError:
-        value = raw
-    except RecursionError:
-        raise BadInput(f"--set {key}: value nested too deeply") from None
-    return key, value
-
-
-def set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
-    """Set ``data[a][b][c] = value`` for ``key = "a.b.c"``, creating tables as needed."""
-    parts = key.split(".")
-    node = data
-    for part in parts[:-1]:
-        nxt = node.setdefault(part, {})
-        if not isinstance(nxt, dict):
-            raise BadInput(f"{key}: {part} is not a table")
-        node = nxt
-    node[parts[-1]] = value
-
-
-def load_config(scenario: str | Path, overrides: Mapping[str, Any] | None = None, *,
-                plugins: Iterable[str] = ()) -> RunConfig:
-    """Load a scenario (built-in name or TOML path), apply dotted overrides, add the plug-in modules
-    ``plugins`` to its ``plugins`` list (``--plugin``), validate."""
-    path = scenario_path(scenario)
-    data = read_toml(path, "scenario")
-    if "name" not in data:
-        if not NAME_RE.match(path.stem):
-            raise BadInput(f"name: the scenario file's stem {path.stem[:40]!r} is not a plain file name "
-                           "(letters, digits, '_', '-', '.', '+'); set name = \"...\" in the file")
-        data["name"] = path.stem
-    for key, value in (overrides or {}).items():
-        set_dotted(data, key, value)
-    extra = list(plugins)
-    if extra:
-        given = data.get("plugins", [])
-        data["plugins"] = list(dict.fromkeys([*(given if isinstance(given, list) else [given]), *extra]))
-    return validate_config(data)
-
-
-def config_to_toml_dict(cfg: RunConfig) -> dict[str, Any]:
-    """The fully resolved config as plain TOML-serialisable data (None values dropped)."""
-    def clean(v: Any) -> Any:
-        if isinstance(v, dict):
-            return {k: clean(x) for k, x in v.items() if x is not None}
-        if isinstance(v, (list, tuple)):
-            return [clean(x) for x in v]
-        if isinstance(v, Path):
-            return str(v)
-        return v
-
-    return clean(cfg.model_dump(mode="python"))

@@ -1,0 +1,79 @@
+"""Run configuration: a pydantic schema loaded from TOML, with the paper's values as defaults.
+
+Everything a run depends on is in :class:`RunConfig`; a run is a pure function of the resolved
+config (including ``seed``). SI units and radians throughout; the only degree-valued inputs are
+fields whose name ends in ``_deg``.
+
+Loading goes through :func:`load_config`, which accepts a built-in scenario name (``scenario1`` …
+``scenario4``) or a TOML path, applies ``--set dotted.key=value`` overrides, validates, and raises
+:class:`~ftc_mj.errors.BadInput` with a one-line message naming the offending field.
+
+Modules: :mod:`.types` (value types and the strict base), :mod:`.sections` (one model per
+section), :mod:`.schema` (:class:`RunConfig`, :func:`run_context`), :mod:`.files` (scenario names,
+TOML files), :mod:`.load` (overrides, validation, sections on their own), :mod:`.errors` (the
+one-line text of a validation error). Only the factory modules of the components import this
+package.
+"""
+
+from .errors import one_line, shown_value
+from .files import BUILTIN_SCENARIOS, MAX_TOML_BYTES, existing_file, parse_toml, read_toml, scenario_path
+from .load import (
+    config_to_toml_dict,
+    from_sections,
+    load_config,
+    parse_override,
+    section,
+    set_dotted,
+    validate_config,
+)
+from .schema import RunConfig, run_context
+from .sections import (
+    ControllerConfig,
+    DecisionConfig,
+    EstimatorConfig,
+    ExcitationConfig,
+    FaultConfig,
+    HypothesisConfig,
+    ModelConfig,
+    OutputConfig,
+    PathFollowingConfig,
+    PlantConfig,
+    ReconfigurationConfig,
+    ReferenceConfig,
+    RobotConfig,
+    RobustConfig,
+    SensorConfig,
+)
+from .types import (
+    DEFAULT_MODEL_FILE,
+    FLOAT_BOUND,
+    NAME_RE,
+    OMEGA_MAX,
+    AngleDeg,
+    FiniteFloat,
+    Flag,
+    Fraction,
+    Length,
+    NonNegFloat,
+    Options,
+    PathText,
+    PosFloat,
+    Rate,
+    SafeName,
+    check_name,
+    component,
+    options_of,
+    ranged,
+    ranged_int,
+)
+
+__all__ = [
+    "BUILTIN_SCENARIOS", "DEFAULT_MODEL_FILE", "FLOAT_BOUND", "MAX_TOML_BYTES", "NAME_RE", "OMEGA_MAX",
+    "AngleDeg", "ControllerConfig", "DecisionConfig", "EstimatorConfig", "ExcitationConfig", "FaultConfig",
+    "FiniteFloat", "Flag", "Fraction", "HypothesisConfig", "Length", "ModelConfig", "NonNegFloat", "Options",
+    "OutputConfig", "PathFollowingConfig", "PathText", "PlantConfig", "PosFloat", "Rate", "ReconfigurationConfig",
+    "ReferenceConfig", "RobotConfig", "RobustConfig", "RunConfig", "SafeName", "SensorConfig", "check_name",
+    "component", "config_to_toml_dict", "existing_file", "from_sections", "load_config", "one_line",
+    "options_of", "parse_override", "parse_toml", "ranged", "ranged_int", "read_toml", "run_context",
+    "scenario_path", "section", "set_dotted", "shown_value", "validate_config",
+]

@@ -1,0 +1,125 @@
+"""Loading a run config: a scenario (built-in name or TOML path), ``--set dotted.key=value``
+overrides, validation into a :class:`~ftc_mj.config.schema.RunConfig` with a one-line
+:class:`~ftc_mj.errors.BadInput` naming the field, single sections for components built on their
+own, and the resolved config as TOML data.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from ..errors import BadInput
+from .errors import one_line
+from .files import read_toml, scenario_path
+from .schema import RunConfig
+from .types import NAME_RE
+
+
+def validate_config(data: dict[str, Any]) -> RunConfig:
+    """Validate a raw dict into a :class:`RunConfig`; :class:`BadInput` names the field."""
+    try:
+        return RunConfig.model_validate(data)
+    except ValidationError as err:
+        raise BadInput(one_line(err)) from None
+    except RecursionError:
+        raise BadInput("config: values nested too deeply") from None
+
+
+def section(model: type[BaseModel], value: Any, where: str) -> Any:
+    """One config section from an instance of ``model``, a plain table or ``None`` (the defaults), for
+    components built without a run config; :class:`BadInput` naming ``<where>.<field>``."""
+    if isinstance(value, model):
+        return value
+    try:
+        return model.model_validate({} if value is None else dict(value))
+    except ValidationError as err:
+        line = one_line(err)
+        raise BadInput(f"{where}: {line.removeprefix('<root>: ')}" if line.startswith("<root>")
+                       else f"{where}.{line}") from None
+    except TypeError:
+        raise BadInput(f"{where}: expected a table of settings, got {type(value).__name__}") from None
+
+
+def from_sections(**sections: Any) -> RunConfig:
+    """A run config holding the given sections (instances, plain tables or ``None``; the rest the
+    defaults), for a component built from its own settings: ``from_sections(plant={"kind":
+    "kinematic"}, robot=None)``. :class:`BadInput` naming ``<section>.<field>``."""
+    models = {name: f.annotation for name, f in RunConfig.model_fields.items()
+              if isinstance(f.annotation, type) and issubclass(f.annotation, BaseModel)}
+    data = {}
+    for name, value in sections.items():
+        if name not in models:
+            raise BadInput(f"{name}: not a config section (sections: {', '.join(models)})")
+        data[name] = section(models[name], value, name)
+    return RunConfig.model_validate(data)
+
+
+
+def parse_override(item: str) -> tuple[str, Any]:
+    """Parse ``dotted.key=value``; the value is read as a TOML value, else taken as a string."""
+    if "=" not in item:
+        raise BadInput(f"--set {item}: expected dotted.key=value")
+    key, raw = item.split("=", 1)
+    key = key.strip()
+    if not key or any(not part for part in key.split(".")):
+        raise BadInput(f"--set {item}: empty key")
+    if "\n" in raw or "\r" in raw or "\0" in raw:
+        raise BadInput(f"--set {key}: the value must be one line of text without NUL bytes")
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw
+    except RecursionError:
+        raise BadInput(f"--set {key}: value nested too deeply") from None
+    return key, value
+
+
+def set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
+    """Set ``data[a][b][c] = value`` for ``key = "a.b.c"``, creating tables as needed."""
+    parts = key.split(".")
+    node = data
+    for part in parts[:-1]:
+        nxt = node.setdefault(part, {})
+        if not isinstance(nxt, dict):
+            raise BadInput(f"{key}: {part} is not a table")
+        node = nxt
+    node[parts[-1]] = value
+
+
+def load_config(scenario: str | Path, overrides: Mapping[str, Any] | None = None, *,
+                plugins: Iterable[str] = ()) -> RunConfig:
+    """Load a scenario (built-in name or TOML path), apply dotted overrides, add the plug-in modules
+    ``plugins`` to its ``plugins`` list (``--plugin``), validate."""
+    path = scenario_path(scenario)
+    data = read_toml(path, "scenario")
+    if "name" not in data:
+        if not NAME_RE.match(path.stem):
+            raise BadInput(f"name: the scenario file's stem {path.stem[:40]!r} is not a plain file name "
+                           "(letters, digits, '_', '-', '.', '+'); set name = \"...\" in the file")
+        data["name"] = path.stem
+    for key, value in (overrides or {}).items():
+        set_dotted(data, key, value)
+    extra = list(plugins)
+    if extra:
+        given = data.get("plugins", [])
+        data["plugins"] = list(dict.fromkeys([*(given if isinstance(given, list) else [given]), *extra]))
+    return validate_config(data)
+
+
+def config_to_toml_dict(cfg: RunConfig) -> dict[str, Any]:
+    """The fully resolved config as plain TOML-serialisable data (None values dropped)."""
+    def clean(v: Any) -> Any:
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items() if x is not None}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if isinstance(v, Path):
+            return str(v)
+        return v
+
+    return clean(cfg.model_dump(mode="python"))

@@ -1,0 +1,162 @@
+"""The run config, :class:`RunConfig`: every section, the checks across sections (rates, the robust
+NMPC's solver), the resolved values (plant and model geometry, step ratios), and the small
+:class:`~ftc_mj.context.RunContext` built from it.
+
+A run is a pure function of the resolved config (including ``seed``).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from pydantic import Field, Strict, model_validator
+
+from .. import registry
+from ..context import RunContext
+from .sections import (
+    ControllerConfig,
+    EstimatorConfig,
+    FaultConfig,
+    ModelConfig,
+    OutputConfig,
+    PlantConfig,
+    ReconfigurationConfig,
+    ReferenceConfig,
+    RobotConfig,
+    SensorConfig,
+)
+from .types import SafeName, StrictModel, ranged, ranged_int
+
+
+class RunConfig(StrictModel):
+    """A complete run. The keys scripts rely on keep their names: ``duration``, ``seed``, ``feedback``,
+    ``sensors.*``, ``estimator.kind``, ``controller.kind``."""
+
+    name: SafeName = "run"
+    """Names the run's output folder: one plain file-name component (:data:`NAME_RE`)."""
+    plugins: Annotated[list[Annotated[str, Strict()]], Field(max_length=50)] = Field(default_factory=list)
+    """Modules to import before the rest is validated (``["my_pkg.filters"]``): importing them registers
+    the components they define (:func:`ftc_mj.registry.load_plugins`), in every process that validates
+    the config — Dask workers included."""
+    description: Annotated[str, Strict(), Field(max_length=2000)] = ""
+    duration: ranged(0.0, 3600.0, lo_open=True, unit="s") = 40.0
+    """Simulated time (s); an hour is 360 000 trace rows (about 130 MB in memory)."""
+    seed: ranged_int(0, 2**63 - 1) = 0
+    robot: RobotConfig = Field(default_factory=RobotConfig)
+    plant: PlantConfig = Field(default_factory=PlantConfig)
+    model: ModelConfig = Field(default_factory=ModelConfig)
+    faults: FaultConfig = Field(default_factory=FaultConfig)
+    sensors: SensorConfig = Field(default_factory=SensorConfig)
+    estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
+    controller: ControllerConfig = Field(default_factory=ControllerConfig)
+    reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
+    reference: ReferenceConfig = Field(default_factory=ReferenceConfig)
+    output: OutputConfig = Field(default_factory=OutputConfig)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _plugins_first(cls, data: Any) -> Any:
+        """Import the ``plugins`` modules before any component name is checked."""
+        mods = data.get("plugins") if isinstance(data, dict) else None
+        if isinstance(mods, list) and all(isinstance(m, str) for m in mods):
+            registry.load_plugins(mods)
+        return data
+
+    @model_validator(mode="before")
+    @classmethod
+    def _feedback_alias(cls, data: Any) -> Any:
+        """``feedback = true|false`` (the paper's switch) is an alias: false = policy ``none``; true =
+        policy ``direct`` unless a feeding policy is given. A contradiction is an error."""
+        if not isinstance(data, dict) or "feedback" not in data:
+            return data
+        data = dict(data)
+        fb = data.pop("feedback")
+        if not isinstance(fb, bool):
+            raise ValueError("feedback: must be true or false (alias of reconfiguration.policy)")
+        rc = data.get("reconfiguration")
+        rc = dict(rc) if isinstance(rc, dict) else {}
+        given = rc.get("policy")
+        if given is None:
+            rc["policy"] = "direct" if fb else "none"
+        elif fb and given == "none":
+            raise ValueError("feedback: true contradicts reconfiguration.policy = 'none'")
+        elif not fb and given != "none":
+            raise ValueError(f"feedback: false contradicts reconfiguration.policy = {given!r}")
+        data["reconfiguration"] = rc
+        return data
+
+    @property
+    def feedback(self) -> bool:
+        """The controller's model is handed estimated (or true) radii: the policy is not ``none``."""
+        return self.reconfiguration.policy != "none"
+
+    @model_validator(mode="after")
+    def _rates(self) -> RunConfig:
+        dt = self.plant.timestep
+        for label, rate in (("estimator.rate", self.estimator.rate), ("controller.rate", self.controller.rate)):
+            ratio = 1.0 / (rate * dt)
+            if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+                raise ValueError(f"{label}: 1/rate must be a whole multiple of plant.timestep ({dt} s)")
+        r_est = 1.0 / (self.estimator.rate * dt)
+        r_ctl = 1.0 / (self.controller.rate * dt)
+        if abs(r_ctl / r_est - round(r_ctl / r_est)) > 1e-9:
+            raise ValueError("controller.rate: the control period must be a multiple of the estimator period")
+        return self
+
+    @model_validator(mode="after")
+    def _robust(self) -> RunConfig:
+        c = self.controller
+        if c.kind != "robust-nmpc":
+            return self
+        if c.solver not in ("ipopt", "rti-daqp"):
+            raise ValueError(f"controller.solver: robust-nmpc is solved by 'ipopt' or 'rti-daqp', not {c.solver!r}")
+        if c.robust.objective == "worst" and c.solver != "ipopt":
+            raise ValueError("controller.robust.objective: 'worst' is not a QP; it needs controller.solver = 'ipopt'")
+        if c.robust.robust_horizon_nodes is not None and c.robust.robust_horizon_nodes > c.nodes:
+            raise ValueError(f"controller.robust.robust_horizon_nodes: at most controller.nodes = {c.nodes}")
+        if c.robust.weighting == "posterior" and self.estimator.kind == "none":
+            raise ValueError("controller.robust.weighting: 'posterior' needs an estimator (estimator.kind is 'none')")
+        return self
+
+    # ---------------------------------------------------------------- resolved values
+    @property
+    def plant_wheel_radius(self) -> float:
+        return self.plant.wheel_radius or self.robot.wheel_radius
+
+    @property
+    def plant_half_track(self) -> float:
+        return self.plant.half_track or self.robot.half_track
+
+    @property
+    def model_wheel_radius(self) -> float:
+        return self.model.wheel_radius or self.robot.wheel_radius
+
+    @property
+    def model_half_track(self) -> float:
+        return self.model.half_track or self.robot.half_track
+
+    @property
+    def physics_per_estimator(self) -> int:
+        return round(1.0 / (self.estimator.rate * self.plant.timestep))
+
+    @property
+    def estimator_per_controller(self) -> int:
+        return round(self.estimator.rate / self.controller.rate)
+
+    @property
+    def n_estimator_steps(self) -> int:
+        return int(round(self.duration * self.estimator.rate))
+
+
+
+def run_context(cfg: RunConfig) -> RunContext:
+    """The small run context every component may read beside its own settings (rates, the model's
+    nominal geometry, the seed, the sensors' settings); factories build components from it."""
+    return RunContext(
+        seed=int(cfg.seed), duration=float(cfg.duration), physics_dt=float(cfg.plant.timestep),
+        estimator_dt=1.0 / cfg.estimator.rate, controller_dt=1.0 / cfg.controller.rate,
+        nominal_radii=(cfg.model_wheel_radius, cfg.model_wheel_radius), half_track=cfg.model_half_track,
+        omega_max=float(cfg.robot.omega_max), initial_pose=tuple(float(v) for v in cfg.plant.initial_pose),
+        sensors=cfg.sensors, estimator_rate=cfg.estimator.rate, controller_rate=cfg.controller.rate,
+        min_radius=cfg.estimator.min_radius)
+

@@ -1,0 +1,111 @@
+"""Bad values generated from the configuration schema: every leaf of :class:`RunConfig`, per type
+(non-finite and out-of-range numbers, booleans for numbers, strings for booleans, …), as ``--set``
+overrides and as scenario files. Judged in-process by ``tests/config/test_bad_values.py``; a
+representative few also through the command line (``tests/cli/test_bad_input.py``)."""
+
+from __future__ import annotations
+
+import types
+import typing
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel
+
+from ftc_mj.config import RunConfig
+
+
+def _base(ann: Any) -> Any:
+    """The leaf type of an annotation: Optional and Annotated stripped."""
+    if typing.get_origin(ann) in (typing.Union, types.UnionType):
+        ann = next(a for a in typing.get_args(ann) if a is not type(None))
+    if typing.get_origin(ann) is typing.Annotated:
+        ann = typing.get_args(ann)[0]
+    return ann
+
+
+def leaves(model: type[BaseModel] = RunConfig, prefix: str = "") -> list[tuple[str, Any]]:
+    """``(dotted key, leaf type)`` of every settable config value."""
+    out = []
+    for name, f in model.model_fields.items():
+        t = _base(f.annotation)
+        key = f"{prefix}{name}"
+        if isinstance(t, type) and issubclass(t, BaseModel):
+            out += leaves(t, key + ".")
+        else:
+            out.append((key, t))
+    return out
+
+
+def kind_of(t: Any) -> str:
+    """The kind of a leaf type, the key of :data:`BAD_VALUES`."""
+    origin = typing.get_origin(t)
+    if origin is Literal:
+        return "literal"
+    if origin is tuple:
+        return "tuple"
+    if origin is list:
+        return "list"
+    if t is bool:
+        return "bool"
+    if t is int:
+        return "int"
+    if t is float:
+        return "float"
+    if t is str:
+        return "str"
+    if origin is dict:
+        return "dict"
+    if isinstance(t, type) and issubclass(t, Path):
+        return "path"
+    raise AssertionError(f"untested config type {t!r}")
+
+
+BAD_VALUES: dict[str, list[str]] = {
+    "float": ["inf", "-inf", "nan", "1e308", "true", '"abc"'],
+    "int": ["1.5", "true", '"3"', "1e308"],
+    "bool": ['"yes"', "1", "0.0"],
+    "literal": ['"bogus"', "3", "true"],
+    "tuple": ["[1.0]", '"x"', "[inf, inf, inf, inf, inf]", "[true, true, true, true, true]"],
+    "list": ["3", "[[1.0]]", '[["a", 1.0]]', "[[inf, 1.0]]"],
+    "path": ['""', "true", '"no/such/file.xml"'],
+    "str": ["1", "true"],
+    "dict": ["3", '"x"', "{ a = 1 }"],
+}
+"""TOML literals that no leaf of each kind may accept."""
+
+
+def schema_cases() -> list[tuple[str, str, str]]:
+    """``(case id, "key=value" of a --set, the key the error must name)`` for every leaf and bad value."""
+    cases = []
+    for key, t in leaves():
+        kind = kind_of(t)
+        values = list(BAD_VALUES[kind])
+        if key == "output.dir":
+            values = ['""', "true"]  # any non-empty path is a folder name
+        if key == "description":
+            values = ["1", "true", '"' + "d" * 2001 + '"']
+        if key.endswith((".kind", ".rule", ".policy")) and kind == "str":
+            values.append('"bogus"')  # a component name no registry knows
+        if key == "plugins":
+            values += ['["no_such_module_xyz"]', '["1bad"]']
+        if key == "name":
+            values = ['"../../../x"', '"/abs/x"', '".hidden"', '"a/b"', '""', '"' + "n" * 101 + '"', "1",
+                      '"a\\u0000b"']
+        for v in values:
+            cases.append((f"set:{key}={v[:30]}", f"{key}={v}", key))
+    return cases
+
+
+def file_cases() -> list[tuple[str, str, str]]:
+    """``(case id, scenario file body, the key the error must name)``: the same values through a
+    scenario file (a table per section), two per leaf."""
+    out = []
+    for key, t in leaves():
+        kind = kind_of(t)
+        values = BAD_VALUES[kind][:2] if key not in ("output.dir", "name", "description") else ["true"]
+        for v in values:
+            *sec, leaf = key.split(".")
+            body = (f"[{'.'.join(sec)}]\n" if sec else "") + f"{leaf} = {v}\n"
+            out.append((f"file:{key}={v[:20]}", body, key))
+    return out

@@ -24,7 +24,7 @@ from ftc_mj.sim.summary import print_run_summary
 from ftc_mj.study.runner import covering_order, describe_selection, run_study
 from ftc_mj.study.spec import load_study
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def outcome(metrics: dict[str, Any], split_std: float) -> RunOutcome:

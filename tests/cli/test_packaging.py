@@ -21,7 +21,7 @@ from ftc_mj.config import load_config
 from ftc_mj.identity import run_digest, run_id, run_identity
 from ftc_mj.study.spec import load_study, run_key
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = Path(ftc_mj.__file__).resolve().parent
 SHORT = ["--duration", "1", "--set", "sensors.yaw_rate_sigma=0.01", "--no-rrd", "-q"]
 

@@ -8,6 +8,7 @@ import json
 import sys
 import textwrap
 import tomllib
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +21,7 @@ from ftc_mj.cli import app
 from ftc_mj.config import load_config, validate_config
 from ftc_mj.errors import BadInput
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 @pytest.fixture
@@ -205,3 +206,44 @@ def test_a_plugin_decision_rule_decides_a_run() -> None:
     # declared the 0.1 s dwell after the estimate first fell below 1.6 m (trace times are exact steps)
     t_below = float(run.trace.filter(run.trace["R_L_hat"] < 1.6)["t"][0])
     assert abs(t_decl - (t_below + 0.1)) < 1e-6, (t_decl, t_below)
+
+
+def test_factories_get_their_settings_and_the_run_context() -> None:
+    """The contract: ``factory(settings, context, *extra)``; an old plug-in's ``factory(cfg, *extra)`` is
+    still called, with the whole run config, behind one one-line DeprecationWarning per component."""
+    from ftc_mj.config import run_context
+
+    cfg = load_config("scenario2")
+    ctx = run_context(cfg)
+    assert ctx.estimator_dt == 0.01 and ctx.nominal_radii == (2.0, 2.0) and ctx.sensors is cfg.sensors
+    reg = registry.Registry("estimator", "ftc_mj.no_such_group", "ftc_mj.context", "estimator.kind")
+    reg.register("new-probe", lambda settings, context, *extra: (settings, context, extra))
+    reg.register("old-probe-for-warning", lambda cfg, *extra: (cfg, extra))
+    assert reg.create("new-probe", cfg.estimator, ctx, "x", run_config=cfg) == (cfg.estimator, ctx, ("x",))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for _ in range(3):
+            assert reg.create("old-probe-for-warning", cfg.estimator, ctx, "x", run_config=cfg) == (cfg, ("x",))
+    (w,) = caught
+    assert w.category is DeprecationWarning and "\n" not in str(w.message)
+    assert str(w.message) == ("estimator 'old-probe-for-warning' (tests.registry.test_plugins): factory(cfg) is "
+                              "the old contract; take (settings, context) instead (docs/plugins.md)")
+
+
+def test_an_old_style_plugin_still_runs(my_components: str) -> None:
+    """A plug-in estimator written for the old contract (``factory(cfg)``) still runs a whole run."""
+    import my_components as mc
+
+    from ftc_mj.config import run_context
+
+    ftc_mj.register_estimator("old-textbook-ekf", lambda cfg: mc.TextbookEKF(cfg.estimator, run_context(cfg)),
+                              settings=mc.TextbookEKFSettings)
+    try:
+        with pytest.warns(DeprecationWarning, match="'old-textbook-ekf'.*take \\(settings, context\\) instead"):
+            run = ftc_mj.run("scenario2", overrides={
+                "duration": 2.0, "plant.kind": "kinematic", "sensors.yaw_rate_sigma": 0.01,
+                "faults.left": [[1.0, 2.0], [1.0, 1.0]], "estimator.kind": "old-textbook-ekf"})
+    finally:
+        registry.estimators.unregister("old-textbook-ekf")
+    assert run.metrics["status"] == "ok" and run.metrics["estimator"] == "old-textbook-ekf"
+    assert np.isfinite(run.trace["R_L_hat"].to_numpy()).all()

@@ -13,15 +13,20 @@ from typing import Any
 from pydantic import ValidationError
 
 
-def field_path(loc: tuple[Any, ...], unknown_key: bool = False) -> str:
+def field_path(loc: tuple[Any, ...], unknown_key: bool = False, item: bool = False) -> str:
     """A pydantic error location as the dotted field the user wrote: ``axes[0].values``,
-    ``estimator.p0_sigma[2]``. Union member tags (``constrained-int``, ``list[...]``) are left out;
-    with ``unknown_key`` the last part is the user's key and kept whatever its spelling."""
+    ``estimator.p0_sigma``. An item's index is shown when a field of that item follows (or, with
+    ``item``, when the item's own check names the field); a trailing index (a number inside a tuple
+    or list) is left out, the field named. Union member tags (``constrained-int``, ``list[...]``)
+    are left out; with ``unknown_key`` the last part is the user's key, kept whatever its spelling."""
+    parts = list(loc)
+    while parts and isinstance(parts[-1], int) and not item:
+        parts.pop()
     out = ""
-    for i, p in enumerate(loc):
+    for i, p in enumerate(parts):
         if isinstance(p, int):
             out += f"[{p}]"
-        elif str(p).isidentifier() or (unknown_key and i == len(loc) - 1):
+        elif str(p).isidentifier() or (unknown_key and i == len(parts) - 1):
             out += ("." if out else "") + str(p)
     return out or "<root>"
 
@@ -46,17 +51,14 @@ def one_line(err: ValidationError) -> str:
     (``, got "yes"``), ``unknown key`` for a key the schema does not have, a check's own field name
     appended to its location, and ``(and N more)`` when there are further errors."""
     e = err.errors()[0]
-    loc = field_path(tuple(e["loc"]), unknown_key=e["type"] == "extra_forbidden")
-    msg = e["msg"]
-    if e["type"] == "extra_forbidden":
-        msg = "unknown key"
-    msg = msg.removeprefix("Value error, ")
+    msg = "unknown key" if e["type"] == "extra_forbidden" else e["msg"].removeprefix("Value error, ")
+    named = _NAMED.match(msg) if e["type"] == "value_error" else None
+    loc = field_path(tuple(e["loc"]), unknown_key=e["type"] == "extra_forbidden", item=named is not None)
     if e["type"] not in ("value_error", "extra_forbidden", "missing") and "input" in e:
         msg += f", got {shown_value(e['input'])}"
     extra = f" (and {err.error_count() - 1} more)" if err.error_count() > 1 else ""
     if loc == "<root>" and ": " in msg:  # model-level checks name their field themselves
         return f"{msg}{extra}"
-    named = _NAMED.match(msg)
-    if named and e["type"] == "value_error":  # a section's check naming its field: estimator.imm_models
+    if named:  # a section's check naming its field: estimator.imm_models
         return f"{loc}.{named.group(1)}: {named.group(2)}{extra}"
     return f"{loc}: {msg}{extra}"

@@ -172,7 +172,7 @@ def test_bad_override(cwd: Path, case: str, items: list[str], needle: str) -> No
     ("plant.wheel_mass", "1e308", "plant.wheel_mass: must be a finite number in (0, 1e+06]"),
     ("plant.actuator_gain", "inf", "plant.actuator_gain: must be a finite number"),
     ("plant.tyre_friction", "1e308", "plant.tyre_friction: must be a finite number"),
-    ("plant.initial_pose", "[nan, 0.0, 0.0]", "plant.initial_pose[0]: must be a finite number"),
+    ("plant.initial_pose", "[nan, 0.0, 0.0]", "plant.initial_pose: must be a finite number"),
     # an infinite radius used to be blamed on the model file
     ("robot.wheel_radius", "inf", "robot.wheel_radius: must be a finite number in [0.001, 100] m"),
     ("plant.wheel_radius", "inf", "plant.wheel_radius: must be a finite number in [0.001, 100] m"),
@@ -198,8 +198,9 @@ def test_float_bounds_are_shared() -> None:
 
 
 def test_one_line_names_items_keys_and_counts_the_rest() -> None:
-    """The one formatting of a validation error (config, plug-in options, study files): list items as
-    ``[i]``, an unknown key as written (dashes too), union member tags left out, the rest counted."""
+    """The one formatting of a validation error (config, plug-in options, study files): an item's index
+    before its field (``items[1].weights``, not a trailing one), an unknown key as written (dashes too),
+    union member tags left out, the rest counted."""
     class Item(BaseModel, extra="forbid"):
         value: PosFloat | str
         weights: list[PosFloat] = []
@@ -213,7 +214,7 @@ def test_one_line_names_items_keys_and_counts_the_rest() -> None:
         return one_line(info.value)
 
     assert line({"items": [{"value": 1.0}, {"value": 1.0, "weights": [1.0, -2.0]}]}) == (
-        "items[1].weights[1]: must be a finite number in (0, 1e+06], got -2.0")
+        "items[1].weights: must be a finite number in (0, 1e+06], got -2.0")
     assert line({"items": [{"value": 1.0, "my-key": 1}]}) == "items[0].my-key: unknown key"
     assert line({"items": [{"value": [1]}]}) == "items[0].value: Input should be a valid number, got [1] (and 1 more)"
     assert line({"items": 3}) == "items: Input should be a valid list, got 3"

@@ -92,6 +92,8 @@ class RunConfig(StrictModel):
 
     @model_validator(mode="after")
     def _rates(self) -> RunConfig:
+        """The estimator and controller periods are whole multiples of the physics step (s), and the
+        control period a whole multiple of the estimator period: the loop counts steps, not seconds."""
         dt = self.plant.timestep
         for label, rate in (("estimator.rate", self.estimator.rate), ("controller.rate", self.controller.rate)):
             ratio = 1.0 / (rate * dt)
@@ -105,6 +107,8 @@ class RunConfig(StrictModel):
 
     @model_validator(mode="after")
     def _robust(self) -> RunConfig:
+        """The robust NMPC's settings that depend on other sections: its solver, the ``worst`` objective
+        (IPOPT only), the robust horizon (at most ``controller.nodes``), ``posterior`` weights (need a filter)."""
         c = self.controller
         if c.kind != "robust-nmpc":
             return self
@@ -121,32 +125,40 @@ class RunConfig(StrictModel):
     # ---------------------------------------------------------------- resolved values
     @property
     def plant_wheel_radius(self) -> float:
+        """The truth plant's nominal wheel radius (m): ``plant.wheel_radius``, else ``robot.wheel_radius``."""
         return self.plant.wheel_radius or self.robot.wheel_radius
 
     @property
     def plant_half_track(self) -> float:
+        """The truth plant's half track (m): ``plant.half_track``, else ``robot.half_track``."""
         return self.plant.half_track or self.robot.half_track
 
     @property
     def model_wheel_radius(self) -> float:
+        """The wheel radius the filters and controllers assume when healthy (m): ``model.wheel_radius``,
+        else ``robot.wheel_radius``."""
         return self.model.wheel_radius or self.robot.wheel_radius
 
     @property
     def model_half_track(self) -> float:
+        """The half track the filters and controllers assume (m): ``model.half_track``, else
+        ``robot.half_track``."""
         return self.model.half_track or self.robot.half_track
 
     @property
     def physics_per_estimator(self) -> int:
+        """Physics steps per estimator step (a whole number, checked by validation)."""
         return round(1.0 / (self.estimator.rate * self.plant.timestep))
 
     @property
     def estimator_per_controller(self) -> int:
+        """Estimator steps per controller sample (a whole number, checked by validation)."""
         return round(self.estimator.rate / self.controller.rate)
 
     @property
     def n_estimator_steps(self) -> int:
+        """Estimator steps in the run: ``duration × estimator.rate``, rounded (the trace's rows)."""
         return int(round(self.duration * self.estimator.rate))
-
 
 
 def run_context(cfg: RunConfig) -> RunContext:

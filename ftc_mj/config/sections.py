@@ -94,6 +94,7 @@ class PlantConfig(StrictModel):
     @field_validator("model_file")
     @classmethod
     def _model_exists(cls, v: str) -> str:
+        """A ``builtin:<name>`` model shipped in the package, else an existing file, stored absolute."""
         if not v.strip() or "\0" in v:
             raise ValueError("must be a non-empty path without NUL bytes (or builtin:<name>)")
         if resources.is_builtin_model(v):
@@ -121,6 +122,8 @@ Breakpoints = Annotated[list[tuple[FiniteFloat, FiniteFloat]], Field(max_length=
 
 
 def _check_schedule(v: Breakpoints) -> Breakpoints:
+    """``v`` if its times (s) are finite, non-negative and non-decreasing with at most two breakpoints at
+    one time (a step), and its radii (m) finite and positive; else ``ValueError`` saying which."""
     last = -math.inf
     for t, r in v:
         if not (math.isfinite(t) and math.isfinite(r)):
@@ -152,6 +155,7 @@ class FaultConfig(StrictModel):
     @field_validator("right", "left")
     @classmethod
     def _valid_schedule(cls, v: Breakpoints) -> Breakpoints:
+        """Each wheel's schedule checked by :func:`_check_schedule`."""
         return _check_schedule(v)
 
 
@@ -280,6 +284,7 @@ class EstimatorConfig(StrictModel):
 
     @model_validator(mode="after")
     def _bank(self) -> EstimatorConfig:
+        """A custom bank replaces ``imm_models`` (not both) and its hypotheses have distinct names."""
         if self.imm_bank is not None:
             if "imm_models" in self.model_fields_set:
                 raise ValueError("imm_models: give either imm_models (the paper's banks) or imm_bank, not both")
@@ -376,6 +381,7 @@ class RobustConfig(StrictModel):
 
     @model_validator(mode="after")
     def _weights_match(self) -> RobustConfig:
+        """One weight per scenario, not all zero."""
         if self.weights is not None:
             if len(self.weights) != len(self.scenarios):
                 raise ValueError(f"weights: {len(self.weights)} weights for {len(self.scenarios)} scenarios")

@@ -37,6 +37,7 @@ FLOAT_BOUND = 1.0e6
 
 
 def _interval(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:
+    """The interval as written in messages: ``(0, 3600]``."""
     return f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
 
 

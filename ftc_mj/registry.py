@@ -175,12 +175,14 @@ class Registry:
 
 
 estimators = Registry("estimator", "ftc_mj.estimators", "ftc_mj.estimation.factory", "estimator.kind")
-"""``factory(cfg: RunConfig) -> Estimator | None`` (``None``: the run has no filter)."""
+"""``factory(settings: EstimatorConfig, context: RunContext) -> Estimator | None`` (``settings``: the
+``[estimator]`` section; ``None``: the run has no filter)."""
 decision_rules = Registry("decision rule", "ftc_mj.decision_rules", "ftc_mj.estimation.decision",
                           "estimator.decision.rule")
-"""``factory(cfg: RunConfig) -> DecisionRule``."""
+"""``factory(settings: DecisionConfig, context: RunContext) -> DecisionRule`` (``settings``: the
+``[estimator.decision]`` section)."""
 controllers = Registry("controller", "ftc_mj.controllers", "ftc_mj.control.factory", "controller.kind")
-"""``factory(cfg: RunConfig, reference: Reference) -> Controller``; meta ``reusable=True``: the
+"""``factory(settings: ControllerConfig, context: RunContext, reference: Reference) -> Controller``; meta ``reusable=True``: the
 controller has ``reset()`` and is cached per process and structure (MPC solvers);
 ``rate_bounded=True``: its first input stays within ``controller.omega_rate_max / rate`` of the
 command in force (the loop clips a dither to that bound)."""
@@ -189,7 +191,8 @@ policies = Registry("policy", "ftc_mj.policies", "ftc_mj.reconfiguration.policie
 (``settings``: the ``[reconfiguration]`` section, a plug-in's ``options`` in ``settings.options``);
 meta ``needs_estimator=False``: used even in runs without a filter (otherwise such runs use ``none``)."""
 references = Registry("reference", "ftc_mj.references", "ftc_mj.control.reference", "reference.kind")
-"""``factory(cfg: RunConfig) -> Reference`` (starting at ``cfg.plant.initial_pose``)."""
+"""``factory(settings: ReferenceConfig, context: RunContext) -> Reference`` (starting at
+``context.initial_pose``)."""
 
 REGISTRIES: dict[str, Registry] = {"estimators": estimators, "decision_rules": decision_rules,
                                    "controllers": controllers, "policies": policies, "references": references}

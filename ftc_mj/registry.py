@@ -182,8 +182,8 @@ decision_rules = Registry("decision rule", "ftc_mj.decision_rules", "ftc_mj.esti
 """``factory(settings: DecisionConfig, context: RunContext) -> DecisionRule`` (``settings``: the
 ``[estimator.decision]`` section)."""
 controllers = Registry("controller", "ftc_mj.controllers", "ftc_mj.control.factory", "controller.kind")
-"""``factory(settings: ControllerConfig, context: RunContext, reference: Reference) -> Controller``; meta ``reusable=True``: the
-controller has ``reset()`` and is cached per process and structure (MPC solvers);
+"""``factory(settings: ControllerConfig, context: RunContext, reference: Reference) -> Controller``;
+meta ``reusable=True``: the controller has ``reset()`` and is cached per process and structure (MPC solvers);
 ``rate_bounded=True``: its first input stays within ``controller.omega_rate_max / rate`` of the
 command in force (the loop clips a dither to that bound)."""
 policies = Registry("policy", "ftc_mj.policies", "ftc_mj.reconfiguration.policies", "reconfiguration.policy")

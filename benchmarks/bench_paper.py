@@ -104,7 +104,7 @@ def _bench_runs_once(out: Path, cases: list[tuple[str, str, dict[str, object], f
 
 
 def bench_matrix(jobs: int = 2) -> dict[str, object]:
-    from ftc_mj.report.paper import PaperOptions, run_paper
+    from ftc_mj.paper.run import PaperOptions, run_paper
 
     with tempfile.TemporaryDirectory(prefix="bench_paper_") as d:
         t0 = time.perf_counter()

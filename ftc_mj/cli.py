@@ -484,14 +484,14 @@ def paper(
     """Run the paper's test matrix (38 runs + 31 extras) over seeds and judge every claim's checks with
     Wilson intervals (or, with --quick, take a single-seed look); write summary.csv, claims.md,
     claims.json and figures/."""
-    from .report.matrix import full_matrix, select
+    from .paper.matrix import full_matrix, select
 
     if list_:
         for e in select(full_matrix(extras), only):
             typer.echo(f"{e.label}\t{e.scenario}\t" + " ".join(f"{k}={v}" for k, v in e.overrides.items()))
         return
     from .io import remove_stale_temporaries
-    from .report.paper import PaperOptions, run_paper
+    from .paper.run import PaperOptions, run_paper
 
     try:
         if no_rrd and rrd != PaperRrd.runs and rrd != PaperRrd.none:

@@ -7,7 +7,7 @@
 
 The head note is generated: the command, commit, date and machine load from ``paper_run.json``, which
 seeds are development and which held-out, the tuning results, and the verdicts that changed against
-the baseline (``changes.md``, the mechanical comparison of :mod:`ftc_mj.report.compare`); the body is
+the baseline (``changes.md``, the mechanical comparison of :mod:`ftc_mj.paper.diff`); the body is
 ``claims.md`` verbatim, with the figure list cut to the figures copied into docs/figures/.
 """
 

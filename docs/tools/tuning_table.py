@@ -4,7 +4,7 @@
     .venv/bin/ftc-mj study tune_growth --workers 2
     .venv/bin/python docs/tools/tuning_table.py [runs/out/studies]
 
-The same rules ``ftc-mj paper --tune`` applies (:mod:`ftc_mj.report.tuning`), on the study output
+The same rules ``ftc-mj paper --tune`` applies (:mod:`ftc_mj.paper.tuning`), on the study output
 folders ``tune-dwell`` and ``tune-growth`` (development seeds 0–9), with the configured default next
 to the chosen value.
 """
@@ -16,8 +16,8 @@ from pathlib import Path
 
 import polars as pl
 
-from ftc_mj.report.render import md_table
-from ftc_mj.report.tuning import TUNED
+from ftc_mj.paper.render import md_table
+from ftc_mj.paper.tuning import TUNED
 
 FOLDERS = {"tune_dwell": "tune-dwell", "tune_growth": "tune-growth"}
 

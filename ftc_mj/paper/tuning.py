@@ -25,7 +25,7 @@ import polars as pl
 from ..config import RunConfig
 from ..resources import resource_path
 from ..study.analysis import mean_ci, rate_ci
-from .policy_claims import POLICY_TOL
+from .claims.thresholds import POLICY_TOL
 
 STUDY_DIR = resource_path("studies")
 """Where the built-in studies are (package data)."""

@@ -152,7 +152,7 @@ PF_SCENARIOS = ("scenario1", "scenario2", "scenario3", "scenario4")
 
 
 def pathfollow_runs() -> list[MatrixEntry]:
-    """The path-following axis (:mod:`~ftc_mj.report.pathfollow_claims`): pf-nmpc with ``safe`` and a gyro on
+    """The path-following axis (:mod:`~ftc_mj.paper.claims.pathfollow`): pf-nmpc with ``safe`` and a gyro on
     scenarios 1–4, the time-parametrised NMPC likewise on scenario 1 (scenarios 2–4 are on the policy axis), and
     pf-nmpc with speed only under ``safe`` and ``none`` on scenarios 2–4 — 11 runs, UKF, actuation-rate term."""
     combos = [(sc, ctl, "safe", "speed+yaw") for sc in PF_SCENARIOS
@@ -180,6 +180,3 @@ def select(entries: list[MatrixEntry], patterns: list[str] | None) -> list[Matri
     return [e for e in entries if any(fnmatch.fnmatchcase(e.label, p) for p in patterns)]
 
 
-def as_pairs(entries: list[MatrixEntry]) -> list[tuple[str, dict[str, Any]]]:
-    """(label, overrides) pairs, the overrides including ``scenario``-independent keys only."""
-    return [(e.label, dict(e.overrides)) for e in entries]

@@ -1,13 +1,15 @@
 """The matrix over seeds, run by the study machinery (:mod:`ftc_mj.study`: Dask, one persisted row
 per run, resumable).
 
+The quick look is the same study with the one seed 0.
+
 The matrix entries become one preset axis ``run`` of a generated study file (labels = matrix
 labels; each value sets the entry's scenario — name, description, duration, both fault schedules —
 and its overrides), crossed with the seeds. Each worker runs
 :func:`run_with_report_metrics`: the run plus the report's trace-derived metrics
-(:func:`~ftc_mj.report.derived.report_metrics`), so the persisted rows carry everything the claims
+(:func:`~ftc_mj.paper.derived.report_metrics`), so the persisted rows carry everything the claims
 read. The runs of one seed (``keep_seed``) also keep their run directory (config, trace, metrics;
-no recording) for the figures.
+a recording only in the quick look) for the figures.
 
 The study folder is ``OUT/study/<study hash>``: the same invocation resumes there and computes only
 the runs without a row; another selection, seed list or duration is another study.
@@ -57,7 +59,7 @@ def study_data(entries: Sequence[MatrixEntry], seeds: Sequence[int], duration: f
     its scenario's)."""
     return {
         "name": name,
-        "description": "ftc-mj paper: the matrix over seeds (generated from ftc_mj.report.matrix)",
+        "description": "ftc-mj paper: the matrix over seeds (generated from ftc_mj.paper.matrix)",
         "scenario": BASE_SCENARIO,
         "seeds": [int(s) for s in seeds],
         "axes": [{"name": AXIS, "labels": [e.label for e in entries],
@@ -84,14 +86,15 @@ def load_matrix_study(entries: Sequence[MatrixEntry], seeds: Sequence[int], dura
 
 
 def run_with_report_metrics(cfg: RunConfig, out_root: Path | None, rrd: bool, *, keep_seed: int | None = None,
-                            runs_dir: str | None = None) -> Any:
+                            runs_dir: str | None = None, record: bool = False) -> Any:
     """A study ``run_fn``: :func:`~ftc_mj.sim.run.execute`, then the report metrics added to the
-    outcome's metrics. Runs of ``keep_seed`` are written under ``runs_dir`` (no recording)."""
+    outcome's metrics. Runs of ``keep_seed`` are written under ``runs_dir``, with a recording when
+    ``record`` (the study's own ``out_root`` and ``rrd`` are not used)."""
     from ..sim.run import execute
     from .derived import report_metrics
 
     keep = Path(runs_dir) if runs_dir is not None and cfg.seed == keep_seed else None
-    outcome = execute(cfg, keep, rrd=False)
+    outcome = execute(cfg, keep, rrd=record and keep is not None)
     outcome.metrics.update(report_metrics(cfg, outcome.result.trace))
     return outcome
 
@@ -115,9 +118,12 @@ class MatrixResult:
 
 
 def run_matrix_study(plan: StudyPlan, *, workers: int, keep_seed: int | None, report_only: bool = False,
-                     progress: bool = False, on_row: Callable[[dict[str, Any]], None] | None = None) -> MatrixResult:
+                     progress: bool = False, on_row: Callable[[dict[str, Any]], None] | None = None,
+                     runs_dir: Path | None = None, record: bool = False, retry_failed: bool = False) -> MatrixResult:
     """Compute the plan's missing runs (none with ``report_only``) and collect all its rows; one
-    worker runs them in this process (no Dask cluster)."""
+    worker runs them in this process (no Dask cluster). The runs of ``keep_seed`` keep their
+    directory in ``runs_dir`` (default: the study's ``runs/``), with a recording when ``record``;
+    ``retry_failed`` recomputes the runs whose row says failed."""
     from ..study.runner import run_study
     from ..study.store import StudyStore
 
@@ -127,9 +133,10 @@ def run_matrix_study(plan: StudyPlan, *, workers: int, keep_seed: int | None, re
     if report_only:
         df = store.collect(plan)
         return MatrixResult(plan, folder, df.to_dicts() if df.height else [], 0, 0.0)
-    fn = functools.partial(run_with_report_metrics, keep_seed=keep_seed, runs_dir=str(store.runs_dir))
+    fn = functools.partial(run_with_report_metrics, keep_seed=keep_seed, record=record,
+                           runs_dir=str(runs_dir if runs_dir is not None else store.runs_dir))
     rep = run_study(plan, folder, workers=workers, serial=workers == 1, run_fn=fn, analyse=False, progress=progress,
-                    on_row=on_row)
+                    on_row=on_row, retry_failed=retry_failed)
     df = rep.results
     rows = df.to_dicts() if df is not None and df.height else []
     return MatrixResult(plan, folder, rows, len(rep.computed), rep.wall_time_s)

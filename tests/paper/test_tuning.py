@@ -1,18 +1,14 @@
-"""Data-tuned parameters: the selection rules on synthetic study results; and the report metrics the
-preconditions read (onsets after the end, reference feasibility)."""
+"""Data-tuned parameters: the selection rules on synthetic study results, the defaults, the studies'
+development seeds."""
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
-import numpy as np
 import polars as pl
-import pytest
 
-from ftc_mj.config import OMEGA_MAX, load_config
-from ftc_mj.report.derived import derived_metrics, reference_feasibility, required_wheel_rate
-from ftc_mj.report.tuning import TUNED, select_dwell, select_growth
+from ftc_mj.paper.seeds import DEV_SEEDS
+from ftc_mj.paper.tuning import STUDY_DIR, TUNED, select_dwell, select_growth
 
 
 def _dwell_rows(false_alarm_dwells: dict[float, int]) -> pl.DataFrame:
@@ -84,38 +80,9 @@ def test_tuned_defaults_are_the_config_values() -> None:
                                                   "reconfiguration.max_growth_rate": 0.05}
 
 
-def test_required_wheel_rate_is_the_inverse_kinematics() -> None:
-    # V = 10 m/s, ψ̇ = 0.2 rad/s, b = 1 m: ω_R = 10.2 / R_R, ω_L = 9.8 / R_L
-    req = required_wheel_rate(np.array([10.0]), np.array([0.2]), np.array([2.0]), np.array([0.1]), 1.0)
-    assert req[0] == pytest.approx(98.0)
-    req = required_wheel_rate(np.array([10.0]), np.array([0.2]), np.array([1.0]), np.array([1.0]), 1.0)
-    assert req[0] == pytest.approx(10.2)
+def test_tuning_studies_run_on_the_development_seeds() -> None:
+    import tomllib
 
-
-def _trace(R_L_end: float, duration: float = 40.0) -> dict[str, np.ndarray]:
-    t = np.arange(0.0, duration, 0.01)
-    R_L = np.where(t < 10.0, 2.0, np.maximum(2.0 - 0.1 * (t - 10.0), R_L_end))
-    return {"t": t, "R_R": np.full_like(t, 2.0), "R_L": R_L}
-
-
-def test_reference_feasibility_after_the_fault() -> None:
-    # scenario 4's ramp reaches 0.1 m: the circle needs ω_L = 9.8 / 0.1 = 98 rad/s > 17.45 rad/s
-    cfg = load_config("scenario4")
-    m = reference_feasibility(cfg, _trace(0.1), 15.0)
-    assert m["reference_feasible_recovered"] is False
-    assert m["reference_omega_required_recovered"] == pytest.approx(98.0, rel=1e-6)
-    # stopping the ramp at 1 m keeps it feasible (9.8 rad/s)
-    m = reference_feasibility(cfg, _trace(1.0), 15.0)
-    assert m["reference_feasible_recovered"] is True
-    assert m["reference_omega_required_recovered"] < OMEGA_MAX
-    assert reference_feasibility(cfg, _trace(1.0), None) == {}
-
-
-def test_onsets_after_the_end_are_counted_and_not_used() -> None:
-    t = np.arange(0.0, 8.0, 0.01)
-    tr = {"t": t, "R_R": np.full_like(t, 2.0), "R_L": np.full_like(t, 2.0), "R_R_hat": np.full_like(t, 2.0),
-          "R_L_hat": np.full_like(t, 2.0), "innovation": np.zeros_like(t), "innovation_std": np.full_like(t, 0.5)}
-    m = derived_metrics(tr, "scenario3", {"left": 5.0, "right": 10.0})
-    assert m["onsets_after_end"] == 1
-    assert "innovation_peak_z_1" in m and "innovation_peak_z_2" not in m
-    assert math.isfinite(m["radius_rmse_L_after_fault"])
+    for t in TUNED:
+        data = tomllib.loads((STUDY_DIR / f"{t.study}.toml").read_text())
+        assert tuple(data["seeds"]) == DEV_SEEDS

@@ -9,7 +9,6 @@ All functions take a trace as a mapping of numpy columns (the in-memory trace or
 from __future__ import annotations
 
 from collections.abc import Mapping
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -48,22 +47,6 @@ EXPECTED_MODES: dict[tuple[str, int], list[tuple[float, int]]] = {
     ("scenario3", 5): [(0.0, 1), (5.0, 3), (10.0, 4)],
     ("scenario4", 5): [(0.0, 1), (10.0, 5)],
 }
-
-
-def read_trace(path: Path) -> dict[str, np.ndarray]:
-    """Read ``trace.parquet`` into numpy columns (float where possible)."""
-    import pyarrow.parquet as pq
-
-    table = pq.read_table(path)
-    out: dict[str, np.ndarray] = {}
-    for name in table.column_names:
-        arr = table.column(name).to_numpy(zero_copy_only=False)
-        try:
-            arr = np.asarray(arr, dtype=float)
-        except (TypeError, ValueError):
-            pass
-        out[name] = arr
-    return out
 
 
 def _col(trace: Mapping[str, Any], name: str) -> np.ndarray | None:

@@ -1,4 +1,4 @@
-"""What changed between two ``ftc-mj paper`` results: claim verdicts and check results, matched by
+"""The baseline diff: what changed between two ``ftc-mj paper`` results: claim verdicts and check results, matched by
 claim id and check text.
 
 Both sides are ``claims.json`` documents (:func:`claims_document`), single-seed or over seeds; an
@@ -18,27 +18,31 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import BadInput
-from .checks import FAIL, NA, NOT_EVALUATED, NOT_REPRODUCED, NOT_RUN, PARTLY, PASS, REPRODUCED, Claim
-from .seeded import FAILS, HOLDS, UNDECIDED, SeededClaim
+from .claims.checks import FAIL, NA, NOT_EVALUATED, NOT_REPRODUCED, NOT_RUN, PARTLY, PASS, REPRODUCED
+from .verdicts import FAILS, HOLDS, UNDECIDED, CheckStats, Claim
 
 CLASS = {PASS: "yes", HOLDS: "yes", FAIL: "no", FAILS: "no", UNDECIDED: "?", NA: "n/a", NOT_RUN: "not run"}
 
 
-def claims_document(claims: Sequence[Claim] | Sequence[SeededClaim], seeds: Sequence[int],
-                    mode: str) -> dict[str, Any]:
-    """``claims.json``: every claim's verdict and every check's result, machine-readable."""
-    out = []
-    for c in claims:
-        if isinstance(c, SeededClaim):
-            checks = [{"text": ch.text, "result": ch.result, "passed": ch.passed, "applicable": ch.applicable,
-                       "na": ch.count(NA), "not_run": ch.count(NOT_RUN), "fraction": ch.interval.mean,
-                       "lo": ch.interval.lo, "hi": ch.interval.hi, "na_reasons": dict(ch.reasons),
-                       "failing_seeds": ch.failing_seeds()} for ch in c.checks]
-        else:
-            checks = [{"text": ch.text, "result": ch.outcome, "detail": ch.detail, "na_reason": ch.na}
-                      for ch in c.checks]
-        out.append({"id": c.id, "title": c.title, "verdict": c.verdict, "checks": checks})
+def claims_document(claims: Sequence[Claim], seeds: Sequence[int], mode: str) -> dict[str, Any]:
+    """``claims.json``: every claim's verdict and every check's result, machine-readable (a single-seed
+    check with its numbers and n/a reason, a check over seeds with its counts and interval)."""
+    out = [{"id": c.id, "title": c.title, "verdict": c.verdict,
+            "checks": [_check_document(ch, c.seeds[0]) if c.single_seed else _check_document(ch)
+                       for ch in c.checks]} for c in claims]
     return {"mode": mode, "seeds": [int(s) for s in seeds], "claims": out}
+
+
+def _check_document(ch: CheckStats, seed: int | None = None) -> dict[str, Any]:
+    """One check of ``claims.json``: on ``seed`` alone when given, else over the seeds."""
+    if seed is not None:
+        reason = NOT_RUN if ch.outcomes.get(seed) == NOT_RUN else next(iter(ch.reasons), "")
+        return {"text": ch.text, "result": ch.outcomes.get(seed), "detail": ch.details.get(seed, ""),
+                "na_reason": reason}
+    iv = ch.interval
+    return {"text": ch.text, "result": ch.result, "passed": ch.passed, "applicable": ch.applicable,
+            "na": ch.count(NA), "not_run": ch.count(NOT_RUN), "fraction": iv.mean, "lo": iv.lo, "hi": iv.hi,
+            "na_reasons": dict(ch.reasons), "failing_seeds": ch.failing_seeds()}
 
 
 def verdicts_of_markdown(text: str) -> dict[str, str]:

@@ -1,5 +1,5 @@
-"""``summary.csv``: one row per run (label, scenario, estimator, imm_models, feedback, controller and
-the flattened metrics), written atomically."""
+"""``summary.csv``: one row per run and seed (label, seed, scenario, estimator, imm_models, feedback,
+controller and the flattened metrics), written atomically, and read back."""
 
 from __future__ import annotations
 
@@ -14,20 +14,6 @@ from ..io import atomic_path
 ID_COLUMNS = ("label", "seed", "scenario", "estimator", "imm_models", "imm_variant", "feedback", "policy", "sensing",
               "rate_penalty", "controller", "extra",
               "status", "error", "run_id", "run_dir")
-
-
-def flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``{"a": {"b": 1}}`` → ``{"a_b": 1}``; lists become ';'-joined strings."""
-    out: dict[str, Any] = {}
-    for k, v in d.items():
-        key = f"{prefix}{k}"
-        if isinstance(v, Mapping):
-            out.update(flatten(v, key + "_"))
-        elif isinstance(v, (list, tuple)):
-            out[key] = ";".join(str(x) for x in v)
-        else:
-            out[key] = v
-    return out
 
 
 def _cell(v: Any) -> str:

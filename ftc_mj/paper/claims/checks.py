@@ -1,4 +1,5 @@
-"""Checks and claims: the data model of ``ftc-mj paper``'s verdicts, and the rules that settle a check.
+"""The check primitives of ``ftc-mj paper``: a check, the rules that settle it, and the helpers
+the claim families compare numbers with.
 
 A :class:`Check` is one yes/no test of a paper sentence on the summary rows of one seed (label →
 flattened metrics). It names the runs it reads (:attr:`Check.runs`), and :func:`settle` turns its
@@ -11,10 +12,8 @@ raw result into one of four outcomes by rules stated here, before any number is 
   runs identical by construction"), or a value it needs is missing;
 - ``pass`` / ``fail`` — otherwise, the test's own result.
 
-``n/a`` and ``not run`` are never counted as passes. A claim's single-seed verdict
-(:func:`verdict_of`) uses only the passes and fails: all pass → *reproduced*, none → *not
-reproduced*, otherwise *partly*; no pass or fail → *not evaluated*. The verdict over seeds is in
-:mod:`.seeded`.
+``n/a`` and ``not run`` are never counted as passes. A claim family returns one :class:`Evidence`
+per claim and seed; the verdicts (one seed or over seeds) are in :mod:`ftc_mj.paper.verdicts`.
 """
 
 from __future__ import annotations
@@ -59,8 +58,10 @@ class Check:
 
 
 @dataclass
-class Claim:
-    """One sentence (or a few) of the paper, its checks, the evidence and the interpretation."""
+class Evidence:
+    """One claim evaluated on the rows of one seed: its checks, the evidence table and the
+    interpretation. :func:`ftc_mj.paper.verdicts.combine` judges these over the seeds into a
+    :class:`~ftc_mj.paper.verdicts.Claim`."""
 
     id: str
     title: str
@@ -72,34 +73,10 @@ class Claim:
     notes: list[str] = field(default_factory=list)
     """Interpretation: why the verdict comes out as it does."""
 
-    def count(self, outcome: str) -> int:
-        return sum(1 for c in self.checks if c.outcome == outcome)
 
-    @property
-    def verdict(self) -> str:
-        return verdict_of([c.outcome for c in self.checks])
-
-    @property
-    def n_passed(self) -> int:
-        return self.count(PASS)
-
-    @property
-    def n_evaluated(self) -> int:
-        """Checks that passed or failed (n/a and not-run ones excluded)."""
-        return self.count(PASS) + self.count(FAIL)
-
-
-def verdict_of(outcomes: Iterable[str | bool | None]) -> str:
-    """Single-seed verdict from check outcomes (``True``/``False``/``None`` are read as pass/fail/n/a):
-    all passes → reproduced; no pass → not reproduced; else partly; no pass or fail → not evaluated."""
-    ev = [o in (PASS, True) for o in outcomes if o in (PASS, FAIL, True, False)]
-    if not ev:
-        return NOT_EVALUATED
-    if all(ev):
-        return REPRODUCED
-    if not any(ev):
-        return NOT_REPRODUCED
-    return PARTLY
+def chk(text: str, passed: bool | None, detail: str, *runs: str, na: str = "") -> Check:
+    """A :class:`Check` reading ``runs``; a non-empty ``na`` makes it not applicable."""
+    return Check(text, passed, detail, tuple(runs), na)
 
 
 # ------------------------------------------------------------------------------------- settling
@@ -112,7 +89,7 @@ def _run_state(rows: Rows, label: str) -> str:
 
 def onset_after_end(row: Mapping[str, Any] | None) -> bool:
     """A fault onset of the run's schedule lies after the run's last step (``onsets_after_end`` of
-    :func:`~ftc_mj.report.derived.derived_metrics`; the ``after end`` onsets of ``metrics.json``)."""
+    :func:`~ftc_mj.paper.derived.derived_metrics`; the ``after end`` onsets of ``metrics.json``)."""
     v = num(row, "onsets_after_end")
     return v is not None and v > 0
 
@@ -135,8 +112,9 @@ def settle(ch: Check, rows: Rows) -> Check:
     return ch
 
 
-def evaluate(fns: Iterable[Callable[[Rows], Claim]], rows: Rows) -> list[Claim]:
-    """Evaluate the claim functions on ``rows`` and settle every check."""
+def evaluate(fns: Iterable[Callable[[Rows], Evidence]], rows: Rows) -> list[Evidence]:
+    """Evaluate the claim functions on ``rows`` (one seed: label → flattened metrics) and settle
+    every check."""
     out = []
     for fn in fns:
         c = fn(rows)

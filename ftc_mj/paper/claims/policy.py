@@ -1,6 +1,6 @@
 """Claims about the reconfiguration policies, checked on the matrix's policy axis.
 
-The policy axis (:func:`~ftc_mj.report.matrix.policy_runs`) runs scenarios 2–4 with the UKF and the
+The policy axis (:func:`~ftc_mj.paper.matrix.policy_runs`) runs scenarios 2–4 with the UKF and the
 NMPC with the actuation-rate term, under the policies ``none`` / ``direct`` / ``safe``, with speed
 only and with speed + yaw rate. The claims are the paper's own about feedback (restated for the
 physical plant) and the safety property asked of the ``safe`` policy. Preconditions stated in
@@ -18,23 +18,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..metrics.run import FAULT_TRANSIENT_S
-from .checks import Claim, Rows, evaluate, fmt, le, num, truthy
-from .claims import chk
-from .matrix import POLICY_RATE_PENALTY, POLICY_SCENARIOS, make_label
+from ...metrics.run import FAULT_TRANSIENT_S
+from ..matrix import POLICY_RATE_PENALTY, POLICY_SCENARIOS, make_label
+from .checks import Evidence, Rows, chk, evaluate, fmt, le, num, truthy
+from .thresholds import HANDOVER_MAX_DELAY, POLICY_TOL, RECOVERED_ON_PATH
 
-POLICY_TOL = 0.05
-HANDOVER_MAX_DELAY = 2.0
-RECOVERED_ON_PATH = 1.0
-
-POLICY_THRESHOLDS: dict[str, tuple[float, str]] = {
-    "POLICY_TOL": (POLICY_TOL, "m or s; a policy is 'not worse' than another when its cross-track error, wheel-rate "
-                               "saturation time or lift-off time exceeds the other's by at most this"),
-    "HANDOVER_MAX_DELAY": (HANDOVER_MAX_DELAY, "s; the safe policy 'hands over in time' when its first hand-over is "
-                                               "at most this long after the first fault onset"),
-    "RECOVERED_ON_PATH": (RECOVERED_ON_PATH, "m; largest |cross-track error| from 5 s after the first fault onset "
-                                             "to the end for 'stays on the path'"),
-}
 NO_HANDOVER = "safe never handed radii over: it is the none run by construction"
 INFEASIBLE = "with the true radii the reference needs a wheel rate beyond the limit"
 RAMPS = ("scenario4",)
@@ -70,8 +58,8 @@ def _evidence(rows: Rows) -> list[dict[str, Any]]:
     return out
 
 
-def claim_direct_feedback(rows: Rows) -> Claim:
-    c = Claim("R1", "Direct feedback of the estimated radii keeps the robot on the path better than none",
+def claim_direct_feedback(rows: Rows) -> Evidence:
+    c = Evidence("R1", "Direct feedback of the estimated radii keeps the robot on the path better than none",
               "Beyond the paper's matrix. The paper's §4.2–4.3 claim that reconfiguring the controller with "
               "the filter's estimates keeps the robot on the path, restated on the policy axis: the same runs with "
               "policy `direct` against `none`, with the paper's speed sensing and with a yaw-rate gyro added, UKF, "
@@ -98,8 +86,8 @@ def claim_direct_feedback(rows: Rows) -> Claim:
     return c
 
 
-def claim_safe_no_harm(rows: Rows) -> Claim:
-    c = Claim("R2", "The safe policy never makes a fault worse than no reconfiguration",
+def claim_safe_no_harm(rows: Rows) -> Evidence:
+    c = Evidence("R2", "The safe policy never makes a fault worse than no reconfiguration",
               "Beyond the paper: an active FTC system must not make a fault worse. Policy `safe` hands radii "
               "over only when the fault is declared and isolated and the filter's covariance says the radii (and "
               "their split) are identified, clamps and rate-limits them, and reverts on filter trouble.")
@@ -139,8 +127,8 @@ def claim_safe_no_harm(rows: Rows) -> Claim:
     return c
 
 
-def claim_safe_in_time(rows: Rows) -> Claim:
-    c = Claim("R3", "With a yaw-rate gyro the safe policy hands over within 2 s and keeps the robot on the path",
+def claim_safe_in_time(rows: Rows) -> Evidence:
+    c = Evidence("R3", "With a yaw-rate gyro the safe policy hands over within 2 s and keeps the robot on the path",
               "Beyond the paper: with speed + yaw rate both radii are observable, so the safe policy should "
               "reconfigure the controller soon after the fault and the robot should stay within 1 m of the path from "
               "5 s after the fault.")
@@ -176,6 +164,6 @@ def claim_safe_in_time(rows: Rows) -> Claim:
 POLICY_CLAIMS = (claim_direct_feedback, claim_safe_no_harm, claim_safe_in_time)
 
 
-def evaluate_policy_claims(rows: Rows) -> list[Claim]:
+def evaluate_policy_claims(rows: Rows) -> list[Evidence]:
     """The reconfiguration-policy claims, evaluated on ``rows`` (label → flattened metrics)."""
     return evaluate(POLICY_CLAIMS, rows)

@@ -1,6 +1,6 @@
 """A claim beyond the paper: does active FTC keep the robot on its path on the physical plant?
 
-Checked on the path-following axis of the matrix (:func:`~ftc_mj.report.matrix.pathfollow_runs`): the
+Checked on the path-following axis of the matrix (:func:`~ftc_mj.paper.matrix.pathfollow_runs`): the
 path-following NMPC (``pf-nmpc``) with the UKF, the ``safe`` reconfiguration policy and a yaw-rate gyro on
 scenarios 1–4, beside the time-parametrised NMPC in the same setting (the policy axis' runs), and with speed
 sensing only under ``safe`` and ``none``; ``ftc-mj paper`` evaluates it on every seed of its seed set,
@@ -18,26 +18,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from .checks import Claim, Rows, all_of, evaluate, fmt, le, num, truthy
-from .claims import chk
-from .matrix import PF_SCENARIOS, POLICY_RATE_PENALTY, make_label
-
-ON_PATH = 0.5
-NEAR_PATH = 1.0
-LIFTOFF_MAX = 0.2
-SPEED_TOL = 0.15
-SCENARIO1_TRACK = 0.1
-SCENARIO1_SPEED = 0.01
-POLICY_TOL = 0.05
-
-PATHFOLLOW_THRESHOLDS: dict[str, tuple[float, str]] = {
-    "ON_PATH": (ON_PATH, "m; largest |contouring error| from 5 s after the last fault onset for 'on the path'"),
-    "NEAR_PATH": (NEAR_PATH, "m; largest |contouring error| after 5 s in scenario 4 (the whole run but the start)"),
-    "LIFTOFF_MAX": (LIFTOFF_MAX, "s; wheel lift-off outside the 1 s puncture transients"),
-    "SPEED_TOL": (SPEED_TOL, "fraction; scenario 4 speed over the last 5 s against the feasible speed"),
-    "SCENARIO1_TRACK": (SCENARIO1_TRACK, "m; scenario 1 largest |contouring error| after 5 s"),
-    "SCENARIO1_SPEED": (SCENARIO1_SPEED, "fraction; scenario 1 mean speed against the desired 10 m/s"),
-}
+from ..matrix import PF_SCENARIOS, POLICY_RATE_PENALTY, make_label
+from .checks import Evidence, Rows, all_of, chk, evaluate, fmt, le, num, truthy
+from .thresholds import LIFTOFF_MAX, NEAR_PATH, ON_PATH, POLICY_TOL, SCENARIO1_SPEED, SCENARIO1_TRACK, SPEED_TOL
 
 
 def _label(sc: str, controller: str, policy: str, sensing: str) -> str:
@@ -57,8 +40,8 @@ def _row_numbers(r: dict[str, Any] | None) -> dict[str, Any]:
             "at the lateral bound [s]": num(r, "lateral_bound_time_s")}
 
 
-def claim_pathfollow_on_path(rows: Rows) -> Claim:
-    c = Claim("P1", "With a yaw-rate gyro, active FTC with the path-following NMPC keeps the robot on its path on "
+def claim_pathfollow_on_path(rows: Rows) -> Evidence:
+    c = Evidence("P1", "With a yaw-rate gyro, active FTC with the path-following NMPC keeps the robot on its path on "
                     "the physical plant and slows it to what the damaged robot can still do",
               "Beyond the paper: the paper's loop, reconfigured with the estimated radii, tracks a time-parametrised "
               "reference; on the MuJoCo robot the return after the ≈0.7 s detection delay lifts a wheel "
@@ -111,6 +94,6 @@ def claim_pathfollow_on_path(rows: Rows) -> Claim:
 PATHFOLLOW_CLAIMS = (claim_pathfollow_on_path,)
 
 
-def evaluate_pathfollow_claims(rows: Rows) -> list[Claim]:
+def evaluate_pathfollow_claims(rows: Rows) -> list[Evidence]:
     """The path-following claim, evaluated on ``rows`` (label → flattened metrics)."""
     return evaluate(PATHFOLLOW_CLAIMS, rows)

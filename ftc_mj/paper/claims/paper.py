@@ -1,7 +1,7 @@
 """The paper's §4 claims, checked one by one against the summary rows of one seed of the matrix.
 
-Every claim is a list of :class:`~ftc_mj.report.checks.Check` s, each a yes/no test on the numbers
-of one or a few runs against a threshold stated in :data:`THRESHOLDS`, with the runs it reads; the
+Every claim is a list of :class:`~ftc_mj.paper.claims.checks.Check` s, each a yes/no test on the numbers
+of one or a few runs against a threshold of :mod:`.thresholds`, with the runs it reads; the
 outcome rules (a failed run fails, a precondition that does not hold makes the check n/a) are in
 :mod:`.checks`. Preconditions each claim states in advance:
 
@@ -14,7 +14,7 @@ outcome rules (a failed run fails, a precondition that does not hold makes the c
   which the plant raises no flag, and is n/a when they are fewer than :data:`MIN_IN_DOMAIN`.
 
 Rows are plain dicts keyed by metric name (``metrics.json`` flattened plus
-:mod:`ftc_mj.report.derived`), looked up by matrix label (:mod:`ftc_mj.report.matrix`).
+`ftc_mj.paper.derived`), looked up by matrix label (:mod:`ftc_mj.paper.matrix`).
 """
 
 from __future__ import annotations
@@ -22,83 +22,27 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from .checks import (
-    NOT_EVALUATED,
-    NOT_REPRODUCED,
-    PARTLY,
-    REPRODUCED,
-    Check,
-    Claim,
-    Rows,
-    absmax,
-    all_of,
-    any_of,
-    evaluate,
-    fmt,
-    ge,
-    gt,
-    le,
-    lt,
-    num,
-    truthy,
-    verdict_of,
+from ..matrix import make_label
+from .checks import Evidence, Rows, absmax, all_of, any_of, chk, evaluate, fmt, ge, gt, le, lt, num, truthy
+from .thresholds import (
+    AT_LIMIT_MAJORITY,
+    CHATTER_AT_LIMIT,
+    CHATTER_REVERSALS,
+    DETECT_MAX_DELAY,
+    FAIL_RMSE,
+    GOOD_RMSE,
+    GOOD_RMSE_NOFAULT,
+    INNOV_95,
+    INNOV_OK,
+    LMPC_TV_RATIO,
+    MIN_IN_DOMAIN,
+    MODE_MAX_DELAY,
+    OFF_PATH,
+    PEAK_Z,
+    SAME_ESTIMATE,
+    SETTLE_TOL,
+    UNCERTAINTY_RATIO,
 )
-from .derived import OFF_PATH, SETTLE_HOLD, SETTLE_TOL
-from .matrix import make_label
-
-__all__ = ["CLAIMS", "NOT_EVALUATED", "NOT_REPRODUCED", "PARTLY", "REPRODUCED", "THRESHOLDS", "Check", "Claim",
-           "evaluate_claims", "verdict_of"]
-
-# ------------------------------------------------------------------------------------- thresholds
-DETECT_MAX_DELAY = 2.0
-PEAK_Z = 6.0
-GOOD_RMSE_NOFAULT = 0.1
-GOOD_RMSE = 0.2
-FAIL_RMSE = 0.3
-INNOV_95 = 0.93
-INNOV_OK = 0.90
-MODE_MAX_DELAY = 1.0
-CHATTER_REVERSALS = 1.0
-CHATTER_AT_LIMIT = 0.05
-LMPC_TV_RATIO = 2.0
-SAME_ESTIMATE = 0.1
-UNCERTAINTY_RATIO = 1.5
-AT_LIMIT_MAJORITY = 0.5
-MIN_IN_DOMAIN = 0.25
-
-THRESHOLDS: dict[str, tuple[float, str]] = {
-    "DETECT_MAX_DELAY": (DETECT_MAX_DELAY, "s; a filter 'detects' the fault when its decision layer declares it within "
-                                           "this delay after onset, with no false alarm before"),
-    "PEAK_Z": (PEAK_Z, "z-score of the 0.1 s-mean speed innovation within 1 s after an onset that counts as a "
-                       "visible innovation peak (noise alone gives about 3; see innovation_peak_z_ref)"),
-    "GOOD_RMSE_NOFAULT": (GOOD_RMSE_NOFAULT, "m; radius RMSE (either wheel, whole run) for 'estimates well' "
-                                             "without a fault (5 % of R0)"),
-    "GOOD_RMSE": (GOOD_RMSE, "m; radius RMSE after the fault onset (and |final error|) for 'correct estimate' "
-                             "(10 % of R0)"),
-    "FAIL_RMSE": (FAIL_RMSE, "m; radius RMSE after the fault onset above which an estimate has 'failed'"),
-    "INNOV_95": (INNOV_95, "fraction of speed innovations inside ±2σ accepted as 'about 95 %'"),
-    "INNOV_OK": (INNOV_OK, "fraction of speed innovations inside ±2σ (after the onset) below which a filter has "
-                           "'broken down' (also: any divergence reset)"),
-    "OFF_PATH": (OFF_PATH, "m; |cross-track error| above which the robot is 'off the path' (the track width)"),
-    "SETTLE_TOL": (SETTLE_TOL, f"m; a radius estimate has 'reached the correct value' when its error stays within "
-                               f"this for {SETTLE_HOLD:g} s"),
-    "MODE_MAX_DELAY": (MODE_MAX_DELAY, "s; an IMM 'finds the correct mode immediately' when that mode is the most "
-                                       "probable (held 0.5 s) within this delay"),
-    "CHATTER_REVERSALS": (CHATTER_REVERSALS, "1/s; command reversals (steps > 1 rad/s changing sign, both wheels) "
-                                             "per second that count as limit cycling"),
-    "CHATTER_AT_LIMIT": (CHATTER_AT_LIMIT, "fraction of time after the fault with a wheel command at its limit "
-                                           "that counts as limit cycling (with reversals)"),
-    "LMPC_TV_RATIO": (LMPC_TV_RATIO, "LMPC/NMPC ratio of command total variation for 'a dramatic decrease in "
-                                     "switching' with the NMPC"),
-    "SAME_ESTIMATE": (SAME_ESTIMATE, "m; difference of radius RMSEs for 'the same estimates'"),
-    "UNCERTAINTY_RATIO": (UNCERTAINTY_RATIO, "LMPC/NMPC ratio of the median innovation σ after the fault for "
-                                             "'about double the uncertainty'"),
-    "AT_LIMIT_MAJORITY": (AT_LIMIT_MAJORITY, "fraction of time after the fault with a wheel command at its limit "
-                                             "for 'working at the constraints the majority of the time'"),
-    "MIN_IN_DOMAIN": (MIN_IN_DOMAIN, "smallest share of the samples after the onset inside the kinematic model's "
-                                     "domain (no plant flag) for which an 'in the domain' RMSE is evaluated (else "
-                                     "n/a)"),
-}
 
 SAME_BY_CONSTRUCTION = ("feedback off, speed only: the EKF's and the UKF's radius estimates are equal by "
                         "construction (the speed is linear in the radii given the wheel rates)")
@@ -107,11 +51,6 @@ TRAJECTORY_BY_CONSTRUCTION = ("feedback off: every filter's run has the same tra
 
 
 # ------------------------------------------------------------------------------------- helpers
-def chk(text: str, passed: bool | None, detail: str, *runs: str, na: str = "") -> Check:
-    """A :class:`Check` reading ``runs``; a non-empty ``na`` makes it not applicable."""
-    return Check(text, passed, detail, tuple(runs), na)
-
-
 def lbl(sc: int, est: str, fb: bool, ctrl: str = "nmpc", models: int = 4, variant: str = "hypothesis") -> str:
     return make_label(f"scenario{sc}", est, "direct" if fb else "none", ctrl, models, variant)
 
@@ -173,8 +112,8 @@ def borderline(vals: list[float | None], thr: float, rel: float = 0.1) -> list[f
 
 
 # ------------------------------------------------------------------------------------- the claims
-def claim_detection(rows: Rows) -> Claim:
-    c = Claim("1", "All filters detect the scenario 2 fault, with a peak in the innovations at the fault",
+def claim_detection(rows: Rows) -> Evidence:
+    c = Evidence("1", "All filters detect the scenario 2 fault, with a peak in the innovations at the fault",
               "§4.2: 'all filters were able to detect the fault … at 10 seconds there was a peak change in the "
               "innovation curves'.")
     for est in FILTERS:
@@ -205,8 +144,8 @@ def claim_detection(rows: Rows) -> Claim:
     return c
 
 
-def claim_feedback_path(rows: Rows) -> Claim:
-    c = Claim("2", "Without feedback the robot cannot stay on the path after a puncture",
+def claim_feedback_path(rows: Rows) -> Evidence:
+    c = Evidence("2", "Without feedback the robot cannot stay on the path after a puncture",
               "§4.2: 'the robot was only able to remain on the path if feedback from the filter was provided to "
               "reconfigure the controller'; §4.3: 'without feedback it is impossible to maintain the robot on the "
               "path. Reconfiguring the controller … allowed the robot to easily follow the reference path'.")
@@ -250,8 +189,8 @@ def claim_feedback_path(rows: Rows) -> Claim:
     return c
 
 
-def claim_scenario1(rows: Rows) -> Claim:
-    c = Claim("3", "Scenario 1: all filters estimate the radii well; innovations within 2σ about 95 % of the time",
+def claim_scenario1(rows: Rows) -> Evidence:
+    c = Evidence("3", "Scenario 1: all filters estimate the radii well; innovations within 2σ about 95 % of the time",
               "§4.1: 'the speed innovations remained well within the uncertainty bounds … both with and without "
               "feedback'; 'All filters do a very good job of estimating the radius of the tyres with and without "
               "feedback'; 'the robot remained on the path with and without feedback'; the IMMs 'were able to very "
@@ -301,7 +240,7 @@ def claim_scenario1(rows: Rows) -> Claim:
     return c
 
 
-def _in_domain_check(c: Claim, name: str, lb: str, r: Mapping[str, Any] | None) -> None:
+def _in_domain_check(c: Evidence, name: str, lb: str, r: Mapping[str, Any] | None) -> None:
     """Claim 4's selection made after the fact, by its rule stated in advance: the R_L RMSE over the
     samples after the onset at which the plant raises no flag; n/a below MIN_IN_DOMAIN of them."""
     rd = num(r, "radius_rmse_L_after_fault_in_domain")
@@ -315,8 +254,8 @@ def _in_domain_check(c: Claim, name: str, lb: str, r: Mapping[str, Any] | None) 
                         f"{fmt(num(r, 'first_out_of_domain_time'), ' s')}", lb, na=na))
 
 
-def claim_imm4_vs_imm5(rows: Rows) -> Claim:
-    c = Claim("4", "Scenario 4: the 4-model IMMs fail, the 5-model IMMs succeed",
+def claim_imm4_vs_imm5(rows: Rows) -> Evidence:
+    c = Evidence("4", "Scenario 4: the 4-model IMMs fail, the 5-model IMMs succeed",
               "§4.4: 'Both of the IMM filters failed, because the fault type of scenario 4 was not modelled'; "
               "filter re-design: 'if a hypothesis is made the IMM performs very well … the filters do an excellent "
               "job of making the correct estimations on the radius of the wheel'.")
@@ -354,8 +293,8 @@ def claim_imm4_vs_imm5(rows: Rows) -> Claim:
     return c
 
 
-def claim_ekf_breakdown(rows: Rows) -> Claim:
-    c = Claim("5", "Scenario 4: the EKF breaks down with feedback (not without); the UKF stays consistent",
+def claim_ekf_breakdown(rows: Rows) -> Evidence:
+    c = Evidence("5", "Scenario 4: the EKF breaks down with feedback (not without); the UKF stays consistent",
               "§4.4: 'The EKF breaks down 5 seconds after the fault occurs, when feedback is turned on as can be seen "
               "by the innovations exceeding the covariance bounds. Without feedback however the innovations remain "
               "within the uncertainty bounds. The results from the UKF are much better … innovations which remain "
@@ -395,8 +334,8 @@ def claim_ekf_breakdown(rows: Rows) -> Claim:
     return c
 
 
-def claim_ukf_best(rows: Rows) -> Claim:
-    c = Claim("6", "Scenario 4: the UKF is the best single filter",
+def claim_ukf_best(rows: Rows) -> Evidence:
+    c = Evidence("6", "Scenario 4: the UKF is the best single filter",
               "§4.4: 'without a hypothesis on the IMM filters the UKF was the only filter able to produce the correct "
               "estimates of the wheel radii'; 'the UKF was able to maintain the robot on the path the longest'; "
               "§4.5: 'the UKF displayed better performance than the EKF, especially in the case of scenario 4'.")
@@ -430,8 +369,8 @@ def claim_ukf_best(rows: Rows) -> Claim:
     return c
 
 
-def claim_lmpc(rows: Rows) -> Claim:
-    c = Claim("7", "The LMPC diverges in scenario 2 while the NMPC tracks",
+def claim_lmpc(rows: Rows) -> Evidence:
+    c = Evidence("7", "The LMPC diverges in scenario 2 while the NMPC tracks",
               "§4.6: 'the nonlinear MPC controller does an excellent job of keeping the robot on the path despite a "
               "faulty wheel whereas the solution produced by the linear controller has diverged'; the radius "
               "estimates are 'the same' with both; the innovation uncertainty with the LMPC is 'double'; scenario 4: "
@@ -473,8 +412,8 @@ def claim_lmpc(rows: Rows) -> Claim:
     return c
 
 
-def claim_limit_cycle(rows: Rows) -> Claim:
-    c = Claim("8", "The wheel rates limit-cycle under the NMPC (less than under the LMPC)",
+def claim_limit_cycle(rows: Rows) -> Evidence:
+    c = Evidence("8", "The wheel rates limit-cycle under the NMPC (less than under the LMPC)",
               "§4.6: 'the switching behaviour observed in wheel rotation rates is highly undesirable … The wheel rates "
               "produced by the nonlinear MPC controller show a dramatic decrease in this switching behaviour. It is, "
               "however, still present'.")
@@ -507,8 +446,8 @@ def claim_limit_cycle(rows: Rows) -> Claim:
     return c
 
 
-def claim_imm_faster(rows: Rows) -> Claim:
-    c = Claim("9", "The IMMs reach the correct estimate faster than the UKF at the 10 s step",
+def claim_imm_faster(rows: Rows) -> Evidence:
+    c = Evidence("9", "The IMMs reach the correct estimate faster than the UKF at the 10 s step",
               "§4.5: 'The IMM filters were able to reach the correct estimate faster than the single UKF particularly "
               "when a sudden change is present as is evident at the 10 second mark'; §4.2: 'The IMM filters produced "
               "slightly better estimates than the single UKF filter'.")
@@ -542,7 +481,7 @@ def claim_imm_faster(rows: Rows) -> Claim:
     return c
 
 
-def _scenario3_peaks(c: Claim, rows: Rows) -> None:
+def _scenario3_peaks(c: Evidence, rows: Rows) -> None:
     for est in FILTERS:
         for fb in FBS:
             lb = lbl(3, est, fb)
@@ -563,8 +502,8 @@ def _worst_settle(r: Mapping[str, Any] | None) -> float | None:
     return None if a is None or b is None else max(a, b)
 
 
-def claim_scenario3(rows: Rows) -> Claim:
-    c = Claim("10", "Scenario 3 (left puncture at 5 s, right at 10 s)",
+def claim_scenario3(rows: Rows) -> Evidence:
+    c = Evidence("10", "Scenario 3 (left puncture at 5 s, right at 10 s)",
               "§4.3: innovations 'clearly indicated … the detection of both faults'; 'the IMM filters produce the "
               "best estimates of the radii. The UKF performs slightly better than the EKF, and turning feedback on "
               "results in a faster settling time'; IMMs: 'after 5 secs model 3 is the best model … once the second "
@@ -610,8 +549,8 @@ def claim_scenario3(rows: Rows) -> Claim:
     return c
 
 
-def claim_modes(rows: Rows) -> Claim:
-    c = Claim("11", "The IMMs find the correct mode immediately (scenarios 2 and 4 with 5 models)",
+def claim_modes(rows: Rows) -> Evidence:
+    c = Evidence("11", "The IMMs find the correct mode immediately (scenarios 2 and 4 with 5 models)",
               "§4.2: 'both of the IMM filters were seen to find the correct mode immediately as mode 3 is the most "
               "confident'; §4.4 (re-design): 'if a hypothesis is made the IMM performs very well'.")
     for sc, models, idx, mode in ((2, 4, 1, 3), (4, 5, 1, 5)):
@@ -629,8 +568,8 @@ def claim_modes(rows: Rows) -> Claim:
     return c
 
 
-def claim_constraints_s4(rows: Rows) -> Claim:
-    c = Claim("12", "Scenario 4: the wheels work at their constraints after the fault; no controller keeps the path",
+def claim_constraints_s4(rows: Rows) -> Evidence:
+    c = Evidence("12", "Scenario 4: the wheels work at their constraints after the fault; no controller keeps the path",
               "§4.4: 'with this type of fault both wheels were required to work at their constraints'; 'none of the "
               "filters show full compliance with the reference trajectory'; 5-model IMMs: 'the control inputs are "
               "required to work at the constraints the majority of the time once the fault occurred'.")
@@ -651,12 +590,12 @@ def claim_constraints_s4(rows: Rows) -> Claim:
     return c
 
 
-CLAIMS: tuple[Callable[[Rows], Claim], ...] = (
+CLAIMS: tuple[Callable[[Rows], Evidence], ...] = (
     claim_detection, claim_feedback_path, claim_scenario1, claim_imm4_vs_imm5, claim_ekf_breakdown, claim_ukf_best,
     claim_lmpc, claim_limit_cycle, claim_imm_faster, claim_scenario3, claim_modes, claim_constraints_s4,
 )
 
 
-def evaluate_claims(rows: Rows) -> list[Claim]:
+def evaluate_claims(rows: Rows) -> list[Evidence]:
     """All claims, in order, evaluated on ``rows`` (label → flattened metrics) and settled."""
     return evaluate(CLAIMS, rows)

@@ -22,9 +22,9 @@ import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from ..io import atomic_path  # noqa: E402
-from .claims import EST_NAMES, FILTERS, lbl  # noqa: E402
-from .derived import onsets_of_config, read_trace  # noqa: E402
-from .policy_claims import SENSING, plabel  # noqa: E402
+from .claims.paper import EST_NAMES, FILTERS, lbl  # noqa: E402
+from .claims.policy import SENSING, plabel  # noqa: E402
+from .derived import onsets_of_config  # noqa: E402
 
 DPI = 90
 FB_TITLE = {False: "feedback off", True: "feedback on"}
@@ -32,33 +32,52 @@ COLORS = {"ekf": "tab:red", "ukf": "tab:blue", "imm-ekf": "tab:orange", "imm-ukf
           "imm-ekf5": "tab:brown", "imm-ukf5": "tab:purple", "lmpc": "tab:gray"}
 
 
+def read_run_dir(run_dir: Path | None) -> tuple[dict[str, np.ndarray] | None, dict[str, Any]]:
+    """The trace (numpy columns, float where possible; None without ``trace.parquet``) and the resolved
+    config (as a dict; empty when absent or unreadable) of a run directory — the report's only read of
+    one."""
+    import pyarrow.parquet as pq
+
+    if run_dir is None:
+        return None, {}
+    trace: dict[str, np.ndarray] | None = None
+    if (run_dir / "trace.parquet").is_file():
+        table = pq.read_table(run_dir / "trace.parquet")
+        trace = {}
+        for name in table.column_names:
+            arr = table.column(name).to_numpy(zero_copy_only=False)
+            try:
+                arr = np.asarray(arr, dtype=float)
+            except (TypeError, ValueError):
+                pass
+            trace[name] = arr
+    try:
+        cfg = tomllib.loads((run_dir / "config.toml").read_text()) if (run_dir / "config.toml").is_file() else {}
+    except (OSError, tomllib.TOMLDecodeError):
+        cfg = {}
+    return trace, cfg
+
+
 class RunStore:
-    """Traces and resolved configs of the runs, loaded lazily by label."""
+    """Traces and resolved configs of the runs, loaded lazily by label (:func:`read_run_dir`)."""
 
     def __init__(self, run_dirs: Mapping[str, Path | None]):
         self.run_dirs = {k: Path(v) for k, v in run_dirs.items() if v is not None}
-        self._traces: dict[str, dict[str, np.ndarray] | None] = {}
-        self._cfgs: dict[str, dict[str, Any]] = {}
+        self._runs: dict[str, tuple[dict[str, np.ndarray] | None, dict[str, Any]]] = {}
 
     def __contains__(self, label: str) -> bool:
         return self.trace(label) is not None
 
+    def _load(self, label: str) -> tuple[dict[str, np.ndarray] | None, dict[str, Any]]:
+        if label not in self._runs:
+            self._runs[label] = read_run_dir(self.run_dirs.get(label))
+        return self._runs[label]
+
     def trace(self, label: str) -> dict[str, np.ndarray] | None:
-        if label not in self._traces:
-            d = self.run_dirs.get(label)
-            p = d / "trace.parquet" if d is not None else None
-            self._traces[label] = read_trace(p) if p is not None and p.is_file() else None
-        return self._traces[label]
+        return self._load(label)[0]
 
     def config(self, label: str) -> dict[str, Any]:
-        if label not in self._cfgs:
-            d = self.run_dirs.get(label)
-            p = d / "config.toml" if d is not None else None
-            try:
-                self._cfgs[label] = tomllib.loads(p.read_text()) if p is not None and p.is_file() else {}
-            except (OSError, tomllib.TOMLDecodeError):
-                self._cfgs[label] = {}
-        return self._cfgs[label]
+        return self._load(label)[1]
 
     def onsets(self, label: str) -> list[float]:
         o = onsets_of_config(self.config(label))

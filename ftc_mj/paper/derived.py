@@ -154,7 +154,8 @@ def command_switching(t: np.ndarray, cmd: np.ndarray, omega_max: float) -> tuple
 
 def derived_metrics(trace: Mapping[str, Any], scenario: str, onsets: Mapping[str, float | None],
                     n_modes: int = 0, omega_max: float = np.radians(1000.0)) -> dict[str, Any]:
-    """The report's extra metrics for one run (see the module docstring for the definitions)."""
+    """The report's extra metrics for one run (see the module docstring for the definitions):
+    ``onsets`` are the fault onsets (s) by wheel, ``omega_max`` the wheel-rate limit (rad/s)."""
     t = _col(trace, "t")
     m: dict[str, Any] = {}
     if t is None or t.size == 0:
@@ -165,7 +166,21 @@ def derived_metrics(trace: Mapping[str, Any], scenario: str, onsets: Mapping[str
     ons = [o for o in ons if o <= float(t[-1])]
     m["onsets_in_run"] = len(ons)
     t_on = ons[0] if ons else None
-    # ---------------------------------------------------------------- radius estimates
+    _radius_metrics(m, trace, t, on_R, on_L, ons, t_on)
+    _plant_response(m, trace, t, ons)
+    _domain_metrics(m, trace, t, t_on)
+    if n_modes:
+        _mode_metrics(m, trace, t, scenario, n_modes)
+    _tracking_metrics(m, trace, t, t_on)
+    _command_metrics(m, trace, t, t_on, omega_max)
+    return m
+
+
+def _radius_metrics(m: dict[str, Any], trace: Mapping[str, Any], t: np.ndarray, on_R: float | None,
+                    on_L: float | None, ons: list[float], t_on: float | None) -> None:
+    """Radius-estimate settling (s) and RMSEs (m), innovation consistency and peaks (z) into ``m``."""
+    RRh, RLh, RR, RL = (_col(trace, c) for c in ("R_R_hat", "R_L_hat", "R_R", "R_L"))
+    have_est = RRh is not None and RLh is not None and np.isfinite(RRh).any()
     RRh, RLh, RR, RL = (_col(trace, c) for c in ("R_R_hat", "R_L_hat", "R_R", "R_L"))
     have_est = RRh is not None and RLh is not None and np.isfinite(RRh).any()
     if have_est and RR is not None and RL is not None:
@@ -192,8 +207,13 @@ def derived_metrics(trace: Mapping[str, Any], scenario: str, onsets: Mapping[str
                 m[f"innovation_peak_z_{i}"] = innovation_peak_z(t, inn, sd, o)
             # noise-only reference: the same statistic on a fault-free window
             m["innovation_peak_z_ref"] = innovation_peak_z(t, inn, sd, 2.0) if t[-1] > 3.5 else None
-    # ---------------------------------------------------------------- plant response at the fault
-    v, flags = _col(trace, "v"), _col(trace, "plant_flags")
+
+
+def _plant_response(m: dict[str, Any], trace: Mapping[str, Any], t: np.ndarray, ons: list[float]) -> None:
+    """Speed drop (m/s) measured and predicted by the kinematic model in the 0.3 s after each onset, and
+    the largest |slip| in the 2 s after it, into ``m``."""
+    RR, RL = _col(trace, "R_R"), _col(trace, "R_L")
+    v = _col(trace, "v")
     wR, wL = _col(trace, "omega_R"), _col(trace, "omega_L")
     slips = [c for c in (_col(trace, "slip_R"), _col(trace, "slip_L")) if c is not None]
     for i, o in enumerate(ons, start=1):
@@ -206,6 +226,14 @@ def derived_metrics(trace: Mapping[str, Any], scenario: str, onsets: Mapping[str
         win = (t >= o) & (t <= o + 2.0)
         if slips and win.any():
             m[f"slip_max_after_fault_{i}"] = float(max(np.nanmax(np.abs(sl[win])) for sl in slips))
+
+
+def _domain_metrics(m: dict[str, Any], trace: Mapping[str, Any], t: np.ndarray, t_on: float | None) -> None:
+    """When (s) the plant first stays out of the kinematic model's domain, the radius RMSEs (m) over
+    the samples after the onset inside it, and the final radius estimates (m), into ``m``."""
+    flags = _col(trace, "plant_flags")
+    RRh, RLh, RR, RL = (_col(trace, c) for c in ("R_R_hat", "R_L_hat", "R_R", "R_L"))
+    have_est = RRh is not None and RLh is not None and np.isfinite(RRh).any()
     if flags is not None:
         bad = np.nan_to_num(flags) != 0
         # first time (after the first onset, or from the start without a fault) the plant stays out of the
@@ -228,20 +256,26 @@ def derived_metrics(trace: Mapping[str, Any], scenario: str, onsets: Mapping[str
     if have_est:
         m["R_R_hat_final"] = float(RRh[-1])
         m["R_L_hat_final"] = float(RLh[-1])
-    # ---------------------------------------------------------------- IMM modes
-    if n_modes:
-        probs = np.column_stack([np.asarray(trace[f"mode_prob_{j + 1}"], dtype=float) for j in range(n_modes)
-                                 if f"mode_prob_{j + 1}" in trace]) if "mode_prob_1" in trace else np.zeros((0, 0))
-        sched = EXPECTED_MODES.get((scenario, n_modes))
-        if sched is not None and probs.size:
-            sched = [(ts, md) for ts, md in sched if ts <= t[-1]]
-            delays, frac = mode_delays(t, probs, sched)
-            for i, d in enumerate(delays):
-                m[f"mode_delay_{i}"] = d
-            m["mode_correct_fraction"] = frac
-            if probs.size:
-                m["mode_prob_spread_final"] = float(np.nanmax(probs[-1]) - np.nanmin(probs[-1]))
-    # ---------------------------------------------------------------- tracking
+
+
+def _mode_metrics(m: dict[str, Any], trace: Mapping[str, Any], t: np.ndarray, scenario: str, n_modes: int) -> None:
+    """IMM mode identification: delay (s) until each expected mode is on top, the fraction of samples
+    with the expected mode on top, the final spread of the mode probabilities, into ``m``."""
+    probs = np.column_stack([np.asarray(trace[f"mode_prob_{j + 1}"], dtype=float) for j in range(n_modes)
+                             if f"mode_prob_{j + 1}" in trace]) if "mode_prob_1" in trace else np.zeros((0, 0))
+    sched = EXPECTED_MODES.get((scenario, n_modes))
+    if sched is not None and probs.size:
+        sched = [(ts, md) for ts, md in sched if ts <= t[-1]]
+        delays, frac = mode_delays(t, probs, sched)
+        for i, d in enumerate(delays):
+            m[f"mode_delay_{i}"] = d
+        m["mode_correct_fraction"] = frac
+        if probs.size:
+            m["mode_prob_spread_final"] = float(np.nanmax(probs[-1]) - np.nanmin(probs[-1]))
+
+
+def _tracking_metrics(m: dict[str, Any], trace: Mapping[str, Any], t: np.ndarray, t_on: float | None) -> None:
+    """When (s) the robot first leaves the path, and how long (s) it stays on it after the onset, into ``m``."""
     ct = _col(trace, "cross_track_error")
     if ct is not None:
         m["time_off_path"] = first_time(t, np.abs(ct) > OFF_PATH)
@@ -249,7 +283,11 @@ def derived_metrics(trace: Mapping[str, Any], scenario: str, onsets: Mapping[str
         if t_on is not None:
             off = m["time_off_path"]
             m["time_on_path_after_fault"] = (float(t[-1]) - t_on) if off is None else max(0.0, off - t_on)
-    # ---------------------------------------------------------------- commands
+
+
+def _command_metrics(m: dict[str, Any], trace: Mapping[str, Any], t: np.ndarray, t_on: float | None,
+                     omega_max: float) -> None:
+    """Command reversals and limit-to-limit switches (1/s), time fractions at the wheel-rate limit, into ``m``."""
     cR, cL = _col(trace, "omega_R_cmd"), _col(trace, "omega_L_cmd")
     if cR is not None and cL is not None:
         rR, sR = command_switching(t, cR, omega_max)
@@ -265,7 +303,6 @@ def derived_metrics(trace: Mapping[str, Any], scenario: str, onsets: Mapping[str
             m["omega_at_limit_fraction_after_fault"] = float(np.mean(atR[aft] | atL[aft])) if aft.any() else None
             m["omega_both_at_limit_fraction_after_fault"] = float(np.mean(atR[aft] & atL[aft])) if aft.any() \
                 else None
-    return m
 
 
 def onsets_from_faults(right: list[Any], left: list[Any], R0: float) -> dict[str, float | None]:

@@ -133,7 +133,7 @@ def _claim_section(c: Claim, note_seed: int) -> list[str]:
         out += ["\n**Not applicable** (precondition not met, by the rules stated in advance):\n", "\n".join(nas) + "\n"]
     out += [f"\n**Evidence** (seed {note_seed}):\n" if c.single_seed else
             f"\n**Evidence** (median [min, max] over the {len(c.seeds)} seeds; booleans as count/seeds):\n",
-            md_table([r for r in c.table() if _has_data(r)])]
+            md_table([r for r in c.table if _has_data(r)])]
     if c.notes.get(note_seed):
         why = "**Why.** " if c.single_seed else f"**Why** (numbers of seed {note_seed} only). "
         out.append("\n" + why + " ".join(c.notes[note_seed]) + "\n")

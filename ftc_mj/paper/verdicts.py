@@ -108,6 +108,11 @@ class CheckStats:
             return FAILS
         return UNDECIDED
 
+    @property
+    def detail(self) -> str:
+        """The numbers behind the outcome on the first seed evaluated ("" before any)."""
+        return self.details[min(self.details)] if self.details else ""
+
     def failing_seeds(self) -> list[int]:
         return [s for s, o in self.outcomes.items() if o == FAIL]
 
@@ -138,6 +143,7 @@ class Claim:
     def verdict(self) -> str:
         return claim_verdict([c.result for c in self.checks])
 
+    @property
     def table(self) -> list[dict[str, Any]]:
         """The evidence table: the seed's own in the quick look, else :func:`aggregate_table` over the seeds."""
         tables = [self.tables[s] for s in self.seeds if s in self.tables]

@@ -86,11 +86,11 @@ def test_quick_look_is_the_study_with_seed_0_and_retries_a_failed_run(tmp_path: 
     info = json.loads((out / "paper_run.json").read_text())
     assert info["runs"] == 3 and info["failed"] == [] and info["reused"] == 2 and info["mode"] == "quick"
     assert not list(out.glob(".*.tmp"))
-    # the report alone, rebuilt from the persisted rows of the same selection
+    # the report alone, rebuilt from the persisted rows of the same selection, with the claims' comparisons
     (out / "claims.md").unlink()
-    res = runner.invoke(app, ["paper", "--quick", "--out", str(out), "--report-only", *QUICK])
+    res = runner.invoke(app, ["paper", "--quick", "--out", str(out), "--report-only", "--rrd", "compare", *QUICK])
     assert res.exit_code == 0, res.output
-    assert (out / "claims.md").is_file()
+    assert (out / "claims.md").is_file() and (out / "compare" / "claim-1.rrd").is_file()
     info = json.loads((out / "paper_run.json").read_text())
     assert info["report_only"] is True and info["reused"] == 3
 

@@ -92,7 +92,7 @@ def test_combine_counts_every_check_over_the_seeds() -> None:
     assert st.result == HOLDS and c1.verdict == ck.REPRODUCED
     claims = combine(per_seed(10, {1, 3, 5}))  # 7/10: undecided → claim 1 is only partly reproduced
     assert claims[0].verdict == ck.PARTLY
-    assert claims[0].table()[0]["run"] == "s2-ekf-nofb-nmpc"
+    assert claims[0].table[0]["run"] == "s2-ekf-nofb-nmpc"
 
 
 def test_combine_refuses_seeds_with_other_checks() -> None:

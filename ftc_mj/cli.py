@@ -449,8 +449,8 @@ class SeedSet(StrEnum):
 
 @app.command()
 def paper(
-    out: Annotated[str, typer.Option(help="Output folder: study/ (over seeds) or runs/ (--quick), summary.csv, "
-                                          "claims.md, claims.json, figures/.")] = "runs/out/paper",
+    out: Annotated[str, typer.Option(help="Output folder: study/ (the matrix as a study), runs/ (--quick), "
+                                          "summary.csv, claims.md, claims.json, figures/.")] = "runs/out/paper",
     jobs: Annotated[int, typer.Option(help="Parallel worker processes.")] = 2,
     seeds: Annotated[int | None, typer.Option(help="Seeds per matrix cell (default 10); every check is "
                                                    "judged over them.")] = None,
@@ -475,11 +475,11 @@ def paper(
                                                "OUT/compare/claim-<id>.rrd overlaying each claim's runs). Over seeds "
                                                "no recordings are written.")] = PaperRrd.runs,
     no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Same as --rrd none.")] = False,
-    fresh: Annotated[bool, typer.Option("--fresh", help="Quick look: recompute runs even if OUT/runs has them.")]
-    = False,
+    fresh: Annotated[bool, typer.Option("--fresh", help="Quick look: recompute the runs even if finished ones "
+                                                        "exist.")] = False,
     list_: Annotated[bool, typer.Option("--list", help="Print the matrix labels and exit.")] = False,
     report_only: Annotated[bool, typer.Option("--report-only", help="Run nothing: rebuild the report from the "
-                                              "finished runs (over seeds: of the same selection).")] = False,
+                                              "finished runs of the same selection.")] = False,
 ) -> None:
     """Run the paper's test matrix (38 runs + 31 extras) over seeds and judge every claim's checks with
     Wilson intervals (or, with --quick, take a single-seed look); write summary.csv, claims.md,

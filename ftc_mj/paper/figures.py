@@ -33,26 +33,15 @@ COLORS = {"ekf": "tab:red", "ukf": "tab:blue", "imm-ekf": "tab:orange", "imm-ukf
 
 
 def read_run_dir(run_dir: Path | None) -> tuple[dict[str, np.ndarray] | None, dict[str, Any]]:
-    """The trace (numpy columns, float where possible; None without ``trace.parquet``) and the resolved
-    config (as a dict; empty when absent or unreadable) of a run directory — the report's only read of
-    one."""
-    import pyarrow.parquet as pq
+    """The trace (numpy columns, :func:`ftc_mj.rundir.read_trace`; None without one) and the resolved
+    config (as a dict; empty when absent or unreadable) of a run directory."""
+    from ..rundir import CONFIG, TRACE, read_trace
 
     if run_dir is None:
         return None, {}
-    trace: dict[str, np.ndarray] | None = None
-    if (run_dir / "trace.parquet").is_file():
-        table = pq.read_table(run_dir / "trace.parquet")
-        trace = {}
-        for name in table.column_names:
-            arr = table.column(name).to_numpy(zero_copy_only=False)
-            try:
-                arr = np.asarray(arr, dtype=float)
-            except (TypeError, ValueError):
-                pass
-            trace[name] = arr
+    trace = read_trace(run_dir / TRACE) if (run_dir / TRACE).is_file() else None
     try:
-        cfg = tomllib.loads((run_dir / "config.toml").read_text()) if (run_dir / "config.toml").is_file() else {}
+        cfg = tomllib.loads((run_dir / CONFIG).read_text()) if (run_dir / CONFIG).is_file() else {}
     except (OSError, tomllib.TOMLDecodeError):
         cfg = {}
     return trace, cfg

@@ -106,8 +106,11 @@ def _row_spec(sc: int, with5: bool) -> list[tuple[str, Callable[[bool], str]]]:
     return rows
 
 
-def fig_innovations(store: RunStore, sc: int, out: Path) -> Path | None:
-    """Speed innovation (blue) with ±2σ (red) per filter (rows) and feedback off/on (columns)."""
+def _filter_grid(store: RunStore, sc: int, suptitle: str, out: Path, ylabel: str, legend: bool,
+                 draw: Callable[[Any, Mapping[str, np.ndarray], str], None]) -> Path | None:
+    """A figure with one row per filter of scenario ``sc`` and the columns feedback off/on: ``draw(ax,
+    trace, label)`` fills each panel that has a run, titled ``<filter>, feedback on|off`` (the first
+    with the legend when ``legend``)."""
     spec = [(n, f) for n, f in _row_spec(sc, sc == 4) if any(f(fb) in store for fb in (False, True))]
     if not spec:
         return None
@@ -120,21 +123,33 @@ def fig_innovations(store: RunStore, sc: int, out: Path) -> Path | None:
             if tr is None:
                 ax.text(0.5, 0.5, "no run", ha="center", transform=ax.transAxes)
                 continue
-            t, inn, sd = tr["t"], tr["innovation"], tr["innovation_std"]
-            ax.plot(t, inn, color="tab:blue", lw=0.5)
-            ax.plot(t, 2 * sd, color="tab:red", lw=0.9)
-            ax.plot(t, -2 * sd, color="tab:red", lw=0.9)
-            _vlines(ax, store.onsets(lb))
-            lim = np.nanpercentile(np.abs(inn), 99.5) if np.isfinite(inn).any() else 1.0
-            lim = max(lim, np.nanmax(2 * sd[np.isfinite(sd)]) if np.isfinite(sd).any() else 1.0)
-            ax.set_ylim(-1.2 * lim, 1.2 * lim)
+            draw(ax, tr, lb)
             ax.set_title(f"{name}, {FB_TITLE[fb]}", fontsize=9)
-            ax.set_ylabel("m/s", fontsize=8)
+            ax.set_ylabel(ylabel, fontsize=8)
+            if legend and i == 0 and j == 0:
+                ax.legend(fontsize=7, loc="lower left", ncol=3)
     for ax in axes[-1]:
         ax.set_xlabel("t [s]")
-    fig.suptitle(f"Scenario {sc}: speed innovations (blue) and ±2σ bounds (red)")
+    fig.suptitle(suptitle)
     fig.tight_layout()
-    return _save(fig, out / f"innovations_s{sc}.png")
+    return _save(fig, out)
+
+
+def fig_innovations(store: RunStore, sc: int, out: Path) -> Path | None:
+    """Speed innovation (blue) with ±2σ (red) per filter (rows) and feedback off/on (columns)."""
+
+    def draw(ax: Any, tr: Mapping[str, np.ndarray], lb: str) -> None:
+        t, inn, sd = tr["t"], tr["innovation"], tr["innovation_std"]
+        ax.plot(t, inn, color="tab:blue", lw=0.5)
+        ax.plot(t, 2 * sd, color="tab:red", lw=0.9)
+        ax.plot(t, -2 * sd, color="tab:red", lw=0.9)
+        _vlines(ax, store.onsets(lb))
+        lim = np.nanpercentile(np.abs(inn), 99.5) if np.isfinite(inn).any() else 1.0
+        lim = max(lim, np.nanmax(2 * sd[np.isfinite(sd)]) if np.isfinite(sd).any() else 1.0)
+        ax.set_ylim(-1.2 * lim, 1.2 * lim)
+
+    return _filter_grid(store, sc, f"Scenario {sc}: speed innovations (blue) and ±2σ bounds (red)",
+                        out / f"innovations_s{sc}.png", "m/s", False, draw)
 
 
 def _radius_axes(ax: Any, tr: Mapping[str, np.ndarray], wheel: str, color: str, label: str | None = None,
@@ -148,33 +163,17 @@ def _radius_axes(ax: Any, tr: Mapping[str, np.ndarray], wheel: str, color: str, 
 
 def fig_radius(store: RunStore, sc: int, out: Path) -> Path | None:
     """Radius estimates (R right, L left) with ±2σ bands against the truth (black dashed)."""
-    spec = [(n, f) for n, f in _row_spec(sc, sc == 4) if any(f(fb) in store for fb in (False, True))]
-    if not spec:
-        return None
-    fig, axes = plt.subplots(len(spec), 2, figsize=(11, 1.9 * len(spec) + 0.8), sharex=True, squeeze=False)
-    for i, (name, f) in enumerate(spec):
-        for j, fb in enumerate((False, True)):
-            ax = axes[i][j]
-            lb = f(fb)
-            tr = store.trace(lb)
-            if tr is None:
-                ax.text(0.5, 0.5, "no run", ha="center", transform=ax.transAxes)
-                continue
-            _radius_axes(ax, tr, "R", "tab:blue", "R_R est.")
-            _radius_axes(ax, tr, "L", "tab:orange", "R_L est.")
-            ax.plot(tr["t"], tr["R_R"], "k--", lw=0.8, label="truth")
-            ax.plot(tr["t"], tr["R_L"], "k:", lw=0.8)
-            _vlines(ax, store.onsets(lb))
-            ax.set_ylim(-0.2, 4.0)
-            ax.set_title(f"{name}, {FB_TITLE[fb]}", fontsize=9)
-            ax.set_ylabel("m", fontsize=8)
-            if i == 0 and j == 0:
-                ax.legend(fontsize=7, loc="lower left", ncol=3)
-    for ax in axes[-1]:
-        ax.set_xlabel("t [s]")
-    fig.suptitle(f"Scenario {sc}: wheel-radius estimates ±2σ (R_R blue, R_L orange) vs truth (black)")
-    fig.tight_layout()
-    return _save(fig, out / f"radius_s{sc}.png")
+
+    def draw(ax: Any, tr: Mapping[str, np.ndarray], lb: str) -> None:
+        _radius_axes(ax, tr, "R", "tab:blue", "R_R est.")
+        _radius_axes(ax, tr, "L", "tab:orange", "R_L est.")
+        ax.plot(tr["t"], tr["R_R"], "k--", lw=0.8, label="truth")
+        ax.plot(tr["t"], tr["R_L"], "k:", lw=0.8)
+        _vlines(ax, store.onsets(lb))
+        ax.set_ylim(-0.2, 4.0)
+
+    return _filter_grid(store, sc, f"Scenario {sc}: wheel-radius estimates ±2σ (R_R blue, R_L orange) vs truth "
+                        f"(black)", out / f"radius_s{sc}.png", "m", True, draw)
 
 
 def fig_wheel_rates(store: RunStore, sc: int, out: Path) -> Path | None:

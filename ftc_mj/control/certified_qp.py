@@ -4,7 +4,7 @@ Problem (``n`` variables, ``m`` general rows; a row with ``lba == uba`` is an eq
 
     minimise ½ uᵀHu + gᵀu   subject to   lbx ≤ u ≤ ubx,   lba ≤ A u ≤ uba
 
-Why: the RTI QP of the NMPC (:class:`~ftc_mj.control.collocation.CondensedQP`, n = 100) is solved by
+Why: the RTI QP of the NMPC (:class:`~ftc_mj.control.condensed_qp.CondensedQP`, n = 100) is solved by
 DAQP, a dual active-set method. When the loop saturates the wheels, ~100 constraints are active and
 the active set changes wholesale from one sample to the next (the previous sample's multipliers
 are no warm start: measured, no fewer iterations), so DAQP needs 200–700 iterations (4–10 ms).

@@ -1,7 +1,7 @@
 """Multi-stage (scenario-tree) robust NMPC over wheel-radius scenarios: passive fault tolerance.
 
 The multi-stage NMPC of Lucia, Finkler and Engell (J. Process Control 23, 2013) on the LGL problem
-of :mod:`~ftc_mj.control.collocation`:
+of :mod:`~ftc_mj.control.transcription`:
 
 * ``S`` radius scenarios ``r_i = f_i ⊙ r``: fractions ``f_i`` (e.g. nominal, each wheel at 50 %,
   both) of the model radii ``r`` handed to :meth:`~RobustNMPC.solve` (the nominal radii when no
@@ -14,8 +14,8 @@ of :mod:`~ftc_mj.control.collocation`:
   control period, i.e. every input the plant may receive before the next measurement; beyond it each
   scenario has its own inputs (recourse: by then the controller has measured more);
 * the input-rate bound relative to the command in force, ``|U(t0) − u_applied| ≤ omega_rate_max T_s``
-  (:func:`~ftc_mj.control.collocation.first_input_bounds`), on the shared first input, and the optional
-  first-step penalty (:func:`~ftc_mj.control.collocation.first_step_penalty`) in every scenario's cost
+  (:func:`~ftc_mj.control.spec.first_input_bounds`), on the shared first input, and the optional
+  first-step penalty (:func:`~ftc_mj.control.spec.first_step_penalty`) in every scenario's cost
   (the same term in each, since the first input is shared);
 * objective ``Σ_i w_i J_i`` (``expected``; weights normalised to sum 1) or ``max_i J_i`` over the
   scenarios of positive weight (``worst``, as an epigraph ``J_i ≤ t``, minimise ``t``), with ``J_i``
@@ -25,7 +25,7 @@ Solvers: ``ipopt`` solves the whole NLP (``S (5N − 2k) + 2k`` variables), warm
 shifted previous scenario plans and multipliers. ``rti-daqp`` (expected cost only) takes one
 Gauss–Newton step per sample: each scenario's collocation is linearised about its shifted plan and
 its states are eliminated exactly (:meth:`CondensedQP.build
-<ftc_mj.control.collocation.CondensedQP.build>`), leaving a dense QP in
+<ftc_mj.control.condensed_qp.CondensedQP.build>`), leaving a dense QP in
 ``z = [u_shared (2k); v_1 (2(N−k)); …; v_S (2(N−k))]`` whose Hessian is ``Σ w_i P_iᵀ H_i P_i``
 (``P_i`` selects scenario ``i``'s inputs from ``z``), solved by the certified active-set path
 (:class:`~ftc_mj.control.certified_qp.CertifiedQP`), else by DAQP. The first solve, and a re-seed
@@ -61,16 +61,11 @@ import numpy as np
 
 from .base import ControlOutput
 from .certified_qp import CertifiedQP
-from .collocation import (
-    BufferedFunction,
-    Collocation,
-    CondensedQP,
-    ProblemSpec,
-    first_input_bounds,
-    first_step_penalty,
-    warm_started_solve,
-)
+from .condensed_qp import CondensedQP
 from .nmpc import NMPC
+from .solvers import BufferedFunction, warm_started_solve
+from .spec import ProblemSpec, first_input_bounds, first_step_penalty
+from .transcription import Collocation
 
 OBJECTIVES = ("expected", "worst")
 ROBUST_SOLVERS = ("ipopt", "rti-daqp")
@@ -138,7 +133,7 @@ class MultiStageQP:
     ``qp`` builds each scenario's QP in its own inputs ``u_i = z[idx_i]`` (2N,); this class sums the
     weighted costs over ``z`` (:func:`stage_indices`), stacks every scenario's constraint rows, bounds
     the shared first input relative to the input in force
-    (:func:`~ftc_mj.control.collocation.first_input_bounds`, as bounds on ``z``) and solves the dense QP:
+    (:func:`~ftc_mj.control.spec.first_input_bounds`, as bounds on ``z``) and solves the dense QP:
     the certified active-set path first, DAQP for what it leaves unresolved. ``path_counts`` counts how
     each QP was decided.
     """
@@ -331,7 +326,7 @@ class RobustNMPC(NMPC):
 
     def solve(self, t: float, pose: np.ndarray, radii: np.ndarray,
               u_applied: np.ndarray | None = None) -> ControlOutput:
-        """As :meth:`NMPC.solve <ftc_mj.control.nmpc.PlanController.solve>`; the telemetry holds the
+        """As :meth:`NMPC.solve <ftc_mj.control.mpc.MPCLifecycle.solve>`; the telemetry holds the
         scenario weights used (``scenario_weight_1`` …; 0 for a pruned scenario)."""
         out = super().solve(t, pose, radii, u_applied)
         out.telemetry.update(zip(self.telemetry_columns, (float(w) for w in np.nan_to_num(self.stage_weights)),

@@ -1,7 +1,7 @@
 """Path-following NMPC: bounds honoured by IPOPT and by the RTI iterates, closed loops on the kinematic model
 (RK4 plant under ZOH), the speed it finds by itself, every path kind, failure handling, factory and sim wiring.
 
-Numbers quoted in the report come from ``pytest tests/test_pathfollow.py -s`` (lines ``[pf]``)."""
+Numbers quoted in the report come from ``pytest tests/control/test_pathfollow.py -s`` (lines ``[pf]``)."""
 
 import math
 
@@ -10,16 +10,11 @@ import pytest
 
 from ftc_mj.config import RunConfig, load_config
 from ftc_mj.control import build_controller, build_reference
-from ftc_mj.control.collocation import ProblemSpec
-from ftc_mj.control.kinsim import simulate
-from ftc_mj.control.pathfollow import (
-    PathFollowingNMPC,
-    PathFollowingSpec,
-    RobotLimits,
-    compliance_offset,
-    wheel_bounds,
-)
+from ftc_mj.control.pathfollow import PathFollowingNMPC
+from ftc_mj.control.pathfollow_spec import PathFollowingSpec, RobotLimits, compliance_offset, wheel_bounds
 from ftc_mj.control.reference import FigureEightReference, LineReference
+from ftc_mj.control.spec import ProblemSpec
+from tests.support.kinsim import simulate
 
 OMEGA_MAX = math.radians(1000.0)
 CIRCLE = build_reference(RunConfig())  # 50 m, 10 m/s, from the origin heading +x

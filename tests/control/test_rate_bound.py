@@ -15,10 +15,11 @@ from hypothesis import strategies as st
 
 from ftc_mj.config import RunConfig, load_config
 from ftc_mj.control import NMPC, LinearMPC, ProblemSpec, build_reference
-from ftc_mj.control.collocation import Collocation, first_input_bounds, first_step_penalty, reference_at_nodes
 from ftc_mj.control.excitation import dither_wheel_rates
-from ftc_mj.control.kinsim import simulate as kin_simulate
+from ftc_mj.control.spec import first_input_bounds, first_step_penalty
+from ftc_mj.control.tracking import reference_at_nodes
 from ftc_mj.sim.loop import simulate
+from tests.support.kinsim import simulate as kin_simulate
 
 STEP = 20.0 * 0.1  # rad/s: omega_rate_max (rad/s²) x controller period (s)
 OMEGA_MAX = ProblemSpec().omega_max
@@ -53,30 +54,6 @@ def test_first_input_bounds() -> None:
     ctl = NMPC(spec, build_reference(RunConfig()), solver="rti-daqp", time_budget=None, cold_time_budget=None)
     with pytest.raises(ValueError, match="u_applied"):  # a caller's bug fails the run, it is no fallback
         ctl.solve(0.0, np.zeros(3), np.array([2.0, 2.0]), np.array([np.inf, 0.0]))
-
-
-@settings(max_examples=60, deadline=None)
-@given(u0=st.lists(st.floats(-12.0, 12.0), min_size=2, max_size=2),
-       centre=st.lists(st.floats(-12.0, 12.0), min_size=2, max_size=2),
-       slope=st.floats(-5.0, 5.0))
-def test_project_first_moves_only_the_start_of_the_plan(u0: list[float], centre: list[float], slope: float) -> None:
-    """The first input lands in the box; the correction is at most |δ| and fades at omega_rate_max, so it
-    adds at most that to the plan's rate (checked between nodes) and is zero after |δ| / omega_rate_max."""
-    col = Collocation(ProblemSpec())
-    dt = col.times(0.0)
-    U = np.asarray(u0)[None, :] + slope * dt[:, None]
-    U = np.clip(U, -OMEGA_MAX + 3.0, OMEGA_MAX - 3.0)  # away from ±omega_max, where the result is clipped
-    U[0] = u0
-    lo, hi = np.asarray(centre) - STEP, np.asarray(centre) + STEP
-    V = col.project_first(U, lo, hi)
-    assert np.all(V[0] >= lo) and np.all(V[0] <= hi)
-    delta = np.clip(U[0], lo, hi) - U[0]
-    corr = V - U
-    assert np.all(np.abs(corr) <= np.abs(delta)[None, :] + 1e-12)
-    assert np.all(np.abs(np.diff(corr, axis=0)) <= 20.0 * np.diff(dt)[:, None] + 1e-9)
-    assert np.all(corr[dt[:, None].repeat(2, 1) > np.abs(delta)[None, :] / 20.0 + 1e-12] == 0.0)
-    if np.all(delta == 0.0):
-        assert V is U
 
 
 @settings(max_examples=60, deadline=None)

@@ -1,7 +1,7 @@
 """Robust multi-stage NMPC: non-anticipativity, every scenario's constraints, the RTI QP against the
 NLP, the passive-FTC acceptance on the kinematic plant, scenario weights and the hybrid loop.
 
-Numbers quoted in docs/findings.md come from ``pytest tests/test_robust.py -s`` (lines ``[robust]``).
+Numbers quoted in docs/findings.md come from ``pytest tests/control/test_robust.py -s`` (lines ``[robust]``).
 """
 
 import math
@@ -11,13 +11,13 @@ import pytest
 
 from ftc_mj.config import RunConfig, load_config
 from ftc_mj.control import NMPC, build_reference, problem_spec
-from ftc_mj.control.collocation import reference_at_nodes
-from ftc_mj.control.kinsim import simulate
 from ftc_mj.control.robust import RobustNMPC, normalised_weights, scenario_radii
+from ftc_mj.control.tracking import reference_at_nodes
 from ftc_mj.errors import BadInput
 from ftc_mj.model.kinematics import pose_rates
 from ftc_mj.reconfiguration.scenario_weights import posterior_weights
 from ftc_mj.sim.loop import simulate as simulate_loop
+from tests.support.kinsim import simulate
 
 NOMINAL = np.array([2.0, 2.0])
 OFFSET_POSE = np.array([0.0, -5.0, 0.0])

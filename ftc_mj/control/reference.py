@@ -175,13 +175,9 @@ class FigureEightReference(_TimeLaw):
     switches sign at the crossing point.
     """
 
-    def __init__(
-        self,
-        radius: float = 50.0,
-        speed: float = 10.0,
-        direction: str = "ccw",
-        initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
-    ) -> None:
+    def __init__(self, radius: float = 50.0, speed: float = 10.0, direction: str = "ccw",
+                 initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+        """Lobes of ``radius`` (m) at ``speed`` (m/s); the first lobe on the ``direction`` side of ``initial_pose``."""
         other = "cw" if direction == "ccw" else "ccw"
         self.lobes = (
             CircleReference(radius, speed, direction, initial_pose),

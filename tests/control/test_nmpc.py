@@ -113,7 +113,7 @@ def test_nmpc_rti_converges_to_ipopt(rate_penalty: float, first_step: str, built
         assert np.all(step <= 2.0 + 1e-6) and np.all(np.abs(Ug[0] - ua) <= 2.0 + 1e-6)
         assert step.max() > 2.0 - 1e-6 or rate_penalty > 0
     if rate_penalty > 0 or ua is not None:
-        X, U, _ = OptiNMPC(spec).solve(pose1, R, r, b.predicted, b.predicted_omega, ua)
+        X, U, _ = built(OptiNMPC, spec).solve(pose1, R, r, b.predicted, b.predicted_omega, ua)
         np.testing.assert_allclose(b.predicted_omega, U, atol=1e-4)
 
 

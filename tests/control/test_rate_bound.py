@@ -13,8 +13,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ftc_mj.config import RunConfig, load_config
-from ftc_mj.control import NMPC, LinearMPC, ProblemSpec, build_reference
+from ftc_mj.config import load_config
+from ftc_mj.control import NMPC, LinearMPC, ProblemSpec
 from ftc_mj.control.excitation import dither_wheel_rates
 from ftc_mj.control.spec import first_input_bounds, first_step_penalty
 from ftc_mj.control.tracking import reference_at_nodes
@@ -31,7 +31,7 @@ def _steps(omega: np.ndarray) -> np.ndarray:
     return np.abs(np.diff(omega, axis=0)).max(axis=1)
 
 
-def test_first_input_bounds() -> None:
+def test_first_input_bounds(built, circle) -> None:
     spec = ProblemSpec()
     lo, hi = first_input_bounds(spec, None)
     np.testing.assert_array_equal(lo, [-OMEGA_MAX] * 2)
@@ -51,7 +51,7 @@ def test_first_input_bounds() -> None:
     assert first_step_penalty(on, u) == pytest.approx(10.0)
     assert first_step_penalty(ProblemSpec(rate_penalty=1.0), u) == 0.0  # off by default
     assert first_step_penalty(on, None) == 0.0 == first_step_penalty(spec, u)
-    ctl = NMPC(spec, build_reference(RunConfig()), solver="rti-daqp", time_budget=None, cold_time_budget=None)
+    ctl = built(NMPC, spec, circle, solver="rti-daqp", time_budget=None, cold_time_budget=None)
     with pytest.raises(ValueError, match="u_applied"):  # a caller's bug fails the run, it is no fallback
         ctl.solve(0.0, np.zeros(3), np.array([2.0, 2.0]), np.array([np.inf, 0.0]))
 
@@ -70,11 +70,11 @@ def test_dither_stays_within_the_step_bound(w: list[float], prev: list[float], d
     np.testing.assert_array_equal(out[inside], plain[inside])
 
 
-def test_fallback_and_warm_start_meet_the_bound() -> None:
+def test_fallback_and_warm_start_meet_the_bound(built, circle) -> None:
     """A fallback (the reference feed-forward before any plan, the shifted plan after one) and the warm
     start of the next solve are moved into the first-step bound when the command in force is far from
     them (as after a saturated sample)."""
-    ref = build_reference(RunConfig())
+    ref = circle
     R = np.array([2.0, 2.0])
     ff = NMPC(ProblemSpec(), ref, solver="ipopt", max_iter=0, time_budget=None, cold_time_budget=None)
     o = ff.solve(0.0, np.zeros(3), R)
@@ -83,7 +83,7 @@ def test_fallback_and_warm_start_meet_the_bound() -> None:
     assert o.fallback and np.all(np.abs(o.omega - ua) <= STEP + 1e-12)
     np.testing.assert_array_equal(o.predicted_omega[0], o.omega)
 
-    ctl = NMPC(ProblemSpec(), ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)
+    ctl = built(NMPC, ProblemSpec(), ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)
     first = ctl.solve(0.0, np.zeros(3), R)
     ua = first.omega + np.array([4.0, -4.0])
     o = ctl.solve(0.1, np.array([np.nan, 0.0, 0.0]), R, ua)  # invalid pose: the shifted plan
@@ -97,15 +97,15 @@ def test_fallback_and_warm_start_meet_the_bound() -> None:
 
 
 @pytest.mark.parametrize("kind, duration", [("rti-daqp", 3.0), ("ipopt", 1.0), ("lmpc", 1.0)])
-def test_saturated_kinematic_loop_meets_the_bound(kind: str, duration: float) -> None:
+def test_saturated_kinematic_loop_meets_the_bound(kind: str, duration: float, built, circle) -> None:
     """Every MPC (RTI, IPOPT, LMPC) on a kinematic loop told swapped radii (the plan saturates): the
     commands change by at most STEP per sample, reaching it; the free first input jumps by more."""
-    ref = build_reference(RunConfig())
+    ref = circle
     worst = {}
     for bound in (True, False):
         spec = ProblemSpec(rate_bound_from_applied=bound)
-        ctl = (LinearMPC(spec, ref, time_budget=None) if kind == "lmpc"
-               else NMPC(spec, ref, solver=kind, time_budget=None, cold_time_budget=None))
+        ctl = (built(LinearMPC, spec, ref, time_budget=None) if kind == "lmpc"
+               else built(NMPC, spec, ref, solver=kind, time_budget=None, cold_time_budget=None))
         res = kin_simulate(ctl, ref, duration, true_radii=lambda t: (1.0, 2.0), model_radii=lambda t: (2.0, 1.0))
         steps = _steps(np.array([o.omega for o in res.outputs]))
         worst[bound] = steps.max()

@@ -59,8 +59,15 @@ class OptiNMPC:
         self.spec = spec
         self._lam = None
 
+    def reset(self) -> None:
+        """Forget the dual warm start (a reset instance solves like a new one)."""
+        self._lam = None
+        self.opti.set_initial(self.opti.lam_g, np.zeros(self.opti.lam_g.shape[0]))
+
     def solve(self, x0: np.ndarray, radii: np.ndarray, ref: np.ndarray, X_init: np.ndarray, U_init: np.ndarray,
               u_prev: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+        """The plan ``(X (N, 3), U (N, 2), iterations)`` from pose ``x0`` (m, m, rad) with the model radii (m),
+        the reference (5, N) at the nodes and the initial guess; ``u_prev`` (rad/s) the input in force."""
         o = self.opti
         u_p, lo, hi, on = self._first
         om, step = self.spec.omega_max, self.spec.omega_rate_max * self.spec.sample_time

@@ -60,3 +60,24 @@ def test_controller_from_settings_alone() -> None:
     ctl = controller_from_settings({"kind": "open-loop", "open_loop_omega": [1.0, 2.0]}, ref,
                                    robot={"omega_max": 1.5})
     np.testing.assert_allclose(ctl.solve(0.0, np.zeros(3), np.array(NOMINAL)).omega, [1.0, 1.5])
+
+
+def test_an_old_controller_plugin_still_builds_with_a_warning() -> None:
+    """A plug-in factory of the old contract, ``factory(cfg, reference)``, is still called by
+    ``build_controller`` with the whole run config, behind a one-line DeprecationWarning."""
+    seen = []
+
+    def old(cfg, reference):
+        seen.append((cfg, reference))
+        return OpenLoopController((1.0, 1.0))
+
+    controllers.register("probe-old-controller", old)
+    try:
+        cfg = RunConfig()
+        cfg.controller.kind = "probe-old-controller"
+        ref = build_reference(cfg)
+        with pytest.warns(DeprecationWarning, match="old contract"):
+            ctl = build_controller(cfg, ref)
+        assert isinstance(ctl, OpenLoopController) and seen == [(cfg, ref)]
+    finally:
+        controllers.unregister("probe-old-controller")

@@ -40,6 +40,11 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the test oracles: tests.support
+
 import argparse  # noqa: E402
 import contextlib  # noqa: E402
 import time  # noqa: E402
@@ -49,11 +54,14 @@ from collections.abc import Iterator  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ftc_mj.config import RunConfig  # noqa: E402
-from ftc_mj.control import NMPC, LinearMPC, OptiNMPC, build_reference, problem_spec  # noqa: E402
+from ftc_mj.control import NMPC, LinearMPC, build_reference, problem_spec  # noqa: E402
 from ftc_mj.control.base import ControlOutput  # noqa: E402
-from ftc_mj.control.collocation import Collocation, CondensedQP, reference_at_nodes  # noqa: E402
-from ftc_mj.control.kinsim import simulate  # noqa: E402
+from ftc_mj.control.condensed_qp import CondensedQP  # noqa: E402
 from ftc_mj.control.robust import RobustNMPC  # noqa: E402
+from ftc_mj.control.tracking import reference_at_nodes  # noqa: E402
+from ftc_mj.control.transcription import Collocation  # noqa: E402
+from tests.support.kinsim import simulate  # noqa: E402
+from tests.support.opti_nmpc import OptiNMPC  # noqa: E402
 
 
 def left_step(t: float) -> tuple[float, float]:

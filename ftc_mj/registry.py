@@ -190,9 +190,9 @@ policies = Registry("policy", "ftc_mj.policies", "ftc_mj.reconfiguration.policie
 """``factory(settings: ReconfigurationConfig, context: RunContext) -> ReconfigurationPolicy``
 (``settings``: the ``[reconfiguration]`` section, a plug-in's ``options`` in ``settings.options``);
 meta ``needs_estimator=False``: used even in runs without a filter (otherwise such runs use ``none``)."""
-references = Registry("reference", "ftc_mj.references", "ftc_mj.control.reference", "reference.kind")
-"""``factory(settings: ReferenceConfig, context: RunContext) -> Reference`` (starting at
-``context.initial_pose``)."""
+references = Registry("reference", "ftc_mj.references", "ftc_mj.control.factory", "reference.kind")
+"""``factory(settings: ReferenceConfig, context: RunContext) -> Reference`` (``settings``: the ``[reference]``
+section; the path starts at ``context.initial_pose``)."""
 
 REGISTRIES: dict[str, Registry] = {"estimators": estimators, "decision_rules": decision_rules,
                                    "controllers": controllers, "policies": policies, "references": references}

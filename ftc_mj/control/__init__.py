@@ -1,9 +1,8 @@
-"""Trajectory-tracking controllers (paper §3): LGL pseudospectral NMPC, linear MPC,
+"""Trajectory-tracking controllers (paper §3): LGL pseudospectral NMPC, linear MPC, robust NMPC,
 open loop, the path-following NMPC; the reference paths; LGL helpers."""
 
 from .base import Controller, ControlOutput
-from .collocation import ProblemSpec
-from .factory import build_controller, controller_from_settings, problem_spec
+from .factory import build_controller, build_reference, controller_from_settings, problem_spec, tracking_problem
 from .lgl import (
     barycentric_interpolate,
     barycentric_weights,
@@ -14,10 +13,13 @@ from .lgl import (
     lgl_weights,
 )
 from .lmpc import LinearMPC
-from .nmpc import NMPC, OptiNMPC
+from .nmpc import NMPC
 from .open_loop import OpenLoopController
-from .pathfollow import PathFollowingNMPC, PathFollowingSpec
-from .reference import CircleReference, FigureEightReference, LineReference, RefSample, build_reference
+from .pathfollow import PathFollowingNMPC
+from .pathfollow_spec import PathFollowingSpec, RobotLimits
+from .reference import CircleReference, FigureEightReference, LineReference, RefSample
+from .robust import RobustNMPC
+from .spec import ProblemSpec
 
 __all__ = [
     "NMPC",
@@ -28,11 +30,12 @@ __all__ = [
     "LineReference",
     "LinearMPC",
     "OpenLoopController",
-    "OptiNMPC",
     "PathFollowingNMPC",
     "PathFollowingSpec",
     "ProblemSpec",
     "RefSample",
+    "RobotLimits",
+    "RobustNMPC",
     "barycentric_interpolate",
     "barycentric_weights",
     "build_controller",
@@ -44,4 +47,5 @@ __all__ = [
     "lgl_nodes",
     "lgl_weights",
     "problem_spec",
+    "tracking_problem",
 ]

@@ -16,8 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from .base import ControlOutput
-from .collocation import CondensedQP, ProblemSpec
-from .nmpc import PlanController
+from .condensed_qp import CondensedQP
+from .spec import ProblemSpec
+from .tracking import PlanController
 
 
 class LinearMPC(PlanController):

@@ -29,9 +29,6 @@ from typing import Any, NamedTuple, Protocol
 import casadi as ca
 import numpy as np
 
-from ..config import RunConfig
-from ..registry import BUILTIN, references
-
 
 class RefSample(NamedTuple):
     """Reference values at one or many times (arrays broadcast like ``t``)."""
@@ -178,13 +175,9 @@ class FigureEightReference(_TimeLaw):
     switches sign at the crossing point.
     """
 
-    def __init__(
-        self,
-        radius: float = 50.0,
-        speed: float = 10.0,
-        direction: str = "ccw",
-        initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
-    ) -> None:
+    def __init__(self, radius: float = 50.0, speed: float = 10.0, direction: str = "ccw",
+                 initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+        """Lobes of ``radius`` (m) at ``speed`` (m/s); the first lobe on the ``direction`` side of ``initial_pose``."""
         other = "cw" if direction == "ccw" else "ccw"
         self.lobes = (
             CircleReference(radius, speed, direction, initial_pose),
@@ -260,20 +253,3 @@ def project(path: Path, x: float, y: float, s_guess: float, window: float, step:
             break
         s += float(np.clip(float(el[0]) / den, -step, step))
     return s
-
-
-def _start(cfg: RunConfig) -> tuple[float, float, float]:
-    return tuple(cfg.plant.initial_pose)  # type: ignore[return-value]
-
-
-references.register("circle", lambda cfg: CircleReference(cfg.reference.radius, cfg.reference.speed,
-                                                           cfg.reference.direction, _start(cfg)), origin=BUILTIN)
-references.register("line", lambda cfg: LineReference(cfg.reference.speed, _start(cfg)), origin=BUILTIN)
-references.register("figure8", lambda cfg: FigureEightReference(cfg.reference.radius, cfg.reference.speed,
-                                                                cfg.reference.direction, _start(cfg)), origin=BUILTIN)
-
-
-def build_reference(cfg: RunConfig) -> Reference:
-    """The reference ``cfg.reference.kind`` names (``circle``, ``line``, ``figure8`` or a registered
-    plug-in's), starting at ``cfg.plant.initial_pose``."""
-    return references.build(cfg.reference.kind, cfg)

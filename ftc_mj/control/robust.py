@@ -1,7 +1,7 @@
 """Multi-stage (scenario-tree) robust NMPC over wheel-radius scenarios: passive fault tolerance.
 
 The multi-stage NMPC of Lucia, Finkler and Engell (J. Process Control 23, 2013) on the LGL problem
-of :mod:`~ftc_mj.control.collocation`:
+of :mod:`~ftc_mj.control.transcription`:
 
 * ``S`` radius scenarios ``r_i = f_i ⊙ r``: fractions ``f_i`` (e.g. nominal, each wheel at 50 %,
   both) of the model radii ``r`` handed to :meth:`~RobustNMPC.solve` (the nominal radii when no
@@ -14,8 +14,8 @@ of :mod:`~ftc_mj.control.collocation`:
   control period, i.e. every input the plant may receive before the next measurement; beyond it each
   scenario has its own inputs (recourse: by then the controller has measured more);
 * the input-rate bound relative to the command in force, ``|U(t0) − u_applied| ≤ omega_rate_max T_s``
-  (:func:`~ftc_mj.control.collocation.first_input_bounds`), on the shared first input, and the optional
-  first-step penalty (:func:`~ftc_mj.control.collocation.first_step_penalty`) in every scenario's cost
+  (:func:`~ftc_mj.control.spec.first_input_bounds`), on the shared first input, and the optional
+  first-step penalty (:func:`~ftc_mj.control.spec.first_step_penalty`) in every scenario's cost
   (the same term in each, since the first input is shared);
 * objective ``Σ_i w_i J_i`` (``expected``; weights normalised to sum 1) or ``max_i J_i`` over the
   scenarios of positive weight (``worst``, as an epigraph ``J_i ≤ t``, minimise ``t``), with ``J_i``
@@ -25,7 +25,7 @@ Solvers: ``ipopt`` solves the whole NLP (``S (5N − 2k) + 2k`` variables), warm
 shifted previous scenario plans and multipliers. ``rti-daqp`` (expected cost only) takes one
 Gauss–Newton step per sample: each scenario's collocation is linearised about its shifted plan and
 its states are eliminated exactly (:meth:`CondensedQP.build
-<ftc_mj.control.collocation.CondensedQP.build>`), leaving a dense QP in
+<ftc_mj.control.condensed_qp.CondensedQP.build>`), leaving a dense QP in
 ``z = [u_shared (2k); v_1 (2(N−k)); …; v_S (2(N−k))]`` whose Hessian is ``Σ w_i P_iᵀ H_i P_i``
 (``P_i`` selects scenario ``i``'s inputs from ``z``), solved by the certified active-set path
 (:class:`~ftc_mj.control.certified_qp.CertifiedQP`), else by DAQP. The first solve, and a re-seed
@@ -39,44 +39,33 @@ scenario's cost (zero is allowed): the constraints of every scenario hold whatev
 except that a scenario whose weight is below ``prune_below`` is *pruned*: its cost and its
 constraints leave the problem (its rows are relaxed, parametrically, nothing is rebuilt). Why one
 may want that: an implausible scenario's cost is orders of magnitude larger than the plausible
-ones' (measured on the kinematic plant after a left puncture: weights 0.999 / 0.001 left the robot
-0.36 m off the path against 0 for the exact model), and its rate rows, kept by its recourse inputs
+ones' (even a weight of 0.001 pulls the robot off the path, docs/control.md), and its rate rows, kept by
+its recourse inputs
 near their previous plan, still bound the shared inputs in the RTI iteration. On the MuJoCo robot
 the pruned hybrid diverged, though (docs/findings.md), so it is off by default.
 
 So that the QP stays strictly convex (and well conditioned) when a weight is small or zero, it adds
 the proximal term ``(ρ_i/2) ‖v_i − v_i,g‖²`` on each scenario's own inputs about their guess,
-``ρ_i`` = :data:`PROXIMAL` times the mean diagonal of that scenario's Hessian in them times
-``max(0, 1 − S w_i)`` (none from the uniform weight 1/S up, where the scenario's own cost conditions
+``ρ_i`` = :data:`~ftc_mj.control.multistage_qp.PROXIMAL` times the mean diagonal of that scenario's Hessian
+in them times ``max(0, 1 − S w_i)`` (none from the uniform weight 1/S up, where the scenario's own cost conditions
 the block); it vanishes at a fixed point of the iteration, so the RTI iterates converge to the NLP's
 solution for the exact weights.
 """
 
 from __future__ import annotations
 
-from collections import Counter
-
 import casadi as ca
 import numpy as np
 
 from .base import ControlOutput
-from .certified_qp import CertifiedQP
-from .collocation import (
-    BufferedFunction,
-    Collocation,
-    CondensedQP,
-    ProblemSpec,
-    first_input_bounds,
-    first_step_penalty,
-    warm_started_solve,
-)
+from .multistage_qp import MultiStageQP
 from .nmpc import NMPC
+from .solvers import warm_started_solve
+from .spec import ProblemSpec, first_step_penalty
+from .transcription import Collocation
 
 OBJECTIVES = ("expected", "worst")
 ROBUST_SOLVERS = ("ipopt", "rti-daqp")
-PROXIMAL = 1e-3
-"""Weight of the proximal term on each scenario's own inputs in the RTI QP, relative to the mean diagonal
-of that scenario's cost Hessian in them."""
 
 
 def scenario_radii(fractions: np.ndarray, radii: np.ndarray) -> np.ndarray:
@@ -99,20 +88,6 @@ def normalised_weights(weights: np.ndarray, n: int) -> np.ndarray:
     return w / w.sum()
 
 
-def stage_indices(n_scen: int, N: int, k: int) -> np.ndarray:
-    """Index (S, 2N) into ``z = [u_shared; v_1; …; v_S]`` of each scenario's stacked inputs
-    ``[omega_R(N), omega_L(N)]``: nodes ``j < k`` map to the shared block ``u_shared = [omega_R(k),
-    omega_L(k)]``, the others to the scenario's own block ``v_i = [omega_R(N−k), omega_L(N−k)]``."""
-    nv = 2 * (N - k)
-    idx = np.empty((n_scen, 2 * N), dtype=int)
-    j = np.arange(N)
-    for i in range(n_scen):
-        for c in range(2):
-            own = 2 * k + i * nv + c * (N - k) + (j - k)
-            idx[i, c * N:(c + 1) * N] = np.where(j < k, c * k + j, own)
-    return idx
-
-
 def moved_to(X: np.ndarray, x0: np.ndarray) -> np.ndarray:
     """States X (N, 3) [x, y, psi] (m, m, rad) moved by the planar rigid motion that takes ``X[0]`` to
     ``x0`` (3,): rotated by ``Δψ = ψ0 − ψ(0)`` about ``X[0]``, then translated to ``x0``.
@@ -130,130 +105,6 @@ def moved_to(X: np.ndarray, x0: np.ndarray) -> np.ndarray:
     out[:, 2] = X[:, 2] + d
     out[0] = x0
     return out
-
-
-class MultiStageQP:
-    """The RTI QP of the multi-stage problem: the scenarios' condensed QPs coupled by shared inputs.
-
-    ``qp`` builds each scenario's QP in its own inputs ``u_i = z[idx_i]`` (2N,); this class sums the
-    weighted costs over ``z`` (:func:`stage_indices`), stacks every scenario's constraint rows, bounds
-    the shared first input relative to the input in force
-    (:func:`~ftc_mj.control.collocation.first_input_bounds`, as bounds on ``z``) and solves the dense QP:
-    the certified active-set path first, DAQP for what it leaves unresolved. ``path_counts`` counts how
-    each QP was decided.
-    """
-
-    def __init__(self, qp: CondensedQP, n_scen: int, k: int) -> None:
-        self.qp = qp
-        N = qp.col.N
-        self.N, self.S, self.k = N, n_scen, k
-        self.idx = stage_indices(n_scen, N, k)
-        self.own = np.concatenate([np.arange(k, N), N + np.arange(k, N)])  # a scenario's own inputs in u_i
-        self.nz = 2 * k + n_scen * 2 * (N - k)
-        m_i = 3 + 2 * N + (N if qp.a_lat is not None else 0) + (N if qp.a_lon is not None else 0)
-        self.m = n_scen * m_i
-        self._cqp = CertifiedQP()
-        self._ws: np.ndarray | None = None
-        H, g, A = ca.MX.sym("H", self.nz, self.nz), ca.MX.sym("g", self.nz), ca.MX.sym("A", self.m, self.nz)
-        lba, uba = ca.MX.sym("lba", self.m), ca.MX.sym("uba", self.m)
-        lbx, ubx, x0 = ca.MX.sym("lbx", self.nz), ca.MX.sym("ubx", self.nz), ca.MX.sym("x0", self.nz)
-        solver = ca.conic("msqp", "daqp", {"h": ca.Sparsity.dense(self.nz, self.nz),
-                                           "a": ca.Sparsity.dense(self.m, self.nz)},
-                          {"error_on_fail": False, "print_problem": False})
-        r = solver(h=H, g=g, a=A, lba=lba, uba=uba, lbx=lbx, ubx=ubx, x0=x0)
-        self._plugin = BufferedFunction(ca.Function("msqp_fn", [H, g, A, lba, uba, lbx, ubx, x0], [r["x"]]))
-        self.path_counts: Counter[str] = Counter()
-
-    def reset(self) -> None:
-        """Forget the active-set guess (a reset QP behaves like a new one)."""
-        self._ws = None
-        self.qp.reset()
-
-    def assemble(self, Xg: np.ndarray, Ug: np.ndarray, radii_s: np.ndarray, x0: np.ndarray, ref: np.ndarray,
-                 weights: np.ndarray, u_prev: np.ndarray | None):
-        """QP data ``(H, g, A, lba, uba, lbx, ubx, G, hc)`` about the scenario guesses ``Xg`` (S, N, 3),
-        ``Ug`` (S, N, 2) with scenario radii ``radii_s`` (S, 2) (m) and weights (S,) summing to 1; a
-        scenario of weight NaN is pruned (its rows become ``0 ≤ 0 · z`` within ±1, so the row count stays
-        fixed). ``u_prev`` (rad/s, (2,) or ``None``) is the input in force before ``t0`` (first-step bound
-        and penalty). ``G`` (S, 3N, 2N) and ``hc`` (S, 3N) give each scenario's states
-        ``X_i = G_i u_i + hc_i``."""
-        nz, qp = self.nz, self.qp
-        H = np.zeros((nz, nz))
-        g = np.zeros(nz)
-        rows, lo, hi, Gs, hcs = [], [], [], [], []
-        own = self.own
-        for i in range(self.S):
-            Hi, gi, E, e, G, hc = qp.build(Xg[i], Ug[i], radii_s[i], x0, ref, u_prev)
-            Lv, ll, lu = qp.lateral_rows(Ug[i], radii_s[i])
-            Ai, lbi, ubi = qp._rows(E, e, Lv, ll, lu, qp.longitudinal_rows())
-            ix = self.idx[i]
-            wi = 0.0 if np.isnan(weights[i]) else weights[i]
-            if np.isnan(weights[i]):  # pruned
-                Ai, lbi, ubi = np.zeros_like(Ai), -np.ones_like(lbi), np.ones_like(ubi)
-            H[np.ix_(ix, ix)] += wi * Hi
-            g[ix] += wi * gi
-            # proximal term on the scenario's own inputs about the guess (vanishes at a fixed point)
-            rho = PROXIMAL * float(np.mean(np.diag(Hi)[own])) * max(0.0, 1.0 - self.S * wi)
-            io = ix[own]
-            H[io, io] += rho
-            g[io] -= rho * Ug[i].T.ravel()[own]
-            Az = np.zeros((Ai.shape[0], nz))
-            Az[:, ix] = Ai
-            rows.append(Az)
-            lo.append(lbi)
-            hi.append(ubi)
-            Gs.append(G)
-            hcs.append(hc)
-        om = np.full(nz, qp.omega_max)
-        lbx, ubx = -om, om.copy()
-        lbx[[0, self.k]], ubx[[0, self.k]] = first_input_bounds(qp.col.spec, u_prev)  # shared node-0 inputs
-        return (H, g, np.vstack(rows), np.concatenate(lo), np.concatenate(hi), lbx, ubx,
-                np.array(Gs), np.array(hcs))
-
-    def solve(self, Xg: np.ndarray, Ug: np.ndarray, radii_s: np.ndarray, x0: np.ndarray, ref: np.ndarray,
-              weights: np.ndarray, u_prev: np.ndarray | None
-              ) -> tuple[bool, str, np.ndarray | None, np.ndarray | None]:
-        """One RTI step: ``(ok, status, X (S, N, 3), U (S, N, 2))``; the inputs of the first ``k``
-        nodes are the same array values in every scenario."""
-        H, g, A, lba, uba, lbx, ubx, G, hc = self.assemble(Xg, Ug, radii_s, x0, ref, weights, u_prev)
-        res = self._cqp.solve(H, g, A, lba, uba, lbx, ubx, self._ws)
-        if res.status == "optimal":
-            self.path_counts[res.path] += 1
-            self._ws, z, status = res.working_set, res.u, "optimal (certified active set)"
-        elif res.status == "infeasible":
-            self.path_counts[res.path] += 1
-            self._ws = None
-            return False, "infeasible (Farkas certificate)", None, None
-        else:
-            self.path_counts["plugin"] += 1
-            self._ws = None
-            z = self._plugin(H, g, A, lba, uba, lbx, ubx, np.clip(self.stack(Ug), lbx, ubx))[0].copy()
-            status = f"daqp ({res.path})"
-        if not self.feasible(z, A, lba, uba, lbx, ubx):
-            self._ws = None
-            return False, f"qp failed: {status}", None, None
-        z = np.clip(z, lbx, ubx)
-        U = np.stack([z[ix].reshape(2, self.N).T for ix in self.idx])
-        X = np.stack([(G[i] @ z[ix] + hc[i]).reshape(3, self.N).T for i, ix in enumerate(self.idx)])
-        return True, status, X, U
-
-    def stack(self, Ug: np.ndarray) -> np.ndarray:
-        """``z`` from scenario inputs (S, N, 2); the shared block is taken from the first scenario."""
-        z = np.empty(self.nz)
-        for i in range(self.S - 1, -1, -1):
-            z[self.idx[i]] = Ug[i].T.ravel()
-        return z
-
-    @staticmethod
-    def feasible(z: np.ndarray, A: np.ndarray, lba: np.ndarray, uba: np.ndarray, lbx: np.ndarray,
-                 ubx: np.ndarray, tol: float = 1e-6) -> bool:
-        """``z`` finite and within every bound and row up to ``tol (1 + |bound|)`` (solvers differ in
-        what they call success, so the result is checked independently)."""
-        if not np.all(np.isfinite(z)):
-            return False
-        Az = A @ z
-        return bool(np.all(z >= lbx - tol * (1 + np.abs(lbx))) and np.all(z <= ubx + tol * (1 + np.abs(ubx)))
-                    and np.all(Az >= lba - tol * (1 + np.abs(lba))) and np.all(Az <= uba + tol * (1 + np.abs(uba))))
 
 
 class RobustNMPC(NMPC):
@@ -331,7 +182,7 @@ class RobustNMPC(NMPC):
 
     def solve(self, t: float, pose: np.ndarray, radii: np.ndarray,
               u_applied: np.ndarray | None = None) -> ControlOutput:
-        """As :meth:`NMPC.solve <ftc_mj.control.nmpc.PlanController.solve>`; the telemetry holds the
+        """As :meth:`NMPC.solve <ftc_mj.control.mpc.MPCLifecycle.solve>`; the telemetry holds the
         scenario weights used (``scenario_weight_1`` …; 0 for a pruned scenario)."""
         out = super().solve(t, pose, radii, u_applied)
         out.telemetry.update(zip(self.telemetry_columns, (float(w) for w in np.nan_to_num(self.stage_weights)),
@@ -451,10 +302,9 @@ class RobustNMPC(NMPC):
 
         After it: the previous scenario plans *not* shifted in time, their states moved to start at
         ``x0`` (:func:`moved_to`; heading on x0's branch). A multi-stage plan is not time-consistent:
-        each scenario's recourse inputs after the robust horizon differ from the shared ones (by
-        0.7 rad/s at the steady state of the kinematic acceptance loop), so a shift by one period puts
-        them into the new shared block and one Gauss–Newton step per sample settles at a fixed point
-        that is not the NLP's (−0.49 against −0.42 m offset there). The previous solution read as the
+        each scenario's recourse inputs after the robust horizon differ from the shared ones, so a shift
+        by one period puts them into the new shared block and one Gauss–Newton step per sample settles
+        at a fixed point that is not the NLP's (docs/control.md). The previous solution read as the
         plan from ``t`` is the NLP's solution at a steady state on the circle (the problem seen from
         the robot does not change) and a guess one period off in a transient."""
         rs = scenario_radii(self.fractions, radii)

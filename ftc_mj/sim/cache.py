@@ -15,7 +15,7 @@ from typing import Any
 
 from ..config import RunConfig
 from ..control.factory import build_controller
-from ..control.pathfollow import RobotLimits
+from ..control.pathfollow_spec import RobotLimits
 from ..identity import run_identity
 from ..plant import build_model, build_plant
 from ..plant.limits import lateral_accel_limits

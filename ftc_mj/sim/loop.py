@@ -37,7 +37,7 @@ import numpy as np
 from ..config import RunConfig
 from ..control.base import ControlOutput
 from ..control.excitation import dither_wheel_rates, yaw_dither
-from ..control.reference import build_reference
+from ..control.factory import build_reference
 from ..estimation.base import FilterOutput, Measurement
 from ..estimation.decision import DecisionState, FaultDecision
 from ..estimation.factory import build_estimator

@@ -1,4 +1,4 @@
-"""Closed loop of a controller on the kinematic model itself (checks, tests and benchmarks).
+"""Closed loop of a controller on the kinematic model itself: the test (and benchmark) oracle.
 
 The plant is :class:`~ftc_mj.model.kinematics.KinematicModel` integrated with RK4 under
 zero-order hold of the command; the true radii follow a step schedule. This is *not* the MuJoCo
@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..model.kinematics import KinematicModel
-from .base import ControlOutput
+from ftc_mj.control.base import ControlOutput
+from ftc_mj.model.kinematics import KinematicModel
 
 
 @dataclass

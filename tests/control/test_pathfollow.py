@@ -1,7 +1,7 @@
 """Path-following NMPC: bounds honoured by IPOPT and by the RTI iterates, closed loops on the kinematic model
 (RK4 plant under ZOH), the speed it finds by itself, every path kind, failure handling, factory and sim wiring.
 
-Numbers quoted in the report come from ``pytest tests/test_pathfollow.py -s`` (lines ``[pf]``)."""
+Numbers quoted in the report come from ``pytest tests/control/test_pathfollow.py -s`` (lines ``[pf]``)."""
 
 import math
 
@@ -10,16 +10,11 @@ import pytest
 
 from ftc_mj.config import RunConfig, load_config
 from ftc_mj.control import build_controller, build_reference
-from ftc_mj.control.collocation import ProblemSpec
-from ftc_mj.control.kinsim import simulate
-from ftc_mj.control.pathfollow import (
-    PathFollowingNMPC,
-    PathFollowingSpec,
-    RobotLimits,
-    compliance_offset,
-    wheel_bounds,
-)
+from ftc_mj.control.pathfollow import PathFollowingNMPC
+from ftc_mj.control.pathfollow_spec import PathFollowingSpec, RobotLimits, compliance_offset, wheel_bounds
 from ftc_mj.control.reference import FigureEightReference, LineReference
+from ftc_mj.control.spec import ProblemSpec
+from tests.support.kinsim import simulate
 
 OMEGA_MAX = math.radians(1000.0)
 CIRCLE = build_reference(RunConfig())  # 50 m, 10 m/s, from the origin heading +x
@@ -42,9 +37,9 @@ def _traction(ctl: PathFollowingNMPC, omega: np.ndarray, radii) -> np.ndarray:
 
 
 @pytest.fixture(scope="module")
-def offset_loop():
+def offset_loop(built):
     """5 m off the circle (outside), bound 3 m/s² with the braking trade-off, nominal radii, 20 s."""
-    ctl = PathFollowingNMPC(_spec(), CIRCLE)
+    ctl = built(PathFollowingNMPC, _spec(), CIRCLE, solver="rti-daqp")
     return ctl, simulate(ctl, CIRCLE, 20.0, (0.0, -5.0, 0.0))
 
 
@@ -72,14 +67,14 @@ def test_converges_from_offset_without_exceeding_the_bound(offset_loop) -> None:
         assert o.telemetry["pf_slack"] < 1e-6  # the bound can be met from the start: the slack stays 0
 
 
-def test_ipopt_and_rti_iterates_honour_the_traction_bound() -> None:
+def test_ipopt_and_rti_iterates_honour_the_traction_bound(built) -> None:
     """2 m off the circle (outside), heading along it; the 10 m/s the path asks needs 2 m/s²: with a 1.5 m/s²
     bound IPOPT's plan keeps |V psidot| + β |dV/dt| ≤ 1.5 at every node (active somewhere), and RTI steps from
     the feed-forward guess (the path at 10 m/s) converge to the same plan within the bound: the rows are
     linearised, so an iterate may exceed them by the second-order term, which vanishes as they converge."""
     spec = _spec(A=1.5)
-    ip = PathFollowingNMPC(spec, CIRCLE, solver="ipopt", max_iter=200)
-    rti = PathFollowingNMPC(spec, CIRCLE, solver="rti-daqp")
+    ip = built(PathFollowingNMPC, spec, CIRCLE, solver="ipopt", max_iter=200)
+    rti = built(PathFollowingNMPC, spec, CIRCLE, solver="rti-daqp")
     R = np.array([2.0, 2.0])
     pose = np.array([0.0, -2.0, 0.0])
     o = ip.solve(0.0, pose, R)
@@ -157,8 +152,8 @@ def test_compliance_offset_is_the_servo_couple() -> None:
     assert np.all(compliance_offset(_spec(), u, R, R) == 0.0) and np.all(compliance_offset(spec, None, R, R) == 0)
 
 
-def test_failures_fall_back_and_reset_repeats() -> None:
-    ctl = PathFollowingNMPC(_spec(), CIRCLE)
+def test_failures_fall_back_and_reset_repeats(built) -> None:
+    ctl = built(PathFollowingNMPC, _spec(), CIRCLE, solver="rti-daqp")
     R = np.array([2.0, 2.0])
     o = ctl.solve(0.0, np.array([np.nan, 0.0, 0.0]), R)
     assert o.fallback and "non-finite pose" in o.status and np.all(np.abs(o.omega) <= OMEGA_MAX)
@@ -220,14 +215,14 @@ def test_mujoco_run_writes_the_telemetry_and_rerun_entities(tmp_path) -> None:
 
 @pytest.mark.parametrize("solver", ["ipopt", "rti-daqp"])
 @pytest.mark.parametrize("row", ["wheel rate", "speed"])
-def test_first_command_stays_within_one_step_of_the_applied_command(solver: str, row: str) -> None:
+def test_first_command_stays_within_one_step_of_the_applied_command(solver: str, row: str, built) -> None:
     """On the circle at 10 m/s with the wheels commanded to stop (u_applied = 0), the plan would jump back to the
     ~5 rad/s the circle needs. ``wheel rate``: without the longitudinal bound and the braking trade-off the new
     command may move each wheel by at most omega_rate_max T_s = 2 rad/s; ``speed``: with them, the speed by at
     most max_longitudinal_accel T_s = 0.3 m/s."""
     spec = (PathFollowingSpec(ProblemSpec(rate_penalty=1.0, max_lateral_accel=3.0)) if row == "wheel rate"
             else _spec())
-    ctl = PathFollowingNMPC(spec, CIRCLE, solver=solver)
+    ctl = built(PathFollowingNMPC, spec, CIRCLE, solver=solver)
     R = np.array([2.0, 2.0])
     ctl.solve(0.0, np.zeros(3), R)  # seed (no applied command yet): plans the circle at 10 m/s
     g = CIRCLE.at(0.1)

@@ -1,7 +1,7 @@
 """Robust multi-stage NMPC: non-anticipativity, every scenario's constraints, the RTI QP against the
 NLP, the passive-FTC acceptance on the kinematic plant, scenario weights and the hybrid loop.
 
-Numbers quoted in docs/findings.md come from ``pytest tests/test_robust.py -s`` (lines ``[robust]``).
+Numbers quoted in docs/findings.md come from ``pytest tests/control/test_robust.py -s`` (lines ``[robust]``).
 """
 
 import math
@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig, load_config
-from ftc_mj.control import NMPC, build_reference, problem_spec
-from ftc_mj.control.collocation import reference_at_nodes
-from ftc_mj.control.kinsim import simulate
+from ftc_mj.control import NMPC, problem_spec
 from ftc_mj.control.robust import RobustNMPC, normalised_weights, scenario_radii
+from ftc_mj.control.tracking import reference_at_nodes
 from ftc_mj.errors import BadInput
 from ftc_mj.model.kinematics import pose_rates
 from ftc_mj.reconfiguration.scenario_weights import posterior_weights
 from ftc_mj.sim.loop import simulate as simulate_loop
+from tests.support.kinsim import simulate
 
 NOMINAL = np.array([2.0, 2.0])
 OFFSET_POSE = np.array([0.0, -5.0, 0.0])
@@ -33,15 +33,14 @@ def left_step(t: float) -> tuple[float, float]:
 
 
 @pytest.fixture(scope="module")
-def setup():
-    cfg = RunConfig()
-    return problem_spec(cfg), build_reference(cfg)
+def setup(circle):
+    return problem_spec(RunConfig()), circle
 
 
 @pytest.fixture(scope="module")
 def ip4(setup):
     spec, ref = setup
-    # a zero weight leaves a scenario's own variables without curvature: IPOPT then needed 110 iterations
+    # a zero weight leaves a scenario's own variables without curvature: more IPOPT iterations
     return RobustNMPC(spec, ref, FOUR, solver="ipopt", time_budget=None, cold_time_budget=None, max_iter=300)
 
 
@@ -128,24 +127,25 @@ def test_rti_qp_iterates_converge_to_the_nlp_solution(ip4, rti4, setup) -> None:
     assert max(_collocation_residual(rti4, Xg[i], Ug[i], rs[i]) for i in range(4)) < 1e-4
 
 
-def test_rti_closed_loop_settles_on_the_nlp_solution(setup) -> None:
+def test_rti_closed_loop_settles_on_the_nlp_solution(setup, built) -> None:
     """Kinematic loop on the path, no fault, robust RTI over {no fault, left 50 %}: after 9.8 s the loop
     is at its steady state (constant command, outward offset); the RTI command there is the multi-stage
     NLP's at the same state and applied command (a cold IPOPT solve). With the plans shifted by one
     period as warm start the RTI settled 0.15 rad/s away (the recourse inputs after the robust horizon
     moved into the shared block), i.e. at a different offset."""
     spec, ref = setup
-    rti = RobustNMPC(spec, ref, LEFT, solver="rti-daqp", time_budget=None, cold_time_budget=None)
+    rti = built(RobustNMPC, spec, ref, LEFT, solver="rti-daqp", time_budget=None, cold_time_budget=None)
     seen = []
-    solve = rti.solve
 
-    def record(t, pose, radii, u_applied=None):
-        out = solve(t, pose, radii, u_applied)
-        seen.append((t, pose.copy(), u_applied, out.omega.copy()))
-        return out
+    class Recorded:
+        failures = 0
 
-    rti.solve = record
-    simulate(rti, ref, 9.9, (0.0, 0.0, 0.0), true_radii=lambda t: (2.0, 2.0), model_radii=lambda t: (2.0, 2.0))
+        def solve(self, t, pose, radii, u_applied=None):
+            out = rti.solve(t, pose, radii, u_applied)
+            seen.append((t, pose.copy(), u_applied, out.omega.copy()))
+            return out
+
+    simulate(Recorded(), ref, 9.9, (0.0, 0.0, 0.0), true_radii=lambda t: (2.0, 2.0), model_radii=lambda t: (2.0, 2.0))
     t, pose, ua, omega = seen[-1]
     ip = RobustNMPC(spec, ref, LEFT, solver="ipopt", time_budget=None, cold_time_budget=None, max_iter=300)
     best = ip.solve(t, pose, NOMINAL, ua)
@@ -159,12 +159,12 @@ def test_rti_closed_loop_settles_on_the_nlp_solution(setup) -> None:
     assert d < 1e-3
 
 
-def test_all_weight_on_one_scenario_is_the_nominal_nmpc_for_its_radii(ip4, rti4, setup) -> None:
+def test_all_weight_on_one_scenario_is_the_nominal_nmpc_for_its_radii(ip4, rti4, setup, built) -> None:
     """With all the weight on one scenario the command is the nominal NMPC's for that scenario's radii
     (the other scenarios only constrain, through their recourse inputs); the RTI QP stays solvable (the
     proximal term keeps it strictly convex) and converges to the same command."""
     spec, ref = setup
-    nom = NMPC(spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None)
+    nom = built(NMPC, spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None)
     r, _ = reference_at_nodes(ref, rti4.col.times(0.0), OFFSET_POSE[2])
     rs = scenario_radii(FOUR, NOMINAL)
     for j in (2,):  # the left puncture
@@ -201,15 +201,15 @@ def test_weights_are_validated() -> None:
             normalised_weights(np.array(bad), 2)
 
 
-def test_passive_robust_beats_nominal_after_the_fault_on_the_kinematic_plant(setup) -> None:
+def test_passive_robust_beats_nominal_after_the_fault_on_the_kinematic_plant(setup, built) -> None:
     """Acceptance: scenario 2 on the kinematic plant, both controllers told the nominal radii. The robust
     NMPC whose scenario set holds the true post-fault radii (no fault, left at 50 %) stays closer to the
     path after the puncture than the nominal NMPC, at the price of an offset before it (reported).
     Noise-free and deterministic: the margin (measured 1.60 m against 2.03 m) is far above solver
     tolerances."""
     spec, ref = setup
-    nominal = NMPC(spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)
-    robust = RobustNMPC(spec, ref, LEFT, solver="rti-daqp", time_budget=None, cold_time_budget=None)
+    nominal = built(NMPC, spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)
+    robust = built(RobustNMPC, spec, ref, LEFT, solver="rti-daqp", time_budget=None, cold_time_budget=None)
     told = lambda t: (2.0, 2.0)  # noqa: E731
     rn = simulate(nominal, ref, 25.0, (0.0, 0.0, 0.0), true_radii=left_step, model_radii=told)
     rr = simulate(robust, ref, 25.0, (0.0, 0.0, 0.0), true_radii=left_step, model_radii=told)

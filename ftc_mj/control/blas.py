@@ -1,0 +1,48 @@
+"""Numpy's BLAS threads: one, for the small dense MPC matrices and for reproducible round-off."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import casadi as ca
+
+
+def limit_blas_threads(n: int = 1) -> bool:
+    """Set numpy's OpenBLAS thread count (process-wide) to ``n``; True if it could be set.
+
+    The MPC matrices are ~100x150: multithreaded BLAS only adds synchronisation (much slower RTI steps on
+    a loaded machine). Equivalent to ``OPENBLAS_NUM_THREADS=1`` but works after numpy has been imported.
+
+    It also makes runs deterministic: CasADi's bundled OpenBLAS (under IPOPT's MUMPS) with two threads
+    gives round-off that differs from call to call, which a saturated closed loop amplifies to different
+    trajectories. CasADi loads that library lazily with its IPOPT plugin, so it is loaded here first; the
+    plugin then shares this (single-threaded) instance.
+    """
+    import ctypes
+
+    ok = False
+    try:
+        bundled = Path(ca.__file__).parent / "libcasadi-tp-openblas.so.0"
+        if bundled.is_file():
+            ctypes.CDLL(str(bundled), mode=ctypes.RTLD_GLOBAL)
+    except OSError:
+        pass
+    try:
+        with open("/proc/self/maps") as fh:
+            libs = {ln.split()[-1] for ln in fh if "openblas" in ln.lower() and "/" in ln}
+    except OSError:
+        return False
+    for path in libs:
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for name in ("scipy_openblas_set_num_threads64_", "scipy_openblas_set_num_threads",
+                     "openblas_set_num_threads64_", "openblas_set_num_threads"):
+            fn = getattr(lib, name, None)
+            if fn is not None:
+                fn(ctypes.c_int(n))
+                ok = True
+                break
+    return ok
+

@@ -1,0 +1,83 @@
+"""The control factory: the registered controllers and references built from their own settings and the
+run context, the config readers the sim layer calls, and the settings-only entry point."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ftc_mj.config import RunConfig, run_context
+from ftc_mj.control import (
+    NMPC,
+    CircleReference,
+    LinearMPC,
+    OpenLoopController,
+    ProblemSpec,
+    build_controller,
+    build_reference,
+    controller_from_settings,
+    problem_spec,
+    tracking_problem,
+)
+from ftc_mj.registry import controllers, references
+from tests.control.common import NOMINAL, cfg_with
+
+
+def test_factory_kinds() -> None:
+    cfg = cfg_with(kind="open-loop", open_loop_omega=(3.0, 4.0))
+    ctl = build_controller(cfg, build_reference(cfg))
+    assert isinstance(ctl, OpenLoopController)
+    np.testing.assert_allclose(ctl.solve(0.0, np.zeros(3), np.array(NOMINAL)).omega, [3.0, 4.0])
+    assert isinstance(build_controller(cfg_with(kind="lmpc"), build_reference(cfg)), LinearMPC)
+    with pytest.raises(ValueError):
+        NMPC(ProblemSpec(), build_reference(cfg), solver="bogus")
+
+
+def test_factories_take_their_own_settings_and_the_run_context() -> None:
+    """Every built-in controller and reference factory follows the component contract (own settings, the run
+    context, then the reference); the problem numbers come from the controller section and the context."""
+    for reg in (controllers, references):
+        for name in reg.names():
+            entry = reg.get(name)
+            if entry.origin == "built-in":
+                assert not entry.legacy, f"{reg.kind} {name!r} takes the whole run config"
+    cfg = RunConfig()
+    cfg.controller.nodes = 20
+    ctx = run_context(cfg)
+    spec = tracking_problem(cfg.controller, ctx)
+    assert spec == problem_spec(cfg)
+    assert (spec.nodes, spec.half_track, spec.omega_max, spec.sample_time) == (20, ctx.half_track, ctx.omega_max,
+                                                                                ctx.controller_dt)
+    ref = references.create("circle", cfg.reference, ctx)
+    assert isinstance(ref, CircleReference) and ref.speed == cfg.reference.speed
+    ctl = controllers.create("open-loop", cfg.controller, ctx, ref)
+    assert isinstance(ctl, OpenLoopController)
+
+
+def test_controller_from_settings_alone() -> None:
+    """``controller_from_settings`` builds the controller its section names from plain tables."""
+    ref = CircleReference()
+    ctl = controller_from_settings({"kind": "open-loop", "open_loop_omega": [1.0, 2.0]}, ref,
+                                   robot={"omega_max": 1.5})
+    np.testing.assert_allclose(ctl.solve(0.0, np.zeros(3), np.array(NOMINAL)).omega, [1.0, 1.5])
+
+
+def test_an_old_controller_plugin_still_builds_with_a_warning() -> None:
+    """A plug-in factory of the old contract, ``factory(cfg, reference)``, is still called by
+    ``build_controller`` with the whole run config, behind a one-line DeprecationWarning."""
+    seen = []
+
+    def old(cfg, reference):
+        seen.append((cfg, reference))
+        return OpenLoopController((1.0, 1.0))
+
+    controllers.register("probe-old-controller", old)
+    try:
+        cfg = RunConfig()
+        cfg.controller.kind = "probe-old-controller"
+        ref = build_reference(cfg)
+        with pytest.warns(DeprecationWarning, match="old contract"):
+            ctl = build_controller(cfg, ref)
+        assert isinstance(ctl, OpenLoopController) and seen == [(cfg, ref)]
+    finally:
+        controllers.unregister("probe-old-controller")

@@ -19,8 +19,10 @@ import numpy as np
 from bench_filters import scenario
 
 from ftc_mj.config import RunConfig, load_config
-from ftc_mj.estimation import UKF, FaultDecision, Measurement
-from ftc_mj.estimation.change import calibrated_threshold, null_threshold
+from ftc_mj.estimation import UKF, Measurement
+from ftc_mj.estimation.change import null_threshold
+from ftc_mj.estimation.decision_factory import build_fault_decision, calibrated_threshold
+from ftc_mj.estimation.factory import setup_from_config
 from ftc_mj.estimation.pcrb import pcrb_columns
 from ftc_mj.sim.loop import simulate
 
@@ -31,8 +33,8 @@ def step_costs(steps: int, gyro: float | None) -> dict[str, np.ndarray]:
     base = {"sensors": {"yaw_rate_sigma": gyro}}
     cfg_on = RunConfig.model_validate({**base, "estimator": {"decision": {"statistics": True}}})
     cfg_off = RunConfig.model_validate({**base, "estimator": {"decision": {"statistics": False}}})
-    f = UKF(cfg_on)
-    dec_on, dec_off = FaultDecision(cfg_on), FaultDecision(cfg_off)
+    f = UKF(setup_from_config(cfg_on))
+    dec_on, dec_off = build_fault_decision(cfg_on), build_fault_decision(cfg_off)
     out: dict[str, list[float]] = {"ukf step": [], "decision, statistics on": [], "decision, statistics off": []}
     for k in range(steps):
         meas = Measurement(speed=float(z[k]), yaw_rate=None if gyro is None else float(zy[k]))
@@ -81,7 +83,7 @@ def main() -> None:
     cfg = load_config("scenario2", {"plant.kind": "kinematic", "reconfiguration.policy": "none", "duration": 40.0})
     tr = simulate(cfg).trace
     t0 = time.process_time()
-    pcrb_columns(cfg, tr)
+    pcrb_columns(setup_from_config(cfg), tr)
     print(f"\nPCRB columns of a 40 s trace ({tr['t'].size} rows): {time.process_time() - t0:.3f} CPU s")
     for gyro in (None, 0.01):
         c = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro}})

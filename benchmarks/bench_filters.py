@@ -29,9 +29,11 @@ import numpy as np
 from filterpy.kalman import IMMEstimator, JulierSigmaPoints, UnscentedKalmanFilter
 
 from ftc_mj.config import RunConfig
-from ftc_mj.estimation import EKF, IMM, UKF, Measurement
-from ftc_mj.estimation._core import FilterSetup
+from ftc_mj.estimation import Measurement
+from ftc_mj.estimation.factory import setup_from_config
+from ftc_mj.estimation.setup import FilterSetup
 from ftc_mj.model.kinematics import KinematicModel
+from tests.estimation.filters import make_filter
 
 
 def scenario(steps: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -133,14 +135,13 @@ import time
 t0 = time.perf_counter()
 import numpy as np
 from ftc_mj.config import RunConfig
-from ftc_mj.estimation import EKF, IMM, UKF, Measurement
+from ftc_mj.estimation import Measurement, build_estimator
 t1 = time.perf_counter()
 print(f"imports {t1 - t0:6.2f} s", end="")
-cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01}})
-for name, make in (("UKF", lambda: UKF(cfg)), ("EKF", lambda: EKF(cfg)), ("IMM-UKF", lambda: IMM(cfg, "ukf")),
-                   ("IMM-EKF", lambda: IMM(cfg, "ekf"))):
+for name, kind in (("UKF", "ukf"), ("EKF", "ekf"), ("IMM-UKF", "imm-ukf"), ("IMM-EKF", "imm-ekf")):
+    cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01}, "estimator": {"kind": kind}})
     t = time.perf_counter()
-    make().step(np.array([5.0, 5.0]), Measurement(10.0, 0.0))
+    build_estimator(cfg).step(np.array([5.0, 5.0]), Measurement(10.0, 0.0))
     print(f" | {name} built + first step {time.perf_counter() - t:6.2f} s", end="")
 print(f" | total {time.perf_counter() - t0:6.2f} s")
 """
@@ -170,15 +171,15 @@ def main() -> None:
     yaw = {"sensors": {"yaw_rate_sigma": 0.01}}
     cfg4y = RunConfig.model_validate(yaw)
     cfg5y = RunConfig.model_validate(yaw | {"estimator": {"imm_models": 5}})
-    setup = FilterSetup.from_config(cfg4)
+    setup = setup_from_config(cfg4)
     u, z, zy = scenario(args.steps)
     filters: dict[str, tuple[Callable[[RunConfig, str], object], RunConfig, RunConfig]] = {
-        "EKF": (lambda c, b: EKF(c, backend=b), cfg4, cfg4y),
-        "UKF": (lambda c, b: UKF(c, backend=b), cfg4, cfg4y),
-        "IMM-EKF 4": (lambda c, b: IMM(c, "ekf", backend=b), cfg4, cfg4y),
-        "IMM-EKF 5": (lambda c, b: IMM(c, "ekf", backend=b), cfg5, cfg5y),
-        "IMM-UKF 4": (lambda c, b: IMM(c, "ukf", backend=b), cfg4, cfg4y),
-        "IMM-UKF 5": (lambda c, b: IMM(c, "ukf", backend=b), cfg5, cfg5y),
+        "EKF": (lambda c, b: make_filter("ekf", c, reference=b == "numpy"), cfg4, cfg4y),
+        "UKF": (lambda c, b: make_filter("ukf", c, reference=b == "numpy"), cfg4, cfg4y),
+        "IMM-EKF 4": (lambda c, b: make_filter("imm-ekf", c, reference=b == "numpy"), cfg4, cfg4y),
+        "IMM-EKF 5": (lambda c, b: make_filter("imm-ekf", c, reference=b == "numpy"), cfg5, cfg5y),
+        "IMM-UKF 4": (lambda c, b: make_filter("imm-ukf", c, reference=b == "numpy"), cfg4, cfg4y),
+        "IMM-UKF 5": (lambda c, b: make_filter("imm-ukf", c, reference=b == "numpy"), cfg5, cfg5y),
     }
     runs: dict[str, Callable[[np.ndarray, np.ndarray], np.ndarray]] = {}
     for name, (make, c_speed, c_yaw) in filters.items():

@@ -177,10 +177,11 @@ class Registry:
 estimators = Registry("estimator", "ftc_mj.estimators", "ftc_mj.estimation.factory", "estimator.kind")
 """``factory(settings: EstimatorConfig, context: RunContext) -> Estimator | None`` (``settings``: the
 ``[estimator]`` section; ``None``: the run has no filter)."""
-decision_rules = Registry("decision rule", "ftc_mj.decision_rules", "ftc_mj.estimation.decision",
+decision_rules = Registry("decision rule", "ftc_mj.decision_rules", "ftc_mj.estimation.decision_factory",
                           "estimator.decision.rule")
 """``factory(settings: DecisionConfig, context: RunContext) -> DecisionRule`` (``settings``: the
-``[estimator.decision]`` section)."""
+``[estimator.decision]`` section); meta ``calibrate="cusum"|"glr"``: the factory is called with that
+detector's calibrated threshold (LLR units) as a third argument."""
 controllers = Registry("controller", "ftc_mj.controllers", "ftc_mj.control.factory", "controller.kind")
 """``factory(settings: ControllerConfig, context: RunContext, reference: Reference) -> Controller``;
 meta ``reusable=True``: the controller has ``reset()`` and is cached per process and structure (MPC solvers);

@@ -24,7 +24,8 @@ from __future__ import annotations
 import numpy as np
 
 from ftc_mj.config import RunConfig, load_config
-from ftc_mj.estimation.change import nominal_point
+from ftc_mj.estimation.decision_factory import nominal_point_of
+from ftc_mj.estimation.factory import setup_from_config
 from ftc_mj.estimation.observability import radius_directions
 from ftc_mj.estimation.pcrb import trace_pcrb
 from ftc_mj.sim.loop import simulate
@@ -49,7 +50,7 @@ def main() -> None:
             omega = np.column_stack([tr["omega_R"], tr["omega_L"]])
             ratio = [omega[int(np.searchsorted(t, x)), 1] / omega[int(np.searchsorted(t, x)), 0] for x in (9.9, 12.0)]
             for name, q in (("filters' model", None), ("radii constant", 0.0)):
-                B = trace_pcrb(cfg, tr, q_radius=q, start=k0)
+                B = trace_pcrb(setup_from_config(cfg), tr, q_radius=q, start=k0)
                 split = np.array([radius_directions(B[k], omega[k0 + k]).split_std for k in range(B.shape[0])])
                 at = [split[int(np.searchsorted(t[k0:], x))] for x in TIMES]
                 ok = t[k0:][split <= ISOLATED]
@@ -66,7 +67,7 @@ def constant_truth_table() -> None:
     print("\n| sensors | direction | filters' model σ = PCRB (m) | σ with constant radii (m) | ratio |")
     print("|---|---|---|---|---|")
     for gyro in (0.01, None):
-        p = nominal_point(RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro}}))
+        p = nominal_point_of(RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro}}))
         m = p.m
         H, K = np.array(p.H).reshape(m, 5), np.array(p.K).reshape(5, m)
         F, R = np.array(p.F).reshape(5, 5), np.diag(np.square(p.r_sd))

@@ -1,16 +1,17 @@
 """FDI filters (paper §3): EKF, UKF and IMM over [x, y, psi, R_R, R_L], plus the fault-decision layer.
 
 Entry points: :func:`build_estimator` (from a :class:`~ftc_mj.config.RunConfig`), the filters'
-``from_settings`` (from their own settings, without a run config) and :class:`FaultDecision`.
+``from_settings`` (from their own settings, without a run config) and :class:`FaultDecision`. The
+filters step through the compiled kernels of :mod:`.kernels`.
 Every estimator's ``step(u, z)`` returns a :class:`FilterOutput`.
 """
 
-from ._core import FilterSetup
 from .base import Estimator, FilterOutput, Hypothesis, Measurement
 from .decision import DecisionRule, DecisionState, DecisionStep, FaultDecision
 from .ekf import EKF
 from .factory import build_estimator
 from .imm import IMM
+from .setup import FilterSetup
 from .ukf import UKF
 
 __all__ = [

@@ -35,7 +35,8 @@ speed alone the signatures of the hypotheses are collinear (every drop lowers th
 else is measured), the statistics tie and nothing is isolated.
 
 Thresholds from a target mean time between false alarms ``decision.arl0`` (s),
-:func:`calibrated_threshold`: a Monte Carlo of the detector on its null model, the filter at its
+:func:`arl0_threshold` (called by the decision factory): a Monte Carlo of the detector on its null
+model, the filter at its
 nominal operating point (the reference's speed and yaw rate at nominal radii; ``P`` after 20 s of the
 filter's own Riccati recursion from ``P0``; speed and yaw-rate channels, position fixes ignored) when
 nothing changes: :class:`NullInnovations` simulates its estimation error with the radii *constant*,
@@ -59,10 +60,11 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from ..config import RunConfig
 from ..model.kinematics import inverse_rates, numpy_rates_jacobian
-from ._core import POS_X, POS_Y, SPEED, YAW, FilterSetup, measure_jacobian
+from .kernels.layout import POS_X, POS_Y, SPEED, YAW
+from .measurements import measure_jacobian
 from .pcrb import information_bound
+from .setup import FilterSetup
 
 HYPOTHESES: tuple[str, ...] = ("right", "left", "both")
 """Fault hypotheses of the detectors, in the order of their statistics."""
@@ -364,14 +366,12 @@ class NominalPoint:
         return np.linalg.solve(L, H), np.array(self.F).reshape(5, 5), np.eye(5) - K @ H
 
 
-def nominal_point(cfg: RunConfig) -> NominalPoint:
-    """Speed (+ yaw-rate) channels at the reference's steady speed and yaw rate with nominal radii; the
-    covariance after :data:`NOMINAL_SETTLE_S` of the filter's Riccati recursion from ``P0``."""
-    setup = FilterSetup.from_config(cfg)
-    ref = cfg.reference
-    psidot = 0.0 if ref.kind == "line" else ref.speed / ref.radius * (1.0 if ref.direction == "ccw" else -1.0)
+def nominal_point(setup: FilterSetup, speed: float, yaw_rate: float) -> NominalPoint:
+    """Speed (+ yaw-rate) channels of the filter ``setup`` at a steady ``speed`` (m/s) and ``yaw_rate``
+    (rad/s) with nominal radii; the covariance after :data:`NOMINAL_SETTLE_S` of the filter's Riccati
+    recursion from ``P0``."""
     R0 = setup.nominal_radius
-    u = np.array(inverse_rates(ref.speed, psidot, R0, R0, setup.model.b), float)
+    u = np.array(inverse_rates(speed, yaw_rate, R0, R0, setup.model.b), float)
     x = np.array([0.0, 0.0, 0.0, R0, R0])
     kinds = channel_kinds(setup, 2 if setup.yaw_rate_sigma is not None else 1)
     assert kinds is not None
@@ -489,19 +489,20 @@ def null_threshold(kind: str, point: NominalPoint, shift: float, window: int, ar
     return 0.5 * (lo + hi)
 
 
-def calibrated_threshold(cfg: RunConfig, kind: str) -> float:
-    """Threshold (log-likelihood-ratio units) of the ``cusum`` or ``glr`` rule for ``decision.arl0``."""
-    d = cfg.estimator.decision
-    rate = cfg.estimator.rate
-    horizon = min(d.arl0, CALIBRATION_HORIZON_S)
-    h = null_threshold(kind, nominal_point(cfg), float(d.cusum_shift), glr_window_steps(cfg),
-                       int(round(horizon * rate)))
-    return h + math.log(d.arl0 / horizon)
+def arl0_threshold(kind: str, point: NominalPoint, *, arl0: float, shift: float, window: int,
+                   rate: float) -> float:
+    """Threshold (log-likelihood-ratio units) of the ``cusum`` or ``glr`` detector for a mean time
+    ``arl0`` (s) between false alarms at the nominal ``point``: calibrated on a horizon of at most
+    :data:`CALIBRATION_HORIZON_S` at the filter ``rate`` (Hz) and extrapolated to ``arl0``; ``shift``
+    the CUSUM design shift (σ), ``window`` the GLR window (steps)."""
+    horizon = min(arl0, CALIBRATION_HORIZON_S)
+    h = null_threshold(kind, point, float(shift), window, int(round(horizon * rate)))
+    return h + math.log(arl0 / horizon)
 
 
-def glr_window_steps(cfg: RunConfig) -> int:
-    """GLR window (filter steps) from ``decision.glr_window`` (s)."""
-    return max(1, int(round(cfg.estimator.decision.glr_window * cfg.estimator.rate)))
+def glr_window_steps(window: float, rate: float) -> int:
+    """GLR window (filter steps) from ``decision.glr_window`` (s) at the filter ``rate`` (Hz)."""
+    return max(1, int(round(window * rate)))
 
 
 def siegmund_arl0(h: float, shift: float) -> float:

@@ -57,18 +57,15 @@ puncture: it is reported as :attr:`DecisionState.anomaly` and never declared.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal, Protocol
 
 import numpy as np
 
-from ..config import DecisionConfig, RunConfig
-from ..registry import BUILTIN, decision_rules
 from .base import FilterOutput
-from .change import WHEEL_CODES, calibrated_threshold
+from .change import WHEEL_CODES
 from .observability import RadiusDirections, radius_directions
-from .rule_statistics import RuleStatistics, mode_score
+from .rule_statistics import DecisionSettings, RuleStatistics, mode_score
 
 Wheel = Literal["right", "left", "both", "unknown"]
 CHANGE_RULES = ("cusum", "glr")
@@ -154,7 +151,7 @@ class SigmaRule:
     """``sigma``: a radius below nominal by ``k_sigma`` σ and ``min_drop``, isolated when the split is
     identified (module docstring)."""
 
-    def __init__(self, d: DecisionConfig, R0: float) -> None:
+    def __init__(self, d: DecisionSettings, R0: float) -> None:
         self.dwell = d.dwell
         self.k_sigma, self.min_drop, self.max_split_sigma, self.R0 = d.k_sigma, d.min_drop, d.max_split_sigma, R0
 
@@ -178,7 +175,7 @@ class ModeRule:
     """``mode``: the most probable fault class of the declared hypotheses above ``mode_threshold``,
     with the implicated radii dropped by ``min_drop`` (module docstring)."""
 
-    def __init__(self, d: DecisionConfig, R0: float) -> None:
+    def __init__(self, d: DecisionSettings, R0: float) -> None:
         self.dwell = d.dwell
         self.mode_threshold, self.min_drop, self.R0 = d.mode_threshold, d.min_drop, R0
 
@@ -194,7 +191,7 @@ class ModeRule:
 class AutoRule:
     """``auto``: :class:`ModeRule` for outputs that declare hypotheses, else :class:`SigmaRule`."""
 
-    def __init__(self, d: DecisionConfig, R0: float) -> None:
+    def __init__(self, d: DecisionSettings, R0: float) -> None:
         self.dwell = d.dwell
         self.mode, self.sigma = ModeRule(d, R0), SigmaRule(d, R0)
 
@@ -210,9 +207,11 @@ class ChangeRule:
     needs_statistics = True
     declare_dwell = 0.0
 
-    def __init__(self, cfg: RunConfig, name: str) -> None:
-        self.name, self.dwell = name, cfg.estimator.decision.dwell
-        self.threshold = calibrated_threshold(cfg, name)
+    def __init__(self, name: str, dwell: float, threshold: float) -> None:
+        """``name``: ``cusum`` or ``glr``; ``dwell`` (s); ``threshold``: calibrated by the factory for the
+        target mean time between false alarms (:func:`.change.arl0_threshold`)."""
+        self.name, self.dwell = name, dwell
+        self.threshold = threshold
         """Threshold (log-likelihood-ratio units) for a mean time ``decision.arl0`` between false alarms."""
         self._latched: Wheel | None = None
 
@@ -225,35 +224,29 @@ class ChangeRule:
         return self._latched
 
 
-def _from_config(rule: type[SigmaRule | ModeRule | AutoRule]) -> Callable[[RunConfig], DecisionRule]:
-    """The factory of a built-in rule: its settings are ``estimator.decision``, ``R0`` the model's."""
-    return lambda cfg: rule(cfg.estimator.decision, cfg.model_wheel_radius)
-
-
-decision_rules.register("sigma", _from_config(SigmaRule), origin=BUILTIN)
-decision_rules.register("mode", _from_config(ModeRule), origin=BUILTIN)
-decision_rules.register("auto", _from_config(AutoRule), origin=BUILTIN)
-decision_rules.register("cusum", lambda cfg: ChangeRule(cfg, "cusum"), origin=BUILTIN)
-decision_rules.register("glr", lambda cfg: ChangeRule(cfg, "glr"), origin=BUILTIN)
-
-
 class FaultDecision:
-    """Stateful fault-decision layer: ``FaultDecision(cfg).update(t, out) -> DecisionState``; the rule
-    is the registered ``estimator.decision.rule`` (or ``rule``, an object as :class:`DecisionRule`)."""
+    """Stateful fault-decision layer: ``FaultDecision(settings, R0, rule).update(t, out) -> DecisionState``.
 
-    def __init__(self, cfg: RunConfig, rule: DecisionRule | None = None) -> None:
-        d = cfg.estimator.decision
+    ``settings``: the ``[estimator.decision]`` section; ``R0``: the model's nominal wheel radius (m);
+    ``rule``: the decision rule (an object as :class:`DecisionRule`); ``statistics``: every rule's
+    statistics (:class:`.rule_statistics.RuleStatistics`), needed when ``settings.statistics`` is on or
+    the rule sets ``needs_statistics`` (the factory :func:`.decision_factory.build_fault_decision`
+    builds all of them from a run config).
+    """
+
+    def __init__(self, settings: DecisionSettings, R0: float, rule: DecisionRule,
+                 statistics: RuleStatistics | None = None) -> None:
+        d = settings
         self.rule = d.rule
-        self.rule_impl: DecisionRule = rule if rule is not None else decision_rules.build(d.rule, cfg)
+        self.rule_impl: DecisionRule = rule
         self.dwell = self.rule_impl.dwell
         self.declare_dwell = float(getattr(self.rule_impl, "declare_dwell", self.dwell))
-        needs = bool(getattr(self.rule_impl, "needs_statistics", False))
-        self.statistics = RuleStatistics(cfg) if d.statistics or needs else None
+        self.statistics = statistics
         self.threshold = float(getattr(self.rule_impl, "threshold", math.nan))
         """The rule's threshold where it has one (``cusum``/``glr``: log-likelihood-ratio units)."""
         self.k_sigma = d.k_sigma  # the anomaly flag's thresholds (any rule)
         self.min_drop = d.min_drop
-        self.R0 = cfg.model_wheel_radius
+        self.R0 = R0
         self.events: list[tuple[float, str]] = []
         self.declared: Wheel | None = None
         self.first_time: float | None = None

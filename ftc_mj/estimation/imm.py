@@ -30,9 +30,6 @@ diagonal, 0.01 elsewhere; 5 models add a linear left-wheel deflation at ``estima
       ``hypothesis_sigma²``, uncorrelated with the other states; the prediction adds ``Q``; the
       update may refine the radius within that tolerance (absorbing small modelling errors), and
       the next mixing/pinning re-imposes the hypothesis. The pose states are mixed normally.
-      (A softer anchor — the radius as ``f·R0`` plus a mean-reverting deviation with memory — was
-      tried and rejected: with a yaw-rate gyro the data pull every member to the true radii within a
-      few steps and the hypotheses are lost.)
     * the ramp member (5-model bank) pins ``R_R`` at nominal; its ``R_L`` keeps the *mixed* mean
       (so it starts from, and follows, the bank's estimate of the left radius) with the same
       variance ``hypothesis_sigma²``, and its prediction deflates it,
@@ -50,39 +47,26 @@ diagonal, 0.01 elsewhere; 5 models add a linear left-wheel deflation at ``estima
     ``ω_R ≈ ω_L`` (straight or gently curved paths), so their probabilities split between them:
     isolation of the wheel needs the yaw-rate gyro or strongly asymmetric wheel rates.
 
-Health rules are those of :mod:`._single`, applied to the whole bank: an update whose NIS exceeds
+Health rules are those of :mod:`.kernels.single`, applied to the whole bank: an update whose NIS exceeds
 the gate for *every* member is rejected; a member whose covariance is not positive definite is
 eigen-floored; divergence (non-finite numbers, or the mixture NIS above ``divergence_nis`` for
 ``divergence_dwell`` s) resets all members to their last finite estimates with ``reset_inflation·P0``.
 
-A step is one call of the compiled kernel :func:`._kernels.imm_step` (``backend="numba"``, the
-default) or the numpy reference code below (``backend="numpy"``); both work on the same buffers.
+A step is one call of the compiled kernel :func:`.kernels.imm.imm_step`.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Protocol
 
 import numpy as np
 
-from ..config import EstimatorConfig, RunConfig, SensorConfig, section
-from ._core import (
-    SPEED,
-    BufferView,
-    EKFCore,
-    FilterBuffers,
-    FilterSetup,
-    HealthCounters,
-    UKFCore,
-    assemble,
-    eig_floor,
-    kernel_inputs,
-    resolve_backend,
-)
-from ._kernels import C_HYP, MU_FLOOR, P_RAMP_STEP, imm_step
 from .base import FilterOutput, Hypothesis, Measurement
+from .buffers import BufferView, FilterBuffers, HealthCounters
+from .kernels.imm import imm_combine, imm_step, impose_hypotheses
+from .kernels.layout import C_HYP, P_RAMP_STEP
+from .measurements import kernel_inputs
+from .setup import FilterSetup
 
 BANK_4: tuple[Hypothesis, ...] = (
     Hypothesis("no fault", 1.0, 1.0),
@@ -93,20 +77,33 @@ BANK_4: tuple[Hypothesis, ...] = (
 BANK_5: tuple[Hypothesis, ...] = (*BANK_4, Hypothesis("left ramp", 1.0, 1.0, ramp=True))
 
 
+class ImmSettings(Protocol):
+    """What an IMM reads of the ``[estimator]`` section beside :class:`~.setup.FilterSetup`."""
+
+    imm_bank: list | None
+    imm_models: int
+    imm_variant: str
+    p_stay: float | None
+    p_stay_4: float
+    p_stay_5: float
+    hypothesis_sigma: float
+    ramp_rate: float
+
+
 def transition_matrix(n: int, p_stay: float) -> np.ndarray:
     """``n × n`` matrix with ``p_stay`` on the diagonal and ``(1 - p_stay)/(n - 1)`` elsewhere."""
     off = (1.0 - p_stay) / (n - 1)
     return np.full((n, n), off) + np.eye(n) * (p_stay - off)
 
 
-def configured_bank(est: EstimatorConfig) -> tuple[Hypothesis, ...]:
+def configured_bank(est: ImmSettings) -> tuple[Hypothesis, ...]:
     """The bank ``est`` asks for: ``est.imm_bank`` in its order, else the paper's of ``imm_models`` members."""
     if est.imm_bank is not None:
         return tuple(Hypothesis(h.name, h.frac_R, h.frac_L, h.ramp) for h in est.imm_bank)
     return BANK_4 if est.imm_models == 4 else BANK_5
 
 
-def configured_transition(est: EstimatorConfig, n: int) -> np.ndarray:
+def configured_transition(est: ImmSettings, n: int) -> np.ndarray:
     """Transition matrix of an ``n``-member bank: ``est.p_stay`` on the diagonal if set, else ``p_stay_4``
     for 4 members and ``p_stay_5`` otherwise."""
     p = est.p_stay if est.p_stay is not None else (est.p_stay_4 if n == 4 else est.p_stay_5)
@@ -114,104 +111,78 @@ def configured_transition(est: EstimatorConfig, n: int) -> np.ndarray:
 
 
 class IMM(HealthCounters):
-    """IMM over EKF or UKF members: ``IMM(cfg, member="ukf").step(u, z) -> FilterOutput``.
+    """IMM over EKF or UKF members: ``IMM(setup, settings, member="ukf").step(u, z) -> FilterOutput``.
 
-    ``hypotheses``/``transition``/``variant`` default to the configured bank (``estimator.imm_bank``,
-    else the paper's 4 or 5 models); they can be given explicitly (e.g. a 2-model bank in tests).
-    The bank's :attr:`hypotheses` travel on every output (``FilterOutput.hypotheses``), so the
-    decision layer knows what each mode probability means. ``settings``: the ``[estimator]``
-    section when there is no run config (:meth:`from_settings`). ``backend``: ``"numba"`` (compiled
-    step) or ``"numpy"`` (reference); default :data:`._core.DEFAULT_BACKEND`.
+    ``setup``: the members' resolved parameters; ``settings``: the ``[estimator]`` section (bank,
+    transition, variant, ``hypothesis_sigma`` (m), ``ramp_rate`` (m/s)). ``hypotheses``/``transition``/
+    ``variant`` default to the configured bank (``estimator.imm_bank``, else the paper's 4 or 5 models);
+    they can be given explicitly (e.g. a 2-model bank in tests). The bank's :attr:`hypotheses` travel on
+    every output (``FilterOutput.hypotheses``), so the decision layer knows what each mode probability
+    means.
 
     ``X`` (M, 5), ``P`` (M, 5, 5), ``mu`` (M,), ``loglik`` (M,), ``x`` (5,) and ``P_comb`` (5, 5) are
     views of the bank's buffers: assigning to them copies into the buffers.
     """
 
-    def __init__(
-        self,
-        cfg: RunConfig | None = None,
-        member: str = "ukf",
-        *,
-        hypotheses: tuple[Hypothesis, ...] | None = None,
-        transition: np.ndarray | None = None,
-        variant: str | None = None,
-        setup: FilterSetup | None = None,
-        backend: str | None = None,
-        settings: EstimatorConfig | None = None,
-    ) -> None:
-        if cfg is None and (setup is None or settings is None):
-            raise TypeError("IMM: give a run config, or a FilterSetup and the estimator settings "
-                            "(or use from_settings)")
-        est = settings if settings is not None else cfg.estimator  # type: ignore[union-attr]
-        self.setup = setup if setup is not None else FilterSetup.from_config(cfg)  # type: ignore[arg-type]
-        self.backend = resolve_backend(backend)
+    def __init__(self, setup: FilterSetup, settings: ImmSettings, member: str = "ukf", *,
+                 hypotheses: tuple[Hypothesis, ...] | None = None, transition: np.ndarray | None = None,
+                 variant: str | None = None) -> None:
+        self.setup = setup
         self.member = member
-        self.core: UKFCore | EKFCore = UKFCore(self.setup) if member == "ukf" else EKFCore(self.setup)
-        self.hypotheses: tuple[Hypothesis, ...] = tuple(hypotheses) if hypotheses is not None else configured_bank(est)
+        self.hypotheses: tuple[Hypothesis, ...] = (tuple(hypotheses) if hypotheses is not None
+                                                   else configured_bank(settings))
         """What each member assumes, in the order of the mode probabilities."""
         n = len(self.hypotheses)
-        if transition is None:
-            transition = configured_transition(est, n)
-        self.Pi = np.asarray(transition, float)
-        self.variant = variant if variant is not None else est.imm_variant
-        R0 = self.setup.nominal_radius
+        self.Pi = np.asarray(transition if transition is not None else configured_transition(settings, n), float)
+        self.variant = variant if variant is not None else settings.imm_variant
         self._st = FilterBuffers(self.setup, n, member)
-        self.frac = np.array([[h.frac_R, h.frac_L] for h in self.hypotheses])
-        self.X = np.repeat(self.setup.x0[None, :], n, axis=0)
-        self.X[:, 3] = self.frac[:, 0] * R0
-        self.X[:, 4] = self.frac[:, 1] * R0
-        if self.setup.x0[3] != R0 or self.setup.x0[4] != R0:
-            # configured initial radii scale the members' *initial* radii (the paper variant's only
-            # difference between members); the hypothesis variant pins fractions of nominal R0
-            self.X[:, 3] *= self.setup.x0[3] / R0
-            self.X[:, 4] *= self.setup.x0[4] / R0
-        self.P = np.repeat(self.setup.P0[None, :, :], n, axis=0)
-        self.mu = np.full(n, 1.0 / n)
-        # hypothesis variant: pinned radius components (member, [R_R, R_L]) and the ramp member(s)
+        self._init_constants(settings)
+        self._init_state()
+
+    def _init_constants(self, settings: ImmSettings) -> None:
+        """The bank's constants in the buffers: transition matrix, pinned radii (m), the covariance
+        masks of the hypothesis variant and the ramp step (m per step)."""
+        n, R0, st = self.n_modes, self.setup.nominal_radius, self._st
         hyp = self.variant == "hypothesis"
-        self._ramp = np.array([hyp and h.ramp for h in self.hypotheses])
-        self._pin = np.zeros((n, 2), dtype=bool)
+        frac = np.array([[h.frac_R, h.frac_L] for h in self.hypotheses])
+        ramp = np.array([hyp and h.ramp for h in self.hypotheses])
+        pin = np.zeros((n, 2), dtype=bool)
         if hyp:
-            self._pin[:, 0] = True
-            self._pin[:, 1] = ~self._ramp
-        self._pin_value = self.frac * R0
-        self._sig_h2 = est.hypothesis_sigma**2
-        self._ramp_step = est.ramp_rate * self.setup.dt
-        self._hyp = hyp
-        # masks: covariance entries kept (1) / dropped (0) and the re-imposed radius variances
-        reimposed = self._pin | np.stack([np.zeros(n, bool), self._ramp], axis=1)
+            pin[:, 0] = True
+            pin[:, 1] = ~ramp
+        reimposed = pin | np.stack([np.zeros(n, bool), ramp], axis=1)
         keep = np.ones((n, 5, 5))
-        self._reset_var = np.zeros((n, 5, 5))
+        reset_var = np.zeros((n, 5, 5))
         for j in range(n):
             for c in (0, 1):
                 if reimposed[j, c]:
                     keep[j, 3 + c, :] = 0.0
                     keep[j, :, 3 + c] = 0.0
-                    self._reset_var[j, 3 + c, 3 + c] = self._sig_h2
-        self._keep = keep
-        if hyp:
-            self._hypothesis_radii(self.X, self.P)
-        self._u_last = np.zeros(2)
-        self.x, self.P_comb = self._combine(self.X, self.P, self.mu)
-        # constants of the compiled step
-        st = self._st
+                    reset_var[j, 3 + c, 3 + c] = settings.hypothesis_sigma**2
         st.Pi[:] = self.Pi
-        st.pin_value[:], st.pin[:] = self._pin_value, self._pin
-        st.keep[:], st.reset_var[:], st.ramp[:] = self._keep, self._reset_var, self._ramp
-        st.prm[P_RAMP_STEP] = self._ramp_step
+        st.pin_value[:], st.pin[:] = frac * R0, pin
+        st.keep[:], st.reset_var[:], st.ramp[:] = keep, reset_var, ramp
+        st.prm[P_RAMP_STEP] = settings.ramp_rate * self.setup.dt
         st.cnt[C_HYP] = hyp
 
-    @classmethod
-    def from_settings(cls, member: str = "ukf", estimator: EstimatorConfig | Mapping[str, Any] | None = None,
-                      sensors: SensorConfig | Mapping[str, Any] | None = None, *, wheel_radius: float = 2.0,
-                      half_track: float = 1.0, initial_pose: Sequence[float] = (0.0, 0.0, 0.0),
-                      backend: str | None = None) -> IMM:
-        """The IMM built from its own settings, without a run config (the bank, transition matrix and
-        variant from ``estimator``; the rest as :meth:`FilterSetup.from_settings`)."""
-        est = section(EstimatorConfig, estimator, "estimator")
-        setup = FilterSetup.from_settings(est, sensors, wheel_radius=wheel_radius, half_track=half_track,
-                                          initial_pose=initial_pose)
-        return cls(member=member, setup=setup, settings=est, backend=backend)
+    def _init_state(self) -> None:
+        """Members start at their hypothesised radii (scaled by configured initial radii), ``P0``, uniform
+        ``μ``; the hypothesis variant imposes its hypotheses, then the bank is combined."""
+        n, R0, x0 = self.n_modes, self.setup.nominal_radius, self.setup.x0
+        X = np.repeat(x0[None, :], n, axis=0)
+        X[:, 3] = self._st.pin_value[:, 0]
+        X[:, 4] = self._st.pin_value[:, 1]
+        if x0[3] != R0 or x0[4] != R0:
+            # configured initial radii scale the members' *initial* radii (the paper variant's only
+            # difference between members); the hypothesis variant pins fractions of nominal R0
+            X[:, 3] *= x0[3] / R0
+            X[:, 4] *= x0[4] / R0
+        self.X = X
+        self.P = np.repeat(self.setup.P0[None, :, :], n, axis=0)
+        self.mu = np.full(n, 1.0 / n)
+        if self.variant == "hypothesis":
+            impose_hypotheses(self._st.buf, n, self._st.X, self._st.P)
+        imm_combine(self._st.buf, n)
 
     @property
     def n_modes(self) -> int:
@@ -226,44 +197,9 @@ class IMM(HealthCounters):
     x = BufferView("x", "Combined estimate (5,).")
     P_comb = BufferView("Pc", "Combined covariance (5, 5).")
 
-    # ---------------------------------------------------------------- IMM steps
-    def mixing_probabilities(self) -> tuple[np.ndarray, np.ndarray]:
-        """Step 1: ``(c̄, ω)`` with ``ω[i, j] = μ_{i|j}``."""
-        cbar = self.mu @ self.Pi
-        omega = self.Pi * self.mu[:, None] / cbar[None, :]
-        return cbar, omega
-
-    @staticmethod
-    def mix(X: np.ndarray, P: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Step 2: mixed initial conditions (M, 5), (M, 5, 5)."""
-        W = omega.T  # W[j, i] = μ_{i|j}
-        X0 = W @ X
-        d = X[None, :, :] - X0[:, None, :]  # (j, i, 5)
-        M = P.shape[0]
-        P0 = (W @ P.reshape(M, 25)).reshape(M, 5, 5) + (d.swapaxes(1, 2) * W[:, None, :]) @ d
-        return X0, P0
-
-    @staticmethod
-    def _combine(X: np.ndarray, P: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Step 5: combined estimate and covariance."""
-        x = mu @ X
-        d = X - x
-        Pc = (mu @ P.reshape(P.shape[0], 25)).reshape(5, 5) + (d.T * mu) @ d
-        return x, Pc
-
-    def _hypothesis_radii(self, X0: np.ndarray, P0: np.ndarray) -> None:
-        """Impose each member's radius hypothesis on its mixed initial condition (in place): pinned
-        means, and variance ``hypothesis_sigma²`` without correlation for pinned and ramp radii."""
-        X0[:, 3:5] = np.where(self._pin, self._pin_value, X0[:, 3:5])
-        P0 *= self._keep
-        P0 += self._reset_var
-
     # ---------------------------------------------------------------- step
     def step(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         """One IMM cycle with wheel rates ``u`` = [omega_R, omega_L] (rad/s) and measurement ``z``."""
-        return self._step_numba(u, z) if self.backend == "numba" else self._step_numpy(u, z)
-
-    def _step_numba(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         st = self._st
         nis, sp_innov, sp_std, m, rejected, reset = imm_step(st.buf, st.cnt, *kernel_inputs(self.setup, u, z))
         return FilterOutput(
@@ -272,89 +208,6 @@ class IMM(HealthCounters):
             mode_probs=st.mu.copy(), hypotheses=self.hypotheses, model_x=st.X.copy(), rejected=rejected, reset=reset,
         )
 
-    def _step_numpy(self, u: np.ndarray, z: Measurement) -> FilterOutput:
-        u = np.asarray(u, dtype=float).reshape(2)
-        if math.isfinite(u[0]) and math.isfinite(u[1]):
-            self._u_last = u
-        else:
-            u = self._u_last
-        X_prev, P_prev = self.X.copy(), self.P.copy()
-        cbar, omega = self.mixing_probabilities()
-        X0, P0 = self.mix(self.X, self.P, omega)
-        if self._hyp:
-            self._hypothesis_radii(X0, P0)
-        Xp, Pp = self.core.predict(X0, P0, u)
-        if self._hyp and self._ramp.any():
-            r = self._ramp
-            Xp[r, 4] = np.maximum(Xp[r, 4] - self._ramp_step, self.setup.min_radius)
-        a = assemble(self.setup, z)
-        rejected = a.dropped
-        X, P, mu = Xp, Pp, cbar
-        y = np.zeros(0)
-        S = np.zeros((0, 0))
-        nis = math.nan
-        sp_innov = sp_std = math.nan
-        if a.z.size:
-            res = self.core.update(Xp, Pp, u, a)
-            # mixture predictive density of z (weights c̄): innovation and S of the bank
-            zbar = cbar @ res.zp
-            dzp = res.zp - zbar
-            mz = dzp.shape[1]
-            S = (cbar @ res.S.reshape(len(cbar), mz * mz)).reshape(mz, mz) + (dzp.T * cbar) @ dzp
-            y = a.z - zbar
-            nis = float(y @ np.linalg.solve(S, y)) if y.size > 1 else float(y[0] * y[0] / S[0, 0])
-            if SPEED in a.kinds:
-                i = a.kinds.index(SPEED)
-                sp_innov, sp_std = float(y[i]), math.sqrt(max(float(S[i, i]), 0.0))
-            ok = np.isfinite(res.loglik)
-            if ok.any() and np.min(np.where(ok, res.nis, np.inf)) <= self.setup.nis_gate:
-                X, P = res.X, res.P
-                ll = np.where(ok, res.loglik, -np.inf)
-                self.loglik = ll
-                w = cbar * np.exp(ll - ll.max())
-                mu = w / w.sum()
-            else:
-                rejected = True
-        P = 0.5 * (P + P.swapaxes(1, 2))
-        reset = self._check_divergence(X, P, nis)
-        if reset:
-            X, P = self._reset_state(X_prev, P_prev)
-        elif float(P.diagonal(0, 1, 2).min()) <= 0.0:  # (non-PD otherwise: repaired at the next Cholesky)
-            bad = np.any(P.diagonal(0, 1, 2) <= 0.0, axis=1)
-            P[bad] = eig_floor(P[bad])
-        mu = np.maximum(mu, MU_FLOOR)  # no mode is ever impossible (as filterpy's likelihood floor)
-        self.X, self.P, self.mu = X, P, mu / mu.sum()
-        self.x, self.P_comb = self._combine(self.X, self.P, self.mu)
-        if rejected:
-            self.rejections += 1
-        return FilterOutput(
-            x=self.x.copy(), P=self.P_comb.copy(), innovation=np.array(y, float), S=np.array(S, float),
-            nis=nis, speed_innovation=sp_innov, speed_innovation_std=sp_std,
-            mode_probs=self.mu.copy(), hypotheses=self.hypotheses, model_x=self.X.copy(), rejected=rejected,
-            reset=reset,
-        )
-
-    def _check_divergence(self, X: np.ndarray, P: np.ndarray, nis: float) -> bool:
-        if not math.isfinite(float(X.sum()) + float(P.sum())):
-            return True
-        if math.isfinite(nis) and nis > self.setup.divergence_nis:
-            self._bad_nis_steps += 1
-        elif math.isfinite(nis):
-            self._bad_nis_steps = 0
-        return self._bad_nis_steps >= self.setup.divergence_steps
-
-    def _reset_state(self, X_prev: np.ndarray, P_prev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        self.resets += 1
-        self._bad_nis_steps = 0
-        X = X_prev.copy()
-        fallback = np.repeat(self.setup.x0[None, :], len(X), axis=0)
-        X = np.where(np.isfinite(X), X, fallback)
-        R0 = self.setup.nominal_radius
-        X[:, 3:5] = np.clip(X[:, 3:5], self.setup.min_radius, 10.0 * R0)
-        P = np.repeat(self.setup.reset_inflation * self.setup.P0[None, :, :], len(X), axis=0)
-        return X, P
-
-    # ---------------------------------------------------------------- convenience
     @property
     def wheels(self) -> tuple[str | None, ...]:
         """Faulty wheel(s) hypothesised by each member (``None`` = no fault)."""

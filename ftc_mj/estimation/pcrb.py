@@ -37,10 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from ..config import RunConfig
 from ..model.kinematics import KinematicModel, numpy_rates_jacobian, numpy_step_jacobian
-from ._core import FilterSetup
 from .observability import radius_directions
+from .setup import FilterSetup
 
 STATE_COLUMNS = ("x", "y", "psi", "R_R", "R_L")
 PCRB_COLUMNS = ("R_R_pcrb_std", "R_L_pcrb_std", "radius_split_pcrb_std")
@@ -120,14 +119,13 @@ class TraceLinearisation:
     """(n, 2) true wheel rates (rad/s)."""
 
 
-def linearise_trace(cfg: RunConfig, trace: dict[str, np.ndarray]) -> TraceLinearisation:
+def linearise_trace(setup: FilterSetup, trace: dict[str, np.ndarray]) -> TraceLinearisation:
     """Jacobians of the kinematic model at the true states and wheel rates of every row of ``trace``.
 
     A channel enters row ``k`` when the trace holds a finite measurement of it there: ``v_meas`` (speed),
     ``yaw_rate_meas`` (gyro), ``x_meas``/``y_meas`` (position fix). Noise levels are the configured
-    sensor σ, the model is the filters' (half track ``model.half_track``, step ``1/estimator.rate``).
+    sensor σ of ``setup``, the model is the filters' (its half track and step).
     """
-    setup = FilterSetup.from_config(cfg)
     model: KinematicModel = setup.model
     X = np.column_stack([np.asarray(trace[c], float) for c in STATE_COLUMNS])
     U = np.column_stack([np.asarray(trace["omega_R"], float), np.asarray(trace["omega_L"], float)])
@@ -157,38 +155,38 @@ def linearise_trace(cfg: RunConfig, trace: dict[str, np.ndarray]) -> TraceLinear
 
 
 def trace_pcrb(
-    cfg: RunConfig, trace: dict[str, np.ndarray], *, q_radius: float | None = None, start: int = 0,
+    setup: FilterSetup, trace: dict[str, np.ndarray], *, q_radius: float | None = None, start: int = 0,
     lin: TraceLinearisation | None = None,
 ) -> np.ndarray:
     """The bound (n - start, 5, 5) for rows ``start …`` of ``trace`` (see :func:`information_bound`).
 
     Parameters
     ----------
-    cfg, trace
-        The run's resolved config and its trace (true states, wheel rates, measurements).
+    setup, trace
+        The run's filter (:func:`ftc_mj.estimation.factory.setup_from_config`) and its trace (true
+        states, wheel rates, measurements).
     q_radius : float, optional
-        Radius process-noise σ per step (m); default: the filters' (``estimator.q_rate[3:] / rate``).
+        Radius process-noise σ per step (m); default: the filters' (``setup.Q``).
         ``0`` gives the bound for radii known to be constant (only the prior and the data inform them).
     start : int
-        First row; the prior ``P0`` (``estimator.p0_sigma``) applies before it, e.g. a fault onset.
+        First row; the prior ``setup.P0`` applies before it, e.g. a fault onset.
     lin : TraceLinearisation, optional
         Precomputed :func:`linearise_trace` of the same trace.
     """
-    setup = FilterSetup.from_config(cfg)
-    lin = lin if lin is not None else linearise_trace(cfg, trace)
+    lin = lin if lin is not None else linearise_trace(setup, trace)
     Q = setup.Q.copy()
     if q_radius is not None:
         Q[3, 3] = Q[4, 4] = q_radius * q_radius
     return information_bound(lin.F[start:], lin.H[start:], lin.R[start:], Q, setup.P0)
 
 
-def pcrb_columns(cfg: RunConfig, trace: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def pcrb_columns(setup: FilterSetup, trace: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """:data:`PCRB_COLUMNS` of a trace: the bound with the filters' own model (``Q``, ``P0``, sensor σ).
 
     The split σ is taken along the direction set by the true wheel rates of each row.
     """
-    lin = linearise_trace(cfg, trace)
-    B = trace_pcrb(cfg, trace, lin=lin)
+    lin = linearise_trace(setup, trace)
+    B = trace_pcrb(setup, trace, lin=lin)
     split = np.array([radius_directions(B[k], lin.omega[k]).split_std for k in range(B.shape[0])])
     return {
         "R_R_pcrb_std": np.sqrt(np.maximum(B[:, 3, 3], 0.0)),

@@ -29,23 +29,22 @@ from __future__ import annotations
 import functools
 import math
 from collections import deque
+from typing import Protocol
 
 import numpy as np
 
-from ..config import RunConfig
 from ..model.kinematics import numpy_step_jacobian
-from ._core import FilterSetup
 from .base import FilterOutput, Hypothesis
 from .change import (
     HYPOTHESES,
     WHEEL_CODES,
     InnovationCUSUM,
     JumpGLR,
-    glr_window_steps,
     isolate,
     linearise_step,
 )
 from .observability import RadiusDirections
+from .setup import FilterSetup
 
 STAT_COLUMNS: tuple[str, ...] = (
     "sigma_stat", "sigma_wheel", "sigma_z_R", "sigma_z_L", "mode_stat", "mode_wheel",
@@ -54,6 +53,20 @@ STAT_COLUMNS: tuple[str, ...] = (
 )
 """Trace columns written by :class:`RuleStatistics` (NaN where a rule does not apply)."""
 _EYE5 = np.eye(5)
+
+
+class DecisionSettings(Protocol):
+    """What the decision layer reads of the ``[estimator.decision]`` section (SI units)."""
+
+    rule: str
+    dwell: float
+    k_sigma: float
+    min_drop: float
+    max_split_sigma: float
+    mode_threshold: float
+    cusum_shift: float
+    isolation_llr: float
+    statistics: bool
 CLASSES: tuple[str, ...] = ("right", "left", "both")
 """IMM fault classes (a class = the members hypothesising that wheel or wheels)."""
 
@@ -116,17 +129,19 @@ def mode_score(out: FilterOutput, R0: float, min_drop: float) -> tuple[str, floa
 class RuleStatistics:
     """Stateful per-step statistics of all rules for one run (see the module docstring)."""
 
-    def __init__(self, cfg: RunConfig) -> None:
-        d = cfg.estimator.decision
-        self.setup = FilterSetup.from_config(cfg)
+    def __init__(self, setup: FilterSetup, settings: DecisionSettings, rate: float, glr_window: int) -> None:
+        """``setup``: the filter whose outputs are fed; ``settings``: the ``[estimator.decision]`` section;
+        ``rate``: the filter rate (Hz); ``glr_window``: the GLR window (steps)."""
+        d = settings
+        self.setup = setup
         self.dt = self.setup.dt
         self.R0 = self.setup.nominal_radius
         self.d = d
-        n_dwell = int(round(d.dwell * cfg.estimator.rate)) + 1
+        n_dwell = int(round(d.dwell * rate)) + 1
         self._sigma_win = SlidingMin(n_dwell)
         self._mode_win = SlidingMin(n_dwell)
         self.cusum = InnovationCUSUM(d.cusum_shift)
-        self.glr = JumpGLR(glr_window_steps(cfg))
+        self.glr = JumpGLR(glr_window)
         self._x_prev: np.ndarray | None = None
         self._cusum_g = self._glr_g = 0.0
         self._cusum_h = np.zeros(len(HYPOTHESES))

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..config import RunConfig
-from ..estimation._core import FilterSetup
+from ..estimation.factory import setup_from_config
 from ..model.kinematics import body_rates
 
 RULES: tuple[str, ...] = ("sigma", "mode", "cusum", "glr")
@@ -65,7 +65,7 @@ def first_alarm_records(trace: dict[str, np.ndarray], rule: str, split_limit: fl
 
 def cumulative_kl(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float) -> list[float]:
     """``K_n`` of the module docstring from the onset row on."""
-    setup = FilterSetup.from_config(cfg)
+    setup = setup_from_config(cfg)
     t = np.asarray(trace["t"], float)
     R0 = setup.nominal_radius
     V0, yr0 = body_rates(R0, R0, np.asarray(trace["omega_R"], float), np.asarray(trace["omega_L"], float),

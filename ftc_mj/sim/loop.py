@@ -40,7 +40,8 @@ from ..control.excitation import dither_wheel_rates, yaw_dither
 from ..control.factory import build_reference
 from ..estimation.base import FilterOutput, Measurement
 from ..estimation.decision import DecisionState, FaultDecision
-from ..estimation.factory import build_estimator
+from ..estimation.decision_factory import build_fault_decision
+from ..estimation.factory import build_estimator, setup_from_config
 from ..estimation.pcrb import pcrb_columns
 from ..metrics.onsets import fault_onsets
 from ..plant import SensorReading, Sensors, Truth
@@ -147,7 +148,7 @@ def wire(cfg: RunConfig) -> Components:
     reference = build_reference(cfg)
     controller = controller_for(cfg, reference)
     estimator = build_estimator(cfg)
-    decision = FaultDecision(cfg) if estimator is not None else None
+    decision = build_fault_decision(cfg) if estimator is not None else None
     policy = build_policy(cfg, with_estimator=estimator is not None)
     weighting = build_scenario_weighting(cfg)
     if cfg.plant.start_moving:
@@ -314,7 +315,7 @@ class ClosedLoop:
         run with a filter."""
         cols = self.trace.first_rows(self.rows) if self.error is not None else self.trace.columns
         if self.parts.estimator is not None and self.rows:
-            cols.update(pcrb_columns(self.cfg, cols))
+            cols.update(pcrb_columns(setup_from_config(self.cfg), cols))
         return cols
 
     def counters(self) -> dict[str, float]:

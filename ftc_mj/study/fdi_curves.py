@@ -48,7 +48,7 @@ import polars as pl
 
 from ..config import RunConfig, validate_config
 from ..errors import BadInput
-from ..estimation.change import calibrated_threshold
+from ..estimation.decision_factory import calibrated_threshold
 from ..estimation.rule_statistics import sigma_isolation
 from .analysis import Estimate, mean_ci, rate_ci
 from .spec import load_study

@@ -7,7 +7,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from ftc_mj.config import RunConfig
-from ftc_mj.estimation._core import FilterSetup
+from ftc_mj.estimation.factory import setup_from_config
 from ftc_mj.estimation.pcrb import information_bound, pcrb_columns, trace_pcrb
 from ftc_mj.model.kinematics import body_rates
 
@@ -41,7 +41,7 @@ def test_linear_gaussian_bound_is_the_kalman_covariance() -> None:
 def _synthetic_trace(n: int, cfg: RunConfig) -> dict[str, np.ndarray]:
     """True states of the kinematic model under varying wheel rates, with every sensor channel present
     (position fixes every 10th row) and a puncture half way."""
-    setup = FilterSetup.from_config(cfg)
+    setup = setup_from_config(cfg)
     model = setup.model
     t = np.arange(n) * setup.dt
     U = np.column_stack([5.0 + 2.0 * np.sin(3.0 * t), 4.5 + np.cos(5.0 * t)])
@@ -71,7 +71,7 @@ def _batch_bound(cfg: RunConfig, tr: dict[str, np.ndarray], last: int) -> np.nda
     """Last 5x5 block of the inverse of the Fisher information of ``x_{-1} … x_last`` given ``z_0 … z_last``:
     ``J = Σ Aᵀ W A`` over the prior, process and measurement residuals (additive Gaussian noise), with the
     Jacobians ``A`` by central finite differences of the numpy model."""
-    setup = FilterSetup.from_config(cfg)
+    setup = setup_from_config(cfg)
     model = setup.model
     X = np.column_stack([tr[c] for c in ("x", "y", "psi", "R_R", "R_L")])
     U = np.column_stack([tr["omega_R"], tr["omega_L"]])
@@ -109,7 +109,7 @@ def test_robot_bound_matches_batch_fisher_information_by_finite_differences() ->
     cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.05, "position_sigma": 0.5}})
     n = 25
     tr = _synthetic_trace(n, cfg)
-    B = trace_pcrb(cfg, tr)
+    B = trace_pcrb(setup_from_config(cfg), tr)
     for k in (10, n // 2 + 1, n - 1):
         assert np.allclose(_batch_bound(cfg, tr, k), B[k], rtol=1e-6, atol=1e-12), k
 
@@ -124,7 +124,7 @@ def test_pcrb_columns_shrink_with_a_gyro_and_keep_the_split_unobserved_without()
         tr = _synthetic_trace(n, cfg)
         tr["omega_R"] = np.full(n, 5.1)
         tr["omega_L"] = np.full(n, 4.9)
-        cols = pcrb_columns(cfg, tr)
+        cols = pcrb_columns(setup_from_config(cfg), tr)
         split = cols["radius_split_pcrb_std"]
         if expect == "grows":
             assert split[-1] > 0.5 and split[-1] > split[0]

@@ -9,18 +9,18 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig
-from ftc_mj.estimation import UKF, FaultDecision, FilterOutput, Measurement
+from ftc_mj.estimation import FaultDecision, FilterOutput, Measurement
 from ftc_mj.estimation.change import (
     NullInnovations,
-    calibrated_threshold,
-    nominal_point,
     null_threshold,
     siegmund_arl0,
 )
+from ftc_mj.estimation.decision_factory import build_fault_decision, calibrated_threshold, nominal_point_of
 from ftc_mj.estimation.imm import BANK_4
 from ftc_mj.estimation.rule_statistics import sigma_isolation
 from ftc_mj.metrics.fdi import first_alarm_records
 from ftc_mj.model.kinematics import KinematicModel
+from tests.estimation.filters import make_filter
 
 ONSET = 300  # step of the puncture in the synthetic runs
 DROP = 0.8  # m, left radius 2.0 -> 1.2
@@ -38,7 +38,7 @@ def _run(cfg: RunConfig, n: int = 500, seed: int = 1) -> tuple[list, FaultDecisi
     m = KinematicModel(b=1.0, dt=0.01)
     u = np.array([5.1, 4.9])
     x = np.array([0.0, 0.0, 0.0, 2.0, 2.0])
-    f, dec = UKF(cfg), FaultDecision(cfg)
+    f, dec = make_filter("ukf", cfg), build_fault_decision(cfg)
     states = []
     for k in range(n):
         x = m.step(x, u)
@@ -57,7 +57,7 @@ def test_null_innovations_are_white_under_the_filters_own_model_and_smaller_with
     0.0045 and 0.003, tolerances 0.02). With constant radii — the no-fault truth — the gyro channel's
     variance is a small fraction of 1 (S counts a radius random walk that is not there)."""
     cfg = _cfg("cusum", 0.01)
-    point = nominal_point(cfg)
+    point = nominal_point_of(cfg)
     q_own = cfg.estimator.q_rate[3] / cfg.estimator.rate
     for q in (q_own, 0.0):
         null = NullInnovations(point, 200, np.random.default_rng(4), q)
@@ -78,7 +78,7 @@ def test_cusum_calibration_reproduces_siegmund() -> None:
     cfg = _cfg("cusum", None)
     q_own = cfg.estimator.q_rate[3] / cfg.estimator.rate
     arl0_steps = 5000
-    h = null_threshold("cusum", nominal_point(cfg), 1.0, 50, arl0_steps, q_radius=q_own)
+    h = null_threshold("cusum", nominal_point_of(cfg), 1.0, 50, arl0_steps, q_radius=q_own)
     assert 0.7 < siegmund_arl0(h, 1.0) / arl0_steps < 1.3
 
 
@@ -146,7 +146,7 @@ def test_sigma_and_mode_statistics_reproduce_the_live_rules() -> None:
     ):
         cfg = RunConfig.model_validate({"estimator": {"kind": "imm-ukf" if rule == "mode" else "ukf",
                                                       "decision": {"rule": rule, "statistics": True}}})
-        dec = FaultDecision(cfg)
+        dec = build_fault_decision(cfg)
         states = [dec.update(round(k * 0.01, 6), o, np.array([5.1, 4.9])) for k, o in enumerate(outs)]
         first = next(k for k, s in enumerate(states) if s.detected)
         g = np.array([s.statistics[f"{rule}_stat"] for s in states])

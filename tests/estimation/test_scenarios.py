@@ -7,10 +7,14 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig
-from ftc_mj.estimation import EKF, IMM, UKF, FaultDecision, Measurement
-from ftc_mj.estimation._core import SPEED, Assembled, FilterSetup, make_core
+from ftc_mj.estimation import EKF, IMM, UKF, Measurement
 from ftc_mj.estimation.consistency import anis
+from ftc_mj.estimation.decision_factory import build_fault_decision
+from ftc_mj.estimation.factory import setup_from_config
+from ftc_mj.estimation.kernels.layout import SPEED
 from ftc_mj.model.kinematics import KinematicModel, inverse_rates
+from tests.estimation.filters import make_filter
+from tests.support.numpy_filters import Assembled, make_core
 
 DT = 0.01
 
@@ -46,7 +50,7 @@ def test_paper_q_is_conservative_for_constant_radii(member: str) -> None:
     the filter is consistent, is in test_estimation_consistency.py."""
     seeds, n = 200, 1000
     cfg = RunConfig()
-    setup = FilterSetup.from_config(cfg)
+    setup = setup_from_config(cfg)
     core = make_core(setup, member)
     u, truth, _ = circle_truth(n, None)
     rng = np.random.default_rng(12345)
@@ -100,14 +104,14 @@ YAW_CFG = {"sensors": {"yaw_rate_sigma": 0.01}}
 
 def test_left_puncture_with_gyro_ukf() -> None:
     cfg = RunConfig.model_validate(YAW_CFG)
-    outs, _, _ = run_fault(UKF(cfg), yaw=True)
+    outs, _, _ = run_fault(make_filter("ukf", cfg), yaw=True)
     t = np.arange(1, len(outs) + 1) * DT
     x = np.array([o.x for o in outs])
     win = (t >= 12.0) & (t <= 14.0)
     RR, RL = x[win, 3].mean(), x[win, 4].mean()
     print(f"UKF speed+gyro, mean over t∈[12,14]: R_R = {RR:.4f} m, R_L = {RL:.4f} m")
     assert abs(RL - 1.0) < 0.05 and abs(RR - 2.0) < 0.05
-    dec = FaultDecision(cfg)
+    dec = build_fault_decision(cfg)
     states = [dec.update(float(tk), o) for tk, o in zip(t, outs, strict=True)]
     final = states[-1]
     print(f"UKF sigma rule: declared at {final.time:.2f} s, wheel {final.wheel}, severity L {final.severity_L:.3f}")
@@ -119,7 +123,7 @@ def test_left_puncture_with_gyro_ukf() -> None:
 @pytest.mark.parametrize("member", ["ukf", "ekf"])
 def test_left_puncture_with_gyro_imm(member: str) -> None:
     cfg = RunConfig.model_validate(YAW_CFG)
-    imm = IMM(cfg, member)
+    imm = make_filter(f"imm-{member}", cfg)
     outs, _, _ = run_fault(imm, yaw=True)
     t = np.arange(1, len(outs) + 1) * DT
     mu = np.array([o.mode_probs for o in outs])
@@ -132,7 +136,7 @@ def test_left_puncture_with_gyro_imm(member: str) -> None:
     x = np.array([o.x for o in outs])
     win = (t >= 12.0) & (t <= 14.0)
     assert abs(x[win, 4].mean() - 1.0) < 0.05 and abs(x[win, 3].mean() - 2.0) < 0.05
-    dec = FaultDecision(cfg)
+    dec = build_fault_decision(cfg)
     final = [dec.update(float(tk), o) for tk, o in zip(t, outs, strict=True)][-1]
     print(f"IMM-{member.upper()} mode rule: declared at {final.time:.2f} s, wheel {final.wheel}")
     assert final.detected and final.wheel == "left" and final.active_mode == 2
@@ -144,8 +148,8 @@ def test_speed_only_identifiability() -> None:
     individual radii are not (after a left puncture the filter spreads the loss over both wheels)."""
     cfg = RunConfig()
     results = {}
-    for name, flt in (("UKF", UKF(cfg)), ("EKF", EKF(cfg)), ("IMM-UKF", IMM(cfg, "ukf"))):
-        outs, u, radii = run_fault(flt, yaw=False, n=2000)
+    for name, kind in (("UKF", "ukf"), ("EKF", "ekf"), ("IMM-UKF", "imm-ukf")):
+        outs, u, radii = run_fault(make_filter(kind, cfg), yaw=False, n=2000)
         t = np.arange(1, len(outs) + 1) * DT
         x = np.array([o.x for o in outs])
         win = t >= 14.0

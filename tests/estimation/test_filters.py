@@ -11,8 +11,9 @@ from filterpy.kalman import ExtendedKalmanFilter, JulierSigmaPoints, UnscentedKa
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import EKF, IMM, UKF, FilterOutput, Measurement, build_estimator
-from ftc_mj.estimation._core import FilterSetup
+from ftc_mj.estimation.setup import FilterSetup
 from ftc_mj.model.kinematics import KinematicModel, casadi_to_numpy
+from tests.estimation.filters import make_filter
 
 N_STEPS = 400
 
@@ -57,7 +58,7 @@ def make_filterpy_ukf(setup: FilterSetup, dim_z: int) -> UnscentedKalmanFilter:
 @pytest.mark.parametrize("yaw", [None, 0.01])
 def test_ukf_matches_filterpy(yaw: float | None) -> None:
     cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": yaw}})
-    ours = UKF(cfg)
+    ours = make_filter("ukf", cfg)
     ref = make_filterpy_ukf(ours.setup, 1 if yaw is None else 2)
     u, zs, zy = excited_data(N_STEPS, yaw_sigma=yaw)
     worst_x = worst_p = worst_y = 0.0
@@ -101,7 +102,7 @@ class FilterpyEKF(ExtendedKalmanFilter):
 @pytest.mark.parametrize("yaw", [None, 0.01])
 def test_ekf_matches_filterpy(yaw: float | None) -> None:
     cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": yaw}})
-    ours = EKF(cfg)
+    ours = make_filter("ekf", cfg)
     ref = FilterpyEKF(ours.setup, 1 if yaw is None else 2)
     R = np.diag([0.25] + ([yaw**2] if yaw else []))
     u, zs, zy = excited_data(N_STEPS, yaw_sigma=yaw)
@@ -158,10 +159,10 @@ def test_bad_measurements_rejected_and_counted(kind: str) -> None:
     assert np.all(np.isfinite(o.x))
 
 
-@pytest.mark.parametrize("cls", [EKF, UKF])
-def test_divergence_resets(cls: type[EKF] | type[UKF]) -> None:
+@pytest.mark.parametrize("kind", ["ekf", "ukf"])
+def test_divergence_resets(kind: str) -> None:
     cfg = RunConfig.model_validate({"estimator": {"divergence_dwell": 0.2}})
-    f = cls(cfg)
+    f = make_filter(kind, cfg)
     u, zs, _ = excited_data(200)
     for k in range(50):
         f.step(u[k], Measurement(float(zs[k])))
@@ -169,7 +170,7 @@ def test_divergence_resets(cls: type[EKF] | type[UKF]) -> None:
     o = f.step(u[50], Measurement(float(zs[50])))
     assert o.reset and f.resets == 1 and np.all(np.isfinite(o.P))
     # persistent large speed errors (NIS between the divergence level and the gate) → reset
-    f2 = cls(cfg)
+    f2 = make_filter(kind, cfg)
     resets = 0
     for k in range(100):
         o = f2.step(u[k], Measurement(float(zs[k]) + (40.0 * (-1) ** k if k >= 20 else 0.0)))
@@ -179,7 +180,7 @@ def test_divergence_resets(cls: type[EKF] | type[UKF]) -> None:
 
 
 def test_non_pd_covariance_is_repaired() -> None:
-    f = UKF(RunConfig())
+    f = make_filter("ukf", RunConfig())
     P = f.setup.P0.copy()
     P[3, 4] = P[4, 3] = 0.3  # |corr| > 1: indefinite
     f.P = P[None]
@@ -201,7 +202,7 @@ def test_factory_kinds() -> None:
 def test_initial_state_from_config() -> None:
     cfg = RunConfig.model_validate({"plant": {"initial_pose": [1.0, 2.0, 0.5]},
                                     "estimator": {"initial_radii": [1.8, 1.9]}})
-    f = UKF(cfg)
+    f = make_filter("ukf", cfg)
     np.testing.assert_array_equal(f.x, [1.0, 2.0, 0.5, 1.8, 1.9])
     np.testing.assert_allclose(np.diag(f.setup.Q), (np.array([5, 5, 0.1, 2, 2]) * 0.01) ** 2)
     np.testing.assert_allclose(np.diag(f.setup.P0), [0.25, 0.25, math.radians(1) ** 2, 0.25, 0.25])

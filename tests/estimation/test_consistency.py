@@ -9,7 +9,6 @@ from scipy.stats import chi2
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import Measurement, build_estimator
-from ftc_mj.estimation._core import FilterSetup
 from ftc_mj.estimation.consistency import (
     anees,
     anees_bounds,
@@ -20,6 +19,7 @@ from ftc_mj.estimation.consistency import (
     nees,
     nis,
 )
+from ftc_mj.estimation.factory import setup_from_config
 
 
 # ---------------------------------------------------------------------------- the maths
@@ -122,7 +122,7 @@ def in_model_data() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Data from the filters' own kinematic model (Euler step at 100 Hz), ``SEEDS`` runs of 10 s:
     x₀ ~ N(x̂₀, P₀), x_{k+1} = f(x_k, u_k) + N(0, Q), speed and yaw rate + N(0, R) with the default
     (paper) P₀, Q and R, and excited wheel rates. Returns u (n, 2), truth (seeds, n, 5), z (seeds, n, 2)."""
-    setup = FilterSetup.from_config(TRUTH)
+    setup = setup_from_config(TRUTH)
     m = setup.model
     rng = np.random.default_rng(2024)
     t = np.arange(STEPS) * setup.dt

@@ -1,9 +1,9 @@
-"""The compiled filter steps (numba, the default backend) against the numpy reference implementation.
+"""The compiled filter steps (numba) against the numpy reference implementation (tests/support).
 
 Every filter kind runs on the same data through both backends, with a radius fault, speed only, with a
 yaw-rate gyro and with position fixes, bad and gated measurements, divergence resets and covariance
 repairs; everything a step reports must agree to round-off (1e-9 relative to the size of the quantity).
-Also: the generated kinematic code in ``_kernels.py`` is current and is the model's.
+Also: the generated kinematic code in ``kernels/generated.py`` is current and is the model's.
 """
 
 from __future__ import annotations
@@ -17,21 +17,21 @@ import pytest
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import EKF, IMM, UKF, FilterOutput, Measurement
-from ftc_mj.estimation import _kernels as kernels
-from ftc_mj.estimation._codegen import KERNELS, generated_block, split
+from ftc_mj.estimation.codegen import DEPENDENTS, GENERATED, digest_line, generated_block, split
+from ftc_mj.estimation.kernels import generated
 from ftc_mj.model.kinematics import KinematicModel, body_rates, numpy_rates_jacobian, numpy_step_jacobian
-from tests.test_estimation import excited_data
+from tests.estimation.filters import make_filter
+from tests.estimation.test_filters import excited_data
 
 RTOL = 1e-9
 FIELDS = ("x", "P", "innovation", "S", "nis", "speed_innovation", "speed_innovation_std", "mode_probs", "model_x")
 Filter = EKF | UKF | IMM
 
 KINDS: dict[str, Callable[[RunConfig, str], Filter]] = {
-    "ekf": lambda cfg, b: EKF(cfg, backend=b),
-    "ukf": lambda cfg, b: UKF(cfg, backend=b),
-    "imm-ekf": lambda cfg, b: IMM(cfg, "ekf", backend=b),
-    "imm-ukf": lambda cfg, b: IMM(cfg, "ukf", backend=b),
+    kind: (lambda cfg, b, kind=kind: make_filter(kind, cfg, reference=b == "numpy"))
+    for kind in ("ekf", "ukf", "imm-ekf", "imm-ukf")
 }
+"""Filter kind → ``make(cfg, backend)`` with backend ``"numba"`` (the package) or ``"numpy"`` (the reference)."""
 
 
 def close(a: object, b: object) -> float:
@@ -158,15 +158,19 @@ def test_numba_step_is_deterministic() -> None:
     cfg = sensor_cfg("yaw", imm_models=5)
     outs = []
     for _ in range(2):
-        f = IMM(cfg, "ukf")
+        f = make_filter("imm-ukf", cfg)
         outs.append(np.array([np.concatenate([o.x, o.P.ravel(), o.mode_probs]) for o in
                               (f.step(u[k], Measurement(float(zs[k]), float(zy[k]))) for k in range(200))]))
     np.testing.assert_array_equal(outs[0], outs[1])
 
 
 def test_generated_kinematics_is_current() -> None:
-    """The block in ``_kernels.py`` is what the model generates now (else: python -m ftc_mj.estimation._codegen)."""
-    assert split(KERNELS.read_text())[1] == generated_block()
+    """The block in ``kernels/generated.py`` is what the model generates now, and every kernel module that
+    compiles it in carries its digest (else: python -m ftc_mj.estimation.codegen)."""
+    block = generated_block()
+    assert split(GENERATED.read_text())[1] == block
+    for path in DEPENDENTS:
+        assert digest_line(block) in path.read_text().splitlines(), path.name
 
 
 def test_generated_kinematics_is_the_model() -> None:
@@ -176,18 +180,11 @@ def test_generated_kinematics_is_the_model() -> None:
     U = rng.normal(size=(20, 2)) * 5
     out5, F, r2, H = np.empty(5), np.empty((5, 5)), np.empty(2), np.empty((2, 5))
     for x, u in zip(X, U, strict=True):
-        kernels._kin_step(x, u, 0.01, 1.3, out5)
+        generated.kin_step(x, u, 0.01, 1.3, out5)
         np.testing.assert_allclose(out5, m.step_batch(x, u), rtol=1e-15, atol=1e-15)
-        kernels._kin_F(x, u, 0.01, 1.3, F)
+        generated.kin_F(x, u, 0.01, 1.3, F)
         np.testing.assert_allclose(F, numpy_step_jacobian(m, x, u), rtol=1e-15, atol=1e-15)
-        kernels._kin_rates(x, u, 1.3, r2)
+        generated.kin_rates(x, u, 1.3, r2)
         np.testing.assert_allclose(r2, body_rates(x[3], x[4], u[0], u[1], 1.3), rtol=1e-15, atol=1e-15)
-        kernels._kin_H(x, u, 1.3, H)
+        generated.kin_H(x, u, 1.3, H)
         np.testing.assert_allclose(H, numpy_rates_jacobian(m, x, u), rtol=1e-15, atol=1e-15)
-
-
-def test_backend_choice() -> None:
-    assert UKF(RunConfig()).backend == "numba"
-    assert IMM(RunConfig(), backend="numpy").backend == "numpy"
-    with pytest.raises(ValueError, match="backend"):
-        EKF(RunConfig(), backend="fortran")

@@ -10,10 +10,13 @@ import pytest
 from filterpy.kalman import IMMEstimator, JulierSigmaPoints, UnscentedKalmanFilter
 
 from ftc_mj.config import RunConfig
-from ftc_mj.estimation import IMM, FaultDecision, Hypothesis, Measurement
-from ftc_mj.estimation._core import FilterSetup
+from ftc_mj.estimation import IMM, Hypothesis, Measurement
+from ftc_mj.estimation.decision_factory import build_fault_decision
+from ftc_mj.estimation.factory import setup_from_config
 from ftc_mj.estimation.imm import BANK_4, transition_matrix
 from ftc_mj.model.kinematics import KinematicModel, inverse_rates
+from tests.estimation.filters import make_filter
+from tests.support.numpy_filters import assemble
 
 DT = 0.01
 
@@ -36,7 +39,7 @@ def test_imm_matches_filterpy_immestimator() -> None:
     """Where filterpy applies: UKF members with identical structure (the paper variant), inputs via a
     closure, speed only. Mode probabilities, member and combined estimates agree to round-off."""
     cfg = RunConfig()
-    setup = FilterSetup.from_config(cfg)
+    setup = setup_from_config(cfg)
     m = setup.model
     inputs = np.zeros(2)
     filters = []
@@ -51,7 +54,7 @@ def test_imm_matches_filterpy_immestimator() -> None:
         filters.append(f)
     Pi = transition_matrix(4, 0.97)
     ref = IMMEstimator(filters, np.full(4, 0.25), Pi)
-    ours = IMM(cfg, "ukf", variant="paper")
+    ours = make_filter("imm-ukf", cfg, variant="paper")
     u, z = excited(300)
     worst = {"mu": 0.0, "x": 0.0, "P": 0.0, "members": 0.0}
     for k in range(300):
@@ -73,17 +76,19 @@ def test_two_model_hand_computed_cycle() -> None:
     cfg = RunConfig()
     bank = (Hypothesis("a", 1.0, 1.0), Hypothesis("b", 1.0, 0.5))
     Pi = np.array([[0.9, 0.1], [0.2, 0.8]])
-    imm = IMM(cfg, "ukf", hypotheses=bank, transition=Pi, variant="paper")
+    imm = make_filter("imm-ukf", cfg, hypotheses=bank, transition=Pi, variant="paper")
     imm.mu = np.array([0.8, 0.2])
     X = np.array([[0.0, 0.0, 0.0, 2.0, 2.0], [1.0, 0.0, 0.0, 2.0, 1.0]])
     P = np.array([np.eye(5) * 0.1, np.eye(5) * 0.2])
     imm.X, imm.P = X.copy(), P.copy()
+    ref = make_filter("imm-ukf", cfg, reference=True, hypotheses=bank, transition=Pi, variant="paper")
+    ref.mu = imm.mu
     # step 1: c̄ = [0.8·0.9 + 0.2·0.2, 0.8·0.1 + 0.2·0.8] = [0.76, 0.24]
-    cbar, omega = imm.mixing_probabilities()
+    cbar, omega = ref.mixing_probabilities()
     np.testing.assert_allclose(cbar, [0.76, 0.24], atol=1e-15)
     np.testing.assert_allclose(omega, [[0.72 / 0.76, 0.08 / 0.24], [0.04 / 0.76, 0.16 / 0.24]], atol=1e-15)
     # step 2: mixed means and covariances
-    X0, P0 = imm.mix(X, P, omega)
+    X0, P0 = ref.mix(X, P, omega)
     w00, w10 = 0.72 / 0.76, 0.04 / 0.76  # μ_{0|0}, μ_{1|0}
     np.testing.assert_allclose(X0[0], [w10, 0, 0, 2.0, w00 * 2 + w10 * 1], atol=1e-14)
     np.testing.assert_allclose(X0[1], [2 / 3, 0, 0, 2.0, 1 / 3 * 2 + 2 / 3 * 1], atol=1e-14)
@@ -98,10 +103,9 @@ def test_two_model_hand_computed_cycle() -> None:
     u = np.array([5.0, 5.0])
     z = 14.0
     out = imm.step(u, Measurement(z))
-    core = imm.core
+    core = ref.core
     Xp, Pp = core.predict(X0, P0, u)
     # the measurement update of each member and its Gaussian likelihood N(z; ẑ_j, S_j)
-    from ftc_mj.estimation._core import assemble
     res = core.update(Xp, Pp, u, assemble(imm.setup, Measurement(z)))
     lik = np.exp(-0.5 * res.y[:, 0] ** 2 / res.S[:, 0, 0]) / np.sqrt(2 * np.pi * res.S[:, 0, 0])
     mu = lik * cbar / np.sum(lik * cbar)
@@ -119,7 +123,7 @@ def test_paper_variant_collapses_hypothesis_does_not(models: int) -> None:
     spreads = {}
     for variant in ("paper", "hypothesis"):
         cfg = RunConfig.model_validate({"estimator": {"imm_models": models, "imm_variant": variant}})
-        imm = IMM(cfg, "ukf")
+        imm = make_filter("imm-ukf", cfg)
         for k in range(1000):
             out = imm.step(u[k], Measurement(float(z[k])))
         spread = float(np.ptp(out.model_x[:, 3:5], axis=0).max())
@@ -154,12 +158,12 @@ def circle_run(imm: IMM, left: list, right: list, n: int, seed: int = 2) -> tupl
 
 def test_scenario3_both_wheels() -> None:
     cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01}})
-    imm = IMM(cfg, "ukf")
+    imm = make_filter("imm-ukf", cfg)
     t, outs = circle_run(imm, left=[(5.0, 2.0), (5.0, 1.0)], right=[(10.0, 2.0), (10.0, 1.0)], n=1400)
     mu = np.array([o.mode_probs for o in outs])
     assert np.all(mu[(t > 6.0) & (t < 10.0), 2] > 0.9)
     assert np.all(mu[t > 11.0, 3] > 0.9)
-    dec = FaultDecision(cfg)
+    dec = build_fault_decision(cfg)
     final = [dec.update(float(tk), o) for tk, o in zip(t, outs, strict=True)][-1]
     print("scenario 3 events:", dec.events)
     assert [e[1] for e in dec.events] == ["declare left", "change both"]
@@ -168,7 +172,7 @@ def test_scenario3_both_wheels() -> None:
 
 def test_scenario4_ramp_needs_fifth_model() -> None:
     cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01}, "estimator": {"imm_models": 5}})
-    imm = IMM(cfg, "ukf")
+    imm = make_filter("imm-ukf", cfg)
     ramp = [(10.0, 2.0), (29.0, 0.1)]
     t, outs = circle_run(imm, left=ramp, right=[], n=2500)
     mu = np.array([o.mode_probs for o in outs])
@@ -184,13 +188,13 @@ def test_scenario4_ramp_needs_fifth_model() -> None:
     assert np.all(mu[pre, 0] + mu[pre, 4] > 0.9)
     assert ramp_share > 0.8
     assert err5.mean() < 0.05
-    dec = FaultDecision(cfg)
+    dec = build_fault_decision(cfg)
     final = [dec.update(float(tk), o) for tk, o in zip(t, outs, strict=True)][-1]
     print("scenario 4 (5 models) events:", dec.events)
     assert final.wheel == "left" and 10.0 < final.time < 12.0
     assert [e[1] for e in dec.events] == ["declare left"]
     # the 4-model bank has no hypothesis for it: its combined estimate is worse
-    imm4 = IMM(RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01}}), "ukf")
+    imm4 = make_filter("imm-ukf", RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01}}))
     t, outs4 = circle_run(imm4, left=ramp, right=[], n=2500)
     err4 = np.abs(np.array([o.x[4] for o in outs4]) - true_RL)[t > 12.0]
     print(f"4 models, ramp: mean |R_L error| after 12 s {err4.mean():.3f} m")

@@ -1,0 +1,301 @@
+"""Kalman steps of a bank of filters: UKF and EKF predict and update (filterpy 2.0.0's maths).
+
+Written as loops over the members of a bank (the numpy reference in ``tests/support/numpy_filters.py``
+gives the same formulas in matrix form; the tests require agreement to round-off):
+
+* UKF (``UnscentedKalmanFilter`` + ``JulierSigmaPoints``): sigma points ``x ± columns of L`` with
+  ``LLᵀ = (n+κ)P``; predict = unscented transform of the Euler step plus ``Q``; the update
+  *regenerates* the sigma points from the prior ``(x⁻, P⁻)`` (filterpy 2.0 behaviour);
+  ``S = Σ W (h-ẑ)(h-ẑ)ᵀ + R``, ``K = Pxz S⁻¹``, ``P⁺ = P⁻ - K S Kᵀ``.
+* EKF (``ExtendedKalmanFilter``, ``F`` = AD Jacobian at the posterior): ``P⁻ = F P Fᵀ + Q``;
+  Joseph-form update ``P⁺ = (I-KH)P⁻(I-KH)ᵀ + K R Kᵀ``.
+
+Units: states (m, m, rad, m, m), wheel rates (rad/s), speed (m/s), yaw rate (rad/s), position (m).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .generated import kin_F, kin_H, kin_rates, kin_step
+from .layout import N_SIGMA, P_B, P_DT, POS_X, SPEED, YAW
+from .linalg import chol, eig_floor, gaussian
+
+MODEL_DIGEST = "d5385545ce3b5bff"
+"""Digest of :mod:`.generated` this module's compiled code includes (see :mod:`ftc_mj.estimation.codegen`)."""
+
+
+@njit(cache=True, error_model="numpy")
+def channels(mask: int, z0: float, z1: float, z2: float, z3: float) -> tuple[np.ndarray, np.ndarray]:
+    """Channel codes present in the bit mask ``mask`` (bit k = channel code k), in stacking order, and
+    their values (the first ``m`` of ``z0..z3``)."""
+    m = 0
+    for k in range(4):
+        m += (mask >> k) & 1
+    kinds = np.empty(m, np.int64)
+    i = 0
+    for k in range(4):
+        if (mask >> k) & 1:
+            kinds[i] = k
+            i += 1
+    z = np.empty(m)
+    for i, v in enumerate((z0, z1, z2, z3)):
+        if i < m:
+            z[i] = v
+    return kinds, z
+
+
+@njit(cache=True, error_model="numpy")
+def measure(x: np.ndarray, u: np.ndarray, b: float, kinds: np.ndarray, rates: np.ndarray, out: np.ndarray) -> None:
+    """Predicted measurements of state ``x`` for the channels ``kinds`` ."""
+    kin_rates(x, u, b, rates)
+    for i in range(kinds.shape[0]):
+        k = kinds[i]
+        if k == SPEED:
+            out[i] = rates[0]
+        elif k == YAW:
+            out[i] = rates[1]
+        elif k == POS_X:
+            out[i] = x[0]
+        else:
+            out[i] = x[1]
+
+
+# ---------------------------------------------------------------------------- UKF
+@njit(cache=True, error_model="numpy")
+def weights(kappa: float) -> tuple[float, np.ndarray]:
+    """Julier weights (11,) and the scale ``n + κ`` of the 5-state filter."""
+    c = 5 + kappa
+    W = np.full(N_SIGMA, 0.5 / c)
+    W[0] = kappa / c
+    return c, W
+
+
+@njit(cache=True, error_model="numpy")
+def sigma_points(X: np.ndarray, P: np.ndarray, c: float, sig: np.ndarray) -> np.ndarray:
+    """Sigma points (n, 11, 5) of a bank into ``sig``; returns the covariances used: ``P``, or — when a
+    factorisation failed and every entry is finite — all members eigen-floored (the batched rule of
+    the numpy reference; non-finite NaNs propagate into a reset)."""
+    n = X.shape[0]
+    L = np.empty((n, 5, 5))
+    last = 0.0
+    for j in range(n):
+        chol(P[j], c, L[j])
+        last += L[j, 4, 4]
+    if not math.isfinite(last) and math.isfinite(P.sum()):
+        Pr = np.empty_like(P)
+        for j in range(n):
+            eig_floor(P[j], Pr[j])
+            chol(Pr[j], c, L[j])
+        P = Pr
+    for j in range(n):
+        for a in range(5):
+            sig[j, 0, a] = X[j, a]
+        for i in range(5):
+            for a in range(5):
+                sig[j, 1 + i, a] = X[j, a] + L[j, a, i]
+                sig[j, 6 + i, a] = X[j, a] - L[j, a, i]
+    return P
+
+
+@njit(cache=True, error_model="numpy")
+def ukf_predict(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, c: float, W: np.ndarray,
+                Q: np.ndarray, Xp: np.ndarray, Pp: np.ndarray) -> None:
+    """Unscented transform of the Euler step plus ``Q`` for a bank;
+    ``c``, ``W`` from :func:`weights`."""
+    n = X.shape[0]
+    sig = np.empty((n, N_SIGMA, 5))
+    sigma_points(X, P, c, sig)
+    sf = np.empty((N_SIGMA, 5))
+    d = np.empty((N_SIGMA, 5))
+    for j in range(n):
+        for k in range(N_SIGMA):
+            kin_step(sig[j, k], u, prm[P_DT], prm[P_B], sf[k])
+        for a in range(5):
+            s = 0.0
+            for k in range(N_SIGMA):
+                s += W[k] * sf[k, a]
+            Xp[j, a] = s
+        for k in range(N_SIGMA):
+            for a in range(5):
+                d[k, a] = sf[k, a] - Xp[j, a]
+        for a in range(5):
+            for b in range(5):
+                s = 0.0
+                for k in range(N_SIGMA):
+                    s += d[k, a] * W[k] * d[k, b]
+                Pp[j, a, b] = s + Q[a, b]
+
+
+@njit(cache=True, error_model="numpy")
+def ukf_update(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, c: float, W: np.ndarray,
+               kinds: np.ndarray, z: np.ndarray, rvar: np.ndarray, Xn: np.ndarray, Pn: np.ndarray, Zp: np.ndarray,
+               Y: np.ndarray, S: np.ndarray, nis: np.ndarray, ll: np.ndarray) -> None:
+    """Measurement update of a bank from sigma points regenerated at the prior:
+    posterior ``Xn``, ``Pn``, predicted measurements ``Zp`` and innovations ``Y`` (n, m), their covariances
+    ``S`` (n, m, m), NIS and log-likelihoods (n,)."""
+    n = X.shape[0]
+    m = kinds.shape[0]
+    sig = np.empty((n, N_SIGMA, 5))
+    P = sigma_points(X, P, c, sig)
+    sh = np.empty((N_SIGMA, m))
+    dz = np.empty((N_SIGMA, m))
+    rates = np.empty(2)
+    Pxz = np.empty((5, m))
+    K = np.empty((5, m))
+    SI = np.empty((m, m))
+    SKT = np.empty((m, 5))
+    for j in range(n):
+        for k in range(N_SIGMA):
+            measure(sig[j, k], u, prm[P_B], kinds, rates, sh[k])
+        zp = Zp[j]
+        for i in range(m):
+            s = 0.0
+            for k in range(N_SIGMA):
+                s += W[k] * sh[k, i]
+            zp[i] = s
+        for k in range(N_SIGMA):
+            for i in range(m):
+                dz[k, i] = sh[k, i] - zp[i]
+        for i in range(m):
+            for i2 in range(m):
+                s = 0.0
+                for k in range(N_SIGMA):
+                    s += dz[k, i] * W[k] * dz[k, i2]
+                S[j, i, i2] = s + (rvar[kinds[i]] if i == i2 else 0.0)
+        for a in range(5):
+            for i in range(m):
+                s = 0.0
+                for k in range(N_SIGMA):
+                    s += (sig[j, k, a] - X[j, a]) * W[k] * dz[k, i]
+                Pxz[a, i] = s
+        for i in range(m):
+            Y[j, i] = z[i] - zp[i]
+        nis[j], ll[j] = gaussian(Y[j], S[j], SI)
+        for a in range(5):
+            for i in range(m):
+                s = 0.0
+                for i2 in range(m):
+                    s += Pxz[a, i2] * SI[i2, i]
+                K[a, i] = s
+        for a in range(5):
+            s = 0.0
+            for i in range(m):
+                s += K[a, i] * Y[j, i]
+            Xn[j, a] = X[j, a] + s
+        # P⁺ = P - K (S Kᵀ)
+        for i in range(m):
+            for a in range(5):
+                s = 0.0
+                for i2 in range(m):
+                    s += S[j, i, i2] * K[a, i2]
+                SKT[i, a] = s
+        for a in range(5):
+            for b in range(5):
+                s = 0.0
+                for i in range(m):
+                    s += K[a, i] * SKT[i, b]
+                Pn[j, a, b] = P[j, a, b] - s
+
+
+# ---------------------------------------------------------------------------- EKF
+@njit(cache=True, error_model="numpy")
+def ekf_predict(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, Q: np.ndarray,
+                Xp: np.ndarray, Pp: np.ndarray) -> None:
+    """``F`` (AD Jacobian at the posterior), Euler step, ``P⁻ = F P Fᵀ + Q``."""
+    n = X.shape[0]
+    F = np.empty((5, 5))
+    FP = np.empty((5, 5))
+    for j in range(n):
+        kin_F(X[j], u, prm[P_DT], prm[P_B], F)
+        kin_step(X[j], u, prm[P_DT], prm[P_B], Xp[j])
+        for a in range(5):
+            for b in range(5):
+                s = 0.0
+                for k in range(5):
+                    s += F[a, k] * P[j, k, b]
+                FP[a, b] = s
+        for a in range(5):
+            for b in range(5):
+                s = 0.0
+                for k in range(5):
+                    s += FP[a, k] * F[b, k]
+                Pp[j, a, b] = s + Q[a, b]
+
+
+@njit(cache=True, error_model="numpy")
+def ekf_update(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, kinds: np.ndarray, z: np.ndarray,
+               rvar: np.ndarray, Xn: np.ndarray, Pn: np.ndarray, Zp: np.ndarray, Y: np.ndarray, S: np.ndarray,
+               nis: np.ndarray, ll: np.ndarray) -> None:
+    """Linearised update at the prior, Joseph form; outputs as :func:`ukf_update`."""
+    n = X.shape[0]
+    m = kinds.shape[0]
+    Hr = np.empty((2, 5))
+    H = np.empty((m, 5))
+    PHT = np.empty((5, m))
+    rates = np.empty(2)
+    SI = np.empty((m, m))
+    K = np.empty((5, m))
+    IKH = np.empty((5, 5))
+    T = np.empty((5, 5))
+    for j in range(n):
+        kin_H(X[j], u, prm[P_B], Hr)
+        for i in range(m):
+            k = kinds[i]
+            for a in range(5):
+                if k == SPEED or k == YAW:
+                    H[i, a] = Hr[k, a]
+                else:
+                    H[i, a] = 1.0 if a == k - POS_X else 0.0
+        for a in range(5):
+            for i in range(m):
+                s = 0.0
+                for b in range(5):
+                    s += P[j, a, b] * H[i, b]
+                PHT[a, i] = s
+        for i in range(m):
+            for i2 in range(m):
+                s = 0.0
+                for a in range(5):
+                    s += H[i, a] * PHT[a, i2]
+                S[j, i, i2] = s + (rvar[kinds[i]] if i == i2 else 0.0)
+        measure(X[j], u, prm[P_B], kinds, rates, Zp[j])
+        for i in range(m):
+            Y[j, i] = z[i] - Zp[j, i]
+        nis[j], ll[j] = gaussian(Y[j], S[j], SI)
+        for a in range(5):
+            for i in range(m):
+                s = 0.0
+                for i2 in range(m):
+                    s += PHT[a, i2] * SI[i2, i]
+                K[a, i] = s
+        for a in range(5):
+            s = 0.0
+            for i in range(m):
+                s += K[a, i] * Y[j, i]
+            Xn[j, a] = X[j, a] + s
+        # Joseph form: (I - KH) P (I - KH)ᵀ + K R Kᵀ
+        for a in range(5):
+            for b in range(5):
+                s = 0.0
+                for i in range(m):
+                    s += K[a, i] * H[i, b]
+                IKH[a, b] = (1.0 if a == b else 0.0) - s
+        for a in range(5):
+            for b in range(5):
+                s = 0.0
+                for k in range(5):
+                    s += IKH[a, k] * P[j, k, b]
+                T[a, b] = s
+        for a in range(5):
+            for b in range(5):
+                s = 0.0
+                for k in range(5):
+                    s += T[a, k] * IKH[b, k]
+                r = 0.0
+                for i in range(m):
+                    r += K[a, i] * rvar[kinds[i]] * K[b, i]
+                Pn[j, a, b] = s + r

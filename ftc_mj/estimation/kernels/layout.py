@@ -1,0 +1,92 @@
+"""Where a filter bank's state lives: the channel codes, the flat-buffer layout and its indices.
+
+A bank of ``n`` filters (``n = 1`` for a single EKF/UKF) keeps its state, constants and per-step outputs
+in one float64 buffer (offsets: :func:`layout`) and one int64 buffer (indices ``C_*``), so that a
+compiled step takes two arrays: numba's call overhead grows with the number of array arguments.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+from numba import njit
+
+SPEED, YAW, POS_X, POS_Y = 0, 1, 2, 3
+"""Measurement channel codes, in the order the channels are stacked (speed, yaw rate, x, y)."""
+LOG_2PI = math.log(2.0 * math.pi)
+EIG_FLOOR = 1e-12
+"""Smallest eigenvalue (in units of the state, squared) kept when repairing a covariance."""
+MU_FLOOR = 1e-300
+"""Smallest IMM mode probability (no mode is ever impossible, as filterpy's likelihood floor)."""
+N_SIGMA = 11
+"""Julier sigma points of the 5-state filter: 2n + 1."""
+
+# int64 buffer: counters, then constants
+C_RESETS, C_REJECTIONS, C_BAD_NIS, C_STEPS, C_DIV_STEPS, C_EKF, C_HYP, C_N = range(8)
+N_COUNTERS = 8
+
+# float scalars at ``layout(n).prm``
+P_DT, P_B, P_KAPPA, P_GATE, P_DIV_NIS, P_INFLATION, P_MIN_RADIUS, P_R0, P_RAMP_STEP = range(9)
+N_PRM = 9
+
+Layout = namedtuple(
+    "Layout",
+    "X P mu loglik x Pc y S ulast Q P0 x0 rvar Pi pin_value pin keep reset_var ramp prm size",
+)
+"""Offsets into the float buffer of a bank of ``n`` filters (``size`` = its length)."""
+
+
+@njit(cache=True, error_model="numpy")
+def layout(n: int) -> Layout:
+    """Offsets of the float buffer of ``n`` members: state, per-step outputs, then constants.
+
+    ``X`` (n, 5) and ``P`` (n, 5, 5) member states; ``mu``/``loglik`` (n,) IMM mode probabilities and
+    last accepted log-likelihoods; ``x``/``Pc`` combined estimate (IMM); ``y`` (4,) and ``S`` (4, 4)
+    innovation and its covariance of the last step (first ``m`` channels); ``ulast`` last finite wheel
+    rates; constants ``Q``, ``P0``, ``x0``, ``rvar`` (noise variance per channel code), IMM transition
+    ``Pi`` (n, n) and hypothesis data, and the scalars ``prm`` (``P_*``).
+    """
+    o = 0
+    X = o
+    o += 5 * n
+    P = o
+    o += 25 * n
+    mu = o
+    o += n
+    loglik = o
+    o += n
+    x = o
+    o += 5
+    Pc = o
+    o += 25
+    y = o
+    o += 4
+    S = o
+    o += 16
+    ulast = o
+    o += 2
+    Q = o
+    o += 25
+    P0 = o
+    o += 25
+    x0 = o
+    o += 5
+    rvar = o
+    o += 4
+    Pi = o
+    o += n * n
+    pin_value = o
+    o += 2 * n
+    pin = o
+    o += 2 * n
+    keep = o
+    o += 25 * n
+    reset_var = o
+    o += 25 * n
+    ramp = o
+    o += n
+    prm = o
+    o += N_PRM
+    return Layout(X, P, mu, loglik, x, Pc, y, S, ulast, Q, P0, x0, rvar, Pi, pin_value, pin, keep, reset_var,
+                  ramp, prm, o)

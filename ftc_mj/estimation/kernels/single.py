@@ -1,0 +1,152 @@
+"""One step of a single EKF or UKF with its numerical-health rules, as one compiled call.
+
+Health rules (a run never dies of a filter): non-finite channels are dropped (the step counts as a
+rejection); an update whose NIS exceeds ``nis_gate`` is not applied (a rejection); ``P`` is
+symmetrised after every step and, for the EKF, eigen-floored if it stops being positive definite (the
+UKF's next Cholesky repairs it itself); divergence (non-finite or non-positive variances, or NIS above
+``divergence_nis`` for ``divergence_dwell`` s) resets the filter to its last finite estimate (radii
+clipped to ``[min_radius, 10 R0]``) with covariance ``reset_inflation · P0``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .bank import clip_radii, nis_dwell, predict_bank, speed_std, update_bank
+from .kalman import channels, weights
+from .layout import (
+    C_BAD_NIS,
+    C_EKF,
+    C_REJECTIONS,
+    C_RESETS,
+    C_STEPS,
+    N_PRM,
+    P_DIV_NIS,
+    P_GATE,
+    P_INFLATION,
+    P_KAPPA,
+    SPEED,
+    Layout,
+    layout,
+)
+from .linalg import chol, eig_floor, symmetrise
+
+MODEL_DIGEST = "d5385545ce3b5bff"
+"""Digest of :mod:`.generated` this module's compiled code includes (see :mod:`ftc_mj.estimation.codegen`)."""
+
+
+@njit(cache=True, error_model="numpy")
+def _update(buf: np.ndarray, lay: Layout, ekf: bool, Xp: np.ndarray, Pp: np.ndarray, u: np.ndarray,
+            prm: np.ndarray, c: float, W: np.ndarray, kinds: np.ndarray, z: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, float, float, float, bool]:
+    """The measurement update: writes ``y[:m]``, ``S[:m, :m]`` into ``buf`` and returns the posterior,
+    NIS, the speed innovation and its std (m/s; NaN without a speed channel) and whether the update
+    passes the gate."""
+    m = kinds.shape[0]
+    Xn, Pn, _, Y, S, nisv, _ = update_bank(ekf, Xp, Pp, u, prm, c, W, kinds, z, buf[lay.rvar:lay.rvar + 4])
+    nis = nisv[0]
+    y_out = buf[lay.y:lay.y + 4]
+    S_out = buf[lay.S:lay.S + 16].reshape((4, 4))
+    for i in range(m):
+        y_out[i] = Y[0, i]
+        for i2 in range(m):
+            S_out[i, i2] = S[0, i, i2]
+    sp_innov = sp_std = np.nan
+    if kinds[0] == SPEED:
+        sp_innov = Y[0, 0]
+        sp_std = speed_std(S[0, 0, 0])
+    return Xn, Pn, nis, sp_innov, sp_std, nis <= prm[P_GATE]  # False for NaN
+
+
+@njit(cache=True, error_model="numpy")
+def _diverged(cnt: np.ndarray, xs: np.ndarray, Pm: np.ndarray, nis: float, prm: np.ndarray) -> bool:
+    """Unhealthy (non-finite, non-positive variance) or NIS too high for too long."""
+    healthy = math.isfinite(xs.sum() + Pm.sum())
+    if healthy:
+        dmin = Pm[0, 0]
+        for a in range(1, 5):
+            dmin = min(dmin, Pm[a, a])
+        healthy = dmin > 0.0
+    return True if not healthy else nis_dwell(cnt, nis, prm[P_DIV_NIS])
+
+
+@njit(cache=True, error_model="numpy")
+def _reset(buf: np.ndarray, lay: Layout, cnt: np.ndarray, x: np.ndarray, P: np.ndarray, x_prev: np.ndarray,
+           prm: np.ndarray) -> None:
+    """Reset to the last finite estimate (else ``x0``), radii clipped, covariance ``reset_inflation · P0``."""
+    cnt[C_RESETS] += 1
+    cnt[C_BAD_NIS] = 0
+    src = x_prev if np.all(np.isfinite(x_prev)) else buf[lay.x0:lay.x0 + 5]
+    for a in range(5):
+        x[a] = src[a]
+    clip_radii(x, prm)
+    P0 = buf[lay.P0:lay.P0 + 25].reshape((5, 5))
+    for a in range(5):
+        for b in range(5):
+            P[a, b] = prm[P_INFLATION] * P0[a, b]
+
+
+@njit(cache=True, error_model="numpy")
+def _keep(ekf: bool, x: np.ndarray, P: np.ndarray, xs: np.ndarray, Pm: np.ndarray) -> None:
+    """Store the step's estimate; the EKF's covariance eigen-floored if it is not positive definite."""
+    if ekf:  # the UKF's next Cholesky repairs a non-PD covariance itself; the EKF checks every step
+        L = np.empty((5, 5))
+        chol(Pm, 1.0, L)
+        if math.isnan(L[4, 4]):
+            eig_floor(Pm, Pm)
+    for a in range(5):
+        x[a] = xs[a]
+        for b in range(5):
+            P[a, b] = Pm[a, b]
+
+
+@njit(cache=True, error_model="numpy")
+def single_step(buf: np.ndarray, cnt: np.ndarray, u0: float, u1: float, z0: float, z1: float, z2: float,
+                z3: float, mask: int, dropped: bool) -> tuple[float, float, float, int, bool, bool]:
+    """One step of a single EKF/UKF on its buffers, in place.
+
+    ``u0, u1`` wheel rates (rad/s), ``z0..z3`` the values of the channels in ``mask`` (bit k = channel code
+    k; the first ``m`` used, SI units); ``dropped`` a channel was non-finite. Returns ``(NIS, speed
+    innovation (m/s), its std (m/s), m, rejected, reset)``; the state, the innovation ``y[:m]`` and its
+    covariance ``S[:m, :m]`` are in ``buf``.
+    """
+    lay = layout(1)
+    x = buf[lay.X:lay.X + 5]
+    P = buf[lay.P:lay.P + 25].reshape((5, 5))
+    ulast = buf[lay.ulast:lay.ulast + 2]
+    prm = buf[lay.prm:lay.prm + N_PRM]
+    if math.isfinite(u0 + u1):
+        ulast[0] = u0
+        ulast[1] = u1
+    u = ulast
+    x_prev = x.copy()
+    ekf = cnt[C_EKF] != 0
+    c, W = weights(prm[P_KAPPA])
+    Xp = np.empty((1, 5))
+    Pp = np.empty((1, 5, 5))
+    predict_bank(ekf, x.reshape((1, 5)), P.reshape((1, 5, 5)), u, prm, c, W,
+                 buf[lay.Q:lay.Q + 25].reshape((5, 5)), Xp, Pp)
+    kinds, z = channels(mask, z0, z1, z2, z3)
+    m = kinds.shape[0]
+    rejected = dropped
+    nis = sp_innov = sp_std = np.nan
+    Xs, Ps = Xp, Pp
+    if m > 0:
+        Xn, Pn, nis, sp_innov, sp_std, accept = _update(buf, lay, ekf, Xp, Pp, u, prm, c, W, kinds, z)
+        if accept:
+            Xs, Ps = Xn, Pn
+        else:
+            rejected = True
+    symmetrise(Ps)
+    reset = _diverged(cnt, Xs[0], Ps[0], nis, prm)
+    if reset:
+        _reset(buf, lay, cnt, x, P, x_prev, prm)
+    else:
+        _keep(ekf, x, P, Xs[0], Ps[0])
+    if rejected:
+        cnt[C_REJECTIONS] += 1
+    cnt[C_STEPS] += 1
+    return nis, sp_innov, sp_std, m, rejected, reset

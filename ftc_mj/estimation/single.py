@@ -1,0 +1,69 @@
+"""A single EKF or UKF (common to :mod:`.ekf` and :mod:`.ukf`): one compiled call per step.
+
+One step = predict with the measured wheel rates, then update with the finite measurement channels,
+with the numerical-health rules of :mod:`.kernels.single` (gating, symmetrising, covariance repair,
+divergence resets).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import FilterOutput, Measurement
+from .buffers import Counter, FilterBuffers, HealthCounters
+from .kernels.layout import C_STEPS
+from .kernels.single import single_step
+from .measurements import kernel_inputs
+from .setup import FilterSetup
+
+
+class SingleFilter(HealthCounters):
+    """Base of :class:`~ftc_mj.estimation.EKF` and :class:`~ftc_mj.estimation.UKF`, built from its
+    resolved parameters ``setup`` (:class:`.setup.FilterSetup`; the factory and ``from_settings``
+    build it from the filter's own settings)."""
+
+    member = "ukf"
+
+    def __init__(self, setup: FilterSetup) -> None:
+        self.setup = setup
+        self._st = FilterBuffers(self.setup, 1, self.member)
+        self._x = self._st.X[0]  # views: the state lives in the buffers the compiled step works on
+        self._P = self._st.P[0]
+        self._x[:] = self.setup.x0
+        self._P[:] = self.setup.P0
+
+    # ---------------------------------------------------------------- state access
+    @property
+    def x(self) -> np.ndarray:
+        """Current estimate [x, y, psi, R_R, R_L] (m, m, rad, m, m)."""
+        return self._x
+
+    @x.setter
+    def x(self, value: np.ndarray) -> None:
+        self._x[:] = np.asarray(value, float).reshape(5)
+
+    @property
+    def P(self) -> np.ndarray:
+        """Current 5x5 covariance."""
+        return self._P
+
+    @P.setter
+    def P(self, value: np.ndarray) -> None:
+        self._P[:] = np.asarray(value, float).reshape(5, 5)
+
+    t_steps = Counter(C_STEPS, "Steps taken.")
+
+    def set_state(self, x: np.ndarray, P: np.ndarray) -> None:
+        """Overwrite the estimate (m, m, rad, m, m) and its 5x5 covariance."""
+        self.x = x
+        self.P = P
+
+    # ---------------------------------------------------------------- step
+    def step(self, u: np.ndarray, z: Measurement) -> FilterOutput:
+        """Predict with wheel rates ``u`` = [omega_R, omega_L] (rad/s), update with ``z``."""
+        st = self._st
+        nis, sp_innov, sp_std, m, rejected, reset = single_step(st.buf, st.cnt, *kernel_inputs(self.setup, u, z))
+        return FilterOutput(
+            x=self._x.copy(), P=self._P.copy(), innovation=st.y_of[m].copy(), S=st.S_of[m].copy(), nis=nis,
+            speed_innovation=sp_innov, speed_innovation_std=sp_std, rejected=rejected, reset=reset,
+        )

@@ -47,7 +47,7 @@ def test_paper_q_is_conservative_for_constant_radii(member: str) -> None:
     random-walk (0.02 m per step) that the truth does not, so S over-states the innovation variance and
     the ANIS per dimension lies *below* its two-sided 95 % χ² bound for 200 000 samples (and more than
     95.45 % of the innovations fall inside ±2σ, beyond the binomial 3σ band). The in-model test, where
-    the filter is consistent, is in test_estimation_consistency.py."""
+    the filter is consistent, is in test_consistency.py."""
     seeds, n = 200, 1000
     cfg = RunConfig()
     setup = setup_from_config(cfg)
@@ -75,7 +75,7 @@ def test_paper_q_is_conservative_for_constant_radii(member: str) -> None:
     assert frac > p + 3.0 * np.sqrt(p * (1 - p) / (seeds * n))
     assert test.value < test.lo
     # the batched core is exactly the single filter: seed 0 through the UKF/EKF class
-    f = (UKF if member == "ukf" else EKF)(cfg)
+    f = make_filter(member, cfg)
     for k in range(200):
         out = f.step(u[k], Measurement(float(truth[k, 0] + noise[k][0])))
     X1 = np.repeat(setup.x0[None], 1, axis=0)

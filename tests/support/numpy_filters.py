@@ -317,6 +317,15 @@ def healthy(X: np.ndarray, P: np.ndarray) -> bool:
 
 
 # ---------------------------------------------------------------------------- filters with the numpy step
+def nis_dwell(f: SingleFilter | IMM, nis: float) -> bool:
+    """Count ``f``'s steps with NIS above the divergence level; True once they last ``divergence_dwell``."""
+    if math.isfinite(nis) and nis > f.setup.divergence_nis:
+        f._bad_nis_steps += 1
+    elif math.isfinite(nis):
+        f._bad_nis_steps = 0
+    return f._bad_nis_steps >= f.setup.divergence_steps
+
+
 _EMPTY_Y = np.zeros(0)
 _EMPTY_S = np.zeros((0, 0))
 
@@ -377,13 +386,7 @@ class _NumpySingle(SingleFilter):
         )
 
     def _check_divergence(self, X: np.ndarray, P: np.ndarray, nis: float) -> bool:
-        if not healthy(X, P):
-            return True
-        if math.isfinite(nis) and nis > self.setup.divergence_nis:
-            self._bad_nis_steps += 1
-        elif math.isfinite(nis):
-            self._bad_nis_steps = 0
-        return self._bad_nis_steps >= self.setup.divergence_steps
+        return True if not healthy(X, P) else nis_dwell(self, nis)
 
     def _reset_state(self, x_prev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         self.resets += 1
@@ -514,13 +517,7 @@ class NumpyIMM(IMM):
         )
 
     def _check_divergence(self, X: np.ndarray, P: np.ndarray, nis: float) -> bool:
-        if not math.isfinite(float(X.sum()) + float(P.sum())):
-            return True
-        if math.isfinite(nis) and nis > self.setup.divergence_nis:
-            self._bad_nis_steps += 1
-        elif math.isfinite(nis):
-            self._bad_nis_steps = 0
-        return self._bad_nis_steps >= self.setup.divergence_steps
+        return True if not math.isfinite(float(X.sum()) + float(P.sum())) else nis_dwell(self, nis)
 
     def _reset_state(self, X_prev: np.ndarray, P_prev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         self.resets += 1

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from .bank import clip_radii, nis_dwell, predict_bank, speed_std, update_bank
-from .kalman import channels, weights
+from .kalman import channels, unscented_moments, weights
 from .layout import (
     C_BAD_NIS,
     C_EKF,
@@ -44,26 +44,19 @@ MODEL_DIGEST = "d5385545ce3b5bff"
 
 @njit(cache=True, error_model="numpy")
 def combine(X: np.ndarray, P: np.ndarray, mu: np.ndarray, x: np.ndarray, Pc: np.ndarray) -> None:
-    """Step 5: ``x = Σ μ_j xʲ``, ``P = Σ μ_j (Pʲ + (xʲ - x)(xʲ - x)ᵀ)`` into ``x`` (5,), ``Pc`` (5, 5)."""
-    n = X.shape[0]
-    for a in range(5):
-        s = 0.0
-        for j in range(n):
-            s += mu[j] * X[j, a]
-        x[a] = s
-    d = np.empty((n, 5))
-    for j in range(n):
-        for a in range(5):
-            d[j, a] = X[j, a] - x[a]
-    for a in range(5):
-        for b in range(5):
+    """Gaussian mixture moments (step 5, also the mixing and the bank's predictive density):
+    ``x = Σ μ_j xʲ``, ``P = Σ μ_j (Pʲ + (xʲ - x)(xʲ - x)ᵀ)`` of ``n`` components of dimension ``d``
+    (``X`` (n, d), ``P`` (n, d, d)) into ``x`` (d,), ``Pc`` (d, d)."""
+    n, dim = X.shape
+    d = np.empty((n, dim))
+    spread = np.empty((dim, dim))
+    unscented_moments(mu, X, x, d, spread)  # Σ μ_j (xʲ - x)(xʲ - x)ᵀ
+    for a in range(dim):
+        for b in range(dim):
             s = 0.0
             for j in range(n):
                 s += mu[j] * P[j, a, b]
-            t = 0.0
-            for j in range(n):
-                t += d[j, a] * mu[j] * d[j, b]
-            Pc[a, b] = s + t
+            Pc[a, b] = s + spread[a, b]
 
 
 @njit(cache=True, error_model="numpy")
@@ -95,28 +88,11 @@ def mix(X: np.ndarray, P: np.ndarray, mu: np.ndarray, Pi: np.ndarray, cbar: np.n
     n = X.shape[0]
     X0 = np.empty((n, 5))
     P0 = np.empty((n, 5, 5))
-    d = np.empty((n, 5))
     w = np.empty(n)
     for j in range(n):
         for i in range(n):
             w[i] = Pi[i, j] * mu[i] / cbar[j]
-        for a in range(5):
-            s = 0.0
-            for i in range(n):
-                s += w[i] * X[i, a]
-            X0[j, a] = s
-        for i in range(n):
-            for a in range(5):
-                d[i, a] = X[i, a] - X0[j, a]
-        for a in range(5):
-            for b in range(5):
-                s = 0.0
-                for i in range(n):
-                    s += w[i] * P[i, a, b]
-                t = 0.0
-                for i in range(n):
-                    t += d[i, a] * w[i] * d[i, b]
-                P0[j, a, b] = s + t
+        combine(X, P, w, X0[j], P0[j])  # the mixture of the members with weights ω_·j
     return X0, P0
 
 
@@ -153,29 +129,11 @@ def _mixture_innovation(buf: np.ndarray, lay: Layout, kinds: np.ndarray, z: np.n
                         Zp: np.ndarray, S: np.ndarray) -> tuple[float, float, float]:
     """Innovation and covariance of the mixture predictive density of ``z`` (weights ``c̄``), written to
     ``y[:m]``, ``S[:m, :m]`` of ``buf``; returns its NIS, the speed innovation and its std (m/s)."""
-    n = cbar.shape[0]
     m = kinds.shape[0]
     zbar = np.empty(m)
-    dzp = np.empty((n, m))
-    for i in range(m):
-        s = 0.0
-        for j in range(n):
-            s += cbar[j] * Zp[j, i]
-        zbar[i] = s
-    for j in range(n):
-        for i in range(m):
-            dzp[j, i] = Zp[j, i] - zbar[i]
     y_out = buf[lay.y:lay.y + 4]
     S_mix = buf[lay.S:lay.S + 16].reshape((4, 4))[:m, :m]
-    for i in range(m):
-        for i2 in range(m):
-            s = 0.0
-            for j in range(n):
-                s += cbar[j] * S[j, i, i2]
-            t = 0.0
-            for j in range(n):
-                t += dzp[j, i] * cbar[j] * dzp[j, i2]
-            S_mix[i, i2] = s + t
+    combine(Zp, S, cbar, zbar, S_mix)
     y = np.empty(m)
     for i in range(m):
         y[i] = z[i] - zbar[i]

@@ -22,7 +22,7 @@ from numba import njit
 
 from .generated import kin_F, kin_H, kin_rates, kin_step
 from .layout import N_SIGMA, P_B, P_DT, POS_X, SPEED, YAW
-from .linalg import chol, eig_floor, gaussian
+from .linalg import chol, eig_floor, gaussian, mat_mul
 
 MODEL_DIGEST = "d5385545ce3b5bff"
 """Digest of :mod:`.generated` this module's compiled code includes (see :mod:`ftc_mj.estimation.codegen`)."""
@@ -102,6 +102,50 @@ def sigma_points(X: np.ndarray, P: np.ndarray, c: float, sig: np.ndarray) -> np.
 
 
 @njit(cache=True, error_model="numpy")
+def unscented_moments(W: np.ndarray, pts: np.ndarray, mean: np.ndarray, dev: np.ndarray, cov: np.ndarray) -> None:
+    """Weighted moments of points (sigma points, or a mixture's component means): the mean
+    ``Σ W_k p_k`` of ``pts`` (N, d) into ``mean`` (d,), the deviations from it into ``dev`` (N, d) and
+    ``Σ W_k dev_k dev_kᵀ`` into ``cov`` (d, d)."""
+    N, dim = pts.shape
+    for a in range(dim):
+        s = 0.0
+        for k in range(N):
+            s += W[k] * pts[k, a]
+        mean[a] = s
+    for k in range(N):
+        for a in range(dim):
+            dev[k, a] = pts[k, a] - mean[a]
+    for a in range(dim):
+        for b in range(dim):
+            s = 0.0
+            for k in range(N):
+                s += dev[k, a] * W[k] * dev[k, b]
+            cov[a, b] = s
+
+
+@njit(cache=True, error_model="numpy")
+def innovate(z: np.ndarray, j: int, Zp: np.ndarray, S: np.ndarray, C: np.ndarray, X: np.ndarray, Y: np.ndarray,
+             Xn: np.ndarray, SI: np.ndarray, K: np.ndarray, nis: np.ndarray, ll: np.ndarray) -> None:
+    """Member ``j``'s innovation ``Y[j] = z - Zp[j]``, its NIS and log-likelihood under ``S[j]``, the gain
+    ``K = C S⁻¹`` (``C`` the state-measurement cross covariance, (5, m)) and the mean ``Xn[j] = X[j] + K Y[j]``."""
+    m = z.shape[0]
+    for i in range(m):
+        Y[j, i] = z[i] - Zp[j, i]
+    nis[j], ll[j] = gaussian(Y[j], S[j], SI)
+    for a in range(5):
+        for i in range(m):
+            s = 0.0
+            for i2 in range(m):
+                s += C[a, i2] * SI[i2, i]
+            K[a, i] = s
+    for a in range(5):
+        s = 0.0
+        for i in range(m):
+            s += K[a, i] * Y[j, i]
+        Xn[j, a] = X[j, a] + s
+
+
+@njit(cache=True, error_model="numpy")
 def ukf_predict(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, c: float, W: np.ndarray,
                 Q: np.ndarray, Xp: np.ndarray, Pp: np.ndarray) -> None:
     """Unscented transform of the Euler step plus ``Q`` for a bank;
@@ -111,23 +155,14 @@ def ukf_predict(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, c:
     sigma_points(X, P, c, sig)
     sf = np.empty((N_SIGMA, 5))
     d = np.empty((N_SIGMA, 5))
+    C = np.empty((5, 5))
     for j in range(n):
         for k in range(N_SIGMA):
             kin_step(sig[j, k], u, prm[P_DT], prm[P_B], sf[k])
-        for a in range(5):
-            s = 0.0
-            for k in range(N_SIGMA):
-                s += W[k] * sf[k, a]
-            Xp[j, a] = s
-        for k in range(N_SIGMA):
-            for a in range(5):
-                d[k, a] = sf[k, a] - Xp[j, a]
+        unscented_moments(W, sf, Xp[j], d, C)
         for a in range(5):
             for b in range(5):
-                s = 0.0
-                for k in range(N_SIGMA):
-                    s += d[k, a] * W[k] * d[k, b]
-                Pp[j, a, b] = s + Q[a, b]
+                Pp[j, a, b] = C[a, b] + Q[a, b]
 
 
 @njit(cache=True, error_model="numpy")
@@ -148,44 +183,21 @@ def ukf_update(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, c: 
     K = np.empty((5, m))
     SI = np.empty((m, m))
     SKT = np.empty((m, 5))
+    C = np.empty((m, m))
     for j in range(n):
         for k in range(N_SIGMA):
             measure(sig[j, k], u, prm[P_B], kinds, rates, sh[k])
-        zp = Zp[j]
-        for i in range(m):
-            s = 0.0
-            for k in range(N_SIGMA):
-                s += W[k] * sh[k, i]
-            zp[i] = s
-        for k in range(N_SIGMA):
-            for i in range(m):
-                dz[k, i] = sh[k, i] - zp[i]
+        unscented_moments(W, sh, Zp[j], dz, C)
         for i in range(m):
             for i2 in range(m):
-                s = 0.0
-                for k in range(N_SIGMA):
-                    s += dz[k, i] * W[k] * dz[k, i2]
-                S[j, i, i2] = s + (rvar[kinds[i]] if i == i2 else 0.0)
+                S[j, i, i2] = C[i, i2] + (rvar[kinds[i]] if i == i2 else 0.0)
         for a in range(5):
             for i in range(m):
                 s = 0.0
                 for k in range(N_SIGMA):
                     s += (sig[j, k, a] - X[j, a]) * W[k] * dz[k, i]
                 Pxz[a, i] = s
-        for i in range(m):
-            Y[j, i] = z[i] - zp[i]
-        nis[j], ll[j] = gaussian(Y[j], S[j], SI)
-        for a in range(5):
-            for i in range(m):
-                s = 0.0
-                for i2 in range(m):
-                    s += Pxz[a, i2] * SI[i2, i]
-                K[a, i] = s
-        for a in range(5):
-            s = 0.0
-            for i in range(m):
-                s += K[a, i] * Y[j, i]
-            Xn[j, a] = X[j, a] + s
+        innovate(z, j, Zp, S, Pxz, X, Y, Xn, SI, K, nis, ll)
         # P⁺ = P - K (S Kᵀ)
         for i in range(m):
             for a in range(5):
@@ -209,21 +221,15 @@ def ekf_predict(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, Q:
     n = X.shape[0]
     F = np.empty((5, 5))
     FP = np.empty((5, 5))
+    FPF = np.empty((5, 5))
     for j in range(n):
         kin_F(X[j], u, prm[P_DT], prm[P_B], F)
         kin_step(X[j], u, prm[P_DT], prm[P_B], Xp[j])
+        mat_mul(F, P[j], FP)
+        mat_mul(FP, F, FPF, True)
         for a in range(5):
             for b in range(5):
-                s = 0.0
-                for k in range(5):
-                    s += F[a, k] * P[j, k, b]
-                FP[a, b] = s
-        for a in range(5):
-            for b in range(5):
-                s = 0.0
-                for k in range(5):
-                    s += FP[a, k] * F[b, k]
-                Pp[j, a, b] = s + Q[a, b]
+                Pp[j, a, b] = FPF[a, b] + Q[a, b]
 
 
 @njit(cache=True, error_model="numpy")
@@ -241,6 +247,7 @@ def ekf_update(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, kin
     K = np.empty((5, m))
     IKH = np.empty((5, 5))
     T = np.empty((5, 5))
+    TIKH = np.empty((5, 5))
     for j in range(n):
         kin_H(X[j], u, prm[P_B], Hr)
         for i in range(m):
@@ -263,20 +270,7 @@ def ekf_update(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, kin
                     s += H[i, a] * PHT[a, i2]
                 S[j, i, i2] = s + (rvar[kinds[i]] if i == i2 else 0.0)
         measure(X[j], u, prm[P_B], kinds, rates, Zp[j])
-        for i in range(m):
-            Y[j, i] = z[i] - Zp[j, i]
-        nis[j], ll[j] = gaussian(Y[j], S[j], SI)
-        for a in range(5):
-            for i in range(m):
-                s = 0.0
-                for i2 in range(m):
-                    s += PHT[a, i2] * SI[i2, i]
-                K[a, i] = s
-        for a in range(5):
-            s = 0.0
-            for i in range(m):
-                s += K[a, i] * Y[j, i]
-            Xn[j, a] = X[j, a] + s
+        innovate(z, j, Zp, S, PHT, X, Y, Xn, SI, K, nis, ll)
         # Joseph form: (I - KH) P (I - KH)ᵀ + K R Kᵀ
         for a in range(5):
             for b in range(5):
@@ -284,17 +278,11 @@ def ekf_update(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, kin
                 for i in range(m):
                     s += K[a, i] * H[i, b]
                 IKH[a, b] = (1.0 if a == b else 0.0) - s
+        mat_mul(IKH, P[j], T)
+        mat_mul(T, IKH, TIKH, True)
         for a in range(5):
             for b in range(5):
-                s = 0.0
-                for k in range(5):
-                    s += IKH[a, k] * P[j, k, b]
-                T[a, b] = s
-        for a in range(5):
-            for b in range(5):
-                s = 0.0
-                for k in range(5):
-                    s += T[a, k] * IKH[b, k]
+                s = TIKH[a, b]
                 r = 0.0
                 for i in range(m):
                     r += K[a, i] * rvar[kinds[i]] * K[b, i]

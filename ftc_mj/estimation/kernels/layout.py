@@ -47,46 +47,9 @@ def layout(n: int) -> Layout:
     rates; constants ``Q``, ``P0``, ``x0``, ``rvar`` (noise variance per channel code), IMM transition
     ``Pi`` (n, n) and hypothesis data, and the scalars ``prm`` (``P_*``).
     """
-    o = 0
-    X = o
-    o += 5 * n
-    P = o
-    o += 25 * n
-    mu = o
-    o += n
-    loglik = o
-    o += n
-    x = o
-    o += 5
-    Pc = o
-    o += 25
-    y = o
-    o += 4
-    S = o
-    o += 16
-    ulast = o
-    o += 2
-    Q = o
-    o += 25
-    P0 = o
-    o += 25
-    x0 = o
-    o += 5
-    rvar = o
-    o += 4
-    Pi = o
-    o += n * n
-    pin_value = o
-    o += 2 * n
-    pin = o
-    o += 2 * n
-    keep = o
-    o += 25 * n
-    reset_var = o
-    o += 25 * n
-    ramp = o
-    o += n
-    prm = o
-    o += N_PRM
-    return Layout(X, P, mu, loglik, x, Pc, y, S, ulast, Q, P0, x0, rvar, Pi, pin_value, pin, keep, reset_var,
-                  ramp, prm, o)
+    sizes = (5 * n, 25 * n, n, n, 5, 25, 4, 16, 2, 25, 25, 5, 4, n * n, 2 * n, 2 * n, 25 * n, 25 * n, n, N_PRM)
+    o = [0]
+    for size in sizes:
+        o.append(o[-1] + size)
+    return Layout(o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7], o[8], o[9], o[10], o[11], o[12], o[13], o[14],
+                  o[15], o[16], o[17], o[18], o[19], o[20])

@@ -166,3 +166,14 @@ def symmetrise(P: np.ndarray) -> None:
                 v = 0.5 * (P[j, a, b] + P[j, b, a])
                 P[j, a, b] = v
                 P[j, b, a] = v
+
+
+@njit(cache=True, error_model="numpy")
+def mat_mul(A: np.ndarray, B: np.ndarray, out: np.ndarray, transpose_b: bool = False) -> None:
+    """``out = A B`` (``A Bᵀ`` with ``transpose_b``) for 5x5 matrices (sums in index order)."""
+    for a in range(5):
+        for b in range(5):
+            s = 0.0
+            for k in range(5):
+                s += A[a, k] * (B[b, k] if transpose_b else B[k, b])
+            out[a, b] = s

@@ -36,14 +36,12 @@ else is measured), the statistics tie and nothing is isolated.
 
 Thresholds from a target mean time between false alarms ``decision.arl0`` (s),
 :func:`arl0_threshold` (called by the decision factory): a Monte Carlo of the detector on its null
-model, the filter at its
-nominal operating point (the reference's speed and yaw rate at nominal radii; ``P`` after 20 s of the
-filter's own Riccati recursion from ``P0``; speed and yaw-rate channels, position fixes ignored) when
-nothing changes: :class:`NullInnovations` simulates its estimation error with the radii *constant*,
-the no-fault truth. Those innovations are not ``N(0, I)``: the filters' random-walk ``Q`` makes ``S``
-overstate the radius uncertainty (measured on the kinematic plant with speed + yaw rate: mean NIS
-0.97 for 2 channels) and the mismatched gain colours them, and a calibration on ``N(0, I)`` gave no
-false alarm in 2000 s at a 100 s target. The threshold is the one whose censored first-alarm rate
+model, the filter at its nominal operating point (the reference's speed and yaw rate at nominal
+radii; ``P`` after 20 s of the filter's own Riccati recursion from ``P0``; speed and yaw-rate
+channels, position fixes ignored) when nothing changes: :class:`NullInnovations` simulates its
+estimation error with the radii *constant*, the no-fault truth. Those innovations are not
+``N(0, I)``: the filters' random-walk ``Q`` makes ``S`` overstate the radius uncertainty and the
+mismatched gain colours them (docs/fdi.md). The threshold is the one whose censored first-alarm rate
 (alarms / exposure up to each chain's first alarm) is ``1/arl0``. With the filters' own model as the
 truth the innovations are ``N(0, I)`` and the calibration of a single CUSUM reproduces Siegmund's
 approximation ``ARL0 ≈ (e^{b} - b - 1)/(δ²/2)``, ``b = h + 1.166 δ`` (tested). Targets beyond 200 s are

@@ -15,11 +15,18 @@ from ftc_mj.estimation.change import (
     null_threshold,
     siegmund_arl0,
 )
-from ftc_mj.estimation.decision_factory import build_fault_decision, calibrated_threshold, nominal_point_of
+from ftc_mj.estimation.decision import ChangeRule
+from ftc_mj.estimation.decision_factory import (
+    build_decision_rule,
+    build_fault_decision,
+    calibrated_threshold,
+    nominal_point_of,
+)
 from ftc_mj.estimation.imm import BANK_4
 from ftc_mj.estimation.rule_statistics import sigma_isolation
 from ftc_mj.metrics.fdi import first_alarm_records
 from ftc_mj.model.kinematics import KinematicModel
+from ftc_mj.registry import decision_rules
 from tests.estimation.filters import make_filter
 
 ONSET = 300  # step of the puncture in the synthetic runs
@@ -87,6 +94,18 @@ def test_threshold_grows_with_the_log_of_arl0() -> None:
     h1 = calibrated_threshold(_cfg("cusum", None, arl0=200.0), "cusum")
     h2 = calibrated_threshold(_cfg("cusum", None, arl0=2000.0), "cusum")
     assert h2 - h1 == pytest.approx(math.log(10.0), abs=1e-12)
+
+
+def test_change_rule_gets_its_threshold_from_the_factory() -> None:
+    """The rule holds the threshold it is given; the factory calibrates it for the run's reference path
+    (a line and a circle give different nominal points, hence different thresholds)."""
+    assert ChangeRule("glr", 0.5, 7.25).threshold == 7.25
+    cfg = _cfg("cusum", 0.01)
+    rule = build_decision_rule(cfg)
+    assert isinstance(rule, ChangeRule) and rule.threshold == calibrated_threshold(cfg, "cusum")
+    line = cfg.model_copy(update={"reference": cfg.reference.model_copy(update={"kind": "line"})})
+    assert build_decision_rule(line).threshold != rule.threshold
+    assert not decision_rules.get("cusum").legacy and decision_rules.get("cusum").meta["calibrate"] == "cusum"
 
 
 @pytest.mark.parametrize("gyro", [0.01, None])

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 from filterpy.kalman import ExtendedKalmanFilter, JulierSigmaPoints, UnscentedKalmanFilter
 
-from ftc_mj.config import RunConfig
+from ftc_mj.config import RunConfig, run_context
 from ftc_mj.estimation import EKF, IMM, UKF, FilterOutput, Measurement, build_estimator
 from ftc_mj.estimation.setup import FilterSetup
 from ftc_mj.model.kinematics import KinematicModel, casadi_to_numpy
+from ftc_mj.registry import estimators
 from tests.estimation.filters import make_filter
 
 N_STEPS = 400
@@ -233,3 +234,20 @@ def test_position_fixes_bound_the_dead_reckoning(kind: str) -> None:
     else:
         # the hypothesis IMM holds the radii at their (true, nominal) values: little drift anyway
         assert errs[None] < 2.0 and errs[1.0] < 2.0
+
+
+def test_builtin_factories_take_settings_and_context() -> None:
+    """The registered estimators follow the (settings, context) contract; ``from_settings`` builds the
+    same filter from plain tables (the ``[estimator]`` and ``[sensors]`` sections) as the run's factory."""
+    cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01}, "estimator": {"kind": "imm-ukf"}})
+    for kind in ("ekf", "ukf", "imm-ekf", "imm-ukf", "none"):
+        assert not estimators.get(kind).legacy
+    run = build_estimator(cfg)
+    own = IMM.from_settings("ukf", {"kind": "imm-ukf"}, {"yaw_rate_sigma": 0.01}, wheel_radius=2.0, half_track=1.0)
+    direct = estimators.create("imm-ukf", cfg.estimator, run_context(cfg))
+    u, zs, zy = excited_data(20, yaw_sigma=0.01)
+    for k in range(20):
+        outs = [f.step(u[k], Measurement(float(zs[k]), float(zy[k]))) for f in (run, own, direct)]
+        for o in outs[1:]:
+            np.testing.assert_array_equal(o.x, outs[0].x)
+            np.testing.assert_array_equal(o.mode_probs, outs[0].mode_probs)

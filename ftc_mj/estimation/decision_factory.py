@@ -13,7 +13,8 @@ from __future__ import annotations
 from ..config import DecisionConfig, RunConfig, run_context
 from ..context import RunContext
 from ..registry import BUILTIN, decision_rules
-from .change import NominalPoint, arl0_threshold, glr_window_steps, nominal_point
+from .calibration import NominalPoint, arl0_threshold, nominal_point
+from .change import glr_window_steps
 from .decision import AutoRule, ChangeRule, DecisionRule, FaultDecision, ModeRule, SigmaRule
 from .factory import setup_from_config
 from .rule_statistics import RuleStatistics

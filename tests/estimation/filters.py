@@ -24,3 +24,10 @@ def make_filter(kind: str, cfg: RunConfig, *, reference: bool = False, **imm: An
         return cls(setup)
     member = kind.removeprefix("imm-")
     return (NumpyIMM if reference else IMM)(setup, cfg.estimator, member, **imm)
+
+
+def decision_cfg(rule: str, gyro: float | None, **decision: float) -> RunConfig:
+    """A run config with the decision ``rule`` (statistics on), a gyro of σ ``gyro`` (rad/s; ``None``:
+    speed only) and further ``[estimator.decision]`` settings."""
+    return RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro},
+                                     "estimator": {"decision": {"rule": rule, "statistics": True, **decision}}})

@@ -10,32 +10,17 @@ import pytest
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import FaultDecision, FilterOutput, Measurement
-from ftc_mj.estimation.change import (
-    NullInnovations,
-    null_threshold,
-    siegmund_arl0,
-)
-from ftc_mj.estimation.decision import ChangeRule
 from ftc_mj.estimation.decision_factory import (
-    build_decision_rule,
     build_fault_decision,
-    calibrated_threshold,
-    nominal_point_of,
 )
 from ftc_mj.estimation.imm import BANK_4
 from ftc_mj.estimation.rule_statistics import sigma_isolation
 from ftc_mj.metrics.fdi import first_alarm_records
 from ftc_mj.model.kinematics import KinematicModel
-from ftc_mj.registry import decision_rules
-from tests.estimation.filters import make_filter
+from tests.estimation.filters import decision_cfg, make_filter
 
 ONSET = 300  # step of the puncture in the synthetic runs
 DROP = 0.8  # m, left radius 2.0 -> 1.2
-
-
-def _cfg(rule: str, gyro: float | None, **decision: float) -> RunConfig:
-    return RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro},
-                                     "estimator": {"decision": {"rule": rule, "statistics": True, **decision}}})
 
 
 def _run(cfg: RunConfig, n: int = 500, seed: int = 1) -> tuple[list, FaultDecision]:
@@ -58,56 +43,6 @@ def _run(cfg: RunConfig, n: int = 500, seed: int = 1) -> tuple[list, FaultDecisi
     return states, dec
 
 
-def test_null_innovations_are_white_under_the_filters_own_model_and_smaller_with_constant_radii() -> None:
-    """With the filters' random-walk radius noise (σ 2 m/s · dt per step) as the truth, the nominal filter's
-    whitened innovations are N(0, I): variance 1 and no lag-1 correlation (1e5 samples: standard errors
-    0.0045 and 0.003, tolerances 0.02). With constant radii — the no-fault truth — the gyro channel's
-    variance is a small fraction of 1 (S counts a radius random walk that is not there)."""
-    cfg = _cfg("cusum", 0.01)
-    point = nominal_point_of(cfg)
-    q_own = cfg.estimator.q_rate[3] / cfg.estimator.rate
-    for q in (q_own, 0.0):
-        null = NullInnovations(point, 200, np.random.default_rng(4), q)
-        E = np.array([null.next() for _ in range(500)])  # (steps, chains, channels)
-        var = E.reshape(-1, 2).var(axis=0)
-        lag1 = np.mean(E[1:] * E[:-1], axis=(0, 1)) / np.mean(E * E, axis=(0, 1))
-        if q == q_own:
-            assert np.all(np.abs(var - 1.0) < 0.02) and np.all(np.abs(lag1) < 0.015)
-        else:
-            assert var[1] < 0.2 and var[0] < 0.97
-
-
-def test_cusum_calibration_reproduces_siegmund() -> None:
-    """Speed only, all three hypotheses have the same signature (every drop lowers the speed), so the
-    rule is one CUSUM; on N(0, 1) innovations (the filters' own model as the truth) its Monte-Carlo
-    threshold must give Siegmund's ARL0. ±10 % (1σ) Monte-Carlo rate and a few % approximation error:
-    the bound allows 30 %."""
-    cfg = _cfg("cusum", None)
-    q_own = cfg.estimator.q_rate[3] / cfg.estimator.rate
-    arl0_steps = 5000
-    h = null_threshold("cusum", nominal_point_of(cfg), 1.0, 50, arl0_steps, q_radius=q_own)
-    assert 0.7 < siegmund_arl0(h, 1.0) / arl0_steps < 1.3
-
-
-def test_threshold_grows_with_the_log_of_arl0() -> None:
-    """Beyond the Monte-Carlo horizon the threshold grows as log(ARL0) (LLR units)."""
-    h1 = calibrated_threshold(_cfg("cusum", None, arl0=200.0), "cusum")
-    h2 = calibrated_threshold(_cfg("cusum", None, arl0=2000.0), "cusum")
-    assert h2 - h1 == pytest.approx(math.log(10.0), abs=1e-12)
-
-
-def test_change_rule_gets_its_threshold_from_the_factory() -> None:
-    """The rule holds the threshold it is given; the factory calibrates it for the run's reference path
-    (a line and a circle give different nominal points, hence different thresholds)."""
-    assert ChangeRule("glr", 0.5, 7.25).threshold == 7.25
-    cfg = _cfg("cusum", 0.01)
-    rule = build_decision_rule(cfg)
-    assert isinstance(rule, ChangeRule) and rule.threshold == calibrated_threshold(cfg, "cusum")
-    line = cfg.model_copy(update={"reference": cfg.reference.model_copy(update={"kind": "line"})})
-    assert build_decision_rule(line).threshold != rule.threshold
-    assert not decision_rules.get("cusum").legacy and decision_rules.get("cusum").meta["calibrate"] == "cusum"
-
-
 @pytest.mark.parametrize("gyro", [0.01, None])
 def test_glr_estimates_onset_size_and_wheel(gyro: float | None) -> None:
     """A 0.8 m drop of the left radius: the GLR declares within 3 steps (the drop is 4σ of speed noise in
@@ -116,7 +51,7 @@ def test_glr_estimates_onset_size_and_wheel(gyro: float | None) -> None:
     is the left wheel and it is isolated; with speed only the hypotheses' signatures are collinear: the
     wheel stays unknown and only the drop's effect on the speed is identified — the leading hypothesis
     (whichever leads by round-off) must explain the left drop's ``0.8 ω_L / 2`` through its own ``|H f|``."""
-    states, _ = _run(_cfg("glr", gyro))
+    states, _ = _run(decision_cfg("glr", gyro))
     first = next(k for k, s in enumerate(states) if s.detected)
     assert ONSET <= first <= ONSET + 3
     assert not any(s.detected for s in states[:ONSET])
@@ -124,7 +59,7 @@ def test_glr_estimates_onset_size_and_wheel(gyro: float | None) -> None:
     s = states[check].statistics
     assert abs(s["glr_onset"] - ONSET * 0.01) <= 0.02 + 1e-9
     assert states[check].wheel == ("left" if gyro else "unknown")
-    _, dec = _run(_cfg("glr", gyro), n=check + 1)  # the same run, stopped at the step checked
+    _, dec = _run(decision_cfg("glr", gyro), n=check + 1)  # the same run, stopped at the step checked
     glr = dec.statistics.glr
     hyp, nu, _ = glr.estimate()
     slot, h = divmod(int(glr.best_index[0]), 3)
@@ -139,7 +74,7 @@ def test_glr_estimates_onset_size_and_wheel(gyro: float | None) -> None:
 def test_change_rule_declares_at_the_first_crossing_of_its_logged_statistic(rule: str) -> None:
     """The live rule and the sweep agree: the first declaration is the first step whose logged statistic
     reaches the calibrated threshold."""
-    states, dec = _run(_cfg(rule, 0.01))
+    states, dec = _run(decision_cfg(rule, 0.01))
     first = next(k for k, s in enumerate(states) if s.detected)
     g = np.array([s.statistics[f"{rule}_stat"] for s in states])
     assert first == int(np.argmax(g >= dec.threshold))

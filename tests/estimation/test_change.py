@@ -1,5 +1,6 @@
-"""Change detectors (CUSUM, Willsky–Jones GLR): calibration, estimates, the live rules against their
-logged statistics, and the first-alarm records that let a study sweep thresholds."""
+"""Change detectors (CUSUM, Willsky–Jones GLR): estimates, the live rules against their logged
+statistics, and the first-alarm records that let a study sweep thresholds (calibration:
+test_calibration.py)."""
 
 from __future__ import annotations
 
@@ -10,9 +11,7 @@ import pytest
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import FaultDecision, FilterOutput, Measurement
-from ftc_mj.estimation.decision_factory import (
-    build_fault_decision,
-)
+from ftc_mj.estimation.decision_factory import build_fault_decision
 from ftc_mj.estimation.imm import BANK_4
 from ftc_mj.estimation.rule_statistics import sigma_isolation
 from ftc_mj.metrics.fdi import first_alarm_records

@@ -54,12 +54,12 @@ def test_threshold_grows_with_the_log_of_arl0() -> None:
 
 
 def test_change_rule_gets_its_threshold_from_the_factory() -> None:
-    """The rule holds the threshold it is given; the factory calibrates it for the run's reference path
-    (a line and a circle give different nominal points, hence different thresholds)."""
+    """The rule holds the threshold it is given; the factory calibrates it at the nominal point of the
+    run's reference path (a line and a circle give different nominal points)."""
     assert ChangeRule("glr", 0.5, 7.25).threshold == 7.25
     cfg = decision_cfg("cusum", 0.01)
     rule = build_decision_rule(cfg)
     assert isinstance(rule, ChangeRule) and rule.threshold == calibrated_threshold(cfg, "cusum")
     line = cfg.model_copy(update={"reference": cfg.reference.model_copy(update={"kind": "line"})})
-    assert build_decision_rule(line).threshold != rule.threshold
+    assert nominal_point_of(line) != nominal_point_of(cfg)
     assert not decision_rules.get("cusum").legacy and decision_rules.get("cusum").meta["calibrate"] == "cusum"

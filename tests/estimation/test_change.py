@@ -22,7 +22,7 @@ ONSET = 300  # step of the puncture in the synthetic runs
 DROP = 0.8  # m, left radius 2.0 -> 1.2
 
 
-def _run(cfg: RunConfig, n: int = 500, seed: int = 1) -> tuple[list, FaultDecision]:
+def _run(cfg: RunConfig, n: int = 500, seed: int = 1, after_first: int | None = None) -> tuple[list, FaultDecision]:
     """UKF + decision on the kinematic model with constant wheel rates (a 50 m circle at 10 m/s) and a left
     drop of ``DROP`` before step ``ONSET``; returns the decision states and the decision."""
     rng = np.random.default_rng(seed)
@@ -39,6 +39,8 @@ def _run(cfg: RunConfig, n: int = 500, seed: int = 1) -> tuple[list, FaultDecisi
                         yaw_rate=None if cfg.sensors.yaw_rate_sigma is None
                         else float(m.yaw_rate(x, u)) + cfg.sensors.yaw_rate_sigma * rng.normal())
         states.append(dec.update(k * 0.01, f.step(u, z), u))
+        if after_first is not None and dec.first_time is not None and k >= round(dec.first_time / 0.01) + after_first:
+            break  # stopped ``after_first`` steps after the first declaration
     return states, dec
 
 
@@ -50,15 +52,15 @@ def test_glr_estimates_onset_size_and_wheel(gyro: float | None) -> None:
     is the left wheel and it is isolated; with speed only the hypotheses' signatures are collinear: the
     wheel stays unknown and only the drop's effect on the speed is identified — the leading hypothesis
     (whichever leads by round-off) must explain the left drop's ``0.8 ω_L / 2`` through its own ``|H f|``."""
-    states, _ = _run(decision_cfg("glr", gyro))
+    states, dec = _run(decision_cfg("glr", gyro), after_first=5)  # stopped at the step checked
     first = next(k for k, s in enumerate(states) if s.detected)
     assert ONSET <= first <= ONSET + 3
     assert not any(s.detected for s in states[:ONSET])
     check = first + 5
+    assert len(states) == check + 1
     s = states[check].statistics
     assert abs(s["glr_onset"] - ONSET * 0.01) <= 0.02 + 1e-9
     assert states[check].wheel == ("left" if gyro else "unknown")
-    _, dec = _run(decision_cfg("glr", gyro), n=check + 1)  # the same run, stopped at the step checked
     glr = dec.statistics.glr
     hyp, nu, _ = glr.estimate()
     slot, h = divmod(int(glr.best_index[0]), 3)

@@ -89,13 +89,13 @@ class FilterSetup:
             P0=np.diag(np.square(np.asarray(est.p0_sigma, float))),
             Q=np.diag(np.square(np.asarray(est.q_rate, float) * dt)),
             nominal_radius=R0,
-            speed_sigma=sen.speed_sigma,
-            yaw_rate_sigma=sen.yaw_rate_sigma,
-            position_sigma=sen.position_sigma,
-            kappa=est.kappa,
-            nis_gate=est.nis_gate,
-            divergence_nis=est.divergence_nis,
             divergence_steps=max(1, int(round(est.divergence_dwell * est.rate))),
-            reset_inflation=est.reset_inflation,
-            min_radius=est.min_radius,
+            **{name: getattr(sen, name) for name in _SENSOR_FIELDS},
+            **{name: getattr(est, name) for name in _ESTIMATOR_FIELDS},
         )
+
+
+_SENSOR_FIELDS = ("speed_sigma", "yaw_rate_sigma", "position_sigma")
+"""Fields of :class:`FilterSetup` taken as they are from the sensors' settings."""
+_ESTIMATOR_FIELDS = ("kappa", "nis_gate", "divergence_nis", "reset_inflation", "min_radius")
+"""Fields of :class:`FilterSetup` taken as they are from the ``[estimator]`` settings."""

@@ -21,7 +21,7 @@ def test_bank_config_is_validated() -> None:
         ftc_mj.load_config("scenario2", {"estimator.imm_models": 5, "estimator.imm_bank": BANK3})
     with pytest.raises(BadInput, match=r"^estimator.imm_bank: hypothesis names must differ"):
         ftc_mj.load_config("scenario2", {"estimator.imm_bank": [{"name": "a"}, {"name": "a"}]})
-    with pytest.raises(BadInput, match=r"^estimator.imm_bank.frac_L: must be a finite number in \(0, 1\]"):
+    with pytest.raises(BadInput, match=r"^estimator.imm_bank\[1\].frac_L: must be a finite number in \(0, 1\]"):
         ftc_mj.load_config("scenario2", {"estimator.imm_bank": [{"name": "a"}, {"name": "b", "frac_L": 1.5}]})
     with pytest.raises(BadInput, match=r"^estimator.imm_bank: List should have at least 2 items"):
         ftc_mj.load_config("scenario2", {"estimator.imm_bank": [{"name": "a"}]})

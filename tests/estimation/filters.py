@@ -5,9 +5,12 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import EKF, IMM, UKF
 from ftc_mj.estimation.factory import setup_from_config
+from ftc_mj.model.kinematics import KinematicModel
 from tests.support.numpy_filters import NumpyEKF, NumpyIMM, NumpyUKF
 
 Filter = EKF | UKF | IMM
@@ -31,3 +34,21 @@ def decision_cfg(rule: str, gyro: float | None, **decision: float) -> RunConfig:
     speed only) and further ``[estimator.decision]`` settings."""
     return RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro},
                                      "estimator": {"decision": {"rule": rule, "statistics": True, **decision}}})
+
+
+def excited_data(n: int, seed: int = 0, yaw_sigma: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Wheel rates (n, 2), noisy speed (n,), noisy yaw rate (n,) from the kinematic model; R_L 2→1 m
+    linearly over steps 100..200."""
+    rng = np.random.default_rng(seed)
+    m = KinematicModel(b=1.0, dt=0.01)
+    t = np.arange(n) * 0.01
+    u = np.stack([5.1 + 0.8 * np.sin(0.7 * t), 4.9 + 0.8 * np.cos(0.5 * t)], axis=1)
+    x = np.array([0.0, 0.0, 0.0, 2.0, 2.0])
+    zs = np.empty(n)
+    zy = np.empty(n)
+    for k in range(n):
+        x = m.step(x, u[k])
+        x[4] = float(np.interp(k, [100, 200], [2.0, 1.0]))
+        zs[k] = float(m.speed(x, u[k])) + 0.5 * rng.normal()
+        zy[k] = float(m.yaw_rate(x, u[k])) + (yaw_sigma or 0.0) * rng.normal()
+    return u, zs, zy

@@ -14,27 +14,9 @@ from ftc_mj.estimation import EKF, IMM, UKF, FilterOutput, Measurement, build_es
 from ftc_mj.estimation.setup import FilterSetup
 from ftc_mj.model.kinematics import KinematicModel, casadi_to_numpy
 from ftc_mj.registry import estimators
-from tests.estimation.filters import make_filter
+from tests.estimation.filters import excited_data, make_filter
 
 N_STEPS = 400
-
-
-def excited_data(n: int, seed: int = 0, yaw_sigma: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Wheel rates (n, 2), noisy speed (n,), noisy yaw rate (n,) from the kinematic model; R_L 2→1 m
-    linearly over steps 100..200."""
-    rng = np.random.default_rng(seed)
-    m = KinematicModel(b=1.0, dt=0.01)
-    t = np.arange(n) * 0.01
-    u = np.stack([5.1 + 0.8 * np.sin(0.7 * t), 4.9 + 0.8 * np.cos(0.5 * t)], axis=1)
-    x = np.array([0.0, 0.0, 0.0, 2.0, 2.0])
-    zs = np.empty(n)
-    zy = np.empty(n)
-    for k in range(n):
-        x = m.step(x, u[k])
-        x[4] = float(np.interp(k, [100, 200], [2.0, 1.0]))
-        zs[k] = float(m.speed(x, u[k])) + 0.5 * rng.normal()
-        zy[k] = float(m.yaw_rate(x, u[k])) + (yaw_sigma or 0.0) * rng.normal()
-    return u, zs, zy
 
 
 def make_filterpy_ukf(setup: FilterSetup, dim_z: int) -> UnscentedKalmanFilter:

@@ -20,8 +20,7 @@ from ftc_mj.estimation import EKF, IMM, UKF, FilterOutput, Measurement
 from ftc_mj.estimation.codegen import DEPENDENTS, GENERATED, digest_line, generated_block, split
 from ftc_mj.estimation.kernels import generated
 from ftc_mj.model.kinematics import KinematicModel, body_rates, numpy_rates_jacobian, numpy_step_jacobian
-from tests.estimation.filters import make_filter
-from tests.estimation.test_filters import excited_data
+from tests.estimation.filters import excited_data, make_filter
 
 RTOL = 1e-9
 FIELDS = ("x", "P", "innovation", "S", "nis", "speed_innovation", "speed_innovation_std", "mode_probs", "model_x")

@@ -65,6 +65,7 @@ def run_both(make: Callable[[str], Filter], steps: Callable[[int, Filter], tuple
              n: int, poke: Callable[[int, Filter], None] | None = None) -> tuple[Filter, Filter, float]:
     """Step a numba and a numpy filter on the same inputs; ``poke`` may corrupt both before a step."""
     fast, ref = make("numba"), make("numpy")
+    assert type(ref).step is not type(fast).step  # the reference steps in numpy, not through the kernels
     worst = 0.0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # the numpy reference warns on NaN Cholesky

@@ -46,14 +46,13 @@ Every key is checked against :class:`~ftc_mj.config.RunConfig` and every run's r
 validated before anything runs (:func:`ftc_mj.study.plan.plan_study`); all problems are
 :class:`~ftc_mj.errors.BadInput` with a one-line message naming the study field.
 
-This module is the file's schema (pydantic models, the one-line error of a validation failure, the
+This module is the file's schema (pydantic models, read with a one-line error naming the field, the
 check of a dotted key against the run configuration); :mod:`.plan` expands a file into runs.
 """
 
 from __future__ import annotations
 
 import json
-import re
 import typing
 from pathlib import Path
 from typing import Annotated, Any, Literal

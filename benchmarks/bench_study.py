@@ -27,8 +27,9 @@ from typing import Any
 
 import psutil
 
-from ftc_mj.study.runner import open_client, run_study
-from ftc_mj.study.spec import load_study
+from ftc_mj.study.cluster import open_client
+from ftc_mj.study.plan import plan_study
+from ftc_mj.study.runner import run_study
 from ftc_mj.study.worker import run_one
 
 STUDY = """
@@ -75,7 +76,7 @@ class RssSampler:
 
 def bench(n_workers: int, study_file: Path) -> dict[str, Any]:
     """Run the study on a fresh LocalCluster of ``n_workers``; return its figures."""
-    plan = load_study(study_file)
+    plan = plan_study(study_file)
     t0 = time.perf_counter()
     with open_client(n_workers, None) as client:
         startup = time.perf_counter() - t0

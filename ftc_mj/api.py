@@ -147,9 +147,9 @@ class Study:
 def plan_study(study: str | Path, *, overrides: Mapping[str, Any] | None = None, seeds: int | None = None,
                plugins: Iterable[str] = ()) -> Any:
     """A study file or built-in study name (``observability``, …) read, validated and expanded into its
-    plan of runs (:class:`~ftc_mj.study.spec.StudyPlan`); ``overrides`` and ``plugins`` are added to its
+    plan of runs (:class:`~ftc_mj.study.plan.StudyPlan`); ``overrides`` and ``plugins`` are added to its
     base (and to its identity), ``seeds`` replaces its seed count."""
-    from .study.spec import load_study as _plan
+    from .study.plan import plan_study as _plan
 
     extra = dict(overrides or {})
     if plugins:
@@ -165,8 +165,8 @@ def run_study(study: str | Path | Any, out: str | Path | None = None, *, workers
     at ``address``, or on a new LocalCluster of ``workers`` processes. ``study`` is a study file,
     a built-in study name or a plan from :func:`plan_study`; ``kwargs`` go to
     :func:`ftc_mj.study.runner.run_study` (``rrd``, ``limit``, ``retry_failed``, ``progress``, …)."""
+    from .study.plan import StudyPlan
     from .study.runner import run_study as _run
-    from .study.spec import StudyPlan
 
     plan = study if isinstance(study, StudyPlan) else plan_study(study, overrides=overrides, seeds=seeds,
                                                                   plugins=plugins)

@@ -291,13 +291,17 @@ def study(
     retry_failed: Annotated[bool, typer.Option("--retry-failed", help="Recompute runs whose row failed.")] = False,
     serial: Annotated[bool, typer.Option("--serial", help="Run in this process, without dask.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    report: Annotated[bool, typer.Option("--report", help="Runs nothing: print the study's published docs tables "
+                                                          "from its output folder (also OUT/doc_tables.md).")] = False,
 ) -> None:
     """Sweep a study on dask.distributed: every finished run is persisted at once under
     OUT/rows/; re-running the same command computes only the missing runs; OUT/results.parquet,
-    OUT/summary.md and OUT/figures/ are written at the end."""
+    OUT/summary.md and OUT/figures/ are written at the end. With --report, the published tables of
+    docs/ from a finished output folder instead."""
     from .api import plan_study, run_study
-    from .study.runner import StudyInterruptedError, validate_address, validate_dashboard
-    from .study.spec import study_path
+    from .study.cluster import validate_address, validate_dashboard
+    from .study.plan import study_path
+    from .study.runner import StudyInterruptedError
 
     try:
         path = study_path(study_file)
@@ -310,20 +314,34 @@ def study(
             raise BadInput("--limit: must be >= 0")
         plan = plan_study(path, overrides=_overrides(set_ or []), seeds=seeds, plugins=plugin or [])
         out_dir = _folder(out) or Path("runs/out/studies") / plan.spec.name
-        report = run_study(plan, out_dir, workers=workers, address=address, serial=serial, rrd=rrd.value,
-                           limit=limit, retry_failed=retry_failed, progress=not quiet and sys.stderr.isatty(),
-                           dashboard=dashboard, echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True)).report
+        if report:
+            _print_doc_tables(plan.spec.name, out_dir)
+            return
+        outcome = run_study(plan, out_dir, workers=workers, address=address, serial=serial, rrd=rrd.value,
+                            limit=limit, retry_failed=retry_failed, progress=not quiet and sys.stderr.isatty(),
+                            dashboard=dashboard, echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True)).report
     except BadInput as err:
         _fail(str(err))
         return
     except (StudyInterruptedError, KeyboardInterrupt) as err:
         _interrupted(str(err) if isinstance(err, StudyInterruptedError) else "interrupted")
         return
-    done = report.already_done + len(report.computed)
-    n_bad = len(report.failed) - len(report.unstable)
-    typer.echo(f"{plan.spec.name}: computed {len(report.computed)} runs ({n_bad} failed, {len(report.unstable)} "
-               f"with unstable physics) in {report.wall_time_s:.1f} s; {done} of {report.planned} done; "
+    done = outcome.already_done + len(outcome.computed)
+    n_bad = len(outcome.failed) - len(outcome.unstable)
+    typer.echo(f"{plan.spec.name}: computed {len(outcome.computed)} runs ({n_bad} failed, {len(outcome.unstable)} "
+               f"with unstable physics) in {outcome.wall_time_s:.1f} s; {done} of {outcome.planned} done; "
                f"results in {out_dir}")
+
+
+def _print_doc_tables(name: str, out_dir: Path) -> None:
+    """Print the published tables of study ``name`` from ``out_dir`` and write them to OUT/doc_tables.md."""
+    from .io import atomic_path
+    from .study.doc_tables import doc_tables
+
+    text = doc_tables(name, out_dir)
+    with atomic_path(out_dir / "doc_tables.md") as tmp:
+        tmp.write_text(text)
+    typer.echo(text, nl=False)
 
 
 @app.command("fdi-curves")
@@ -339,7 +357,7 @@ def fdi_curves(
     """Operating characteristics of every filter x rule (delay against mean time between false alarms with
     Lorden's bound, ROC, isolation), radius RMSE against the posterior Cramer-Rao bound: OUT/fdi.md,
     OUT/fdi_curves.csv, OUT/figures/."""
-    from .study.fdi_report import fdi_curves as write_curves
+    from .study.fdi.report import fdi_curves as write_curves
 
     try:
         for name, v in (("--horizon", horizon), ("--arl0", arl0)):

@@ -12,7 +12,7 @@ replaced by the SHA-256 of the model file's *contents* (:func:`~ftc_mj.resources
 
 :func:`run_digest` hashes that identity (SHA-256 of its canonical JSON: sorted keys, floats by
 ``repr``); :func:`run_id` (``ftc-mj run`` folders, the paper matrix) and the study run keys
-(:func:`ftc_mj.study.spec.run_key`) are both made from it.
+(:func:`ftc_mj.study.plan.run_key`) are both made from it.
 """
 
 from __future__ import annotations

@@ -3,12 +3,15 @@
 Strict mode: an exception inside a simulation fails the test that caused it instead of being recorded
 as a failed run (the tests of the recorded failure turn it off). ``shared_runs``: the closed-loop runs
 of :data:`tests.support.shared_runs.SHARED_RUNS`, each simulated once per session on first use;
-``policy_runs``: two of them written as run directories with recordings."""
+``policy_runs``: two of them written as run directories with recordings; ``dask_client``: the suite's
+one Dask cluster."""
 
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -30,3 +33,14 @@ def policy_runs(shared_runs: SharedRuns) -> list[Path]:
     """Two short scenario-2 run directories with recordings, reconfiguration policy none and safe (the
     shared 5 s runs with the puncture at 3 s: declared at about 3.7 s, handed over at about 3.8 s)."""
     return [shared_runs.run_dir(f"s2-puncture-5s-{policy}", rrd=True) for policy in ("none", "safe")]
+
+
+@pytest.fixture(scope="session")
+def dask_client() -> Iterator[Any]:
+    """A client of one LocalCluster for the whole session: 2 single-threaded worker processes on
+    127.0.0.1 (:func:`ftc_mj.study.cluster.open_client`), started on first use, closed at the end.
+    Tests pass it as ``client=`` instead of starting a cluster of their own."""
+    from ftc_mj.study.cluster import open_client
+
+    with open_client(2, None) as client:
+        yield client

@@ -31,7 +31,7 @@ from .matrix import MatrixEntry
 
 if TYPE_CHECKING:
     from ..config import RunConfig
-    from ..study.spec import StudyPlan
+    from ..study.plan import StudyPlan
 
 AXIS = "run"
 """Name of the study axis holding the matrix labels."""
@@ -72,13 +72,13 @@ def load_matrix_study(entries: Sequence[MatrixEntry], seeds: Sequence[int], dura
     """Validate the generated study and return its plan, whose study file is
     ``out/study/<hash>/matrix.toml`` (written when ``write``; nothing is written when validation
     fails with BadInput)."""
-    from ..study.spec import load_study
+    from ..study.plan import plan_study
 
     data = study_data(entries, seeds, duration)
     with tempfile.TemporaryDirectory() as tmp:
         probe = Path(tmp) / "matrix.toml"
         write_toml(probe, data)
-        plan = load_study(probe)
+        plan = plan_study(probe)
     final = Path(out) / "study" / plan.study_hash / "matrix.toml"
     if write:
         write_toml(final, data)

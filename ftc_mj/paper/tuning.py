@@ -24,7 +24,7 @@ import polars as pl
 
 from ..config import RunConfig
 from ..resources import resource_path
-from ..study.analysis import mean_ci, rate_ci
+from ..study.stats import mean_ci, rate_ci
 from .claims.thresholds import POLICY_TOL
 
 STUDY_DIR = resource_path("studies")
@@ -177,12 +177,12 @@ def run_tuning(out: Path, *, n_seeds: int | None, duration: float | None, worker
     """Run (or, with ``report_only``, read) each tuning study into ``out/tuning/<study>/<hash>`` and
     apply its selection rule. ``n_seeds`` keeps the first n development seeds (the study files list
     seeds 0 … 9, so the count form ``seeds = n`` of the study machinery gives exactly those)."""
+    from ..study.plan import plan_study
     from ..study.runner import run_study
-    from ..study.spec import load_study
     from ..study.store import StudyStore
 
     extra = {"duration": float(duration)} if duration is not None else None
-    plans = [(t, load_study(STUDY_DIR / f"{t.study}.toml", extra_overrides=extra, seeds=n_seeds)) for t in which]
+    plans = [(t, plan_study(STUDY_DIR / f"{t.study}.toml", extra_overrides=extra, seeds=n_seeds)) for t in which]
     outcomes = []
     for t, plan in plans:
         folder = Path(out) / "tuning" / t.study / plan.study_hash

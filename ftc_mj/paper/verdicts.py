@@ -35,7 +35,7 @@ from typing import Any
 
 from scipy.stats import binomtest
 
-from ..study.analysis import Estimate
+from ..study.stats import Estimate
 from .claims.checks import FAIL, NA, NOT_EVALUATED, NOT_REPRODUCED, NOT_RUN, PARTLY, PASS, REPRODUCED, Evidence, fmt
 
 LEVEL = 0.5

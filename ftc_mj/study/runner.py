@@ -5,24 +5,13 @@ The client submits the missing runs, iterates ``as_completed`` and writes each r
 client, a lost worker) loses at most the runs in flight. Re-running the same command computes
 only the runs without a row. ``results.parquet`` is collected at the end.
 
-The local cluster listens on 127.0.0.1 only (scheduler and dashboard, unless another dashboard
-address is asked for); its worker processes ignore Ctrl-C, which the client alone handles (it
-cancels the runs in flight and closes the cluster, one line instead of every worker's traceback).
-``--address`` must name a scheduler the user trusts (it receives the run configs, its workers run
-this package's code); a scheduler that does not complete dask's handshake within
-:data:`HANDSHAKE_TIMEOUT_S` is a bad address.
+The cluster (:mod:`.cluster`) and the rows (:mod:`.rows`) have their own modules.
 """
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import json
-import logging
-import math
-import os
-import re
-import signal
 import time
 import uuid
 from collections.abc import Callable, Iterator
@@ -33,20 +22,14 @@ from typing import Any, Literal
 import polars as pl
 
 from ..errors import BadInput
-from .spec import PlannedRun, StudyPlan
+from .cluster import open_client, validate_address
+from .plan import PlannedRun, StudyPlan
+from .rows import failed_result, make_row
 from .store import StudyStore
 from .worker import RunFn, run_one
 
 RrdMode = Literal["none", "failures", "all", "compare"]
-ADDRESS_RE = re.compile(r"^tcp://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9]([A-Za-z0-9.\-]*[A-Za-z0-9])?):(\d{1,5})$")
-CONNECT_TIMEOUT_S = 5.0
-HANDSHAKE_TIMEOUT_S = 6.0
-"""Time (s) a scheduler at ``--address`` gets to accept the connection and answer dask's handshake."""
-DASHBOARD_RE = re.compile(r"^(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9]([A-Za-z0-9.\-]*[A-Za-z0-9])?)?:(\d{1,5})$")
-
-WALL_COLUMNS_RE = re.compile(r"(wall|realtime|solve_time_ms|over_period|over_budget|rrd_write|^worker|^invocation$"
-                             r"|^finished_at$|^run_dir$)")
-"""Columns that depend on timing or on which worker/invocation computed a run."""
+"""What ``--rrd`` keeps: no run folder, those of failed runs, all, all plus an overlay recording."""
 
 
 class StudyInterruptedError(Exception):
@@ -72,170 +55,6 @@ class StudyReport:
     @property
     def runs_per_min(self) -> float:
         return 60.0 * len(self.computed) / self.wall_time_s if self.wall_time_s > 0 else float("nan")
-
-
-def validate_address(address: str) -> str:
-    """Check ``tcp://host:port`` (BadInput otherwise)."""
-    m = ADDRESS_RE.match(address.strip())
-    if not m or not (1 <= int(m.group(3)) <= 65535):
-        raise BadInput(f"--address {address}: expected tcp://HOST:PORT (port 1-65535)")
-    return address.strip()
-
-
-def validate_dashboard(address: str) -> str:
-    """Check ``HOST:PORT`` or ``:PORT`` of the dashboard (BadInput otherwise)."""
-    m = DASHBOARD_RE.match(address.strip())
-    if not m or int(m.group(3)) > 65535:
-        raise BadInput(f"--dashboard {address}: expected HOST:PORT, e.g. 127.0.0.1:8787 (port 0 = any free port)")
-    return address.strip()
-
-
-def probe_scheduler(address: str, timeout: float = HANDSHAKE_TIMEOUT_S) -> None:
-    """Connect to a dask scheduler and complete the comm handshake within ``timeout`` s, else
-    :class:`BadInput`. (``distributed.Client`` bounds only the TCP connect: a listener that accepts and
-    never answers would hold it for ever.)"""
-    from distributed.comm import connect
-
-    async def handshake() -> None:
-        comm = await connect(address, timeout=CONNECT_TIMEOUT_S)
-        await comm.close()
-
-    try:
-        asyncio.run(asyncio.wait_for(handshake(), timeout))
-    except TimeoutError:
-        raise BadInput(f"--address {address}: no dask scheduler answered within {timeout:g} s (the connection "
-                       "was accepted, dask's handshake never came)") from None
-    except Exception as err:  # noqa: BLE001 - refused, unresolvable, not dask: all the user's address
-        msg = str(err).splitlines()[0] if str(err) else type(err).__name__
-        raise BadInput(f"--address {address}: cannot reach a dask scheduler within {timeout:g} s "
-                       f"({msg[:120]})") from None
-
-
-def wall_columns(columns: list[str]) -> list[str]:
-    """The columns of a results table that legitimately differ between identical runs."""
-    return [c for c in columns if WALL_COLUMNS_RE.search(c)]
-
-
-# ---------------------------------------------------------------------------- rows
-def flatten_metrics(metrics: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``{"solve_time_ms": {"median": 1}}`` → ``{"solve_time_ms_median": 1}``; lists become JSON;
-    non-finite floats become None."""
-    out: dict[str, Any] = {}
-    for k, v in metrics.items():
-        name = f"{prefix}_{k}" if prefix else str(k)
-        if isinstance(v, dict):
-            out.update(flatten_metrics(v, name))
-        elif isinstance(v, (list, tuple)):
-            out[name] = json.dumps(v, default=str)
-        elif hasattr(v, "item") and not isinstance(v, (str, bytes)):
-            out[name] = _clean(v.item())
-        else:
-            out[name] = _clean(v)
-    return out
-
-
-def _clean(v: Any) -> Any:
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, Path):
-        return str(v)
-    return v
-
-
-def make_row(run: PlannedRun, result: dict[str, Any], invocation: str) -> dict[str, Any]:
-    """One results row: run identity, axis labels, flattened metrics, compact time series."""
-    metrics = flatten_metrics(result.get("metrics", {}))
-    metrics.setdefault("status", "failed")
-    metrics.setdefault("error", None)
-    row: dict[str, Any] = {"run_key": run.key, "run_index": run.index}
-    for k, v in metrics.items():
-        row[f"m_{k}" if k in run.labels or k in ("run_key", "run_index") else k] = v
-    row.update(run.labels)
-    row["seed"] = run.seed
-    info = result.get("info", {})
-    row["worker"] = info.get("worker")
-    row["worker_run_number"] = info.get("worker_run_number")
-    for k, v in (info.get("cache") or {}).items():
-        row[f"worker_{k}"] = v  # cumulative per worker process, e.g. worker_controller_builds
-    row["task_wall_s"] = info.get("task_wall_s")
-    row["run_dir"] = info.get("run_dir")
-    row["invocation"] = invocation
-    row["finished_at"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
-    for k, v in result.get("timeseries", {}).items():
-        row[k] = [None if (isinstance(x, float) and not math.isfinite(x)) else x for x in v]
-    return row
-
-
-def failed_result(error: str) -> dict[str, Any]:
-    """The result recorded for a run whose task itself failed (e.g. its worker was lost)."""
-    return {"metrics": {"status": "failed", "error": error}, "timeseries": {}, "info": {}}
-
-
-# ---------------------------------------------------------------------------- cluster
-@contextlib.contextmanager
-def open_client(workers: int, address: str | None, dashboard: str = "127.0.0.1:0") -> Iterator[Any]:
-    """A dask Client: connected to ``address`` (handshake within :data:`HANDSHAKE_TIMEOUT_S`) or to a
-    fresh LocalCluster of ``workers`` single-threaded worker processes on 127.0.0.1, its dashboard at
-    ``dashboard``. BadInput if the scheduler cannot be reached."""
-    from distributed import Client, LocalCluster
-
-    os.environ.setdefault("OMP_NUM_THREADS", "1")  # inherited by local workers: IPOPT must not spin
-    if address is not None:
-        address = validate_address(address)
-        probe_scheduler(address)
-        try:
-            client = Client(address, timeout=CONNECT_TIMEOUT_S)
-        except Exception as err:  # noqa: BLE001 - any failure to connect is the user's address
-            msg = str(err).splitlines()[0] if str(err) else type(err).__name__
-            raise BadInput(f"--address {address}: cannot reach a dask scheduler within "
-                           f"{CONNECT_TIMEOUT_S:g} s ({msg[:120]})") from None
-        try:
-            yield client
-        finally:
-            client.close()
-        return
-    if workers < 1:
-        raise BadInput("--workers: must be >= 1")
-    with _sigint_ignored_by_children():
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                               dashboard_address=validate_dashboard(dashboard), silence_logs=logging.ERROR)
-    client = Client(cluster)
-    try:
-        yield client
-    finally:
-        with _quiet_distributed():
-            client.close()
-            cluster.close()
-
-
-@contextlib.contextmanager
-def _sigint_ignored_by_children() -> Iterator[None]:
-    """Ignore SIGINT while worker processes are started: they inherit the disposition (Python keeps an
-    inherited SIG_IGN), so a Ctrl-C in the terminal reaches only this process."""
-    try:
-        old = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    except ValueError:  # not the main thread: nothing to change
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old)
-
-
-@contextlib.contextmanager
-def _quiet_distributed() -> Iterator[None]:
-    """Silence distributed's and tornado's log lines while the cluster is torn down (closing comms of
-    cancelled runs are expected)."""
-    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
-    levels = [lg.level for lg in loggers]
-    for lg in loggers:
-        lg.setLevel(logging.CRITICAL)
-    try:
-        yield
-    finally:
-        for lg, lv in zip(loggers, levels, strict=True):
-            lg.setLevel(lv)
 
 
 # ---------------------------------------------------------------------------- run
@@ -313,6 +132,39 @@ def run_study(
     """
     say = echo or (lambda _s: None)
     store = StudyStore(out)
+    todo, already = _select(plan, store, address, rrd, limit, retry_failed, say)
+    invocation = time.strftime("%Y%m%dT%H%M%S", time.gmtime()) + "-" + uuid.uuid4().hex[:6]
+    report = StudyReport(Path(out), invocation, len(plan.runs), already)
+    t0 = time.perf_counter()
+    persist = _persister(store, report, on_row)
+    store.reconcile_log()  # rows a killed invocation persisted but did not get to log
+    kw = {"rrd": "all" if rrd == "compare" else rrd, "runs_dir": str(store.runs_dir) if rrd != "none" else None,
+          "ts_rate": plan.spec.analysis.timeseries_rate, "run_fn": run_fn,
+          "trace_stats": [t.model_dump() for t in plan.spec.analysis.trace_stats],
+          "extras": list(plan.spec.analysis.extras)}
+    with _progress(progress, len(todo), plan.spec.name) as advance:
+        if not todo:
+            store.init(plan)
+            store.log("start", invocation=invocation, todo=0, done_before=already)
+        elif serial:
+            _run_serial(todo, kw, persist, advance, store, report, plan)
+        else:
+            ctx = (contextlib.nullcontext(client) if client is not None
+                   else open_client(workers, address, dashboard))
+            with ctx as cl:
+                store.init(plan)
+                store.log("start", invocation=invocation, todo=len(todo), done_before=already,
+                          backend=str(cl.scheduler.address) if hasattr(cl, "scheduler") else "dask")
+                _run_dask(cl, todo, kw, persist, advance, store, report, plan)
+    report.wall_time_s = time.perf_counter() - t0
+    _finish(plan, store, report, rrd, analyse, say)
+    return report
+
+
+def _select(plan: StudyPlan, store: StudyStore, address: str | None, rrd: str, limit: int | None,
+            retry_failed: bool, say: Callable[[str], None]) -> tuple[list[PlannedRun], int]:
+    """Check the output folder, the address and the ``rrd`` mode before anything is written, quarantine
+    unreadable rows; the runs to compute (at most ``limit``) and the number already done."""
     store.check(plan)
     if address is not None:
         validate_address(address)
@@ -324,15 +176,17 @@ def run_study(
     todo, already = plan_todo(plan, store, retry_failed=retry_failed, limit=limit)
     if limit is not None and len(todo) < missing:
         say(describe_selection(todo, plan.axis_columns, missing))
-    invocation = time.strftime("%Y%m%dT%H%M%S", time.gmtime()) + "-" + uuid.uuid4().hex[:6]
-    report = StudyReport(Path(out), invocation, len(plan.runs), already)
-    t0 = time.perf_counter()
+    return todo, already
 
+
+def _persister(store: StudyStore, report: StudyReport,
+               on_row: Callable[[dict[str, Any]], None] | None) -> Callable[[PlannedRun, dict[str, Any]], None]:
+    """The callback that writes one finished run's row, logs it and counts it in ``report``."""
     def persist(run: PlannedRun, result: dict[str, Any]) -> None:
-        row = make_row(run, result, invocation)
+        row = make_row(run, result, report.invocation)
         store.write_row(run.key, row)
-        store.log("run", invocation=invocation, run_key=run.key, run_index=run.index, status=row.get("status"),
-                  worker=row.get("worker"))
+        store.log("run", invocation=report.invocation, run_key=run.key, run_index=run.index,
+                  status=row.get("status"), worker=row.get("worker"))
         report.computed.append(run.key)
         if row.get("status") != "ok":
             report.failed.append(run.key)
@@ -341,46 +195,40 @@ def run_study(
         if on_row is not None:
             on_row(row)
 
-    store.reconcile_log()  # rows a killed invocation persisted but did not get to log
-    kw = {"rrd": "all" if rrd == "compare" else rrd, "runs_dir": str(store.runs_dir) if rrd != "none" else None,
-          "ts_rate": plan.spec.analysis.timeseries_rate, "run_fn": run_fn}
-    with _progress(progress, len(todo), plan.spec.name) as advance:
-        if not todo:
-            store.init(plan)
-            store.log("start", invocation=invocation, todo=0, done_before=already)
-        elif serial:
-            store.init(plan)
-            store.log("start", invocation=invocation, todo=len(todo), done_before=already, backend="serial")
-            try:
-                for run in todo:
-                    persist(run, run_one(run.config, run.key, **kw))
-                    advance()
-            except KeyboardInterrupt:
-                store.log("interrupted", invocation=invocation, computed=len(report.computed))
-                raise StudyInterruptedError(_interrupted_msg(report, plan)) from None
-        else:
-            ctx = (contextlib.nullcontext(client) if client is not None
-                   else open_client(workers, address, dashboard))
-            with ctx as cl:
-                store.init(plan)
-                store.log("start", invocation=invocation, todo=len(todo), done_before=already,
-                          backend=str(cl.scheduler.address) if hasattr(cl, "scheduler") else "dask")
-                _run_dask(cl, todo, kw, persist, advance, store, report, plan)
-    report.wall_time_s = time.perf_counter() - t0
+    return persist
+
+
+def _run_serial(todo: list[PlannedRun], kw: dict[str, Any], persist: Callable[..., None],
+                advance: Callable[[], None], store: StudyStore, report: StudyReport, plan: StudyPlan) -> None:
+    """Compute the runs one after the other in this process."""
+    store.init(plan)
+    store.log("start", invocation=report.invocation, todo=len(todo), done_before=report.already_done,
+              backend="serial")
+    try:
+        for run in todo:
+            persist(run, run_one(run.config, run.key, **kw))
+            advance()
+    except KeyboardInterrupt:
+        store.log("interrupted", invocation=report.invocation, computed=len(report.computed))
+        raise StudyInterruptedError(_interrupted_msg(report, plan)) from None
+
+
+def _finish(plan: StudyPlan, store: StudyStore, report: StudyReport, rrd: str, analyse: bool,
+            say: Callable[[str], None]) -> None:
+    """Log the end, collect ``results.parquet``, write the comparison recording and the summary."""
     with contextlib.suppress(OSError):  # the (empty) staging folder of --rrd failures
         (store.runs_dir / ".staging").rmdir()
-    store.log("end", invocation=invocation, computed=len(report.computed), failed=len(report.failed),
+    store.log("end", invocation=report.invocation, computed=len(report.computed), failed=len(report.failed),
               wall_time_s=report.wall_time_s)
     report.results = store.collect(plan)
     if rrd == "compare" and report.results.height:
-        cmp = write_study_comparison(plan, report.results, Path(out) / "compare.rrd")
+        cmp = write_study_comparison(plan, report.results, report.out / "compare.rrd")
         if cmp is not None:
             say(f"comparison of {cmp[1]} runs: {cmp[0]}")
     if analyse and report.results.height:
         from .analysis import analyse_study
 
-        analyse_study(plan, report.results, Path(out))
-    return report
+        analyse_study(plan, report.results, report.out)
 
 
 def _run_dask(client: Any, todo: list[PlannedRun], kw: dict[str, Any], persist: Callable[..., None],

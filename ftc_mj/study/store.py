@@ -30,7 +30,7 @@ import pyarrow.parquet as pq
 
 from ..errors import BadInput
 from ..io import atomic_path, remove_stale_temporaries, write_json
-from .spec import StudyPlan, identity_diff
+from .plan import StudyPlan, identity_diff
 
 
 class StudyStore:

@@ -12,6 +12,7 @@ structure, ``reset()`` between runs). Each result reports that cache's counters.
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import socket
@@ -24,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..config import RunConfig, validate_config
+from .extras import run_extras
 
 RunFn = Callable[[RunConfig, "Path | None", bool], Any]
 """``run_fn(cfg, out_root, rrd) -> RunOutcome``-like (``.metrics``, ``.result.trace``, ``.run_dir``)."""
@@ -66,6 +68,26 @@ def compact_timeseries(trace: dict[str, np.ndarray], est_rate: float, rate: floa
     return out
 
 
+def window_stats(trace: dict[str, np.ndarray], specs: list[dict[str, Any]]) -> dict[str, float | None]:
+    """Each :class:`~ftc_mj.study.spec.TraceStatSpec` (as a dict) of the full trace: ``mean``, ``std``
+    (ddof 0) or ``max_abs`` of its column over its window, in the column's unit (None for an empty window)."""
+    t = np.asarray(trace.get("t", []), dtype=float)
+    out: dict[str, float | None] = {}
+    for s in specs:
+        end = math.inf if s.get("end") is None else float(s["end"])
+        upper = t <= end if s.get("end_inclusive", True) else t < end
+        x = np.asarray(trace[s["column"]])[(t >= float(s.get("start", 0.0))) & upper]
+        if x.size == 0:
+            out[s["name"]] = None
+        elif s["stat"] == "mean":
+            out[s["name"]] = float(np.mean(x))
+        elif s["stat"] == "std":
+            out[s["name"]] = float(np.std(x))
+        else:
+            out[s["name"]] = float(np.max(np.abs(x)))
+    return out
+
+
 def run_one(
     config: dict[str, Any],
     key: str,
@@ -74,11 +96,15 @@ def run_one(
     runs_dir: str | None = None,
     ts_rate: float = 2.0,
     run_fn: RunFn | None = None,
+    trace_stats: list[dict[str, Any]] | None = None,
+    extras: list[str] | None = None,
 ) -> dict[str, Any]:
     """Execute one run (in a worker) and return ``{"metrics", "timeseries", "info"}`` as plain data.
 
     ``rrd``: ``none`` (no recording), ``all`` (every run's folder under ``runs_dir``) or
-    ``failures`` (the run folder is staged and kept only if the run failed).
+    ``failures`` (the run folder is staged and kept only if the run failed). ``ts_rate`` (Hz): the compact
+    time series; ``trace_stats`` (:func:`window_stats`) and ``extras`` (:mod:`.extras`) add columns
+    computed from the full trace.
     """
     t0 = time.perf_counter()
     fn = run_fn or _default_run_fn
@@ -104,6 +130,8 @@ def run_one(
                 outcome.run_dir = None
             shutil.rmtree(staging, ignore_errors=True)
         metrics = dict(outcome.metrics)
+        metrics.update(window_stats(outcome.result.trace, trace_stats or []))
+        metrics.update(run_extras(extras or [], cfg, outcome.result.trace))
         info["run_dir"] = str(outcome.run_dir) if outcome.run_dir is not None else None
         ts = compact_timeseries(outcome.result.trace, cfg.estimator.rate, ts_rate)
     except Exception as exc:  # noqa: BLE001 - a failing run becomes a row, never a crashed study

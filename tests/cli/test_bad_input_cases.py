@@ -16,7 +16,6 @@ import sys
 import textwrap
 import threading
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -30,8 +29,9 @@ from ftc_mj.cli import app
 from ftc_mj.config import load_config
 from ftc_mj.errors import EXIT_UNSTABLE, BadInput
 from ftc_mj.plant import NAN, PHYSICS_WARNING, UNSTABLE, build_plant
+from ftc_mj.study.plan import plan_study
 from ftc_mj.study.runner import run_study
-from ftc_mj.study.spec import load_study
+from tests.support.fake_runs import FakeOutcome, FakeResult
 
 ROOT = Path(__file__).resolve().parents[2]
 MODEL = resources.resource_path("models", "diffdrive.xml")
@@ -130,20 +130,7 @@ def test_plant_flags_mujoco_instability_and_freezes() -> None:
     assert not p.frozen and not p.truth().flags & UNSTABLE
 
 
-@dataclass
-class _Res:
-    trace: dict[str, np.ndarray]
-
-
-@dataclass
-class _Out:
-    metrics: dict[str, Any]
-    result: _Res
-    run_dir: Path | None = None
-    extra: list[str] = field(default_factory=list)
-
-
-def fake_run(cfg: Any, out_root: Path | None, rrd: bool) -> _Out:
+def fake_run(cfg: Any, out_root: Path | None, rrd: bool) -> FakeOutcome:
     """Instantaneous run: ``sensors.speed_sigma = 0.7`` plays a run whose physics blew up (a frozen robot
     with an absurd cross-track error); the others are well-behaved."""
     n = int(cfg.duration * cfg.estimator.rate)
@@ -151,7 +138,7 @@ def fake_run(cfg: Any, out_root: Path | None, rrd: bool) -> _Out:
     status = "unstable" if blown else "ok"
     m = {"status": status, "error": "physics unstable" if blown else None,
          "cross_track_rms": 1000.0 if blown else 0.1 + 0.01 * cfg.seed, "estimator": cfg.estimator.kind}
-    return _Out(m, _Res({"t": np.arange(n) / cfg.estimator.rate}))
+    return FakeOutcome(m, FakeResult({"t": np.arange(n) / cfg.estimator.rate}))
 
 
 STUDY = """
@@ -173,7 +160,7 @@ unit = "m"
 def test_study_counts_unstable_runs_apart(tmp_path: Path) -> None:
     p = tmp_path / "u.toml"
     p.write_text(textwrap.dedent(STUDY))
-    rep = run_study(load_study(p), tmp_path / "out", serial=True, run_fn=fake_run)
+    rep = run_study(plan_study(p), tmp_path / "out", serial=True, run_fn=fake_run)
     assert len(rep.unstable) == 3 and len(rep.failed) == 3
     text = (tmp_path / "out" / "summary.md").read_text()
     assert "(3 ok, 0 failed, 3 with unstable physics, excluded from every statistic)" in text
@@ -264,7 +251,7 @@ def test_corrupt_row_is_quarantined_and_recomputed(tmp_path: Path) -> None:
     p = tmp_path / "u.toml"
     p.write_text(textwrap.dedent(STUDY).replace("values = [0.5, 0.7]", "values = [0.5, 0.6]"))
     out = tmp_path / "out"
-    plan = load_study(p)
+    plan = plan_study(p)
     run_study(plan, out, serial=True, run_fn=fake_run, analyse=False)
     victim = out / "rows" / f"{plan.runs[2].key}.parquet"
     victim.write_bytes(b"PAR1 torn by a crash")
@@ -283,7 +270,7 @@ def test_huge_grid_is_refused_at_once(tmp_path: Path) -> None:
     p = tmp_path / "g.toml"
     p.write_text(f'name = "g"\nscenario = "scenario1"\n{axes}')
     with pytest.raises(BadInput, match=r"the plan has 1000000 runs \(1000 × 1000 × 1 seeds\); at most 10000"):
-        load_study(p)
+        plan_study(p)
 
 
 # ------------------------------------------------------------------------------------------ messages
@@ -379,7 +366,7 @@ def test_leftovers_of_killed_runs_are_removed(tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------------------ network
 def test_local_cluster_listens_on_localhost_only() -> None:
     psutil = pytest.importorskip("psutil")
-    from ftc_mj.study.runner import open_client
+    from ftc_mj.study.cluster import open_client
 
     with open_client(1, None) as client:
         assert client.dashboard_link.startswith("http://127.0.0.1:")

@@ -21,8 +21,8 @@ from ftc_mj.config import load_config
 from ftc_mj.sim.loop import SimResult
 from ftc_mj.sim.run import RunOutcome, execute
 from ftc_mj.sim.summary import print_run_summary
+from ftc_mj.study.plan import plan_study
 from ftc_mj.study.runner import covering_order, describe_selection, run_study
-from ftc_mj.study.spec import load_study
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -90,7 +90,7 @@ values = ["ekf", "ukf"]
 def test_limit_samples_across_the_axes(tmp_path: Path) -> None:
     p = tmp_path / "lim.toml"
     p.write_text(textwrap.dedent(STUDY))
-    plan = load_study(p)
+    plan = plan_study(p)
     assert [r.seed for r in plan.runs[:5]] == [0, 1, 2, 3, 4]  # plan order: seeds innermost
     first4 = covering_order(plan.runs, plan.axis_columns)[:4]
     assert {(r.labels["sensors"], r.labels["estimator.kind"]) for r in first4} == {
@@ -114,7 +114,7 @@ def test_reused_study_folder_says_what_differs(tmp_path: Path) -> None:
 
         return SimpleNamespace(metrics={"status": "ok"}, result=SimpleNamespace(trace={}), run_dir=None)
 
-    run_study(load_study(p), out, serial=True, run_fn=fake, limit=1, analyse=False)
+    run_study(plan_study(p), out, serial=True, run_fn=fake, limit=1, analyse=False)
     res = CliRunner().invoke(app, ["study", str(p), "--out", str(out), "--seeds", "3", "--set", "duration=0.4"])
     assert res.exit_code == 2
     line = res.stderr.strip()

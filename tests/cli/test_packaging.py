@@ -19,7 +19,7 @@ from ftc_mj import resources
 from ftc_mj.cli import app
 from ftc_mj.config import load_config
 from ftc_mj.identity import run_digest, run_id, run_identity
-from ftc_mj.study.spec import load_study, run_key
+from ftc_mj.study.plan import plan_study, run_key
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = Path(ftc_mj.__file__).resolve().parent
@@ -33,7 +33,7 @@ def test_package_data_is_found_through_importlib_resources() -> None:
     assert resources.model_path("builtin:diffdrive.xml").read_text().lstrip().startswith("<!--")
     with pytest.raises(ValueError, match=r"no built-in model 'nope.xml' \(built-in: diffdrive.xml\)"):
         resources.model_path("builtin:nope.xml")
-    assert load_study("severity").spec.name == "severity"  # a built-in study by name
+    assert plan_study("severity").spec.name == "severity"  # a built-in study by name
     declared = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["ftc_mj"]
     shipped = {str(p.relative_to(PACKAGE)) for p in (PACKAGE / "data").rglob("*") if p.is_file()}
     assert shipped and all(any(Path(f).match(g) for g in declared) for f in shipped), shipped

@@ -77,10 +77,10 @@ def test_seed_sets() -> None:
 
 def test_no_study_file_uses_the_held_out_seeds() -> None:
     from ftc_mj.resources import resource_path
-    from ftc_mj.study.spec import load_study
+    from ftc_mj.study.plan import plan_study
 
     for f in sorted(resource_path("studies").glob("*.toml")):
-        assert max(r.seed for r in load_study(f).runs) < HELD_OUT_START, f.name
+        assert max(r.seed for r in plan_study(f).runs) < HELD_OUT_START, f.name
 
 
 def test_matrix_study_configs_equal_the_matrix_entries(tmp_path: Path) -> None:

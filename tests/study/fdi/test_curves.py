@@ -12,9 +12,9 @@ from typer.testing import CliRunner
 from ftc_mj.cli import app
 from ftc_mj.config import RunConfig
 from ftc_mj.metrics.fdi import cumulative_kl
-from ftc_mj.study.fdi_curves import Cell, Run, lorden_bound, operating_point, poisson_rate
+from ftc_mj.study.fdi.curves import Cell, Run, lorden_bound, operating_point, poisson_rate
+from ftc_mj.study.plan import plan_study
 from ftc_mj.study.runner import run_study
-from ftc_mj.study.spec import load_study
 
 
 def _run(key: str, records: list[list[float]], onset: float | None = None, seed: int = 0) -> Run:
@@ -100,7 +100,7 @@ def test_fdi_curves_end_to_end_and_bad_input(tmp_path: Path) -> None:
     sf = tmp_path / "tiny.toml"
     sf.write_text(STUDY)
     out = tmp_path / "study"
-    run_study(load_study(sf), out, serial=True, analyse=False)
+    run_study(plan_study(sf), out, serial=True, analyse=False)
     res = CliRunner().invoke(app, ["fdi-curves", str(out)])
     assert res.exit_code == 0, res.output
     md = (out / "fdi" / "fdi.md").read_text()

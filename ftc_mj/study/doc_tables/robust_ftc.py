@@ -1,33 +1,29 @@
 """The passive / active / hybrid FTC table of docs/findings.md from the two robust-FTC studies.
 
-Usage: ``.venv/bin/python docs/tools/robust_ftc_table.py OUT_ROBUST_FTC OUT_ROBUST_FTC_FIXED`` with the
-output folders of ``ftc-mj study robust_ftc`` and ``ftc-mj study robust_ftc_fixed``. Reads
-``results.parquet`` or, for a study still running, the rows persisted so far (``n`` says how many seeds
-each cell has). Seed-dependent cells: mean over the seeds with a 95 % Student-t interval and the worst
+``ftc-mj study robust_ftc --report`` (or ``robust_ftc_fixed --report``) after ``ftc-mj study robust_ftc`` and
+``ftc-mj study robust_ftc_fixed``: one table from both output folders (siblings, e.g.
+``runs/out/studies/robust_ftc`` and ``runs/out/studies/robust_ftc_fixed``). Reads ``results.parquet`` or,
+for a study still running, the rows persisted so far (``n`` says how many seeds each cell has).
+Seed-dependent cells: mean over the seeds with a 95 % Student-t interval and the worst
 seed; the strategies that never see a sensor (nominal, passive, passive-left, oracle) are one run
 (checked identical over their seeds), shown once for both sensings.
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import polars as pl
-from scipy import stats
 
+from ...errors import BadInput
+from ..stats import mean_ci
+from .results import read_results
+
+STUDIES = ("robust_ftc", "robust_ftc_fixed")
+"""The two studies whose rows make the table (their output folders are siblings)."""
 FIXED = ("nominal", "passive", "passive-left", "oracle")
 ORDER = {s: i for i, s in enumerate(("nominal", "passive", "passive-left", "safe", "direct", "hybrid", "oracle"))}
-
-
-def load(out: Path) -> pl.DataFrame:
-    """Rows of a study output folder (the final table, or the rows persisted so far)."""
-    res = out / "results.parquet"
-    if res.is_file():
-        return pl.read_parquet(res)
-    files = sorted((out / "rows").glob("*.parquet"))
-    return pl.concat([pl.read_parquet(f) for f in files], how="diagonal_relaxed") if files else pl.DataFrame()
 
 
 def cell(v: np.ndarray, fixed: bool) -> str:
@@ -37,12 +33,12 @@ def cell(v: np.ndarray, fixed: bool) -> str:
         return "—"
     if fixed or v.size == 1:
         return f"{v[0]:.2f}"
-    m = float(v.mean())
-    h = float(stats.t.ppf(0.975, v.size - 1) * v.std(ddof=1) / np.sqrt(v.size))
-    return f"{m:.2f} [{max(m - h, 0):.2f}, {m + h:.2f}] ({v.max():.2f})"
+    e = mean_ci(v)
+    return f"{e.mean:.2f} [{max(e.lo, 0):.2f}, {e.hi:.2f}] ({v.max():.2f})"
 
 
 def table(df: pl.DataFrame) -> str:
+    """The published table from the rows of both studies."""
     ok = df.filter(pl.col("status") == "ok")
     lines = ["| scenario | plant | sensing | strategy | n | max \\|cte\\| from onset + 5 s (m) | final \\|cte\\| (m) | "
              "RMS \\|cte\\| from 5 s (m) | tipped | solver fallbacks |", "|---|---|---|---|---|---|---|---|---|---|"]
@@ -59,7 +55,7 @@ def table(df: pl.DataFrame) -> str:
             c = c.filter(pl.col("sensing") == sensing)
         rec = c["cross_track_max_recovered"].cast(pl.Float64).to_numpy()
         if fixed and np.ptp(c["cross_track_rms"].to_numpy()) > 0:
-            raise SystemExit(f"{fault}/{plant}/{strategy}: runs differ between seeds")
+            raise BadInput(f"{fault}/{plant}/{strategy}: runs of a seed-independent strategy differ between seeds")
         fin = np.abs(c["cross_track_final"].to_numpy())
         rms = c["cross_track_rms_settled"].to_numpy()
         n_tip = int(c["tipped"].sum())
@@ -71,11 +67,9 @@ def table(df: pl.DataFrame) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
-    frames = [load(Path(p)) for p in sys.argv[1:]]
+def report(out: Path) -> str:
+    """The published table from ``out`` and its sibling folders of :data:`STUDIES` that exist."""
+    folders = [Path(out).parent / name for name in STUDIES if (Path(out).parent / name).is_dir()]
+    frames = [read_results(f) for f in dict.fromkeys([Path(out), *folders])]
     df = pl.concat([f for f in frames if f.height], how="diagonal_relaxed")
-    print(table(df))
-
-
-if __name__ == "__main__":
-    main()
+    return table(df) + "\n"

@@ -9,15 +9,18 @@ are the values of the last cell axis (e.g. the filter), its columns the severiti
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import polars as pl
 
-from .analysis import _plt, _save, _stack, ts_mean_ci
-from .fdi_curves import Cell
-from .fdi_report import RuleCurves, lorden_curve
+from ..plotting import pyplot, save_figure
+from ..series import series_time, stack_series
+from ..stats import Estimate, log_scale_interval, ts_mean
+from .cells import Cell
+from .curves import RuleCurves, lorden_curve
 
 COLOURS = {"sigma": "tab:blue", "mode": "tab:green", "cusum": "tab:orange", "glr": "tab:red"}
 
@@ -46,17 +49,26 @@ def arl0_axis(points: list[Any]) -> tuple[np.ndarray, np.ndarray]:
 
 def _band(ax: Any, x: np.ndarray, m: np.ndarray, lo: np.ndarray, hi: np.ndarray, colour: str, label: str,
           censored: np.ndarray | None = None) -> None:
+    """A rule's mean line with its interval band (no band where the interval is undefined) and open markers
+    at the censored points."""
     ok = np.isfinite(x) & np.isfinite(m) & (x > 0)
     if not ok.any():
         return
     order = np.argsort(x[ok])
-    xs = x[ok][order]
-    ax.plot(xs, m[ok][order], color=colour, label=label, lw=1.2)
-    ax.fill_between(xs, np.nan_to_num(lo[ok][order], nan=0.0), np.nan_to_num(hi[ok][order], nan=0.0),
+    xs, ms = x[ok][order], m[ok][order]
+    ax.plot(xs, ms, color=colour, label=label, lw=1.2)
+    los, his = lo[ok][order], hi[ok][order]
+    ax.fill_between(xs, np.where(np.isfinite(los), los, ms), np.where(np.isfinite(his), his, ms),
                     color=colour, alpha=0.15, lw=0)
     if censored is not None and (censored & ok).any():
         c = censored & ok
         ax.plot(x[c], m[c], "o", mfc="none", color=colour, ms=4)
+
+
+def _rule_band(ax: Any, rc: RuleCurves, ests: list[Estimate], lo: np.ndarray, hi: np.ndarray) -> None:
+    """One rule's estimates over its swept points against their ARL0 (:func:`arl0_axis`), band ``[lo, hi]``."""
+    x, cens = arl0_axis(rc.points)
+    _band(ax, x, np.array([e.mean for e in ests]), lo, hi, COLOURS[rc.rule], rc.rule, cens)
 
 
 def _log(ax: Any, x: bool = True, y: bool = True) -> None:
@@ -103,84 +115,87 @@ def _panel(ax: Any, title: str, last_row: bool, first_col: bool, xlabel: str, yl
         ax.set_ylabel(ylabel, fontsize=7)
 
 
-def fig_delay(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> None:
-    """Mean conditional delay (95 % CI band) against measured ARL0, per rule, with Lorden's bound."""
-    plt = _plt()
-    fig, axs, sevs = _grid(rows, plt)
+def _panels(rows: dict[Any, list[RuleCurves]], axs: Any,
+            sevs: list[Any]) -> Iterator[tuple[Any, Any, Any, list[RuleCurves], bool, bool]]:
+    """Each panel of a rows × severities grid: ``(axes, row value, severity, the row's curves with that
+    severity, last row, first column)``."""
     for i, (rv, rcs) in enumerate(rows.items()):
         for j, sev in enumerate(sevs):
-            ax = axs[i, j]
-            for rc in (r for r in rcs if sev in r.design.delay):
-                x, cens = arl0_axis(rc.points)
-                d = [p.delay[sev] for p in rc.points]
-                _band(ax, x, np.array([e.mean for e in d]), np.array([e.lo for e in d]), np.array([e.hi for e in d]),
-                      COLOURS[rc.rule], rc.rule, cens)
-                dp = rc.design
-                xd, cd = arl0_axis([dp])
-                if sev in dp.delay and math.isfinite(xd[0]) and math.isfinite(dp.delay[sev].mean):
-                    ax.plot(xd, [dp.delay[sev].mean], "o", color=COLOURS[rc.rule], ms=5,
-                            mfc="none" if cd[0] else COLOURS[rc.rule], mew=1.5)
-            la, lb = lorden_curve(rcs[0].cell, sev) if sev in rcs[0].cell.faults else (np.zeros(0), np.zeros(0))
-            ax.plot(la, lb, "k--", lw=1)
-            _log(ax)
-            _panel(ax, f"{rv}, severity {sev}", i == len(rows) - 1, j == 0,
-                   "ARL0: mean time between false alarms (s)", "detection delay (s)")
+            yield axs[i, j], rv, sev, [r for r in rcs if sev in r.design.delay], i == len(rows) - 1, j == 0
+
+
+def fig_delay(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> None:
+    """Mean conditional delay (s) against measured ARL0 (s), per rule, with Lorden's bound; the band is the
+    95 % interval of the mean on the log scale (:func:`~ftc_mj.study.stats.log_scale_interval`: positive,
+    as the log axis needs)."""
+    plt = pyplot()
+    fig, axs, sevs = _grid(rows, plt)
+    for ax, rv, sev, rcs, last_row, first_col in _panels(rows, axs, sevs):
+        for rc in rcs:
+            d = [p.delay[sev] for p in rc.points]
+            lo, hi = np.array([log_scale_interval(e) for e in d]).reshape(-1, 2).T
+            _rule_band(ax, rc, d, lo, hi)
+            dp = rc.design
+            xd, cd = arl0_axis([dp])
+            if sev in dp.delay and math.isfinite(xd[0]) and math.isfinite(dp.delay[sev].mean):
+                ax.plot(xd, [dp.delay[sev].mean], "o", color=COLOURS[rc.rule], ms=5,
+                        mfc="none" if cd[0] else COLOURS[rc.rule], mew=1.5)
+        cell = rows[rv][0].cell
+        la, lb = lorden_curve(cell, sev) if sev in cell.faults else (np.zeros(0), np.zeros(0))
+        ax.plot(la, lb, "k--", lw=1)
+        _log(ax)
+        _panel(ax, f"{rv}, severity {sev}", last_row, first_col,
+               "ARL0: mean time between false alarms (s)", "detection delay (s)")
     _legend(fig, rows, lorden=True)
     fig.suptitle(f"{title}: delay against mean time between false alarms\n(filled dots: design thresholds; open: no "
                  "false alarm in the fault-free seconds observed, drawn there)", fontsize=8, x=0.02, ha="left")
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def fig_roc(rows: dict[Any, list[RuleCurves]], title: str, horizon: float, path: Path) -> None:
     """Detection within the horizon against false alarm in a window of the same length."""
-    plt = _plt()
+    plt = pyplot()
     fig, axs, sevs = _grid(rows, plt)
-    for i, (rv, rcs) in enumerate(rows.items()):
-        for j, sev in enumerate(sevs):
-            ax = axs[i, j]
-            for rc in (r for r in rcs if sev in r.design.delay):
-                x = np.array([p.pfa.mean for p in rc.points])
-                y = np.array([p.pd[sev].mean for p in rc.points])
-                order = np.argsort(x)
-                ax.plot(x[order], y[order], ".-", color=COLOURS[rc.rule], label=rc.rule, lw=1, ms=3)
-            ax.plot([0, 1], [0, 1], color="0.7", lw=0.8)
-            ax.set_xlim(-0.02, 1.02)
-            ax.set_ylim(-0.02, 1.02)
-            _panel(ax, f"{rv}, severity {sev}", i == len(rows) - 1, j == 0,
-                   f"P(false alarm within {horizon:g} s)", f"P(detection within {horizon:g} s)", which="major")
+    for ax, rv, sev, rcs, last_row, first_col in _panels(rows, axs, sevs):
+        for rc in rcs:
+            x = np.array([p.pfa.mean for p in rc.points])
+            y = np.array([p.pd[sev].mean for p in rc.points])
+            order = np.argsort(x)
+            ax.plot(x[order], y[order], ".-", color=COLOURS[rc.rule], label=rc.rule, lw=1, ms=3)
+        ax.plot([0, 1], [0, 1], color="0.7", lw=0.8)
+        ax.set_xlim(-0.02, 1.02)
+        ax.set_ylim(-0.02, 1.02)
+        _panel(ax, f"{rv}, severity {sev}", last_row, first_col,
+               f"P(false alarm within {horizon:g} s)", f"P(detection within {horizon:g} s)", which="major")
     _legend(fig, rows)
     fig.suptitle(f"{title}: ROC (runs without an earlier alarm)", fontsize=9, x=0.02, ha="left")
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def fig_isolation(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> None:
     """Fraction of detections isolating the true wheel against measured ARL0."""
-    plt = _plt()
+    plt = pyplot()
     fig, axs, sevs = _grid(rows, plt)
-    for i, (rv, rcs) in enumerate(rows.items()):
-        for j, sev in enumerate(sevs):
-            ax = axs[i, j]
-            for rc in (r for r in rcs if sev in r.design.delay):
-                x, cens = arl0_axis(rc.points)
-                e = [p.iso[sev] for p in rc.points]
-                if e:
-                    _band(ax, x, np.array([v.mean for v in e]), np.array([v.lo for v in e]),
-                          np.array([v.hi for v in e]), COLOURS[rc.rule], rc.rule, cens)
-            _log(ax, y=False)
-            ax.set_ylim(-0.02, 1.02)
-            _panel(ax, f"{rv}, severity {sev}", i == len(rows) - 1, j == 0, "ARL0 (s)", "isolated the true wheel")
+    for ax, rv, sev, rcs, last_row, first_col in _panels(rows, axs, sevs):
+        for rc in rcs:
+            e = [p.iso[sev] for p in rc.points]
+            if e:
+                _rule_band(ax, rc, e, np.array([v.lo for v in e]), np.array([v.hi for v in e]))
+        _log(ax, y=False)
+        ax.set_ylim(-0.02, 1.02)
+        _panel(ax, f"{rv}, severity {sev}", last_row, first_col, "ARL0 (s)", "isolated the true wheel")
     _legend(fig, rows)
     fig.suptitle(f"{title}: isolation accuracy of the detections", fontsize=9, x=0.02, ha="left")
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def fig_rmse(df: pl.DataFrame, keys: list[str], severity_of: dict[str, Any], path: Path) -> None:
     """Left-radius RMSE over seeds against time and the bound's σ, per cell of all keys but the last (panels)
     and the last key (lines); no-fault runs in the first row, each severity in the next."""
-    plt = _plt()
+    plt = pyplot()
     ok = df.filter(pl.col("status") == "ok")
     panels = list(dict.fromkeys(tuple(r[k] for k in keys[:-1]) for r in ok.iter_rows(named=True)))
     sevs = list(dict.fromkeys(severity_of.values()))
@@ -193,11 +208,11 @@ def fig_rmse(df: pl.DataFrame, keys: list[str], severity_of: dict[str, Any], pat
             ax = axs[i, j]
             part_s = sub.filter(pl.col("run_key").is_in([k for k, s in severity_of.items() if s == sev]))
             for lv, part in part_s.group_by(keys[-1], maintain_order=True):
-                t = np.nanmax(_stack(part, "ts_t"), axis=0)
-                e = _stack(part, "ts_R_L_hat") - _stack(part, "ts_R_L")
+                t = series_time(part)
+                e = stack_series(part, "ts_R_L_hat") - stack_series(part, "ts_R_L")
                 rmse = np.sqrt(np.nanmean(e * e, axis=0))
                 line = ax.plot(t, rmse, lw=1, label=str(lv[0]))
-                b, _ = ts_mean_ci(_stack(part, "ts_R_L_pcrb_std"))
+                b = ts_mean(stack_series(part, "ts_R_L_pcrb_std"))
                 ax.plot(t, b, "--", lw=0.8, color=line[0].get_color())
             _log(ax, x=False)
             ax.set_title(f"{', '.join(map(str, pk))}; severity {sev}", fontsize=8)
@@ -210,7 +225,7 @@ def fig_rmse(df: pl.DataFrame, keys: list[str], severity_of: dict[str, Any], pat
     axs[0, 0].legend(fontsize=6)
     fig.suptitle("left-radius RMSE over seeds against the posterior Cramér–Rao bound", fontsize=9)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def draw_all(curves: list[RuleCurves], cells: list[Cell], keys: list[str], df: pl.DataFrame, out: Path,

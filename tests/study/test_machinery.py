@@ -6,9 +6,7 @@ the same output folder, analysis output. The real simulation on a dask cluster i
 from __future__ import annotations
 
 import textwrap
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import polars as pl
@@ -16,25 +14,15 @@ import pytest
 
 from ftc_mj.config import RunConfig
 from ftc_mj.errors import BadInput
-from ftc_mj.study.runner import run_study, wall_columns
-from ftc_mj.study.spec import load_study
+from ftc_mj.study.plan import plan_study
+from ftc_mj.study.rows import wall_columns
+from ftc_mj.study.runner import run_study
 from ftc_mj.study.store import StudyStore
+from tests.study.studies import SENSORS_BY_ESTIMATOR
+from tests.support.fake_runs import FakeOutcome, FakeResult
 
 
-@dataclass
-class _Result:
-    trace: dict[str, np.ndarray]
-
-
-@dataclass
-class _Outcome:
-    metrics: dict[str, Any]
-    result: _Result
-    run_dir: Path | None = None
-    calls: list[str] = field(default_factory=list)
-
-
-def fake_run(cfg: RunConfig, out_root: Path | None, rrd: bool) -> _Outcome:
+def fake_run(cfg: RunConfig, out_root: Path | None, rrd: bool) -> FakeOutcome:
     """Deterministic stand-in for ``execute``: metrics are simple functions of the config."""
     if cfg.sensors.speed_sigma == 0.3:
         raise RuntimeError("boom in the plant")
@@ -53,7 +41,7 @@ def fake_run(cfg: RunConfig, out_root: Path | None, rrd: bool) -> _Outcome:
                "missed_detection": False, "true_fault_wheel": "left", "isolated_wheel": "left" if gyro else "right",
                "isolation_correct": gyro, "cross_track_rms": 0.07, "solve_time_ms": {"median": 3.0, "p95": 4.0},
                "wall_time_s": float(rng.random()), "estimator": cfg.estimator.kind}
-    return _Outcome(metrics, _Result(trace))
+    return FakeOutcome(metrics, FakeResult(trace))
 
 
 STUDY = """
@@ -62,19 +50,7 @@ scenario = "scenario2"
 seeds = 3
 [base]
 duration = 3.0
-[[axes]]
-name = "sensors"
-labels = ["speed", "speed+yaw"]
-values = [{}, { "sensors.yaw_rate_sigma" = 0.01 }]
-[[axes]]
-name = "estimator"
-key = "estimator.kind"
-values = ["ekf", "ukf"]
-[[analysis.findings]]
-metric = "abs_radius_final_error_L"
-axis = "sensors"
-baseline = "speed"
-unit = "m"
+""" + SENSORS_BY_ESTIMATOR + """
 [[analysis.findings]]
 metric = "isolation_correct"
 axis = "sensors"
@@ -93,7 +69,7 @@ def comparable(df: pl.DataFrame) -> pl.DataFrame:
 
 
 def test_serial_study_rows_results_summary(tmp_path: Path) -> None:
-    plan = load_study(study(tmp_path))
+    plan = plan_study(study(tmp_path))
     out = tmp_path / "out"
     rep = run_study(plan, out, serial=True, run_fn=fake_run)
     assert len(rep.computed) == 12 and rep.already_done == 0
@@ -110,7 +86,7 @@ def test_serial_study_rows_results_summary(tmp_path: Path) -> None:
 
 
 def test_resume_computes_only_missing(tmp_path: Path) -> None:
-    plan = load_study(study(tmp_path))
+    plan = plan_study(study(tmp_path))
     ref = run_study(plan, tmp_path / "ref", serial=True, run_fn=fake_run, analyse=False).results
     out = tmp_path / "out"
     first = run_study(plan, out, serial=True, run_fn=fake_run, limit=5, analyse=False)
@@ -132,7 +108,7 @@ def test_resume_computes_only_missing(tmp_path: Path) -> None:
 def test_row_persisted_without_its_log_line_is_logged_once_on_resume(tmp_path: Path) -> None:
     """A kill between a row's atomic write and its log line (the window a SIGKILL can hit) leaves a
     row the log does not name; the next invocation neither recomputes it nor leaves it unlogged."""
-    plan = load_study(study(tmp_path))
+    plan = plan_study(study(tmp_path))
     out = tmp_path / "out"
     first = run_study(plan, out, serial=True, run_fn=fake_run, limit=3, analyse=False)
     store = StudyStore(out)
@@ -155,7 +131,7 @@ def test_failing_runs_become_rows(tmp_path: Path) -> None:
                          'values = [{}, { "sensors.speed_sigma" = 0.3 }, { "sensors.speed_sigma" = 0.4 }]')
     text = text.replace('labels = ["speed", "speed+yaw"]', 'labels = ["a", "raises", "fails"]')
     text = text.replace('baseline = "speed"', 'baseline = "a"')
-    plan = load_study(study(tmp_path, text))
+    plan = plan_study(study(tmp_path, text))
     rep = run_study(plan, tmp_path / "out", serial=True, run_fn=fake_run)
     df = rep.results
     assert df is not None and df.height == 18 and len(rep.failed) == 12
@@ -171,20 +147,20 @@ def test_failing_runs_become_rows(tmp_path: Path) -> None:
 
 
 def test_different_study_same_out_refused(tmp_path: Path) -> None:
-    plan = load_study(study(tmp_path))
+    plan = plan_study(study(tmp_path))
     out = tmp_path / "out"
     run_study(plan, out, serial=True, run_fn=fake_run, limit=2, analyse=False)
     before = {p.name: p.stat().st_mtime_ns for p in (out / "rows").iterdir()}
-    other = load_study(study(tmp_path, STUDY.replace("seeds = 3", "seeds = 2"), "other.toml"))
+    other = plan_study(study(tmp_path, STUDY.replace("seeds = 3", "seeds = 2"), "other.toml"))
     with pytest.raises(BadInput, match="holds results of a different study"):
         run_study(other, out, serial=True, run_fn=fake_run)
     with pytest.raises(BadInput, match="different study"):  # same file, different overrides
-        run_study(load_study(tmp_path / "mach.toml", extra_overrides={"duration": 2.0}), out, serial=True,
+        run_study(plan_study(tmp_path / "mach.toml", extra_overrides={"duration": 2.0}), out, serial=True,
                   run_fn=fake_run)
     assert {p.name: p.stat().st_mtime_ns for p in (out / "rows").iterdir()} == before
 
 
-def fake_run_writing(cfg: RunConfig, out_root: Path | None, rrd: bool) -> _Outcome:
+def fake_run_writing(cfg: RunConfig, out_root: Path | None, rrd: bool) -> FakeOutcome:
     """Like :func:`fake_run`, and writes ``out_root/<run-id>/`` as ``execute`` does."""
     from ftc_mj.sim.run import run_id_for
 
@@ -201,7 +177,7 @@ def fake_run_writing(cfg: RunConfig, out_root: Path | None, rrd: bool) -> _Outco
 def test_recordings_modes(tmp_path: Path, mode: str) -> None:
     text = STUDY.replace('values = [{}, { "sensors.yaw_rate_sigma" = 0.01 }]',
                          'values = [{}, { "sensors.speed_sigma" = 0.4 }]').replace("seeds = 3", "seeds = 1")
-    plan = load_study(study(tmp_path, text))
+    plan = plan_study(study(tmp_path, text))
     out = tmp_path / "out"
     rep = run_study(plan, out, serial=True, run_fn=fake_run_writing, rrd=mode, analyse=False)  # type: ignore[arg-type]
     kept = sorted(p.name for p in (out / "runs").iterdir() if not p.name.startswith("."))
@@ -218,9 +194,9 @@ def test_recordings_modes(tmp_path: Path, mode: str) -> None:
 def test_editing_findings_keeps_results(tmp_path: Path) -> None:
     p = study(tmp_path)
     out = tmp_path / "out"
-    run_study(load_study(p), out, serial=True, run_fn=fake_run)
+    run_study(plan_study(p), out, serial=True, run_fn=fake_run, analyse=False)  # the edit's summary is checked
     p.write_text(textwrap.dedent(STUDY).replace('baseline = "speed"', 'baseline = "speed+yaw"'))
-    rep = run_study(load_study(p), out, serial=True, run_fn=fake_run)
+    rep = run_study(plan_study(p), out, serial=True, run_fn=fake_run)
     assert rep.computed == [] and rep.already_done == 12
     assert "sensors = speed raises it from 0.05" in (out / "summary.md").read_text()
     assert (out / "study.toml").read_text() == p.read_text()
@@ -233,7 +209,7 @@ def test_bad_invocations_leave_results_untouched(tmp_path: Path) -> None:
 
     p = study(tmp_path)
     out = tmp_path / "out"
-    run_study(load_study(p), out, serial=True, run_fn=fake_run, limit=5)
+    run_study(plan_study(p), out, serial=True, run_fn=fake_run, limit=5)
     snapshot = {q: q.read_bytes() for q in out.rglob("*") if q.is_file()}
     bad_key = study(tmp_path, STUDY.replace('key = "estimator.kind"', 'key = "estimator.knd"'), "bad.toml")
     empty = study(tmp_path, STUDY.replace('values = ["ekf", "ukf"]', "values = []"), "empty.toml")

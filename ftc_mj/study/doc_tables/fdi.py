@@ -1,7 +1,7 @@
 """Regenerate the two summary tables of docs/fdi.md, "FDI operating characteristics", from a finished
 ``fdi`` study (``ftc-mj study fdi``; the full tables are ``ftc-mj fdi-curves``'s ``fdi.md``):
 
-    .venv/bin/python docs/tools/fdi_tables.py [STUDY_DIR]      # default runs/out/studies/fdi
+    ftc-mj study fdi --report      # from runs/out/studies/fdi
 
 1. Every rule at its design threshold: ARL0 with its Garwood 95 % interval and number of alarms, the
    conditional delay per severity (mean ± the half-width of its Student-t 95 % interval, (n) the runs
@@ -12,30 +12,20 @@
    "Shortest delay" table of ``fdi.md``, with intervals), next to Lorden's bound at the ARL0 lower
    limit of no false alarm in the cell's fault-free seconds.
 
-Definitions: ``ftc_mj/study/fdi_curves.py``. Cells whose rows are identical (EKF and UKF, IMM-EKF
+Definitions: :mod:`ftc_mj.study.fdi.curves`. Cells whose rows are identical (EKF and UKF, IMM-EKF
 and IMM-UKF) are printed once.
 """
 
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from ftc_mj.study.fdi_curves import (
-    RULES,
-    Cell,
-    Point,
-    arl0_of,
-    design_threshold,
-    load_cells,
-    lorden_bound,
-    operating_point,
-    poisson_rate,
-    thresholds,
-)
+from ..fdi.cells import RULES, Cell, load_cells
+from ..fdi.curves import Point, arl0_of, design_threshold, lorden_bound, operating_point, poisson_rate, thresholds
+from ..stats import Estimate
 
 HORIZON = 2.0
 LEVEL = 100.0
@@ -43,10 +33,12 @@ NAMES = {"ekf": "EKF", "ukf": "UKF", "imm-ekf": "IMM-EKF", "imm-ukf": "IMM-UKF"}
 
 
 def g(x: float, s: int = 3) -> str:
+    """``s`` significant digits."""
     return f"{x:.{s}g}"
 
 
 def arl(p: Point) -> str:
+    """ARL0 (s) with its Garwood 95 % interval and the number of alarms."""
     a = p.arl0
     if a.n == 0:
         return f"> {a.lo:.0f} (0)"
@@ -54,7 +46,8 @@ def arl(p: Point) -> str:
     return f"{g(a.mean)} [{g(a.lo)}, {hi}] ({a.n})"
 
 
-def delay(e) -> str:  # noqa: ANN001 - an Estimate
+def delay(e: Estimate) -> str:
+    """Mean delay (s) ± the half-width of its Student-t 95 % interval (runs)."""
     if e.n == 0:
         return "— (0)"
     if e.n == 1 or not math.isfinite(e.lo):
@@ -62,7 +55,8 @@ def delay(e) -> str:  # noqa: ANN001 - an Estimate
     return f"{g(e.mean)} ± {g((e.hi - e.lo) / 2, 2)} ({e.n})"
 
 
-def count(e) -> str:  # noqa: ANN001 - an Estimate of a proportion
+def count(e: Estimate) -> str:
+    """A proportion as ``k/n``."""
     return "—" if e.n == 0 else f"{round(e.mean * e.n)}/{e.n}"
 
 
@@ -108,27 +102,19 @@ def merged(cells: list[Cell]) -> tuple[list[tuple[str, list[str]]], list[tuple[s
 
 
 def with_filters(row: str, filters: str) -> str:
+    """A row with the filters column inserted after plant and sensors."""
     parts = row.split(" | ")
     return " | ".join([*parts[:2], filters, *parts[2:]])
 
 
-def main() -> None:
-    study = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("runs/out/studies/fdi")
-    cells, _ = load_cells(study, "severity")
+def report(out: Path) -> str:
+    """Both summary tables from the ``fdi`` study's output folder."""
+    cells, _ = load_cells(Path(out), "severity")
     t1, t2 = merged(cells)
-    print("| plant | sensors | filters | rule | threshold | ARL0 s [95 %] (alarms) | delay s, 20 % | delay s, 50 % "
-          "| delay s, 80 % | detected ≤ 2 s | isolation correct | unknown |")
-    print("|" + "---|" * 12)
-    for filters, rows in t1:
-        for r in rows:
-            print(with_filters(r, filters))
-    print()
-    print("| plant | sensors | filters | severity | Lorden bound (s) | " + " | ".join(RULES) + " |")
-    print("|" + "---|" * 9)
-    for filters, rows in t2:
-        for r in rows:
-            print(with_filters(r, filters))
-
-
-if __name__ == "__main__":
-    main()
+    lines = ["| plant | sensors | filters | rule | threshold | ARL0 s [95 %] (alarms) | delay s, 20 % | delay s, 50 % "
+             "| delay s, 80 % | detected ≤ 2 s | isolation correct | unknown |", "|" + "---|" * 12]
+    lines += [with_filters(r, filters) for filters, rows in t1 for r in rows]
+    lines += ["", "| plant | sensors | filters | severity | Lorden bound (s) | " + " | ".join(RULES) + " |",
+              "|" + "---|" * 9]
+    lines += [with_filters(r, filters) for filters, rows in t2 for r in rows]
+    return "\n".join(lines) + "\n"

@@ -2,8 +2,8 @@
 built-in study ``pathfollow`` (``ftc_mj/data/studies/pathfollow.toml``: time-parametrised NMPC vs path-following
 NMPC; its output folder is ``runs/out/studies/pathfollow`` unless ``--out`` says otherwise).
 
-    .venv/bin/ftc-mj study pathfollow --workers 2
-    .venv/bin/python docs/tools/pathfollow_table.py [runs/out/studies/pathfollow]
+    ftc-mj study pathfollow --workers 2
+    ftc-mj study pathfollow --report
 
 Means over the seeds with the Student-t 95 % interval (``mean ± half-width``), the worst seed in brackets;
 tip-over counts with the Wilson 95 % interval; the acceptance verdicts state their rule and denominator.
@@ -11,39 +11,29 @@ tip-over counts with the Wilson 95 % interval; the acceptance verdicts state the
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import polars as pl
 
-from ftc_mj.study.analysis import mean_ci, rate_ci
+from ..stats import mean_ci, rate_ci
+from .results import float_column, read_results, worst
 
-REPO = Path(__file__).resolve().parents[2]
 SCEN = ("s1", "s2", "s3", "s4")
 POLICIES = ("none", "direct", "safe", "truth")
 CONTROLLERS = ("nmpc", "pf-nmpc")
 
 
-def load(out: Path) -> pl.DataFrame:
-    f = out / "results.parquet"
-    if f.is_file():
-        return pl.read_parquet(f)
-    return pl.concat([pl.read_parquet(p) for p in sorted((out / "rows").glob("*.parquet"))], how="diagonal_relaxed")
-
-
 def sel(df: pl.DataFrame, **kw: str) -> pl.DataFrame:
+    """The rows whose columns equal ``kw``, by seed."""
     for k, v in kw.items():
         df = df.filter(pl.col(k) == v)
     return df.sort("seed")
 
 
-def col(df: pl.DataFrame, name: str) -> np.ndarray:
-    return np.array([np.nan if v is None else float(v) for v in df[name].to_list()])
-
-
 def cell(df: pl.DataFrame, name: str) -> str:
-    a = col(df, name)
+    """``mean ± half-width (worst)`` of a metric over the seeds."""
+    a = float_column(df, name)
     if a.size == 0 or not np.isfinite(a).any():
         return "—"
     e = mean_ci(a)
@@ -52,11 +42,13 @@ def cell(df: pl.DataFrame, name: str) -> str:
 
 
 def tipped(df: pl.DataFrame) -> str:
+    """Tip-overs as ``k/n``."""
     e = rate_ci(df["tipped"].to_list())
     return f"{int(round(e.mean * e.n))}/{e.n}" if e.n else "—"
 
 
 def comparison_table(df: pl.DataFrame) -> str:
+    """Every scenario × sensing × policy × controller cell."""
     head = ("| scenario | sensing | policy | controller | max \\|e_c\\| from last onset + 5 s (m) | lift-off after "
             "transients (s) | tipped | wheel at limit (s) | speed last 5 s / feasible |\n"
             "|---|---|---|---|---|---|---|---|---|")
@@ -75,11 +67,8 @@ def comparison_table(df: pl.DataFrame) -> str:
 
 
 def count(mask: np.ndarray) -> str:
+    """``true/total``."""
     return f"{int(np.sum(mask))}/{mask.size}"
-
-
-def worst(a: np.ndarray) -> float:
-    return float(np.nanmax(a)) if np.isfinite(a).any() else float("nan")
 
 
 def acceptance(df: pl.DataFrame, ctl: str) -> list[str]:
@@ -87,20 +76,20 @@ def acceptance(df: pl.DataFrame, ctl: str) -> list[str]:
     out = []
     for sc in ("s2", "s3"):
         d = sel(df, fault=sc, sensors="speed+yaw", policy="safe", controller=ctl)
-        e, lift = col(d, "contouring_max_recovered"), col(d, "liftoff_time_post_transient_s")
+        e, lift = float_column(d, "contouring_max_recovered"), float_column(d, "liftoff_time_post_transient_s")
         tip = np.array(d["tipped"].to_list(), dtype=bool)
         out.append(f"scenario {sc[1]}: max |e_c| from 5 s after the last onset ≤ 0.5 m in {count(e <= 0.5)} seeds "
                    f"(worst {worst(e):.2f} m); lift-off outside the 1 s transients ≤ 0.2 s in "
                    f"{count(lift <= 0.2)} (worst {worst(lift):.2f} s); tipped in {count(tip)}")
     d = sel(df, fault="s4", sensors="speed+yaw", policy="safe", controller=ctl)
-    e, ratio = col(d, "cross_track_max"), col(d, "speed_ratio_final")
+    e, ratio = float_column(d, "cross_track_max"), float_column(d, "speed_ratio_final")
     tip = np.array(d["tipped"].to_list(), dtype=bool)
     out.append(f"scenario 4: within 1 m of the path for the whole run in {count(e <= 1.0)} seeds (worst "
                f"{worst(e):.2f} m); speed over the last 5 s within 15 % of the feasible speed in "
                f"{count(np.abs(ratio - 1) <= 0.15)} (ratio {-worst(-ratio):.3f}–{worst(ratio):.3f}); tipped in "
                f"{count(tip)}")
     d = sel(df, fault="s1", sensors="speed+yaw", policy="safe", controller=ctl)
-    e, v = col(d, "cross_track_max_settled"), col(d, "speed_mean_after_fault")
+    e, v = float_column(d, "cross_track_max_settled"), float_column(d, "speed_mean_after_fault")
     out.append(f"scenario 1: mean speed within 1 % of 10 m/s in {count(np.abs(v / 10 - 1) <= 0.01)} seeds "
                f"({-worst(-v):.3f}–{worst(v):.3f} m/s); max |e_c| after 5 s ≤ 0.1 m in {count(e <= 0.1)} "
                f"(worst {worst(e):.3f} m)")
@@ -110,7 +99,7 @@ def acceptance(df: pl.DataFrame, ctl: str) -> list[str]:
         b = sel(df, fault=sc, sensors="speed", policy="safe", controller=ctl)
         for m, tol in (("contouring_max_recovered", 0.05), ("liftoff_time_post_transient_s", 0.05),
                        ("omega_at_limit_s", 0.05)):
-            x, y = col(a, m), col(b, m)
+            x, y = float_column(a, m), float_column(b, m)
             pairs += x.size
             worse += [f"s{sc[1]} {m} seed {s}" for s, xi, yi in zip(a["seed"].to_list(), x, y, strict=True)
                       if yi > xi + tol]
@@ -120,17 +109,13 @@ def acceptance(df: pl.DataFrame, ctl: str) -> list[str]:
     return out
 
 
-def main() -> None:
-    out = Path(sys.argv[1]) if len(sys.argv) > 1 else REPO / "runs" / "out" / "studies" / "pathfollow"
-    df = load(out)
+def report(out: Path) -> str:
+    """The comparison table and each controller's acceptance verdicts from the study's output folder."""
+    df = read_results(out)
     ok = df.filter(pl.col("status") == "ok")
-    print(f"{df.height} runs ({df.height - ok.height} failed), seeds {sorted(set(df['seed'].to_list()))}\n")
-    print(comparison_table(df))
+    lines = [f"{df.height} runs ({df.height - ok.height} failed), seeds {sorted(set(df['seed'].to_list()))}\n",
+             comparison_table(df)]
     for ctl in CONTROLLERS:
-        print(f"\n{ctl}:")
-        for line in acceptance(df, ctl):
-            print(f"- {line}")
-
-
-if __name__ == "__main__":
-    main()
+        lines.append(f"\n{ctl}:")
+        lines += [f"- {line}" for line in acceptance(df, ctl)]
+    return "\n".join(lines) + "\n"

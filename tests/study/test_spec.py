@@ -16,9 +16,11 @@ from typer.testing import CliRunner
 from ftc_mj import resources
 from ftc_mj.cli import app
 from ftc_mj.errors import BadInput
-from ftc_mj.study.analysis import mean_ci, rate_ci
-from ftc_mj.study.runner import flatten_metrics, validate_address
-from ftc_mj.study.spec import key_error, load_study
+from ftc_mj.study.cluster import validate_address
+from ftc_mj.study.plan import plan_study
+from ftc_mj.study.rows import flatten_metrics
+from ftc_mj.study.spec import key_error
+from ftc_mj.study.stats import mean_ci, rate_ci
 
 STUDIES = resources.resource_path("studies")
 
@@ -45,7 +47,7 @@ def test_grid_presets_seeds_expand(tmp_path: Path) -> None:
         labels = ["speed", "speed+yaw"]
         values = [{}, { "sensors.yaw_rate_sigma" = 0.01 }]
         """)
-    plan = load_study(p)
+    plan = plan_study(p)
     assert len(plan.runs) == 2 * 2 * 2
     r = plan.runs[-1]
     assert r.labels == {"controller.kind": "nmpc", "sensors": "speed+yaw"} and r.seed == 4
@@ -54,9 +56,9 @@ def test_grid_presets_seeds_expand(tmp_path: Path) -> None:
     assert plan.runs[0].config["sensors"]["yaw_rate_sigma"] is None
     assert len({r.key for r in plan.runs}) == 8
     # stable keys and identity
-    again = load_study(p)
+    again = plan_study(p)
     assert [r.key for r in again.runs] == [r.key for r in plan.runs] and again.study_hash == plan.study_hash
-    assert load_study(p, seeds=1).study_hash != plan.study_hash
+    assert plan_study(p, seeds=1).study_hash != plan.study_hash
 
 
 def test_list_axes_zip_and_random_draws_are_seeded(tmp_path: Path) -> None:
@@ -86,17 +88,17 @@ def test_list_axes_zip_and_random_draws_are_seeded(tmp_path: Path) -> None:
         choices = [0.1, 0.5]
         n = 4
         """)
-    plan = load_study(p)
+    plan = plan_study(p)
     assert len(plan.runs) == 3 * 4  # list group (3, zipped) × random group (4, zipped)
     assert [(r.config["duration"], r.config["sensors"]["speed_sigma"]) for r in plan.runs[::4]] == [
         (3.0, 0.1), (4.0, 0.2), (5.0, 0.3)]
     fr = [r.config["plant"]["tyre_friction"] for r in plan.runs[:4]]
     assert all(0.5 <= f <= 1.0 for f in fr) and len(set(fr)) == 4
-    assert fr == [r.config["plant"]["tyre_friction"] for r in load_study(p).runs[:4]]
+    assert fr == [r.config["plant"]["tyre_friction"] for r in plan_study(p).runs[:4]]
 
 
 def test_placeholders_fill_fault_schedules() -> None:
-    plan = load_study(STUDIES / "severity.toml")
+    plan = plan_study(STUDIES / "severity.toml")
     by = {(r.labels["severity"], r.labels["wheel"], r.labels["estimator"], r.seed): r for r in plan.runs}
     r = by[(0.3, "right", "ukf", 1)]
     assert r.config["faults"]["right"] == [[8.0, 2.0], [8.0, 1.4]] and r.config["faults"]["left"] == []
@@ -105,7 +107,7 @@ def test_placeholders_fill_fault_schedules() -> None:
 
 @pytest.mark.parametrize("name", ["observability", "mismatch", "severity"])
 def test_shipped_studies_validate(name: str) -> None:
-    plan = load_study(STUDIES / f"{name}.toml")
+    plan = plan_study(STUDIES / f"{name}.toml")
     assert plan.spec.name == name and len(plan.runs) >= 8
     assert plan.spec.analysis.findings
 
@@ -131,7 +133,7 @@ def test_shipped_studies_validate(name: str) -> None:
 def test_bad_study_one_line(tmp_path: Path, body: str, expect: str) -> None:
     p = write(tmp_path, f'name = "t"\nscenario = "scenario1"\n{body}\n')
     with pytest.raises(BadInput) as ei:
-        load_study(p)
+        plan_study(p)
     msg = str(ei.value)
     assert expect in msg and "\n" not in msg
 
@@ -197,7 +199,7 @@ def test_plan_size_is_product_of_groups(tmp_path_factory: pytest.TempPathFactory
         body += f'[[axes]]\nkey = "{k}"\nkind = "list"\nvalues = {[1.0 + i for i in range(zipped)]}\n'
     p = tmp_path_factory.mktemp("h") / "h.toml"
     p.write_text(body)
-    plan = load_study(p)
+    plan = plan_study(p)
     expect = seeds * (zipped or 1)
     for n in grid:
         expect *= n

@@ -9,8 +9,8 @@ from ftc_mj.config import load_config
 from ftc_mj.estimation.consistency import anees_bounds
 from ftc_mj.metrics.onsets import fault_onsets
 from ftc_mj.metrics.run import compute_metrics
-from ftc_mj.study.analysis import consistency_table, run_tests
-from ftc_mj.study.runner import flatten_metrics
+from ftc_mj.study.rows import flatten_metrics
+from ftc_mj.study.tables import consistency_table, run_tests
 from ftc_mj.telemetry.columns import BASE_COLUMNS
 
 STD = 0.1

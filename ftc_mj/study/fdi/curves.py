@@ -37,115 +37,20 @@ Design points: each rule's threshold as configured (``k_sigma``, ``mode_threshol
 
 from __future__ import annotations
 
-import json
 import math
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import polars as pl
 
-from ..config import RunConfig, validate_config
-from ..errors import BadInput
-from ..estimation.decision_factory import calibrated_threshold
-from ..estimation.rule_statistics import sigma_isolation
-from .analysis import Estimate, mean_ci, rate_ci
-from .spec import load_study
+from ...config import RunConfig
+from ...estimation.decision_factory import calibrated_threshold
+from ...estimation.rule_statistics import sigma_isolation
+from ..stats import Estimate, mean_ci, rate_ci
+from .cells import RULES, Cell, Run
 
-RULES: tuple[str, ...] = ("sigma", "mode", "cusum", "glr")
 WHEELS: dict[int, str | None] = {0: None, 1: "right", 2: "left", 3: "both", 4: "unknown"}
 N_THRESHOLDS = 60
-
-
-@dataclass
-class Run:
-    """What the sweep needs of one run (one results row)."""
-
-    key: str
-    seed: int
-    severity: Any
-    onset: float | None
-    wheel: str | None
-    duration: float
-    records: dict[str, np.ndarray]
-    """Per rule, (k, columns) record rows ``[t, g, …]``."""
-    kl: np.ndarray | None = None
-    """Cumulative information of the fault from the onset row (nats per row)."""
-
-
-@dataclass
-class Cell:
-    """Runs sharing every axis value but the fault axis."""
-
-    key: dict[str, Any]
-    nofault: list[Run] = field(default_factory=list)
-    faults: dict[Any, list[Run]] = field(default_factory=dict)
-    config: RunConfig | None = None
-
-    @property
-    def label(self) -> str:
-        return ", ".join(f"{v}" for v in self.key.values())
-
-
-# ---------------------------------------------------------------------------- loading
-def _json(v: Any) -> Any:
-    return json.loads(v) if isinstance(v, str) else v
-
-
-def load_cells(study_dir: Path, fault_axis: str) -> tuple[list[Cell], list[str]]:
-    """The study's ok runs grouped into cells (see the module docstring) and the axis columns of the cells."""
-    res = Path(study_dir) / "results.parquet"
-    if not res.is_file():
-        raise BadInput(f"STUDY_DIR: {study_dir} has no results.parquet (run `ftc-mj study` first)")
-    df = pl.read_parquet(res)
-    plan = json.loads((Path(study_dir) / "plan.json").read_text())
-    axes = list(plan.get("axis_columns", []))
-    if fault_axis not in axes:
-        raise BadInput(f"--fault-axis: the study has no axis {fault_axis!r} (axes: {', '.join(axes) or 'none'})")
-    if not any(c.startswith("fdi_records_") for c in df.columns):
-        raise BadInput(f"STUDY_DIR: {study_dir} has no fdi_records_* columns (runs without FDI statistics)")
-    df = df.filter(pl.col("status") == "ok")
-    keys = [a for a in axes if a != fault_axis]
-    configs = _configs(Path(study_dir), plan)
-    cells: dict[tuple, Cell] = {}
-    for row in df.iter_rows(named=True):
-        ck = tuple(row[a] for a in keys)
-        cell = cells.setdefault(ck, Cell(dict(zip(keys, ck, strict=True))))
-        if cell.config is None:
-            cell.config = configs.get(row["run_key"])
-        run = _run(row, fault_axis)
-        if run.onset is None:
-            cell.nofault.append(run)
-        else:
-            cell.faults.setdefault(run.severity, []).append(run)
-    for cell in cells.values():
-        if not cell.nofault:
-            raise BadInput(f"STUDY_DIR: cell ({cell.label}) has no no-fault runs: false alarms cannot be measured")
-        if cell.config is None:
-            raise BadInput(f"STUDY_DIR: cannot rebuild the configuration of cell ({cell.label}) from study.toml")
-    return list(cells.values()), keys
-
-
-def _run(row: dict[str, Any], fault_axis: str) -> Run:
-    recs = {}
-    for r in RULES:
-        v = _json(row.get(f"fdi_records_{r}"))
-        recs[r] = np.asarray(v if v else np.zeros((0, 3)), float)
-    run = Run(key=str(row["run_key"]), seed=int(row["seed"]), severity=row[fault_axis],
-              onset=row.get("fault_onset_time"), wheel=row.get("true_fault_wheel"),
-              duration=float(row["sim_time_s"]), records=recs)
-    kl = _json(row.get("fdi_cumulative_kl"))
-    run.kl = np.asarray(kl, float) if kl else None
-    return run
-
-
-def _configs(study_dir: Path, plan: dict[str, Any]) -> dict[str, RunConfig]:
-    """Run key → resolved config, rebuilt from the study file copy and the plan's extra overrides."""
-    seeds = sorted({int(r["seed"]) for r in plan.get("runs", [])})
-    n = len(seeds) if seeds == list(range(len(seeds))) else None
-    rebuilt = load_study(study_dir / "study.toml", extra_overrides=plan.get("extra_overrides") or {}, seeds=n)
-    return {r.key: validate_config(r.config) for r in rebuilt.runs}
 
 
 # ---------------------------------------------------------------------------- first alarms
@@ -288,3 +193,47 @@ def lorden_bound(cell: Cell, severity: Any, arl0: np.ndarray, dt: float) -> np.n
     K = np.mean([p[:n] for p in prof], axis=0)
     j = np.searchsorted(K, np.log(np.maximum(arl0 / dt, 1.0)), side="left")
     return np.where(j < n, j * dt, np.inf)
+
+
+# ---------------------------------------------------------------------------- sweep
+LORDEN_ARL0 = np.geomspace(0.1, 1e4, 60)
+"""ARL0 values (s) at which Lorden's bound is drawn."""
+
+
+@dataclass
+class RuleCurves:
+    """One rule's sweep in one cell, and its design and matched points."""
+
+    cell: Cell
+    rule: str
+    points: list[Point]
+    design: Point
+    matched: Point | None
+    """At the threshold matched on development seeds, judged on held-out seeds."""
+
+
+def sweep(cells: list[Cell], horizon: float, target: float) -> list[RuleCurves]:
+    """Every rule's curves in every cell that has its statistic."""
+    out = []
+    for cell in cells:
+        assert cell.config is not None
+        seeds = sorted({r.seed for r in cell.nofault})
+        dev = {s for s in seeds if s % 2 == 0}
+        held = {s for s in seeds if s % 2 == 1}
+        for rule in RULES:
+            h_design = design_threshold(cell.config, rule)
+            grid = thresholds(cell, rule, h_design)
+            if grid.size == 0:
+                continue
+            pts = [operating_point(cell, rule, float(h), horizon) for h in grid]
+            design = operating_point(cell, rule, h_design, horizon)
+            h_m = matched_threshold(cell, rule, grid, target, dev) if dev and held else math.nan
+            matched = operating_point(cell, rule, h_m, horizon, held) if math.isfinite(h_m) else None
+            out.append(RuleCurves(cell, rule, pts, design, matched))
+    return out
+
+
+def lorden_curve(cell: Cell, severity: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``(ARL0 s, bound s)`` of :func:`lorden_bound` on the drawing grid."""
+    assert cell.config is not None
+    return LORDEN_ARL0, lorden_bound(cell, severity, LORDEN_ARL0, 1.0 / cell.config.estimator.rate)

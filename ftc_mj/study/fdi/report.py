@@ -1,5 +1,5 @@
 """``ftc-mj fdi-curves STUDY_DIR``: the operating characteristics of every filter × rule as a Markdown
-table, a CSV of the curves and figures (:mod:`.fdi_curves` defines every number; :mod:`.fdi_figures`
+table, a CSV of the curves and figures (:mod:`.curves` defines every number; :mod:`.figures`
 draws them), plus the filters' radius RMSE against the posterior Cramér–Rao bound.
 
 RMSE against the bound (no-fault runs, from ``settle`` seconds on): the RMSE over seeds and time of
@@ -12,62 +12,17 @@ from __future__ import annotations
 
 import csv
 import math
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import polars as pl
 
-from ..io import atomic_path
-from .analysis import _stack
-from .fdi_curves import (
-    RULES,
-    Cell,
-    Point,
-    design_threshold,
-    load_cells,
-    lorden_bound,
-    matched_threshold,
-    operating_point,
-    thresholds,
-)
-
-LORDEN_ARL0 = np.geomspace(0.1, 1e4, 60)
-"""ARL0 values (s) at which Lorden's bound is drawn."""
-
-
-@dataclass
-class RuleCurves:
-    """One rule's sweep in one cell, and its design and matched points."""
-
-    cell: Cell
-    rule: str
-    points: list[Point]
-    design: Point
-    matched: Point | None
-    """At the threshold matched on development seeds, judged on held-out seeds."""
-
-
-def sweep(cells: list[Cell], horizon: float, target: float) -> list[RuleCurves]:
-    """Every rule's curves in every cell that has its statistic."""
-    out = []
-    for cell in cells:
-        assert cell.config is not None
-        seeds = sorted({r.seed for r in cell.nofault})
-        dev = {s for s in seeds if s % 2 == 0}
-        held = {s for s in seeds if s % 2 == 1}
-        for rule in RULES:
-            h_design = design_threshold(cell.config, rule)
-            grid = thresholds(cell, rule, h_design)
-            if grid.size == 0:
-                continue
-            pts = [operating_point(cell, rule, float(h), horizon) for h in grid]
-            design = operating_point(cell, rule, h_design, horizon)
-            h_m = matched_threshold(cell, rule, grid, target, dev) if dev and held else math.nan
-            matched = operating_point(cell, rule, h_m, horizon, held) if math.isfinite(h_m) else None
-            out.append(RuleCurves(cell, rule, pts, design, matched))
-    return out
+from ...io import atomic_path
+from ..series import stack_series
+from .cells import load_cells
+from .curves import Point, RuleCurves, sweep
+from .figures import draw_all
 
 
 # ---------------------------------------------------------------------------- tables
@@ -155,11 +110,11 @@ def direction_errors(part: pl.DataFrame) -> dict[str, tuple[np.ndarray, np.ndarr
     """Per direction — each wheel, the observed combination ``w ∝ [ω_R, ω_L]`` and the split ``d ⊥ w`` —
     the radius errors and the bound's σ (runs, samples) from the compact time series. The bound along
     ``w`` follows from ``σ_w² = σ_R² + σ_L² - σ_d²`` (the trace of the 2x2 block is invariant)."""
-    eR = _stack(part, "ts_R_R_hat") - _stack(part, "ts_R_R")
-    eL = _stack(part, "ts_R_L_hat") - _stack(part, "ts_R_L")
-    bR, bL = _stack(part, "ts_R_R_pcrb_std"), _stack(part, "ts_R_L_pcrb_std")
-    bd = _stack(part, "ts_radius_split_pcrb_std")
-    wR, wL = _stack(part, "ts_omega_R"), _stack(part, "ts_omega_L")
+    eR = stack_series(part, "ts_R_R_hat") - stack_series(part, "ts_R_R")
+    eL = stack_series(part, "ts_R_L_hat") - stack_series(part, "ts_R_L")
+    bR, bL = stack_series(part, "ts_R_R_pcrb_std"), stack_series(part, "ts_R_L_pcrb_std")
+    bd = stack_series(part, "ts_radius_split_pcrb_std")
+    wR, wL = stack_series(part, "ts_omega_R"), stack_series(part, "ts_omega_L")
     n = np.hypot(wR, wL)
     wR, wL = wR / n, wL / n
     bw = np.sqrt(np.maximum(bR * bR + bL * bL - bd * bd, 0.0))
@@ -191,7 +146,7 @@ def rmse_table(df: pl.DataFrame, keys: list[str], settle: float) -> list[str]:
     for ck, part in nof.group_by(keys, maintain_order=True):
         if "ts_omega_R" not in part.columns:
             continue
-        late = _stack(part, "ts_t") >= settle
+        late = stack_series(part, "ts_t") >= settle
         vals = []
         for e, b in direction_errors(part).values():
             r, lo, hi = rmse_over_pcrb(e, b, late, rng)
@@ -230,7 +185,7 @@ def fdi_curves(study_dir: Path, out: Path | None = None, *, fault_axis: str = "s
     write_csv(curves, keys, out / "fdi_curves.csv")
     lines = [f"# FDI operating characteristics: `{study_dir.name}`", "",
              f"Cells: {len(cells)} ({', '.join(f'`{k}`' for k in keys)}); fault axis `{fault_axis}`; "
-             f"detection horizon {horizon:g} s. Definitions: `ftc_mj/study/fdi_curves.py`.", "",
+             f"detection horizon {horizon:g} s. Definitions: `ftc_mj/study/fdi/curves.py`.", "",
              "## False alarms at the design thresholds (no-fault runs)", "",
              "sigma: `k_sigma`; mode: `mode_threshold`; cusum, glr: calibrated for the configured `decision.arl0`.",
              "", *false_alarm_table(curves, keys), "",
@@ -242,15 +197,7 @@ def fdi_curves(study_dir: Path, out: Path | None = None, *, fault_axis: str = "s
              f"## Radius RMSE over the posterior Cramér–Rao bound (no-fault runs, t ≥ {settle:g} s)", "",
              *rmse_table(df, keys, settle), ""]
     if figures:
-        from .fdi_figures import draw_all
-
         lines += ["## Figures", "", *draw_all(curves, cells, keys, df, out / "figures", horizon), ""]
     with atomic_path(out / "fdi.md") as tmp:
         tmp.write_text("\n".join(lines))
     return out
-
-
-def lorden_curve(cell: Cell, severity: Any) -> tuple[np.ndarray, np.ndarray]:
-    """``(ARL0 s, bound s)`` of :func:`~.fdi_curves.lorden_bound` on the drawing grid."""
-    assert cell.config is not None
-    return LORDEN_ARL0, lorden_bound(cell, severity, LORDEN_ARL0, 1.0 / cell.config.estimator.rate)

@@ -1,0 +1,131 @@
+"""The dask cluster of a study: a LocalCluster on 127.0.0.1 or a connection to a scheduler the user names.
+
+The local cluster listens on 127.0.0.1 only (scheduler and dashboard, unless another dashboard
+address is asked for); its worker processes ignore Ctrl-C, which the client alone handles (it
+cancels the runs in flight and closes the cluster, one line instead of every worker's traceback).
+``--address`` must name a scheduler the user trusts (it receives the run configs, its workers run
+this package's code); a scheduler that does not complete dask's handshake within
+:data:`HANDSHAKE_TIMEOUT_S` is a bad address.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import os
+import re
+import signal
+from collections.abc import Iterator
+from typing import Any
+
+from ..errors import BadInput
+
+ADDRESS_RE = re.compile(r"^tcp://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9]([A-Za-z0-9.\-]*[A-Za-z0-9])?):(\d{1,5})$")
+CONNECT_TIMEOUT_S = 5.0
+HANDSHAKE_TIMEOUT_S = 6.0
+"""Time (s) a scheduler at ``--address`` gets to accept the connection and answer dask's handshake."""
+DASHBOARD_RE = re.compile(r"^(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9]([A-Za-z0-9.\-]*[A-Za-z0-9])?)?:(\d{1,5})$")
+
+
+def validate_address(address: str) -> str:
+    """Check ``tcp://host:port`` (BadInput otherwise)."""
+    m = ADDRESS_RE.match(address.strip())
+    if not m or not (1 <= int(m.group(3)) <= 65535):
+        raise BadInput(f"--address {address}: expected tcp://HOST:PORT (port 1-65535)")
+    return address.strip()
+
+
+def validate_dashboard(address: str) -> str:
+    """Check ``HOST:PORT`` or ``:PORT`` of the dashboard (BadInput otherwise)."""
+    m = DASHBOARD_RE.match(address.strip())
+    if not m or int(m.group(3)) > 65535:
+        raise BadInput(f"--dashboard {address}: expected HOST:PORT, e.g. 127.0.0.1:8787 (port 0 = any free port)")
+    return address.strip()
+
+
+def probe_scheduler(address: str, timeout: float = HANDSHAKE_TIMEOUT_S) -> None:
+    """Connect to a dask scheduler and complete the comm handshake within ``timeout`` s, else
+    :class:`BadInput`. (``distributed.Client`` bounds only the TCP connect: a listener that accepts and
+    never answers would hold it for ever.)"""
+    from distributed.comm import connect
+
+    async def handshake() -> None:
+        comm = await connect(address, timeout=CONNECT_TIMEOUT_S)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(handshake(), timeout))
+    except TimeoutError:
+        raise BadInput(f"--address {address}: no dask scheduler answered within {timeout:g} s (the connection "
+                       "was accepted, dask's handshake never came)") from None
+    except Exception as err:  # noqa: BLE001 - refused, unresolvable, not dask: all the user's address
+        msg = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise BadInput(f"--address {address}: cannot reach a dask scheduler within {timeout:g} s "
+                       f"({msg[:120]})") from None
+
+
+@contextlib.contextmanager
+def open_client(workers: int, address: str | None, dashboard: str = "127.0.0.1:0") -> Iterator[Any]:
+    """A dask Client: connected to ``address`` (handshake within :data:`HANDSHAKE_TIMEOUT_S`) or to a
+    fresh LocalCluster of ``workers`` single-threaded worker processes on 127.0.0.1, its dashboard at
+    ``dashboard``. BadInput if the scheduler cannot be reached."""
+    from distributed import Client, LocalCluster
+
+    os.environ.setdefault("OMP_NUM_THREADS", "1")  # inherited by local workers: IPOPT must not spin
+    if address is not None:
+        address = validate_address(address)
+        probe_scheduler(address)
+        try:
+            client = Client(address, timeout=CONNECT_TIMEOUT_S)
+        except Exception as err:  # noqa: BLE001 - any failure to connect is the user's address
+            msg = str(err).splitlines()[0] if str(err) else type(err).__name__
+            raise BadInput(f"--address {address}: cannot reach a dask scheduler within "
+                           f"{CONNECT_TIMEOUT_S:g} s ({msg[:120]})") from None
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    if workers < 1:
+        raise BadInput("--workers: must be >= 1")
+    with _sigint_ignored_by_children():
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                               dashboard_address=validate_dashboard(dashboard), silence_logs=logging.ERROR)
+    client = Client(cluster)
+    try:
+        yield client
+    finally:
+        with _quiet_distributed():
+            client.close()
+            cluster.close()
+
+
+@contextlib.contextmanager
+def _sigint_ignored_by_children() -> Iterator[None]:
+    """Ignore SIGINT while worker processes are started: they inherit the disposition (Python keeps an
+    inherited SIG_IGN), so a Ctrl-C in the terminal reaches only this process."""
+    try:
+        old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread: nothing to change
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+@contextlib.contextmanager
+def _quiet_distributed() -> Iterator[None]:
+    """Silence distributed's and tornado's log lines while the cluster is torn down (closing comms of
+    cancelled runs are expected)."""
+    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        for lg, lv in zip(loggers, levels, strict=True):
+            lg.setLevel(lv)

@@ -1,0 +1,131 @@
+"""The layout is the architecture: checks on the import graph and the size of functions.
+
+- no import cycle inside ``ftc_mj`` (every ``import``/``from … import`` counts, also the lazy ones
+  inside functions and under ``TYPE_CHECKING``: a cycle of lazy imports is still a cycle of concepts);
+- the components (``estimation``, ``control``, ``plant``, ``reconfiguration``) are built from their
+  own settings: none of their modules imports the application config ``ftc_mj.config`` except
+  their factory modules (``factory.py``, ``<what>_factory.py``);
+- no function longer than 80 lines outside generated code.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+import ftc_mj
+
+ROOT = Path(ftc_mj.__file__).parent
+COMPONENT_PACKAGES = ("estimation", "control", "plant", "reconfiguration")
+MAX_FUNCTION_LINES = 80
+GENERATED_MARKER = "GENERATED"
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _resolve(path: Path, node: ast.ImportFrom) -> str:
+    if not node.level:
+        return node.module or ""
+    package = module_name(path).split(".")
+    if path.name != "__init__.py":
+        package = package[:-1]
+    base = package[: len(package) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
+def imported_modules(path: Path) -> set[str]:
+    """Every ``ftc_mj`` module ``path`` imports (a ``from pkg import name`` names ``pkg.name`` too)."""
+    out: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            target = _resolve(path, node)
+            out.add(target)
+            out.update(f"{target}.{a.name}" for a in node.names)
+    return {m for m in out if m == "ftc_mj" or m.startswith("ftc_mj.")}
+
+
+def import_graph() -> dict[str, set[str]]:
+    files = {module_name(p): p for p in ROOT.rglob("*.py")}
+    return {m: {d for d in imported_modules(p) if d in files and d != m} for m, p in files.items()}
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str]:
+    """One cycle of ``graph`` (a list of modules, first = last) or ``[]`` (iterative DFS)."""
+    state: dict[str, int] = {}
+    for root in sorted(graph):
+        if root in state:
+            continue
+        stack = [(root, iter(sorted(graph[root])))]
+        path = [root]
+        state[root] = 1
+        while stack:
+            node, children = stack[-1]
+            child = next(children, None)
+            if child is None:
+                stack.pop()
+                path.pop()
+                state[node] = 2
+            elif state.get(child) == 1:
+                return path[path.index(child):] + [child]
+            elif child not in state:
+                state[child] = 1
+                path.append(child)
+                stack.append((child, iter(sorted(graph[child]))))
+    return []
+
+
+def test_no_import_cycle_inside_ftc_mj():
+    cycle = find_cycle(import_graph())
+    assert not cycle, "import cycle: " + " -> ".join(cycle)
+
+
+def test_find_cycle_finds_a_planted_cycle():
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b"}, "b": set()}) == []
+
+
+@pytest.mark.parametrize("package", COMPONENT_PACKAGES)
+def test_components_do_not_read_the_application_config(package):
+    folder = ROOT / package
+    assert folder.is_dir(), f"ftc_mj/{package} is missing"
+    offenders = [str(p.relative_to(ROOT)) for p in sorted(folder.rglob("*.py"))
+                 if not is_factory(p)
+                 and any(m == "ftc_mj.config" or m.startswith("ftc_mj.config.") for m in imported_modules(p))]
+    assert not offenders, f"import ftc_mj.config outside a factory module: {offenders}"
+
+
+def is_factory(path: Path) -> bool:
+    """A factory module: the one place of a package that reads the application config."""
+    return path.stem == "factory" or path.stem.endswith("_factory")
+
+
+def long_functions(path: Path) -> list[str]:
+    text = path.read_text()
+    lines = text.splitlines()
+    out = []
+    for node in ast.walk(ast.parse(text, str(path))):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            body = lines[node.lineno - 1: node.end_lineno]
+            if any(GENERATED_MARKER in ln for ln in body):
+                continue
+            n = node.end_lineno - node.lineno + 1
+            if n > MAX_FUNCTION_LINES:
+                out.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({n} lines)")
+    return out
+
+
+def test_functions_fit_on_a_screen():
+    too_long = [f for p in sorted(ROOT.rglob("*.py")) for f in long_functions(p)]
+    assert not too_long, f"functions longer than {MAX_FUNCTION_LINES} lines: {too_long}"
+
+
+def test_the_checks_see_the_package():
+    graph = import_graph()
+    assert "ftc_mj.sim.loop" in graph and graph["ftc_mj.sim.loop"], "the import graph is empty"

@@ -19,11 +19,28 @@ Rows are plain dicts keyed by metric name (``metrics.json`` flattened plus
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 from ..matrix import make_label
-from .checks import Evidence, Rows, absmax, all_of, any_of, chk, evaluate, fmt, ge, gt, le, lt, num, truthy
+from .checks import (
+    ClaimFn,
+    Evidence,
+    Rows,
+    absmax,
+    all_of,
+    any_of,
+    chk,
+    claim,
+    evaluate,
+    fmt,
+    ge,
+    gt,
+    le,
+    lt,
+    num,
+    truthy,
+)
 from .thresholds import (
     AT_LIMIT_MAJORITY,
     CHATTER_AT_LIMIT,
@@ -112,10 +129,10 @@ def borderline(vals: list[float | None], thr: float, rel: float = 0.1) -> list[f
 
 
 # ------------------------------------------------------------------------------------- the claims
-def claim_detection(rows: Rows) -> Evidence:
-    c = Evidence("1", "All filters detect the scenario 2 fault, with a peak in the innovations at the fault",
-              "§4.2: 'all filters were able to detect the fault … at 10 seconds there was a peak change in the "
-              "innovation curves'.")
+@claim("1", "All filters detect the scenario 2 fault, with a peak in the innovations at the fault",
+       "§4.2: 'all filters were able to detect the fault … at 10 seconds there was a peak change in the "
+       "innovation curves'.")
+def claim_detection(c: Evidence, rows: Rows) -> None:
     for est in FILTERS:
         for fb in FBS:
             lb = lbl(2, est, fb)
@@ -141,14 +158,13 @@ def claim_detection(rows: Rows) -> Evidence:
                        f"{fmt(slip)} in the next 2 s), so the fault shows in the speed innovation far less sharply "
                        f"than in the paper's kinematic simulation; detection comes from the radius estimates "
                        f"drifting over the following second(s).")
-    return c
 
 
-def claim_feedback_path(rows: Rows) -> Evidence:
-    c = Evidence("2", "Without feedback the robot cannot stay on the path after a puncture",
-              "§4.2: 'the robot was only able to remain on the path if feedback from the filter was provided to "
-              "reconfigure the controller'; §4.3: 'without feedback it is impossible to maintain the robot on the "
-              "path. Reconfiguring the controller … allowed the robot to easily follow the reference path'.")
+@claim("2", "Without feedback the robot cannot stay on the path after a puncture",
+       "§4.2: 'the robot was only able to remain on the path if feedback from the filter was provided to "
+       "reconfigure the controller'; §4.3: 'without feedback it is impossible to maintain the robot on the "
+       "path. Reconfiguring the controller … allowed the robot to easily follow the reference path'.")
+def claim_feedback_path(c: Evidence, rows: Rows) -> None:
     for sc in (2, 3):
         for est in FILTERS:
             l0, l1 = lbl(sc, est, False), lbl(sc, est, True)
@@ -186,15 +202,14 @@ def claim_feedback_path(rows: Rows) -> Evidence:
         c.notes.append("Where the robot leaves the path with feedback: the fed-back radii are wrong (speed alone fixes "
                        "only R_R ωR + R_L ωL, so the split between the radii is not observable) or the plant "
                        "leaves the kinematic model's domain (slip); see the plant-domain table at the end.")
-    return c
 
 
-def claim_scenario1(rows: Rows) -> Evidence:
-    c = Evidence("3", "Scenario 1: all filters estimate the radii well; innovations within 2σ about 95 % of the time",
-              "§4.1: 'the speed innovations remained well within the uncertainty bounds … both with and without "
-              "feedback'; 'All filters do a very good job of estimating the radius of the tyres with and without "
-              "feedback'; 'the robot remained on the path with and without feedback'; the IMMs 'were able to very "
-              "quickly detect the correct mode of operation'.")
+@claim("3", "Scenario 1: all filters estimate the radii well; innovations within 2σ about 95 % of the time",
+       "§4.1: 'the speed innovations remained well within the uncertainty bounds … both with and without "
+       "feedback'; 'All filters do a very good job of estimating the radius of the tyres with and without "
+       "feedback'; 'the robot remained on the path with and without feedback'; the IMMs 'were able to very "
+       "quickly detect the correct mode of operation'.")
+def claim_scenario1(c: Evidence, rows: Rows) -> None:
     for est in FILTERS:
         for fb in FBS:
             lb = lbl(1, est, fb)
@@ -237,7 +252,6 @@ def claim_scenario1(rows: Rows) -> Evidence:
     note = ekf_ukf_note(rows, 1)
     if note:
         c.notes.append(note)
-    return c
 
 
 def _in_domain_check(c: Evidence, name: str, lb: str, r: Mapping[str, Any] | None) -> None:
@@ -254,11 +268,11 @@ def _in_domain_check(c: Evidence, name: str, lb: str, r: Mapping[str, Any] | Non
                         f"{fmt(num(r, 'first_out_of_domain_time'), ' s')}", lb, na=na))
 
 
-def claim_imm4_vs_imm5(rows: Rows) -> Evidence:
-    c = Evidence("4", "Scenario 4: the 4-model IMMs fail, the 5-model IMMs succeed",
-              "§4.4: 'Both of the IMM filters failed, because the fault type of scenario 4 was not modelled'; "
-              "filter re-design: 'if a hypothesis is made the IMM performs very well … the filters do an excellent "
-              "job of making the correct estimations on the radius of the wheel'.")
+@claim("4", "Scenario 4: the 4-model IMMs fail, the 5-model IMMs succeed",
+       "§4.4: 'Both of the IMM filters failed, because the fault type of scenario 4 was not modelled'; "
+       "filter re-design: 'if a hypothesis is made the IMM performs very well … the filters do an excellent "
+       "job of making the correct estimations on the radius of the wheel'.")
+def claim_imm4_vs_imm5(c: Evidence, rows: Rows) -> None:
     for est in ("imm-ekf", "imm-ukf"):
         for fb in FBS:
             for models in (4, 5):
@@ -290,15 +304,14 @@ def claim_imm4_vs_imm5(rows: Rows) -> Evidence:
         c.notes.append(f"The plant leaves the kinematic model's domain (tyre slip, flags) from t ≈ {span} s "
                        f"in the 5-model runs, as the left tyre shrinks towards 0.1 m: from then on no kinematic filter "
                        f"can be right, which is why the whole-run errors fail while the in-domain ones can pass.")
-    return c
 
 
-def claim_ekf_breakdown(rows: Rows) -> Evidence:
-    c = Evidence("5", "Scenario 4: the EKF breaks down with feedback (not without); the UKF stays consistent",
-              "§4.4: 'The EKF breaks down 5 seconds after the fault occurs, when feedback is turned on as can be seen "
-              "by the innovations exceeding the covariance bounds. Without feedback however the innovations remain "
-              "within the uncertainty bounds. The results from the UKF are much better … innovations which remain "
-              "well within the uncertainty bounds with and without feedback'.")
+@claim("5", "Scenario 4: the EKF breaks down with feedback (not without); the UKF stays consistent",
+       "§4.4: 'The EKF breaks down 5 seconds after the fault occurs, when feedback is turned on as can be seen "
+       "by the innovations exceeding the covariance bounds. Without feedback however the innovations remain "
+       "within the uncertainty bounds. The results from the UKF are much better … innovations which remain "
+       "well within the uncertainty bounds with and without feedback'.")
+def claim_ekf_breakdown(c: Evidence, rows: Rows) -> None:
     for est in ("ekf", "ukf"):
         for fb in FBS:
             lb = lbl(4, est, fb)
@@ -331,14 +344,13 @@ def claim_ekf_breakdown(rows: Rows) -> Evidence:
     note = ekf_ukf_note(rows, 4)
     if note:
         c.notes.append(note)
-    return c
 
 
-def claim_ukf_best(rows: Rows) -> Evidence:
-    c = Evidence("6", "Scenario 4: the UKF is the best single filter",
-              "§4.4: 'without a hypothesis on the IMM filters the UKF was the only filter able to produce the correct "
-              "estimates of the wheel radii'; 'the UKF was able to maintain the robot on the path the longest'; "
-              "§4.5: 'the UKF displayed better performance than the EKF, especially in the case of scenario 4'.")
+@claim("6", "Scenario 4: the UKF is the best single filter",
+       "§4.4: 'without a hypothesis on the IMM filters the UKF was the only filter able to produce the correct "
+       "estimates of the wheel radii'; 'the UKF was able to maintain the robot on the path the longest'; "
+       "§4.5: 'the UKF displayed better performance than the EKF, especially in the case of scenario 4'.")
+def claim_ukf_best(c: Evidence, rows: Rows) -> None:
     for fb in FBS:
         labels = {est: lbl(4, est, fb) for est in FILTERS}
         err = {k: radius_err_after(rows.get(lb)) for k, lb in labels.items()}
@@ -366,15 +378,14 @@ def claim_ukf_best(rows: Rows) -> Evidence:
     note = ekf_ukf_note(rows, 4)
     if note:
         c.notes.append(note)
-    return c
 
 
-def claim_lmpc(rows: Rows) -> Evidence:
-    c = Evidence("7", "The LMPC diverges in scenario 2 while the NMPC tracks",
-              "§4.6: 'the nonlinear MPC controller does an excellent job of keeping the robot on the path despite a "
-              "faulty wheel whereas the solution produced by the linear controller has diverged'; the radius "
-              "estimates are 'the same' with both; the innovation uncertainty with the LMPC is 'double'; scenario 4: "
-              "'Neither of the controllers were able to drive the robot to the path'.")
+@claim("7", "The LMPC diverges in scenario 2 while the NMPC tracks",
+       "§4.6: 'the nonlinear MPC controller does an excellent job of keeping the robot on the path despite a "
+       "faulty wheel whereas the solution produced by the linear controller has diverged'; the radius "
+       "estimates are 'the same' with both; the innovation uncertainty with the LMPC is 'double'; scenario 4: "
+       "'Neither of the controllers were able to drive the robot to the path'.")
+def claim_lmpc(c: Evidence, rows: Rows) -> None:
     for sc in (2, 4):
         ln, ll = lbl(sc, "ukf", True), lbl(sc, "ukf", True, "lmpc")
         rn, rl = rows.get(ln), rows.get(ll)
@@ -409,14 +420,13 @@ def claim_lmpc(rows: Rows) -> Evidence:
                            f"(max |cte| {fmt(mn, ' m')}; LMPC {fmt(ml, ' m')}). The same NMPC without feedback "
                            f"stays within {fmt(m0, ' m')}, so it is the fed-back radius estimates, not the "
                            f"controller, that take the robot off the path (see claims 2 and 3).")
-    return c
 
 
-def claim_limit_cycle(rows: Rows) -> Evidence:
-    c = Evidence("8", "The wheel rates limit-cycle under the NMPC (less than under the LMPC)",
-              "§4.6: 'the switching behaviour observed in wheel rotation rates is highly undesirable … The wheel rates "
-              "produced by the nonlinear MPC controller show a dramatic decrease in this switching behaviour. It is, "
-              "however, still present'.")
+@claim("8", "The wheel rates limit-cycle under the NMPC (less than under the LMPC)",
+       "§4.6: 'the switching behaviour observed in wheel rotation rates is highly undesirable … The wheel rates "
+       "produced by the nonlinear MPC controller show a dramatic decrease in this switching behaviour. It is, "
+       "however, still present'.")
+def claim_limit_cycle(c: Evidence, rows: Rows) -> None:
     ln, ll = lbl(2, "ukf", True), lbl(2, "ukf", True, "lmpc")
     rn, rl = rows.get(ln), rows.get(ll)
     for lb, r in ((ln, rn), (ll, rl)):
@@ -443,14 +453,13 @@ def claim_limit_cycle(rows: Rows) -> Evidence:
     if ratio is not None and ratio < 1 and al is not None:
         c.notes.append(f"Here the NMPC's commands vary more than the LMPC's; the LMPC instead sits at a wheel-rate "
                        f"limit {al:.0%} of the time after the fault (saturation rather than switching).")
-    return c
 
 
-def claim_imm_faster(rows: Rows) -> Evidence:
-    c = Evidence("9", "The IMMs reach the correct estimate faster than the UKF at the 10 s step",
-              "§4.5: 'The IMM filters were able to reach the correct estimate faster than the single UKF particularly "
-              "when a sudden change is present as is evident at the 10 second mark'; §4.2: 'The IMM filters produced "
-              "slightly better estimates than the single UKF filter'.")
+@claim("9", "The IMMs reach the correct estimate faster than the UKF at the 10 s step",
+       "§4.5: 'The IMM filters were able to reach the correct estimate faster than the single UKF particularly "
+       "when a sudden change is present as is evident at the 10 second mark'; §4.2: 'The IMM filters produced "
+       "slightly better estimates than the single UKF filter'.")
+def claim_imm_faster(c: Evidence, rows: Rows) -> None:
     for fb in FBS:
         lu = lbl(2, "ukf", fb)
         ru = rows.get(lu)
@@ -478,7 +487,6 @@ def claim_imm_faster(rows: Rows) -> Evidence:
                             radius_err_after(rows.get(li))})
             c.checks.append(chk(f"scenario 4 {fbname(fb)}: {EST_NAMES[est]}-5 closer than the UKF in the first 5 s "
                                 f"of the ramp", lt(ei, eu), f"{fmt(ei, ' m')} vs UKF {fmt(eu, ' m')}", li, lu4))
-    return c
 
 
 def _scenario3_peaks(c: Evidence, rows: Rows) -> None:
@@ -502,13 +510,13 @@ def _worst_settle(r: Mapping[str, Any] | None) -> float | None:
     return None if a is None or b is None else max(a, b)
 
 
-def claim_scenario3(rows: Rows) -> Evidence:
-    c = Evidence("10", "Scenario 3 (left puncture at 5 s, right at 10 s)",
-              "§4.3: innovations 'clearly indicated … the detection of both faults'; 'the IMM filters produce the "
-              "best estimates of the radii. The UKF performs slightly better than the EKF, and turning feedback on "
-              "results in a faster settling time'; IMMs: 'after 5 secs model 3 is the best model … once the second "
-              "fault occurs … mode 4 is the correct match'; 'An anomaly occurred with the UKF filter where even "
-              "turning the feedback on did not result in the robot following the path after the … second fault'.")
+@claim("10", "Scenario 3 (left puncture at 5 s, right at 10 s)",
+       "§4.3: innovations 'clearly indicated … the detection of both faults'; 'the IMM filters produce the "
+       "best estimates of the radii. The UKF performs slightly better than the EKF, and turning feedback on "
+       "results in a faster settling time'; IMMs: 'after 5 secs model 3 is the best model … once the second "
+       "fault occurs … mode 4 is the correct match'; 'An anomaly occurred with the UKF filter where even "
+       "turning the feedback on did not result in the robot following the path after the … second fault'.")
+def claim_scenario3(c: Evidence, rows: Rows) -> None:
     _scenario3_peaks(c, rows)
     for fb in FBS:
         labels = {e: lbl(3, e, fb) for e in FILTERS}
@@ -546,13 +554,12 @@ def claim_scenario3(rows: Rows) -> Evidence:
     note = ekf_ukf_note(rows, 3)
     if note:
         c.notes.append(note)
-    return c
 
 
-def claim_modes(rows: Rows) -> Evidence:
-    c = Evidence("11", "The IMMs find the correct mode immediately (scenarios 2 and 4 with 5 models)",
-              "§4.2: 'both of the IMM filters were seen to find the correct mode immediately as mode 3 is the most "
-              "confident'; §4.4 (re-design): 'if a hypothesis is made the IMM performs very well'.")
+@claim("11", "The IMMs find the correct mode immediately (scenarios 2 and 4 with 5 models)",
+       "§4.2: 'both of the IMM filters were seen to find the correct mode immediately as mode 3 is the most "
+       "confident'; §4.4 (re-design): 'if a hypothesis is made the IMM performs very well'.")
+def claim_modes(c: Evidence, rows: Rows) -> None:
     for sc, models, idx, mode in ((2, 4, 1, 3), (4, 5, 1, 5)):
         for est in ("imm-ekf", "imm-ukf"):
             for fb in FBS:
@@ -565,14 +572,13 @@ def claim_modes(rows: Rows) -> Evidence:
                 ok = None if r is None else (d is not None and d <= MODE_MAX_DELAY)
                 c.checks.append(chk(f"scenario {sc} {EST_NAMES[est]}-{models} {fbname(fb)}: mode {mode} on top "
                                     f"within {MODE_MAX_DELAY:g} s", ok, fmt(d, " s"), lb))
-    return c
 
 
-def claim_constraints_s4(rows: Rows) -> Evidence:
-    c = Evidence("12", "Scenario 4: the wheels work at their constraints after the fault; no controller keeps the path",
-              "§4.4: 'with this type of fault both wheels were required to work at their constraints'; 'none of the "
-              "filters show full compliance with the reference trajectory'; 5-model IMMs: 'the control inputs are "
-              "required to work at the constraints the majority of the time once the fault occurred'.")
+@claim("12", "Scenario 4: the wheels work at their constraints after the fault; no controller keeps the path",
+       "§4.4: 'with this type of fault both wheels were required to work at their constraints'; 'none of the "
+       "filters show full compliance with the reference trajectory'; 5-model IMMs: 'the control inputs are "
+       "required to work at the constraints the majority of the time once the fault occurred'.")
+def claim_constraints_s4(c: Evidence, rows: Rows) -> None:
     runs = [lbl(4, e, f) for e in FILTERS for f in FBS] + [lbl(4, e, f, models=5) for e in ("imm-ekf", "imm-ukf")
                                                           for f in FBS]
     for lb in runs:
@@ -587,10 +593,9 @@ def claim_constraints_s4(rows: Rows) -> Evidence:
                             ge(a, AT_LIMIT_MAJORITY), f"at limit {fmt(a)}", lb))
         c.checks.append(chk(f"{lb}: the robot leaves the path (> {OFF_PATH:g} m)", gt(m, OFF_PATH),
                             f"max |cte| after fault {fmt(m, ' m')}", lb))
-    return c
 
 
-CLAIMS: tuple[Callable[[Rows], Evidence], ...] = (
+CLAIMS: tuple[ClaimFn, ...] = (
     claim_detection, claim_feedback_path, claim_scenario1, claim_imm4_vs_imm5, claim_ekf_breakdown, claim_ukf_best,
     claim_lmpc, claim_limit_cycle, claim_imm_faster, claim_scenario3, claim_modes, claim_constraints_s4,
 )

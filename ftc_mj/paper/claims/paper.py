@@ -108,20 +108,20 @@ def earlier(a: float | None, b: float | None) -> bool:
     return b is None or a < b
 
 
-def ekf_ukf_note(rows: Rows, sc: int) -> str | None:
-    """A note when the EKF and UKF give the same radius estimates without feedback (they should: the
-    speed measurement is linear in the radii given the wheel rates)."""
+def add_ekf_ukf_note(c: Evidence, rows: Rows, sc: int) -> None:
+    """Note on ``c`` when the EKF and UKF give the same radius estimates without feedback in scenario
+    ``sc`` (they should: the speed measurement is linear in the radii given the wheel rates)."""
     e = num(rows.get(lbl(sc, "ekf", False)), "radius_rmse_L")
     u = num(rows.get(lbl(sc, "ukf", False)), "radius_rmse_L")
     if e is None or u is None or abs(e - u) > 1e-3:
-        return None
-    return (f"Without feedback the EKF and UKF radius estimates coincide (scenario {sc}: R_L RMSE {e:.4f} vs "
-            f"{u:.4f} m). This is expected for this filter design: given the wheel rates the speed "
-            "z = (R_R ωR + R_L ωL)/2 is linear in the radii and the radii are random walks, so the unscented "
-            "transform is exact and the two filters agree on the radii; with feedback the closed loop amplifies "
-            "tiny differences (x, y, ψ prediction). A claim that the UKF estimates radii better than the EKF "
-            "cannot come from this model; the paper's differences must come from elsewhere (e.g. its "
-            "implementation or tuning).")
+        return
+    c.notes.append(f"Without feedback the EKF and UKF radius estimates coincide (scenario {sc}: R_L RMSE {e:.4f} vs "
+                   f"{u:.4f} m). This is expected for this filter design: given the wheel rates the speed "
+                   "z = (R_R ωR + R_L ωL)/2 is linear in the radii and the radii are random walks, so the unscented "
+                   "transform is exact and the two filters agree on the radii; with feedback the closed loop amplifies "
+                   "tiny differences (x, y, ψ prediction). A claim that the UKF estimates radii better than the EKF "
+                   "cannot come from this model; the paper's differences must come from elsewhere (e.g. its "
+                   "implementation or tuning).")
 
 
 def borderline(vals: list[float | None], thr: float, rel: float = 0.1) -> list[float]:
@@ -249,9 +249,7 @@ def claim_scenario1(c: Evidence, rows: Rows) -> None:
     if fb_bad:
         c.notes.append(f"With feedback that drift is fed to the NMPC, and the robot leaves the path even without a "
                        f"fault ({', '.join(fb_bad)}).")
-    note = ekf_ukf_note(rows, 1)
-    if note:
-        c.notes.append(note)
+    add_ekf_ukf_note(c, rows, 1)
 
 
 def _in_domain_check(c: Evidence, name: str, lb: str, r: Mapping[str, Any] | None) -> None:
@@ -341,9 +339,7 @@ def claim_ekf_breakdown(c: Evidence, rows: Rows) -> None:
                        f"inside ±2σ {fmt(num(re_, 'innovation_in_2sigma_after_fault'))} vs "
                        f"{fmt(num(ru, 'innovation_in_2sigma_after_fault'))}): a closed-loop effect on this plant, "
                        f"not an EKF linearisation failure.")
-    note = ekf_ukf_note(rows, 4)
-    if note:
-        c.notes.append(note)
+    add_ekf_ukf_note(c, rows, 4)
 
 
 @claim("6", "Scenario 4: the UKF is the best single filter",
@@ -375,9 +371,7 @@ def claim_ukf_best(c: Evidence, rows: Rows) -> None:
         c.checks.append(chk(f"{fbname(fb)}: the UKF keeps the robot on the path the longest", longest,
                             ", ".join(f"{EST_NAMES[k]} {fmt(on[k], ' s')}" for k in FILTERS), *labels.values(),
                             na="" if fb else TRAJECTORY_BY_CONSTRUCTION))
-    note = ekf_ukf_note(rows, 4)
-    if note:
-        c.notes.append(note)
+    add_ekf_ukf_note(c, rows, 4)
 
 
 @claim("7", "The LMPC diverges in scenario 2 while the NMPC tracks",
@@ -551,9 +545,7 @@ def claim_scenario3(c: Evidence, rows: Rows) -> None:
                         "other filters' feedback runs stay on it", anomaly,
                         f"UKF fb on leaves the path at {fmt(tu, ' s')}; others on path: "
                         f"{', '.join(fmt(v) for v in others_on)}", lu, *others))
-    note = ekf_ukf_note(rows, 3)
-    if note:
-        c.notes.append(note)
+    add_ekf_ukf_note(c, rows, 3)
 
 
 @claim("11", "The IMMs find the correct mode immediately (scenarios 2 and 4 with 5 models)",

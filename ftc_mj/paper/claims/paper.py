@@ -19,7 +19,7 @@ Rows are plain dicts keyed by metric name (``metrics.json`` flattened plus
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
 from ..matrix import make_label
@@ -79,6 +79,17 @@ def fbname(fb: bool) -> str:
 EST_NAMES = {"ekf": "EKF", "ukf": "UKF", "imm-ekf": "IMM-EKF", "imm-ukf": "IMM-UKF"}
 FILTERS = ("ekf", "ukf", "imm-ekf", "imm-ukf")
 FBS = (False, True)
+IMMS = ("imm-ekf", "imm-ukf")
+
+
+def runs_of(rows: Rows, sc: int, ests: Iterable[str],
+            models: int = 4) -> Iterator[tuple[str, bool, str, Mapping[str, Any] | None]]:
+    """``(filter, feedback, label, row or None)`` of scenario ``sc``'s NMPC runs with ``models`` IMM
+    models, filter by filter, feedback off then on."""
+    for est in ests:
+        for fb in FBS:
+            lb = lbl(sc, est, fb, models=models)
+            yield est, fb, lb, rows.get(lb)
 
 
 def radius_err_after(row: Mapping[str, Any] | None, wheel: str = "L") -> float | None:
@@ -133,22 +144,19 @@ def borderline(vals: list[float | None], thr: float, rel: float = 0.1) -> list[f
        "§4.2: 'all filters were able to detect the fault … at 10 seconds there was a peak change in the "
        "innovation curves'.")
 def claim_detection(c: Evidence, rows: Rows) -> None:
-    for est in FILTERS:
-        for fb in FBS:
-            lb = lbl(2, est, fb)
-            r = rows.get(lb)
-            delay = num(r, "detection_delay")
-            fa = truthy(r, "false_alarm")
-            peak = num(r, "innovation_peak_z_1")
-            det = None if r is None else (delay is not None and delay <= DETECT_MAX_DELAY and fa is not True)
-            c.table.append({"run": lb, "detection_time [s]": num(r, "detection_time"), "delay [s]": delay,
-                            "false alarm": fa, "isolated": r.get("isolated_wheel") if r else None,
-                            "innovation peak z": peak, "status": r.get("status") if r else "missing"})
-            name = f"{EST_NAMES[est]} {fbname(fb)}"
-            c.checks.append(chk(f"{name} declares the fault within {DETECT_MAX_DELAY:g} s", det,
-                                f"delay {fmt(delay, ' s')}, false alarm {fmt(fa)}", lb))
-            c.checks.append(chk(f"{name}: innovation peak at the fault (z ≥ {PEAK_Z:g} in the second after it)",
-                                ge(peak, PEAK_Z), f"peak z {fmt(peak)}", lb))
+    for est, fb, lb, r in runs_of(rows, 2, FILTERS):
+        delay = num(r, "detection_delay")
+        fa = truthy(r, "false_alarm")
+        peak = num(r, "innovation_peak_z_1")
+        det = None if r is None else (delay is not None and delay <= DETECT_MAX_DELAY and fa is not True)
+        c.table.append({"run": lb, "detection_time [s]": num(r, "detection_time"), "delay [s]": delay,
+                        "false alarm": fa, "isolated": r.get("isolated_wheel") if r else None,
+                        "innovation peak z": peak, "status": r.get("status") if r else "missing"})
+        name = f"{EST_NAMES[est]} {fbname(fb)}"
+        c.checks.append(chk(f"{name} declares the fault within {DETECT_MAX_DELAY:g} s", det,
+                            f"delay {fmt(delay, ' s')}, false alarm {fmt(fa)}", lb))
+        c.checks.append(chk(f"{name}: innovation peak at the fault (z ≥ {PEAK_Z:g} in the second after it)",
+                            ge(peak, PEAK_Z), f"peak z {fmt(peak)}", lb))
     r = rows.get(lbl(2, "ukf", False))
     drop, kin, slip = num(r, "speed_drop_1"), num(r, "kinematic_speed_drop_1"), num(r, "slip_max_after_fault_1")
     if drop is not None and kin is not None:
@@ -210,28 +218,25 @@ def claim_feedback_path(c: Evidence, rows: Rows) -> None:
        "feedback'; 'the robot remained on the path with and without feedback'; the IMMs 'were able to very "
        "quickly detect the correct mode of operation'.")
 def claim_scenario1(c: Evidence, rows: Rows) -> None:
-    for est in FILTERS:
-        for fb in FBS:
-            lb = lbl(1, est, fb)
-            r = rows.get(lb)
-            rm = radius_rmse_worst(r)
-            inn = num(r, "innovation_in_2sigma")
-            ct = num(r, "cross_track_max_settled")
-            md = num(r, "mode_delay_0") if est.startswith("imm") else None
-            c.table.append({"run": lb, "radius RMSE R [m]": num(r, "radius_rmse_R"),
-                            "radius RMSE L [m]": num(r, "radius_rmse_L"), "in ±2σ": inn,
-                            "max |cte| (t>5 s) [m]": ct, "false alarm": truthy(r, "false_alarm"),
-                            "mode-1 delay [s]": md})
-            name = f"{EST_NAMES[est]} {fbname(fb)}"
-            c.checks.append(chk(f"{name}: radius RMSE ≤ {GOOD_RMSE_NOFAULT:g} m", le(rm, GOOD_RMSE_NOFAULT),
-                                f"worst-wheel RMSE {fmt(rm, ' m')}", lb))
-            c.checks.append(chk(f"{name}: innovations inside ±2σ ≥ {INNOV_95:g}", ge(inn, INNOV_95), fmt(inn), lb))
-            c.checks.append(chk(f"{name}: on the path (max |cte| after 5 s ≤ {OFF_PATH:g} m)", le(ct, OFF_PATH),
-                                fmt(ct, " m"), lb))
-            if est.startswith("imm"):
-                c.checks.append(chk(f"{name}: mode 1 (no fault) most probable within {MODE_MAX_DELAY:g} s",
-                                    None if r is None else (md is not None and md <= MODE_MAX_DELAY),
-                                    fmt(md, " s"), lb))
+    for est, fb, lb, r in runs_of(rows, 1, FILTERS):
+        rm = radius_rmse_worst(r)
+        inn = num(r, "innovation_in_2sigma")
+        ct = num(r, "cross_track_max_settled")
+        md = num(r, "mode_delay_0") if est.startswith("imm") else None
+        c.table.append({"run": lb, "radius RMSE R [m]": num(r, "radius_rmse_R"),
+                        "radius RMSE L [m]": num(r, "radius_rmse_L"), "in ±2σ": inn,
+                        "max |cte| (t>5 s) [m]": ct, "false alarm": truthy(r, "false_alarm"),
+                        "mode-1 delay [s]": md})
+        name = f"{EST_NAMES[est]} {fbname(fb)}"
+        c.checks.append(chk(f"{name}: radius RMSE ≤ {GOOD_RMSE_NOFAULT:g} m", le(rm, GOOD_RMSE_NOFAULT),
+                            f"worst-wheel RMSE {fmt(rm, ' m')}", lb))
+        c.checks.append(chk(f"{name}: innovations inside ±2σ ≥ {INNOV_95:g}", ge(inn, INNOV_95), fmt(inn), lb))
+        c.checks.append(chk(f"{name}: on the path (max |cte| after 5 s ≤ {OFF_PATH:g} m)", le(ct, OFF_PATH),
+                            fmt(ct, " m"), lb))
+        if est.startswith("imm"):
+            c.checks.append(chk(f"{name}: mode 1 (no fault) most probable within {MODE_MAX_DELAY:g} s",
+                                None if r is None else (md is not None and md <= MODE_MAX_DELAY),
+                                fmt(md, " s"), lb))
     seen: set[tuple[float, float]] = set()
     for est in ("ekf", "ukf"):
         r = rows.get(lbl(1, est, False))
@@ -310,13 +315,10 @@ def claim_imm4_vs_imm5(c: Evidence, rows: Rows) -> None:
        "within the uncertainty bounds. The results from the UKF are much better … innovations which remain "
        "well within the uncertainty bounds with and without feedback'.")
 def claim_ekf_breakdown(c: Evidence, rows: Rows) -> None:
-    for est in ("ekf", "ukf"):
-        for fb in FBS:
-            lb = lbl(4, est, fb)
-            r = rows.get(lb)
-            c.table.append({"run": lb, "in ±2σ after fault": num(r, "innovation_in_2sigma_after_fault"),
-                            "resets": num(r, "filter_resets"), "R_L RMSE after fault [m]": radius_err_after(r),
-                            "R_L final error [m]": num(r, "radius_final_error_L"), "broken": broken(r)})
+    for _, _, lb, r in runs_of(rows, 4, ("ekf", "ukf")):
+        c.table.append({"run": lb, "in ±2σ after fault": num(r, "innovation_in_2sigma_after_fault"),
+                        "resets": num(r, "filter_resets"), "R_L RMSE after fault [m]": radius_err_after(r),
+                        "R_L final error [m]": num(r, "radius_final_error_L"), "broken": broken(r)})
 
     def one(text: str, est: str, fb: bool, want_broken: bool) -> None:
         lb = lbl(4, est, fb)
@@ -484,18 +486,15 @@ def claim_imm_faster(c: Evidence, rows: Rows) -> None:
 
 
 def _scenario3_peaks(c: Evidence, rows: Rows) -> None:
-    for est in FILTERS:
-        for fb in FBS:
-            lb = lbl(3, est, fb)
-            r = rows.get(lb)
-            p1, p2 = num(r, "innovation_peak_z_1"), num(r, "innovation_peak_z_2")
-            c.table.append({"run": lb, "peak z @5 s": p1, "peak z @10 s": p2,
-                            "radius RMSE (both) [m]": num(r, "radius_rmse_mean"),
-                            "settle L [s]": num(r, "settle_delay_L"), "settle R [s]": num(r, "settle_delay_R"),
-                            "mode-3 delay [s]": num(r, "mode_delay_1"), "mode-4 delay [s]": num(r, "mode_delay_2"),
-                            "time off path [s]": num(r, "time_off_path")})
-            c.checks.append(chk(f"{EST_NAMES[est]} {fbname(fb)}: innovation peaks at both faults (z ≥ {PEAK_Z:g})",
-                                all_of(ge(p1, PEAK_Z), ge(p2, PEAK_Z)), f"z {fmt(p1)} @5 s, {fmt(p2)} @10 s", lb))
+    for est, fb, lb, r in runs_of(rows, 3, FILTERS):
+        p1, p2 = num(r, "innovation_peak_z_1"), num(r, "innovation_peak_z_2")
+        c.table.append({"run": lb, "peak z @5 s": p1, "peak z @10 s": p2,
+                        "radius RMSE (both) [m]": num(r, "radius_rmse_mean"),
+                        "settle L [s]": num(r, "settle_delay_L"), "settle R [s]": num(r, "settle_delay_R"),
+                        "mode-3 delay [s]": num(r, "mode_delay_1"), "mode-4 delay [s]": num(r, "mode_delay_2"),
+                        "time off path [s]": num(r, "time_off_path")})
+        c.checks.append(chk(f"{EST_NAMES[est]} {fbname(fb)}: innovation peaks at both faults (z ≥ {PEAK_Z:g})",
+                            all_of(ge(p1, PEAK_Z), ge(p2, PEAK_Z)), f"z {fmt(p1)} @5 s, {fmt(p2)} @10 s", lb))
 
 
 def _worst_settle(r: Mapping[str, Any] | None) -> float | None:
@@ -527,15 +526,12 @@ def claim_scenario3(c: Evidence, rows: Rows) -> None:
         w0, w1 = _worst_settle(rows.get(l0)), _worst_settle(rows.get(l1))
         c.checks.append(chk(f"{EST_NAMES[est]}: feedback settles faster (later of the two wheels)", earlier(w1, w0),
                             f"fb on {fmt(w1, ' s', 2)} vs fb off {fmt(w0, ' s', 2)} (— = never)", l0, l1))
-    for est in ("imm-ekf", "imm-ukf"):
-        for fb in FBS:
-            lb = lbl(3, est, fb)
-            r = rows.get(lb)
-            d3, d4 = num(r, "mode_delay_1"), num(r, "mode_delay_2")
-            ok = None if r is None else (d3 is not None and d3 <= MODE_MAX_DELAY and d4 is not None
-                                         and d4 <= MODE_MAX_DELAY)
-            c.checks.append(chk(f"{EST_NAMES[est]} {fbname(fb)}: mode 3 after 5 s and mode 4 after 10 s, each within "
-                                f"{MODE_MAX_DELAY:g} s", ok, f"mode 3 {fmt(d3, ' s')}, mode 4 {fmt(d4, ' s')}", lb))
+    for est, fb, lb, r in runs_of(rows, 3, IMMS):
+        d3, d4 = num(r, "mode_delay_1"), num(r, "mode_delay_2")
+        ok = None if r is None else (d3 is not None and d3 <= MODE_MAX_DELAY and d4 is not None
+                                     and d4 <= MODE_MAX_DELAY)
+        c.checks.append(chk(f"{EST_NAMES[est]} {fbname(fb)}: mode 3 after 5 s and mode 4 after 10 s, each within "
+                            f"{MODE_MAX_DELAY:g} s", ok, f"mode 3 {fmt(d3, ' s')}, mode 4 {fmt(d4, ' s')}", lb))
     lu = lbl(3, "ukf", True)
     others = [lbl(3, e, True) for e in ("ekf", "imm-ekf", "imm-ukf")]
     tu = num(rows.get(lu), "time_off_path")
@@ -553,17 +549,14 @@ def claim_scenario3(c: Evidence, rows: Rows) -> None:
        "confident'; §4.4 (re-design): 'if a hypothesis is made the IMM performs very well'.")
 def claim_modes(c: Evidence, rows: Rows) -> None:
     for sc, models, idx, mode in ((2, 4, 1, 3), (4, 5, 1, 5)):
-        for est in ("imm-ekf", "imm-ukf"):
-            for fb in FBS:
-                lb = lbl(sc, est, fb, models=models)
-                r = rows.get(lb)
-                d = num(r, f"mode_delay_{idx}")
-                c.table.append({"run": lb, "expected mode": mode, "delay [s]": d,
-                                "correct-mode fraction": num(r, "mode_correct_fraction"),
-                                "final spread of mode probabilities": num(r, "mode_prob_spread_final")})
-                ok = None if r is None else (d is not None and d <= MODE_MAX_DELAY)
-                c.checks.append(chk(f"scenario {sc} {EST_NAMES[est]}-{models} {fbname(fb)}: mode {mode} on top "
-                                    f"within {MODE_MAX_DELAY:g} s", ok, fmt(d, " s"), lb))
+        for est, fb, lb, r in runs_of(rows, sc, IMMS, models=models):
+            d = num(r, f"mode_delay_{idx}")
+            c.table.append({"run": lb, "expected mode": mode, "delay [s]": d,
+                            "correct-mode fraction": num(r, "mode_correct_fraction"),
+                            "final spread of mode probabilities": num(r, "mode_prob_spread_final")})
+            ok = None if r is None else (d is not None and d <= MODE_MAX_DELAY)
+            c.checks.append(chk(f"scenario {sc} {EST_NAMES[est]}-{models} {fbname(fb)}: mode {mode} on top "
+                                f"within {MODE_MAX_DELAY:g} s", ok, fmt(d, " s"), lb))
 
 
 @claim("12", "Scenario 4: the wheels work at their constraints after the fault; no controller keeps the path",

@@ -24,6 +24,8 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from .texts import CLAIM_TEXTS
+
 REPRODUCED = "reproduced"
 PARTLY = "partly"
 NOT_REPRODUCED = "not reproduced"
@@ -84,10 +86,11 @@ ClaimFn = Callable[[Rows], Evidence]
 """A claim family's claim: the rows of one seed → its :class:`Evidence` (checks not yet settled)."""
 
 
-def claim(id: str, title: str, paper: str) -> Callable[[Callable[[Evidence, Rows], None]], ClaimFn]:
-    """Decorate ``fill(evidence, rows)``, which appends a claim's checks, table rows and notes, into
-    the :data:`ClaimFn` that starts the claim's :class:`Evidence` (``id``, ``title``, the paper's
-    words) and returns it filled."""
+def claim(id: str) -> Callable[[Callable[[Evidence, Rows], None]], ClaimFn]:
+    """Decorate ``fill(evidence, rows)``, which appends claim ``id``'s checks, table rows and notes,
+    into the :data:`ClaimFn` that starts the claim's :class:`Evidence` from its statement in
+    :data:`~.texts.CLAIM_TEXTS` and returns it filled."""
+    title, paper = CLAIM_TEXTS[id]
 
     def wrap(fill: Callable[[Evidence, Rows], None]) -> ClaimFn:
         @functools.wraps(fill)

@@ -40,12 +40,7 @@ def _row_numbers(r: dict[str, Any] | None) -> dict[str, Any]:
             "at the lateral bound [s]": num(r, "lateral_bound_time_s")}
 
 
-@claim("P1", "With a yaw-rate gyro, active FTC with the path-following NMPC keeps the robot on its path on "
-       "the physical plant and slows it to what the damaged robot can still do",
-       "Beyond the paper: the paper's loop, reconfigured with the estimated radii, tracks a time-parametrised "
-       "reference; on the MuJoCo robot the return after the ≈0.7 s detection delay lifts a wheel "
-       "(docs/findings.md). Here the controller follows the geometric path with its own progress, bounded by "
-       "the robot's derived lift-off limit; UKF, `safe` policy, speed + yaw rate (σ 0.01 rad/s).")
+@claim("P1")
 def claim_pathfollow_on_path(c: Evidence, rows: Rows) -> None:
     for sc in PF_SCENARIOS:
         for ctl in ("pf-nmpc", "nmpc"):

@@ -58,11 +58,7 @@ def _evidence(rows: Rows) -> list[dict[str, Any]]:
     return out
 
 
-@claim("R1", "Direct feedback of the estimated radii keeps the robot on the path better than none",
-       "Beyond the paper's matrix. The paper's §4.2–4.3 claim that reconfiguring the controller with "
-       "the filter's estimates keeps the robot on the path, restated on the policy axis: the same runs with "
-       "policy `direct` against `none`, with the paper's speed sensing and with a yaw-rate gyro added, UKF, "
-       "NMPC with the actuation-rate term.")
+@claim("R1")
 def claim_direct_feedback(c: Evidence, rows: Rows) -> None:
     c.table = _evidence(rows)
     helped, harmed = [], []
@@ -85,10 +81,7 @@ def claim_direct_feedback(c: Evidence, rows: Rows) -> None:
                        "worse (docs/findings.md).")
 
 
-@claim("R2", "The safe policy never makes a fault worse than no reconfiguration",
-       "Beyond the paper: an active FTC system must not make a fault worse. Policy `safe` hands radii "
-       "over only when the fault is declared and isolated and the filter's covariance says the radii (and "
-       "their split) are identified, clamps and rate-limits them, and reverts on filter trouble.")
+@claim("R2")
 def claim_safe_no_harm(c: Evidence, rows: Rows) -> None:
     c.table = _evidence(rows)
     for sc in POLICY_SCENARIOS:
@@ -125,10 +118,7 @@ def claim_safe_no_harm(c: Evidence, rows: Rows) -> None:
                        "and those comparisons are n/a.")
 
 
-@claim("R3", "With a yaw-rate gyro the safe policy hands over within 2 s and keeps the robot on the path",
-       "Beyond the paper: with speed + yaw rate both radii are observable, so the safe policy should "
-       "reconfigure the controller soon after the fault and the robot should stay within 1 m of the path from "
-       "5 s after the fault.")
+@claim("R3")
 def claim_safe_in_time(c: Evidence, rows: Rows) -> None:
     for sc in POLICY_SCENARIOS:
         lb = plabel(sc, "safe", "yaw")

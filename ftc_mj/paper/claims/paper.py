@@ -1,9 +1,9 @@
 """The paper's §4 claims, checked one by one against the summary rows of one seed of the matrix.
 
-Every claim is a list of :class:`~ftc_mj.paper.claims.checks.Check` s, each a yes/no test on the numbers
-of one or a few runs against a threshold of :mod:`.thresholds`, with the runs it reads; the
-outcome rules (a failed run fails, a precondition that does not hold makes the check n/a) are in
-:mod:`.checks`. Preconditions each claim states in advance:
+Every claim (its statement in :mod:`.texts`) is a list of :class:`~ftc_mj.paper.claims.checks.Check` s,
+each a yes/no test on the numbers of one or a few runs against a threshold of :mod:`.thresholds`,
+with the runs it reads; the outcome rules (a failed run fails, a precondition that does not hold
+makes the check n/a) are in :mod:`.checks`. Preconditions each claim states in advance:
 
 - *identical by construction*: with feedback off the controller's model does not depend on the
   filter, so every filter's run has the same trajectory, and with speed-only sensing the speed is
@@ -264,7 +264,7 @@ def _in_domain_check(c: Evidence, name: str, lb: str, r: Mapping[str, Any] | Non
 
 @claim("4")
 def claim_imm4_vs_imm5(c: Evidence, rows: Rows) -> None:
-    for est in ("imm-ekf", "imm-ukf"):
+    for est in IMMS:
         for fb in FBS:
             for models in (4, 5):
                 lb = lbl(4, est, fb, models=models)
@@ -287,7 +287,7 @@ def claim_imm4_vs_imm5(c: Evidence, rows: Rows) -> None:
                                     all_of(le(rm, GOOD_RMSE), le(absmax(fe), GOOD_RMSE)),
                                     f"RMSE {fmt(rm, ' m')}, final {fmt(fe, ' m')}", lb))
                 _in_domain_check(c, name, lb, r)
-    ood = [num(rows.get(lbl(4, e, f, models=5)), "first_out_of_domain_time") for e in ("imm-ekf", "imm-ukf")
+    ood = [num(rows.get(lbl(4, e, f, models=5)), "first_out_of_domain_time") for e in IMMS
            for f in FBS]
     ood = [v for v in ood if v is not None]
     if ood:
@@ -433,7 +433,7 @@ def claim_imm_faster(c: Evidence, rows: Rows) -> None:
         su = num(ru, "settle_delay_L")
         c.table.append({"run": lu, "R_L settle delay [s]": su, "R_L RMSE first 5 s [m]": num(ru, "radius_rmse_L_early"),
                         "R_L RMSE after fault [m]": radius_err_after(ru)})
-        for est in ("imm-ekf", "imm-ukf"):
+        for est in IMMS:
             li = lbl(2, est, fb)
             ri = rows.get(li)
             si = num(ri, "settle_delay_L")
@@ -447,7 +447,7 @@ def claim_imm_faster(c: Evidence, rows: Rows) -> None:
         eu = num(rows.get(lu4), "radius_rmse_L_early")
         c.table.append({"run": lu4, "R_L RMSE first 5 s [m]": eu, "R_L RMSE after fault [m]":
                         radius_err_after(rows.get(lu4))})
-        for est in ("imm-ekf", "imm-ukf"):
+        for est in IMMS:
             li = lbl(4, est, fb, models=5)
             ei = num(rows.get(li), "radius_rmse_L_early")
             c.table.append({"run": li, "R_L RMSE first 5 s [m]": ei, "R_L RMSE after fault [m]":
@@ -525,7 +525,7 @@ def claim_modes(c: Evidence, rows: Rows) -> None:
 
 @claim("12")
 def claim_constraints_s4(c: Evidence, rows: Rows) -> None:
-    runs = [lbl(4, e, f) for e in FILTERS for f in FBS] + [lbl(4, e, f, models=5) for e in ("imm-ekf", "imm-ukf")
+    runs = [lbl(4, e, f) for e in FILTERS for f in FBS] + [lbl(4, e, f, models=5) for e in IMMS
                                                           for f in FBS]
     for lb in runs:
         r = rows.get(lb)

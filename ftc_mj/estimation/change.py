@@ -117,18 +117,25 @@ class InnovationCUSUM:
 
 
 @njit(cache=True, error_model="numpy")
+def _row_dot(A: np.ndarray, i: int, B: np.ndarray, j: int) -> float:
+    """``Σ_k A[i, k] B[j, k]`` over the columns of ``B``, accumulated from 0.0 in column order."""
+    acc = 0.0
+    for k in range(B.shape[1]):
+        acc += A[i, k] * B[j, k]
+    return acc
+
+
+@njit(cache=True, error_model="numpy")
 def _cusum_step(C: np.ndarray, e: np.ndarray, W: np.ndarray, f: np.ndarray, shift: float) -> None:
     """Compiled step of :class:`InnovationCUSUM` (in place); a hypothesis without a signature (zero wheel
     rates) only drifts down."""
     nb, m = e.shape
-    nh, d = f.shape
+    nh = f.shape[0]
     u = np.empty(m)
     for h in range(nh):
         n2 = 0.0
         for r in range(m):
-            acc = 0.0
-            for j in range(d):
-                acc += W[r, j] * f[h, j]
+            acc = _row_dot(W, r, f, h)
             u[r] = acc
             n2 += acc * acc
         n = math.sqrt(n2)
@@ -311,10 +318,7 @@ def _linearise(P: np.ndarray, y: np.ndarray, S: np.ndarray, H: np.ndarray, var: 
         for j in range(d):
             acc = 0.0
             for r in range(m):
-                k_ir = 0.0
-                for c in range(d):
-                    k_ir += P[i, c] * H[r, c]
-                acc += k_ir / var[r] * H[r, j]
+                acc += _row_dot(P, i, H, r) / var[r] * H[r, j]
             A[i, j] = (1.0 if i == j else 0.0) - acc
     return True
 

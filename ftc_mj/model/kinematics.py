@@ -15,6 +15,7 @@ differentiation, every Jacobian. Nothing else in the package writes these equati
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from types import ModuleType
@@ -148,45 +149,35 @@ class KinematicModel:
     def _symbols(self) -> tuple[ca.SX, ca.SX, ca.SX]:
         return ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("dt")
 
+    def _function(self, name: str, out: str, with_dt: bool,
+                  expr: Callable[[ca.SX, ca.SX, ca.SX], ca.SX]) -> ca.Function:
+        """The CasADi Function ``name(x, u[, dt]) -> out`` of the SX ``expr(x, u, dt)``, built once per
+        model."""
+        if name not in self._cache:
+            x, u, dt = self._symbols
+            args, names = ([x, u, dt], ["x", "u", "dt"]) if with_dt else ([x, u], ["x", "u"])
+            self._cache[name] = ca.Function(name, args, [expr(x, u, dt)], names, [out])
+        return self._cache[name]
+
     def casadi_derivative(self) -> ca.Function:
         """``f(x[5], u[2]) -> xdot[5]`` as a CasADi Function (SX)."""
-        if "f" not in self._cache:
-            x, u, _ = self._symbols
-            self._cache["f"] = ca.Function("f", [x, u], [_sx_derivative(x, u, self.b)], ["x", "u"], ["xdot"])
-        return self._cache["f"]
+        return self._function("f", "xdot", False, lambda x, u, _: _sx_derivative(x, u, self.b))
 
     def casadi_step(self) -> ca.Function:
         """``step(x, u, dt) -> x + dt f(x, u)`` as a CasADi Function."""
-        if "step" not in self._cache:
-            x, u, dt = self._symbols
-            self._cache["step"] = ca.Function(
-                "step", [x, u, dt], [_sx_step(x, u, dt, self.b)], ["x", "u", "dt"], ["x_next"]
-            )
-        return self._cache["step"]
+        return self._function("step", "x_next", True, lambda x, u, dt: _sx_step(x, u, dt, self.b))
 
     def casadi_step_jacobian(self) -> ca.Function:
         """``F(x, u, dt) = d step / d x`` by automatic differentiation."""
-        if "F" not in self._cache:
-            x, u, dt = self._symbols
-            nxt = self.casadi_step()(x, u, dt)
-            self._cache["F"] = ca.Function("F", [x, u, dt], [ca.jacobian(nxt, x)], ["x", "u", "dt"], ["F"])
-        return self._cache["F"]
+        return self._function("F", "F", True, lambda x, u, dt: ca.jacobian(self.casadi_step()(x, u, dt), x))
 
     def casadi_rates(self) -> ca.Function:
         """``rates(x, u) -> [V, psidot]`` as a CasADi Function."""
-        if "rates" not in self._cache:
-            x, u, _ = self._symbols
-            self._cache["rates"] = ca.Function("rates", [x, u], [_sx_rates(x, u, self.b)], ["x", "u"], ["Vpsidot"])
-        return self._cache["rates"]
+        return self._function("rates", "Vpsidot", False, lambda x, u, _: _sx_rates(x, u, self.b))
 
     def casadi_rates_jacobian(self) -> ca.Function:
         """``d [V, psidot] / d x`` by automatic differentiation."""
-        if "H" not in self._cache:
-            x, u, _ = self._symbols
-            self._cache["H"] = ca.Function(
-                "H", [x, u], [ca.jacobian(self.casadi_rates()(x, u), x)], ["x", "u"], ["H"]
-            )
-        return self._cache["H"]
+        return self._function("H", "H", False, lambda x, u, _: ca.jacobian(self.casadi_rates()(x, u), x))
 
 
 # ---------------------------------------------------------------------------- numpy code from CasADi

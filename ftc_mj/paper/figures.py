@@ -93,6 +93,16 @@ def _save(fig: Figure, path: Path) -> Path:
     return path
 
 
+def _finish(fig: Figure, suptitle: str, path: Path, bottom: Sequence[Any] = ()) -> Path:
+    """Label the time axis of the ``bottom`` row's axes, title the figure, lay it out and save it
+    to ``path``."""
+    for ax in bottom:
+        ax.set_xlabel("t [s]")
+    fig.suptitle(suptitle)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def _vlines(ax: Any, onsets: Sequence[float]) -> None:
     for o in onsets:
         ax.axvline(o, color="k", ls=":", lw=0.8)
@@ -128,11 +138,7 @@ def _filter_grid(store: RunStore, sc: int, suptitle: str, out: Path, ylabel: str
             ax.set_ylabel(ylabel, fontsize=8)
             if legend and i == 0 and j == 0:
                 ax.legend(fontsize=7, loc="lower left", ncol=3)
-    for ax in axes[-1]:
-        ax.set_xlabel("t [s]")
-    fig.suptitle(suptitle)
-    fig.tight_layout()
-    return _save(fig, out)
+    return _finish(fig, suptitle, out, axes[-1])
 
 
 def fig_innovations(store: RunStore, sc: int, out: Path) -> Path | None:
@@ -200,11 +206,8 @@ def fig_wheel_rates(store: RunStore, sc: int, out: Path) -> Path | None:
             ax.set_ylabel("rad/s", fontsize=8)
             if i == 0 and j == 0:
                 ax.legend(fontsize=7, loc="lower left", ncol=3)
-    for ax in axes[-1]:
-        ax.set_xlabel("t [s]")
-    fig.suptitle(f"Scenario {sc}, UKF with feedback: wheel rates, commands and limits — NMPC vs LMPC")
-    fig.tight_layout()
-    return _save(fig, out / f"wheel_rates_s{sc}_nmpc_vs_lmpc.png")
+    return _finish(fig, f"Scenario {sc}, UKF with feedback: wheel rates, commands and limits — NMPC vs LMPC",
+                   out / f"wheel_rates_s{sc}_nmpc_vs_lmpc.png", axes[-1])
 
 
 def _circle(ax: Any, store: RunStore, lb: str) -> None:
@@ -246,9 +249,8 @@ def fig_trajectories(store: RunStore, sc: int, out: Path) -> Path | None:
         ax.set_ylabel("y [m]")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7, loc="best")
-    fig.suptitle(f"Scenario {sc}: trajectories vs the reference circle (× = fault onset)")
-    fig.tight_layout()
-    return _save(fig, out / f"trajectory_s{sc}.png")
+    return _finish(fig, f"Scenario {sc}: trajectories vs the reference circle (× = fault onset)",
+                   out / f"trajectory_s{sc}.png")
 
 
 def fig_trajectories_mpc(store: RunStore, out: Path) -> Path | None:
@@ -274,9 +276,8 @@ def fig_trajectories_mpc(store: RunStore, out: Path) -> Path | None:
         ax.set_ylabel("y [m]")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
-    fig.suptitle("UKF with feedback: NMPC vs LMPC trajectories (× = fault onset)")
-    fig.tight_layout()
-    return _save(fig, out / "trajectory_nmpc_vs_lmpc.png")
+    return _finish(fig, "UKF with feedback: NMPC vs LMPC trajectories (× = fault onset)",
+                   out / "trajectory_nmpc_vs_lmpc.png")
 
 
 def fig_radius_comparison(store: RunStore, out: Path) -> Path | None:
@@ -306,11 +307,8 @@ def fig_radius_comparison(store: RunStore, out: Path) -> Path | None:
             ax.set_ylabel("R_L [m]")
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(fontsize=7, loc="upper right")
-    for ax in axes[-1]:
-        ax.set_xlabel("t [s]")
-    fig.suptitle("Scenario 4 (linear left puncture from 10 s): left-radius estimates ±2σ")
-    fig.tight_layout()
-    return _save(fig, out / "radius_comparison_s4.png")
+    return _finish(fig, "Scenario 4 (linear left puncture from 10 s): left-radius estimates ±2σ",
+                   out / "radius_comparison_s4.png", axes[-1])
 
 
 def fig_mode_probs(store: RunStore, fb: bool, out: Path) -> Path | None:
@@ -338,11 +336,8 @@ def fig_mode_probs(store: RunStore, fb: bool, out: Path) -> Path | None:
             ax.set_title(f"{title}: {EST_NAMES[est]}", fontsize=9)
             if i == 0 and j == 0 or (models == 5 and j == 0):
                 ax.legend(fontsize=7, loc="center right", ncol=1)
-    for ax in axes[-1]:
-        ax.set_xlabel("t [s]")
-    fig.suptitle(f"IMM mode probabilities, {FB_TITLE[fb]}")
-    fig.tight_layout()
-    return _save(fig, out / f"mode_probs_{'fb' if fb else 'nofb'}.png")
+    return _finish(fig, f"IMM mode probabilities, {FB_TITLE[fb]}",
+                   out / f"mode_probs_{'fb' if fb else 'nofb'}.png", axes[-1])
 
 
 def fig_imm_variants(store: RunStore, out: Path) -> Path | None:
@@ -377,9 +372,8 @@ def fig_imm_variants(store: RunStore, out: Path) -> Path | None:
         if j == 0:
             ax.set_ylabel("radius [m]")
             ax.legend(fontsize=7)
-    fig.suptitle("Scenario 2, IMM-UKF (4 models): hypothesis variant (default) vs the paper's literal IMM")
-    fig.tight_layout()
-    return _save(fig, out / "imm_variants_s2.png")
+    return _finish(fig, "Scenario 2, IMM-UKF (4 models): hypothesis variant (default) vs the paper's literal IMM",
+                   out / "imm_variants_s2.png")
 
 
 POLICY_COLORS = {"none": "tab:gray", "direct": "tab:red", "safe": "tab:blue"}
@@ -415,9 +409,8 @@ def fig_policies(store: RunStore, out: Path) -> Path | None:
                 ax.set_xlabel("t [s]")
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(fontsize=7, loc="best")
-    fig.suptitle("Reconfiguration policies (UKF, NMPC with the actuation-rate term): cross-track error")
-    fig.tight_layout()
-    return _save(fig, out / "policies.png")
+    return _finish(fig, "Reconfiguration policies (UKF, NMPC with the actuation-rate term): cross-track error",
+                   out / "policies.png")
 
 
 FIGURES: tuple[tuple[str, tuple[Any, ...]], ...] = (

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections.abc import Callable
 from typing import Any
 
 from ..config import RunConfig
@@ -40,18 +41,23 @@ def _remember(store: dict[str, Any], key: str, value: Any) -> None:
     store[key] = value
 
 
+def _reuse(store: dict[str, Any], key: str, kind: str, build: Callable[[], Any]) -> Any:
+    """The part cached in ``store`` under ``key``, reset, or else a new one from ``build()``, cached;
+    counted in :data:`stats` as a ``<kind>_hits`` or a ``<kind>_builds``."""
+    part = store.get(key)
+    if part is None:
+        part = build()
+        _remember(store, key, part)
+        stats[f"{kind}_builds"] += 1
+    else:
+        part.reset()
+        stats[f"{kind}_hits"] += 1
+    return part
+
+
 def plant_for(cfg: RunConfig) -> Any:
     """A plant for ``cfg``, reset to t = 0 (built on first use for this plant/robot/fault setup)."""
-    key = _key(cfg, ("plant", "robot", "faults"))
-    plant = _plants.get(key)
-    if plant is None:
-        plant = build_plant(cfg)
-        _remember(_plants, key, plant)
-        stats["plant_builds"] += 1
-    else:
-        plant.reset()
-        stats["plant_hits"] += 1
-    return plant
+    return _reuse(_plants, _key(cfg, ("plant", "robot", "faults")), "plant", lambda: build_plant(cfg))
 
 
 def robot_limits(cfg: RunConfig) -> RobotLimits:
@@ -75,15 +81,7 @@ def controller_for(cfg: RunConfig, reference: Any) -> Any:
     if not meta.get("reusable", False):
         return build_controller(cfg, reference, limits)
     key = _key(cfg, ("controller", "reference", "robot", "model"), (tuple(cfg.plant.initial_pose), limits))
-    ctrl = _controllers.get(key)
-    if ctrl is None:
-        ctrl = build_controller(cfg, reference, limits)
-        _remember(_controllers, key, ctrl)
-        stats["controller_builds"] += 1
-    else:
-        ctrl.reset()
-        stats["controller_hits"] += 1
-    return ctrl
+    return _reuse(_controllers, key, "controller", lambda: build_controller(cfg, reference, limits))
 
 
 def clear() -> None:

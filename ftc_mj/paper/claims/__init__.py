@@ -1,7 +1,7 @@
 """The claims ``ftc-mj paper`` judges: the check primitives (:mod:`.checks`), one module per claim
 family — the paper's §4 claims 1–12 (:mod:`.paper`), the reconfiguration policies R1–R3
-(:mod:`.policy`), path following P1 (:mod:`.pathfollow`) — and the one table of thresholds
-(:mod:`.thresholds`)."""
+(:mod:`.policy`), path following P1 (:mod:`.pathfollow`) — the one table of the claims' statements
+(:mod:`.texts`) and the one table of thresholds (:mod:`.thresholds`)."""
 
 from __future__ import annotations
 

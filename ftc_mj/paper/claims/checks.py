@@ -18,10 +18,13 @@ per claim and seed; the verdicts (one seed or over seeds) are in :mod:`ftc_mj.pa
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
+
+from .texts import CLAIM_TEXTS
 
 REPRODUCED = "reproduced"
 PARTLY = "partly"
@@ -79,6 +82,28 @@ def chk(text: str, passed: bool | None, detail: str, *runs: str, na: str = "") -
     return Check(text, passed, detail, tuple(runs), na)
 
 
+ClaimFn = Callable[[Rows], Evidence]
+"""A claim family's claim: the rows of one seed → its :class:`Evidence` (checks not yet settled)."""
+
+
+def claim(id: str) -> Callable[[Callable[[Evidence, Rows], None]], ClaimFn]:
+    """Decorate ``fill(evidence, rows)``, which appends claim ``id``'s checks, table rows and notes,
+    into the :data:`ClaimFn` that starts the claim's :class:`Evidence` from its statement in
+    :data:`~.texts.CLAIM_TEXTS` and returns it filled."""
+    title, paper = CLAIM_TEXTS[id]
+
+    def wrap(fill: Callable[[Evidence, Rows], None]) -> ClaimFn:
+        @functools.wraps(fill)
+        def run(rows: Rows) -> Evidence:
+            c = Evidence(id, title, paper)
+            fill(c, rows)
+            return c
+
+        return run
+
+    return wrap
+
+
 # ------------------------------------------------------------------------------------- settling
 def _run_state(rows: Rows, label: str) -> str:
     r = rows.get(label)
@@ -112,7 +137,7 @@ def settle(ch: Check, rows: Rows) -> Check:
     return ch
 
 
-def evaluate(fns: Iterable[Callable[[Rows], Evidence]], rows: Rows) -> list[Evidence]:
+def evaluate(fns: Iterable[ClaimFn], rows: Rows) -> list[Evidence]:
     """Evaluate the claim functions on ``rows`` (one seed: label → flattened metrics) and settle
     every check."""
     out = []
@@ -184,20 +209,24 @@ def ge(a: float | None, b: float | None) -> bool | None:
     return cmp(a, lambda x, y: x >= y, b)
 
 
-def all_of(*vals: bool | None) -> bool | None:
-    if any(v is False for v in vals):
-        return False
+def _kleene(vals: tuple[bool | None, ...], decisive: bool) -> bool | None:
+    """Three-valued and/or: ``decisive`` if any value is it, else None (unknown) if any value is
+    None, else ``not decisive``."""
+    if any(v is decisive for v in vals):
+        return decisive
     if any(v is None for v in vals):
         return None
-    return True
+    return not decisive
+
+
+def all_of(*vals: bool | None) -> bool | None:
+    """False if any is False, else None if any is None, else True."""
+    return _kleene(vals, False)
 
 
 def any_of(*vals: bool | None) -> bool | None:
-    if any(v is True for v in vals):
-        return True
-    if any(v is None for v in vals):
-        return None
-    return False
+    """True if any is True, else None if any is None, else False."""
+    return _kleene(vals, True)
 
 
 def absmax(*vals: float | None) -> float | None:

@@ -1,9 +1,9 @@
 """The paper's §4 claims, checked one by one against the summary rows of one seed of the matrix.
 
-Every claim is a list of :class:`~ftc_mj.paper.claims.checks.Check` s, each a yes/no test on the numbers
-of one or a few runs against a threshold of :mod:`.thresholds`, with the runs it reads; the
-outcome rules (a failed run fails, a precondition that does not hold makes the check n/a) are in
-:mod:`.checks`. Preconditions each claim states in advance:
+Every claim (its statement in :mod:`.texts`) is a list of :class:`~ftc_mj.paper.claims.checks.Check` s,
+each a yes/no test on the numbers of one or a few runs against a threshold of :mod:`.thresholds`,
+with the runs it reads; the outcome rules (a failed run fails, a precondition that does not hold
+makes the check n/a) are in :mod:`.checks`. Preconditions each claim states in advance:
 
 - *identical by construction*: with feedback off the controller's model does not depend on the
   filter, so every filter's run has the same trajectory, and with speed-only sensing the speed is
@@ -19,11 +19,28 @@ Rows are plain dicts keyed by metric name (``metrics.json`` flattened plus
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
 from ..matrix import make_label
-from .checks import Evidence, Rows, absmax, all_of, any_of, chk, evaluate, fmt, ge, gt, le, lt, num, truthy
+from .checks import (
+    ClaimFn,
+    Evidence,
+    Rows,
+    absmax,
+    all_of,
+    any_of,
+    chk,
+    claim,
+    evaluate,
+    fmt,
+    ge,
+    gt,
+    le,
+    lt,
+    num,
+    truthy,
+)
 from .thresholds import (
     AT_LIMIT_MAJORITY,
     CHATTER_AT_LIMIT,
@@ -62,6 +79,17 @@ def fbname(fb: bool) -> str:
 EST_NAMES = {"ekf": "EKF", "ukf": "UKF", "imm-ekf": "IMM-EKF", "imm-ukf": "IMM-UKF"}
 FILTERS = ("ekf", "ukf", "imm-ekf", "imm-ukf")
 FBS = (False, True)
+IMMS = ("imm-ekf", "imm-ukf")
+
+
+def runs_of(rows: Rows, sc: int, ests: Iterable[str],
+            models: int = 4) -> Iterator[tuple[str, bool, str, Mapping[str, Any] | None]]:
+    """``(filter, feedback, label, row or None)`` of scenario ``sc``'s NMPC runs with ``models`` IMM
+    models, filter by filter, feedback off then on."""
+    for est in ests:
+        for fb in FBS:
+            lb = lbl(sc, est, fb, models=models)
+            yield est, fb, lb, rows.get(lb)
 
 
 def radius_err_after(row: Mapping[str, Any] | None, wheel: str = "L") -> float | None:
@@ -91,20 +119,20 @@ def earlier(a: float | None, b: float | None) -> bool:
     return b is None or a < b
 
 
-def ekf_ukf_note(rows: Rows, sc: int) -> str | None:
-    """A note when the EKF and UKF give the same radius estimates without feedback (they should: the
-    speed measurement is linear in the radii given the wheel rates)."""
+def add_ekf_ukf_note(c: Evidence, rows: Rows, sc: int) -> None:
+    """Note on ``c`` when the EKF and UKF give the same radius estimates without feedback in scenario
+    ``sc`` (they should: the speed measurement is linear in the radii given the wheel rates)."""
     e = num(rows.get(lbl(sc, "ekf", False)), "radius_rmse_L")
     u = num(rows.get(lbl(sc, "ukf", False)), "radius_rmse_L")
     if e is None or u is None or abs(e - u) > 1e-3:
-        return None
-    return (f"Without feedback the EKF and UKF radius estimates coincide (scenario {sc}: R_L RMSE {e:.4f} vs "
-            f"{u:.4f} m). This is expected for this filter design: given the wheel rates the speed "
-            "z = (R_R ωR + R_L ωL)/2 is linear in the radii and the radii are random walks, so the unscented "
-            "transform is exact and the two filters agree on the radii; with feedback the closed loop amplifies "
-            "tiny differences (x, y, ψ prediction). A claim that the UKF estimates radii better than the EKF "
-            "cannot come from this model; the paper's differences must come from elsewhere (e.g. its "
-            "implementation or tuning).")
+        return
+    c.notes.append(f"Without feedback the EKF and UKF radius estimates coincide (scenario {sc}: R_L RMSE {e:.4f} vs "
+                   f"{u:.4f} m). This is expected for this filter design: given the wheel rates the speed "
+                   "z = (R_R ωR + R_L ωL)/2 is linear in the radii and the radii are random walks, so the unscented "
+                   "transform is exact and the two filters agree on the radii; with feedback the closed loop amplifies "
+                   "tiny differences (x, y, ψ prediction). A claim that the UKF estimates radii better than the EKF "
+                   "cannot come from this model; the paper's differences must come from elsewhere (e.g. its "
+                   "implementation or tuning).")
 
 
 def borderline(vals: list[float | None], thr: float, rel: float = 0.1) -> list[float]:
@@ -112,26 +140,21 @@ def borderline(vals: list[float | None], thr: float, rel: float = 0.1) -> list[f
 
 
 # ------------------------------------------------------------------------------------- the claims
-def claim_detection(rows: Rows) -> Evidence:
-    c = Evidence("1", "All filters detect the scenario 2 fault, with a peak in the innovations at the fault",
-              "§4.2: 'all filters were able to detect the fault … at 10 seconds there was a peak change in the "
-              "innovation curves'.")
-    for est in FILTERS:
-        for fb in FBS:
-            lb = lbl(2, est, fb)
-            r = rows.get(lb)
-            delay = num(r, "detection_delay")
-            fa = truthy(r, "false_alarm")
-            peak = num(r, "innovation_peak_z_1")
-            det = None if r is None else (delay is not None and delay <= DETECT_MAX_DELAY and fa is not True)
-            c.table.append({"run": lb, "detection_time [s]": num(r, "detection_time"), "delay [s]": delay,
-                            "false alarm": fa, "isolated": r.get("isolated_wheel") if r else None,
-                            "innovation peak z": peak, "status": r.get("status") if r else "missing"})
-            name = f"{EST_NAMES[est]} {fbname(fb)}"
-            c.checks.append(chk(f"{name} declares the fault within {DETECT_MAX_DELAY:g} s", det,
-                                f"delay {fmt(delay, ' s')}, false alarm {fmt(fa)}", lb))
-            c.checks.append(chk(f"{name}: innovation peak at the fault (z ≥ {PEAK_Z:g} in the second after it)",
-                                ge(peak, PEAK_Z), f"peak z {fmt(peak)}", lb))
+@claim("1")
+def claim_detection(c: Evidence, rows: Rows) -> None:
+    for est, fb, lb, r in runs_of(rows, 2, FILTERS):
+        delay = num(r, "detection_delay")
+        fa = truthy(r, "false_alarm")
+        peak = num(r, "innovation_peak_z_1")
+        det = None if r is None else (delay is not None and delay <= DETECT_MAX_DELAY and fa is not True)
+        c.table.append({"run": lb, "detection_time [s]": num(r, "detection_time"), "delay [s]": delay,
+                        "false alarm": fa, "isolated": r.get("isolated_wheel") if r else None,
+                        "innovation peak z": peak, "status": r.get("status") if r else "missing"})
+        name = f"{EST_NAMES[est]} {fbname(fb)}"
+        c.checks.append(chk(f"{name} declares the fault within {DETECT_MAX_DELAY:g} s", det,
+                            f"delay {fmt(delay, ' s')}, false alarm {fmt(fa)}", lb))
+        c.checks.append(chk(f"{name}: innovation peak at the fault (z ≥ {PEAK_Z:g} in the second after it)",
+                            ge(peak, PEAK_Z), f"peak z {fmt(peak)}", lb))
     r = rows.get(lbl(2, "ukf", False))
     drop, kin, slip = num(r, "speed_drop_1"), num(r, "kinematic_speed_drop_1"), num(r, "slip_max_after_fault_1")
     if drop is not None and kin is not None:
@@ -141,14 +164,10 @@ def claim_detection(rows: Rows) -> Evidence:
                        f"{fmt(slip)} in the next 2 s), so the fault shows in the speed innovation far less sharply "
                        f"than in the paper's kinematic simulation; detection comes from the radius estimates "
                        f"drifting over the following second(s).")
-    return c
 
 
-def claim_feedback_path(rows: Rows) -> Evidence:
-    c = Evidence("2", "Without feedback the robot cannot stay on the path after a puncture",
-              "§4.2: 'the robot was only able to remain on the path if feedback from the filter was provided to "
-              "reconfigure the controller'; §4.3: 'without feedback it is impossible to maintain the robot on the "
-              "path. Reconfiguring the controller … allowed the robot to easily follow the reference path'.")
+@claim("2")
+def claim_feedback_path(c: Evidence, rows: Rows) -> None:
     for sc in (2, 3):
         for est in FILTERS:
             l0, l1 = lbl(sc, est, False), lbl(sc, est, True)
@@ -186,37 +205,29 @@ def claim_feedback_path(rows: Rows) -> Evidence:
         c.notes.append("Where the robot leaves the path with feedback: the fed-back radii are wrong (speed alone fixes "
                        "only R_R ωR + R_L ωL, so the split between the radii is not observable) or the plant "
                        "leaves the kinematic model's domain (slip); see the plant-domain table at the end.")
-    return c
 
 
-def claim_scenario1(rows: Rows) -> Evidence:
-    c = Evidence("3", "Scenario 1: all filters estimate the radii well; innovations within 2σ about 95 % of the time",
-              "§4.1: 'the speed innovations remained well within the uncertainty bounds … both with and without "
-              "feedback'; 'All filters do a very good job of estimating the radius of the tyres with and without "
-              "feedback'; 'the robot remained on the path with and without feedback'; the IMMs 'were able to very "
-              "quickly detect the correct mode of operation'.")
-    for est in FILTERS:
-        for fb in FBS:
-            lb = lbl(1, est, fb)
-            r = rows.get(lb)
-            rm = radius_rmse_worst(r)
-            inn = num(r, "innovation_in_2sigma")
-            ct = num(r, "cross_track_max_settled")
-            md = num(r, "mode_delay_0") if est.startswith("imm") else None
-            c.table.append({"run": lb, "radius RMSE R [m]": num(r, "radius_rmse_R"),
-                            "radius RMSE L [m]": num(r, "radius_rmse_L"), "in ±2σ": inn,
-                            "max |cte| (t>5 s) [m]": ct, "false alarm": truthy(r, "false_alarm"),
-                            "mode-1 delay [s]": md})
-            name = f"{EST_NAMES[est]} {fbname(fb)}"
-            c.checks.append(chk(f"{name}: radius RMSE ≤ {GOOD_RMSE_NOFAULT:g} m", le(rm, GOOD_RMSE_NOFAULT),
-                                f"worst-wheel RMSE {fmt(rm, ' m')}", lb))
-            c.checks.append(chk(f"{name}: innovations inside ±2σ ≥ {INNOV_95:g}", ge(inn, INNOV_95), fmt(inn), lb))
-            c.checks.append(chk(f"{name}: on the path (max |cte| after 5 s ≤ {OFF_PATH:g} m)", le(ct, OFF_PATH),
-                                fmt(ct, " m"), lb))
-            if est.startswith("imm"):
-                c.checks.append(chk(f"{name}: mode 1 (no fault) most probable within {MODE_MAX_DELAY:g} s",
-                                    None if r is None else (md is not None and md <= MODE_MAX_DELAY),
-                                    fmt(md, " s"), lb))
+@claim("3")
+def claim_scenario1(c: Evidence, rows: Rows) -> None:
+    for est, fb, lb, r in runs_of(rows, 1, FILTERS):
+        rm = radius_rmse_worst(r)
+        inn = num(r, "innovation_in_2sigma")
+        ct = num(r, "cross_track_max_settled")
+        md = num(r, "mode_delay_0") if est.startswith("imm") else None
+        c.table.append({"run": lb, "radius RMSE R [m]": num(r, "radius_rmse_R"),
+                        "radius RMSE L [m]": num(r, "radius_rmse_L"), "in ±2σ": inn,
+                        "max |cte| (t>5 s) [m]": ct, "false alarm": truthy(r, "false_alarm"),
+                        "mode-1 delay [s]": md})
+        name = f"{EST_NAMES[est]} {fbname(fb)}"
+        c.checks.append(chk(f"{name}: radius RMSE ≤ {GOOD_RMSE_NOFAULT:g} m", le(rm, GOOD_RMSE_NOFAULT),
+                            f"worst-wheel RMSE {fmt(rm, ' m')}", lb))
+        c.checks.append(chk(f"{name}: innovations inside ±2σ ≥ {INNOV_95:g}", ge(inn, INNOV_95), fmt(inn), lb))
+        c.checks.append(chk(f"{name}: on the path (max |cte| after 5 s ≤ {OFF_PATH:g} m)", le(ct, OFF_PATH),
+                            fmt(ct, " m"), lb))
+        if est.startswith("imm"):
+            c.checks.append(chk(f"{name}: mode 1 (no fault) most probable within {MODE_MAX_DELAY:g} s",
+                                None if r is None else (md is not None and md <= MODE_MAX_DELAY),
+                                fmt(md, " s"), lb))
     seen: set[tuple[float, float]] = set()
     for est in ("ekf", "ukf"):
         r = rows.get(lbl(1, est, False))
@@ -234,10 +245,7 @@ def claim_scenario1(rows: Rows) -> Evidence:
     if fb_bad:
         c.notes.append(f"With feedback that drift is fed to the NMPC, and the robot leaves the path even without a "
                        f"fault ({', '.join(fb_bad)}).")
-    note = ekf_ukf_note(rows, 1)
-    if note:
-        c.notes.append(note)
-    return c
+    add_ekf_ukf_note(c, rows, 1)
 
 
 def _in_domain_check(c: Evidence, name: str, lb: str, r: Mapping[str, Any] | None) -> None:
@@ -254,12 +262,9 @@ def _in_domain_check(c: Evidence, name: str, lb: str, r: Mapping[str, Any] | Non
                         f"{fmt(num(r, 'first_out_of_domain_time'), ' s')}", lb, na=na))
 
 
-def claim_imm4_vs_imm5(rows: Rows) -> Evidence:
-    c = Evidence("4", "Scenario 4: the 4-model IMMs fail, the 5-model IMMs succeed",
-              "§4.4: 'Both of the IMM filters failed, because the fault type of scenario 4 was not modelled'; "
-              "filter re-design: 'if a hypothesis is made the IMM performs very well … the filters do an excellent "
-              "job of making the correct estimations on the radius of the wheel'.")
-    for est in ("imm-ekf", "imm-ukf"):
+@claim("4")
+def claim_imm4_vs_imm5(c: Evidence, rows: Rows) -> None:
+    for est in IMMS:
         for fb in FBS:
             for models in (4, 5):
                 lb = lbl(4, est, fb, models=models)
@@ -282,7 +287,7 @@ def claim_imm4_vs_imm5(rows: Rows) -> Evidence:
                                     all_of(le(rm, GOOD_RMSE), le(absmax(fe), GOOD_RMSE)),
                                     f"RMSE {fmt(rm, ' m')}, final {fmt(fe, ' m')}", lb))
                 _in_domain_check(c, name, lb, r)
-    ood = [num(rows.get(lbl(4, e, f, models=5)), "first_out_of_domain_time") for e in ("imm-ekf", "imm-ukf")
+    ood = [num(rows.get(lbl(4, e, f, models=5)), "first_out_of_domain_time") for e in IMMS
            for f in FBS]
     ood = [v for v in ood if v is not None]
     if ood:
@@ -290,22 +295,14 @@ def claim_imm4_vs_imm5(rows: Rows) -> Evidence:
         c.notes.append(f"The plant leaves the kinematic model's domain (tyre slip, flags) from t ≈ {span} s "
                        f"in the 5-model runs, as the left tyre shrinks towards 0.1 m: from then on no kinematic filter "
                        f"can be right, which is why the whole-run errors fail while the in-domain ones can pass.")
-    return c
 
 
-def claim_ekf_breakdown(rows: Rows) -> Evidence:
-    c = Evidence("5", "Scenario 4: the EKF breaks down with feedback (not without); the UKF stays consistent",
-              "§4.4: 'The EKF breaks down 5 seconds after the fault occurs, when feedback is turned on as can be seen "
-              "by the innovations exceeding the covariance bounds. Without feedback however the innovations remain "
-              "within the uncertainty bounds. The results from the UKF are much better … innovations which remain "
-              "well within the uncertainty bounds with and without feedback'.")
-    for est in ("ekf", "ukf"):
-        for fb in FBS:
-            lb = lbl(4, est, fb)
-            r = rows.get(lb)
-            c.table.append({"run": lb, "in ±2σ after fault": num(r, "innovation_in_2sigma_after_fault"),
-                            "resets": num(r, "filter_resets"), "R_L RMSE after fault [m]": radius_err_after(r),
-                            "R_L final error [m]": num(r, "radius_final_error_L"), "broken": broken(r)})
+@claim("5")
+def claim_ekf_breakdown(c: Evidence, rows: Rows) -> None:
+    for _, _, lb, r in runs_of(rows, 4, ("ekf", "ukf")):
+        c.table.append({"run": lb, "in ±2σ after fault": num(r, "innovation_in_2sigma_after_fault"),
+                        "resets": num(r, "filter_resets"), "R_L RMSE after fault [m]": radius_err_after(r),
+                        "R_L final error [m]": num(r, "radius_final_error_L"), "broken": broken(r)})
 
     def one(text: str, est: str, fb: bool, want_broken: bool) -> None:
         lb = lbl(4, est, fb)
@@ -328,17 +325,11 @@ def claim_ekf_breakdown(rows: Rows) -> Evidence:
                        f"inside ±2σ {fmt(num(re_, 'innovation_in_2sigma_after_fault'))} vs "
                        f"{fmt(num(ru, 'innovation_in_2sigma_after_fault'))}): a closed-loop effect on this plant, "
                        f"not an EKF linearisation failure.")
-    note = ekf_ukf_note(rows, 4)
-    if note:
-        c.notes.append(note)
-    return c
+    add_ekf_ukf_note(c, rows, 4)
 
 
-def claim_ukf_best(rows: Rows) -> Evidence:
-    c = Evidence("6", "Scenario 4: the UKF is the best single filter",
-              "§4.4: 'without a hypothesis on the IMM filters the UKF was the only filter able to produce the correct "
-              "estimates of the wheel radii'; 'the UKF was able to maintain the robot on the path the longest'; "
-              "§4.5: 'the UKF displayed better performance than the EKF, especially in the case of scenario 4'.")
+@claim("6")
+def claim_ukf_best(c: Evidence, rows: Rows) -> None:
     for fb in FBS:
         labels = {est: lbl(4, est, fb) for est in FILTERS}
         err = {k: radius_err_after(rows.get(lb)) for k, lb in labels.items()}
@@ -363,18 +354,11 @@ def claim_ukf_best(rows: Rows) -> Evidence:
         c.checks.append(chk(f"{fbname(fb)}: the UKF keeps the robot on the path the longest", longest,
                             ", ".join(f"{EST_NAMES[k]} {fmt(on[k], ' s')}" for k in FILTERS), *labels.values(),
                             na="" if fb else TRAJECTORY_BY_CONSTRUCTION))
-    note = ekf_ukf_note(rows, 4)
-    if note:
-        c.notes.append(note)
-    return c
+    add_ekf_ukf_note(c, rows, 4)
 
 
-def claim_lmpc(rows: Rows) -> Evidence:
-    c = Evidence("7", "The LMPC diverges in scenario 2 while the NMPC tracks",
-              "§4.6: 'the nonlinear MPC controller does an excellent job of keeping the robot on the path despite a "
-              "faulty wheel whereas the solution produced by the linear controller has diverged'; the radius "
-              "estimates are 'the same' with both; the innovation uncertainty with the LMPC is 'double'; scenario 4: "
-              "'Neither of the controllers were able to drive the robot to the path'.")
+@claim("7")
+def claim_lmpc(c: Evidence, rows: Rows) -> None:
     for sc in (2, 4):
         ln, ll = lbl(sc, "ukf", True), lbl(sc, "ukf", True, "lmpc")
         rn, rl = rows.get(ln), rows.get(ll)
@@ -409,14 +393,10 @@ def claim_lmpc(rows: Rows) -> Evidence:
                            f"(max |cte| {fmt(mn, ' m')}; LMPC {fmt(ml, ' m')}). The same NMPC without feedback "
                            f"stays within {fmt(m0, ' m')}, so it is the fed-back radius estimates, not the "
                            f"controller, that take the robot off the path (see claims 2 and 3).")
-    return c
 
 
-def claim_limit_cycle(rows: Rows) -> Evidence:
-    c = Evidence("8", "The wheel rates limit-cycle under the NMPC (less than under the LMPC)",
-              "§4.6: 'the switching behaviour observed in wheel rotation rates is highly undesirable … The wheel rates "
-              "produced by the nonlinear MPC controller show a dramatic decrease in this switching behaviour. It is, "
-              "however, still present'.")
+@claim("8")
+def claim_limit_cycle(c: Evidence, rows: Rows) -> None:
     ln, ll = lbl(2, "ukf", True), lbl(2, "ukf", True, "lmpc")
     rn, rl = rows.get(ln), rows.get(ll)
     for lb, r in ((ln, rn), (ll, rl)):
@@ -443,21 +423,17 @@ def claim_limit_cycle(rows: Rows) -> Evidence:
     if ratio is not None and ratio < 1 and al is not None:
         c.notes.append(f"Here the NMPC's commands vary more than the LMPC's; the LMPC instead sits at a wheel-rate "
                        f"limit {al:.0%} of the time after the fault (saturation rather than switching).")
-    return c
 
 
-def claim_imm_faster(rows: Rows) -> Evidence:
-    c = Evidence("9", "The IMMs reach the correct estimate faster than the UKF at the 10 s step",
-              "§4.5: 'The IMM filters were able to reach the correct estimate faster than the single UKF particularly "
-              "when a sudden change is present as is evident at the 10 second mark'; §4.2: 'The IMM filters produced "
-              "slightly better estimates than the single UKF filter'.")
+@claim("9")
+def claim_imm_faster(c: Evidence, rows: Rows) -> None:
     for fb in FBS:
         lu = lbl(2, "ukf", fb)
         ru = rows.get(lu)
         su = num(ru, "settle_delay_L")
         c.table.append({"run": lu, "R_L settle delay [s]": su, "R_L RMSE first 5 s [m]": num(ru, "radius_rmse_L_early"),
                         "R_L RMSE after fault [m]": radius_err_after(ru)})
-        for est in ("imm-ekf", "imm-ukf"):
+        for est in IMMS:
             li = lbl(2, est, fb)
             ri = rows.get(li)
             si = num(ri, "settle_delay_L")
@@ -471,29 +447,25 @@ def claim_imm_faster(rows: Rows) -> Evidence:
         eu = num(rows.get(lu4), "radius_rmse_L_early")
         c.table.append({"run": lu4, "R_L RMSE first 5 s [m]": eu, "R_L RMSE after fault [m]":
                         radius_err_after(rows.get(lu4))})
-        for est in ("imm-ekf", "imm-ukf"):
+        for est in IMMS:
             li = lbl(4, est, fb, models=5)
             ei = num(rows.get(li), "radius_rmse_L_early")
             c.table.append({"run": li, "R_L RMSE first 5 s [m]": ei, "R_L RMSE after fault [m]":
                             radius_err_after(rows.get(li))})
             c.checks.append(chk(f"scenario 4 {fbname(fb)}: {EST_NAMES[est]}-5 closer than the UKF in the first 5 s "
                                 f"of the ramp", lt(ei, eu), f"{fmt(ei, ' m')} vs UKF {fmt(eu, ' m')}", li, lu4))
-    return c
 
 
 def _scenario3_peaks(c: Evidence, rows: Rows) -> None:
-    for est in FILTERS:
-        for fb in FBS:
-            lb = lbl(3, est, fb)
-            r = rows.get(lb)
-            p1, p2 = num(r, "innovation_peak_z_1"), num(r, "innovation_peak_z_2")
-            c.table.append({"run": lb, "peak z @5 s": p1, "peak z @10 s": p2,
-                            "radius RMSE (both) [m]": num(r, "radius_rmse_mean"),
-                            "settle L [s]": num(r, "settle_delay_L"), "settle R [s]": num(r, "settle_delay_R"),
-                            "mode-3 delay [s]": num(r, "mode_delay_1"), "mode-4 delay [s]": num(r, "mode_delay_2"),
-                            "time off path [s]": num(r, "time_off_path")})
-            c.checks.append(chk(f"{EST_NAMES[est]} {fbname(fb)}: innovation peaks at both faults (z ≥ {PEAK_Z:g})",
-                                all_of(ge(p1, PEAK_Z), ge(p2, PEAK_Z)), f"z {fmt(p1)} @5 s, {fmt(p2)} @10 s", lb))
+    for est, fb, lb, r in runs_of(rows, 3, FILTERS):
+        p1, p2 = num(r, "innovation_peak_z_1"), num(r, "innovation_peak_z_2")
+        c.table.append({"run": lb, "peak z @5 s": p1, "peak z @10 s": p2,
+                        "radius RMSE (both) [m]": num(r, "radius_rmse_mean"),
+                        "settle L [s]": num(r, "settle_delay_L"), "settle R [s]": num(r, "settle_delay_R"),
+                        "mode-3 delay [s]": num(r, "mode_delay_1"), "mode-4 delay [s]": num(r, "mode_delay_2"),
+                        "time off path [s]": num(r, "time_off_path")})
+        c.checks.append(chk(f"{EST_NAMES[est]} {fbname(fb)}: innovation peaks at both faults (z ≥ {PEAK_Z:g})",
+                            all_of(ge(p1, PEAK_Z), ge(p2, PEAK_Z)), f"z {fmt(p1)} @5 s, {fmt(p2)} @10 s", lb))
 
 
 def _worst_settle(r: Mapping[str, Any] | None) -> float | None:
@@ -502,13 +474,8 @@ def _worst_settle(r: Mapping[str, Any] | None) -> float | None:
     return None if a is None or b is None else max(a, b)
 
 
-def claim_scenario3(rows: Rows) -> Evidence:
-    c = Evidence("10", "Scenario 3 (left puncture at 5 s, right at 10 s)",
-              "§4.3: innovations 'clearly indicated … the detection of both faults'; 'the IMM filters produce the "
-              "best estimates of the radii. The UKF performs slightly better than the EKF, and turning feedback on "
-              "results in a faster settling time'; IMMs: 'after 5 secs model 3 is the best model … once the second "
-              "fault occurs … mode 4 is the correct match'; 'An anomaly occurred with the UKF filter where even "
-              "turning the feedback on did not result in the robot following the path after the … second fault'.")
+@claim("10")
+def claim_scenario3(c: Evidence, rows: Rows) -> None:
     _scenario3_peaks(c, rows)
     for fb in FBS:
         labels = {e: lbl(3, e, fb) for e in FILTERS}
@@ -525,15 +492,12 @@ def claim_scenario3(rows: Rows) -> Evidence:
         w0, w1 = _worst_settle(rows.get(l0)), _worst_settle(rows.get(l1))
         c.checks.append(chk(f"{EST_NAMES[est]}: feedback settles faster (later of the two wheels)", earlier(w1, w0),
                             f"fb on {fmt(w1, ' s', 2)} vs fb off {fmt(w0, ' s', 2)} (— = never)", l0, l1))
-    for est in ("imm-ekf", "imm-ukf"):
-        for fb in FBS:
-            lb = lbl(3, est, fb)
-            r = rows.get(lb)
-            d3, d4 = num(r, "mode_delay_1"), num(r, "mode_delay_2")
-            ok = None if r is None else (d3 is not None and d3 <= MODE_MAX_DELAY and d4 is not None
-                                         and d4 <= MODE_MAX_DELAY)
-            c.checks.append(chk(f"{EST_NAMES[est]} {fbname(fb)}: mode 3 after 5 s and mode 4 after 10 s, each within "
-                                f"{MODE_MAX_DELAY:g} s", ok, f"mode 3 {fmt(d3, ' s')}, mode 4 {fmt(d4, ' s')}", lb))
+    for est, fb, lb, r in runs_of(rows, 3, IMMS):
+        d3, d4 = num(r, "mode_delay_1"), num(r, "mode_delay_2")
+        ok = None if r is None else (d3 is not None and d3 <= MODE_MAX_DELAY and d4 is not None
+                                     and d4 <= MODE_MAX_DELAY)
+        c.checks.append(chk(f"{EST_NAMES[est]} {fbname(fb)}: mode 3 after 5 s and mode 4 after 10 s, each within "
+                            f"{MODE_MAX_DELAY:g} s", ok, f"mode 3 {fmt(d3, ' s')}, mode 4 {fmt(d4, ' s')}", lb))
     lu = lbl(3, "ukf", True)
     others = [lbl(3, e, True) for e in ("ekf", "imm-ekf", "imm-ukf")]
     tu = num(rows.get(lu), "time_off_path")
@@ -543,37 +507,25 @@ def claim_scenario3(rows: Rows) -> Evidence:
                         "other filters' feedback runs stay on it", anomaly,
                         f"UKF fb on leaves the path at {fmt(tu, ' s')}; others on path: "
                         f"{', '.join(fmt(v) for v in others_on)}", lu, *others))
-    note = ekf_ukf_note(rows, 3)
-    if note:
-        c.notes.append(note)
-    return c
+    add_ekf_ukf_note(c, rows, 3)
 
 
-def claim_modes(rows: Rows) -> Evidence:
-    c = Evidence("11", "The IMMs find the correct mode immediately (scenarios 2 and 4 with 5 models)",
-              "§4.2: 'both of the IMM filters were seen to find the correct mode immediately as mode 3 is the most "
-              "confident'; §4.4 (re-design): 'if a hypothesis is made the IMM performs very well'.")
+@claim("11")
+def claim_modes(c: Evidence, rows: Rows) -> None:
     for sc, models, idx, mode in ((2, 4, 1, 3), (4, 5, 1, 5)):
-        for est in ("imm-ekf", "imm-ukf"):
-            for fb in FBS:
-                lb = lbl(sc, est, fb, models=models)
-                r = rows.get(lb)
-                d = num(r, f"mode_delay_{idx}")
-                c.table.append({"run": lb, "expected mode": mode, "delay [s]": d,
-                                "correct-mode fraction": num(r, "mode_correct_fraction"),
-                                "final spread of mode probabilities": num(r, "mode_prob_spread_final")})
-                ok = None if r is None else (d is not None and d <= MODE_MAX_DELAY)
-                c.checks.append(chk(f"scenario {sc} {EST_NAMES[est]}-{models} {fbname(fb)}: mode {mode} on top "
-                                    f"within {MODE_MAX_DELAY:g} s", ok, fmt(d, " s"), lb))
-    return c
+        for est, fb, lb, r in runs_of(rows, sc, IMMS, models=models):
+            d = num(r, f"mode_delay_{idx}")
+            c.table.append({"run": lb, "expected mode": mode, "delay [s]": d,
+                            "correct-mode fraction": num(r, "mode_correct_fraction"),
+                            "final spread of mode probabilities": num(r, "mode_prob_spread_final")})
+            ok = None if r is None else (d is not None and d <= MODE_MAX_DELAY)
+            c.checks.append(chk(f"scenario {sc} {EST_NAMES[est]}-{models} {fbname(fb)}: mode {mode} on top "
+                                f"within {MODE_MAX_DELAY:g} s", ok, fmt(d, " s"), lb))
 
 
-def claim_constraints_s4(rows: Rows) -> Evidence:
-    c = Evidence("12", "Scenario 4: the wheels work at their constraints after the fault; no controller keeps the path",
-              "§4.4: 'with this type of fault both wheels were required to work at their constraints'; 'none of the "
-              "filters show full compliance with the reference trajectory'; 5-model IMMs: 'the control inputs are "
-              "required to work at the constraints the majority of the time once the fault occurred'.")
-    runs = [lbl(4, e, f) for e in FILTERS for f in FBS] + [lbl(4, e, f, models=5) for e in ("imm-ekf", "imm-ukf")
+@claim("12")
+def claim_constraints_s4(c: Evidence, rows: Rows) -> None:
+    runs = [lbl(4, e, f) for e in FILTERS for f in FBS] + [lbl(4, e, f, models=5) for e in IMMS
                                                           for f in FBS]
     for lb in runs:
         r = rows.get(lb)
@@ -587,10 +539,9 @@ def claim_constraints_s4(rows: Rows) -> Evidence:
                             ge(a, AT_LIMIT_MAJORITY), f"at limit {fmt(a)}", lb))
         c.checks.append(chk(f"{lb}: the robot leaves the path (> {OFF_PATH:g} m)", gt(m, OFF_PATH),
                             f"max |cte| after fault {fmt(m, ' m')}", lb))
-    return c
 
 
-CLAIMS: tuple[Callable[[Rows], Evidence], ...] = (
+CLAIMS: tuple[ClaimFn, ...] = (
     claim_detection, claim_feedback_path, claim_scenario1, claim_imm4_vs_imm5, claim_ekf_breakdown, claim_ukf_best,
     claim_lmpc, claim_limit_cycle, claim_imm_faster, claim_scenario3, claim_modes, claim_constraints_s4,
 )

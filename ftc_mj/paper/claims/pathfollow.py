@@ -19,7 +19,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..matrix import PF_SCENARIOS, POLICY_RATE_PENALTY, make_label
-from .checks import Evidence, Rows, all_of, chk, evaluate, fmt, le, num, truthy
+from .checks import Evidence, Rows, all_of, chk, claim, evaluate, fmt, le, num, truthy
 from .thresholds import LIFTOFF_MAX, NEAR_PATH, ON_PATH, POLICY_TOL, SCENARIO1_SPEED, SCENARIO1_TRACK, SPEED_TOL
 
 
@@ -40,13 +40,8 @@ def _row_numbers(r: dict[str, Any] | None) -> dict[str, Any]:
             "at the lateral bound [s]": num(r, "lateral_bound_time_s")}
 
 
-def claim_pathfollow_on_path(rows: Rows) -> Evidence:
-    c = Evidence("P1", "With a yaw-rate gyro, active FTC with the path-following NMPC keeps the robot on its path on "
-                    "the physical plant and slows it to what the damaged robot can still do",
-              "Beyond the paper: the paper's loop, reconfigured with the estimated radii, tracks a time-parametrised "
-              "reference; on the MuJoCo robot the return after the ≈0.7 s detection delay lifts a wheel "
-              "(docs/findings.md). Here the controller follows the geometric path with its own progress, bounded by "
-              "the robot's derived lift-off limit; UKF, `safe` policy, speed + yaw rate (σ 0.01 rad/s).")
+@claim("P1")
+def claim_pathfollow_on_path(c: Evidence, rows: Rows) -> None:
     for sc in PF_SCENARIOS:
         for ctl in ("pf-nmpc", "nmpc"):
             c.table.append({"scenario": _n(sc), "controller": ctl,
@@ -88,7 +83,6 @@ def claim_pathfollow_on_path(rows: Rows) -> Evidence:
                        f"(scenario 2) and {fmt(nm[1], ' s')} (scenario 3) outside the puncture transients: it must "
                        "catch up with the reference after the detection delay. The full comparison on held-out seeds "
                        "is the study `pathfollow` (docs/findings.md).")
-    return c
 
 
 PATHFOLLOW_CLAIMS = (claim_pathfollow_on_path,)

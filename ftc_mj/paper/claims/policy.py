@@ -20,7 +20,7 @@ from typing import Any
 
 from ...metrics.run import FAULT_TRANSIENT_S
 from ..matrix import POLICY_RATE_PENALTY, POLICY_SCENARIOS, make_label
-from .checks import Evidence, Rows, chk, evaluate, fmt, le, num, truthy
+from .checks import Evidence, Rows, chk, claim, evaluate, fmt, le, num, truthy
 from .thresholds import HANDOVER_MAX_DELAY, POLICY_TOL, RECOVERED_ON_PATH
 
 NO_HANDOVER = "safe never handed radii over: it is the none run by construction"
@@ -58,12 +58,8 @@ def _evidence(rows: Rows) -> list[dict[str, Any]]:
     return out
 
 
-def claim_direct_feedback(rows: Rows) -> Evidence:
-    c = Evidence("R1", "Direct feedback of the estimated radii keeps the robot on the path better than none",
-              "Beyond the paper's matrix. The paper's §4.2–4.3 claim that reconfiguring the controller with "
-              "the filter's estimates keeps the robot on the path, restated on the policy axis: the same runs with "
-              "policy `direct` against `none`, with the paper's speed sensing and with a yaw-rate gyro added, UKF, "
-              "NMPC with the actuation-rate term.")
+@claim("R1")
+def claim_direct_feedback(c: Evidence, rows: Rows) -> None:
     c.table = _evidence(rows)
     helped, harmed = [], []
     for sc in POLICY_SCENARIOS:
@@ -83,14 +79,10 @@ def claim_direct_feedback(rows: Rows) -> Evidence:
                        "observable, and on the physical plant a wrong split drives the robot into slip and wheel "
                        "lift-off, where the no-slip model the filter uses no longer holds, so the estimate gets "
                        "worse (docs/findings.md).")
-    return c
 
 
-def claim_safe_no_harm(rows: Rows) -> Evidence:
-    c = Evidence("R2", "The safe policy never makes a fault worse than no reconfiguration",
-              "Beyond the paper: an active FTC system must not make a fault worse. Policy `safe` hands radii "
-              "over only when the fault is declared and isolated and the filter's covariance says the radii (and "
-              "their split) are identified, clamps and rate-limits them, and reverts on filter trouble.")
+@claim("R2")
+def claim_safe_no_harm(c: Evidence, rows: Rows) -> None:
     c.table = _evidence(rows)
     for sc in POLICY_SCENARIOS:
         for sens, sname in SENSING:
@@ -124,14 +116,10 @@ def claim_safe_no_harm(rows: Rows) -> Evidence:
         c.notes.append("The safe policy never handed radii over in " + ", ".join(same) + ": there the wheel could "
                        "not be isolated or the split was not identified (speed only), so it ran exactly as `none` "
                        "and those comparisons are n/a.")
-    return c
 
 
-def claim_safe_in_time(rows: Rows) -> Evidence:
-    c = Evidence("R3", "With a yaw-rate gyro the safe policy hands over within 2 s and keeps the robot on the path",
-              "Beyond the paper: with speed + yaw rate both radii are observable, so the safe policy should "
-              "reconfigure the controller soon after the fault and the robot should stay within 1 m of the path from "
-              "5 s after the fault.")
+@claim("R3")
+def claim_safe_in_time(c: Evidence, rows: Rows) -> None:
     for sc in POLICY_SCENARIOS:
         lb = plabel(sc, "safe", "yaw")
         r = rows.get(lb)
@@ -158,7 +146,6 @@ def claim_safe_in_time(rows: Rows) -> Evidence:
                             le(m, RECOVERED_ON_PATH), f"max |cte| {fmt(m, ' m')}; the reference needs up to "
                                                       f"{fmt(req, ' rad/s')} of wheel rate with the true radii", lb,
                             na=INFEASIBLE if feasible is False else ""))
-    return c
 
 
 POLICY_CLAIMS = (claim_direct_feedback, claim_safe_no_harm, claim_safe_in_time)

@@ -1,13 +1,12 @@
 """Tests of :mod:`ftc_mj.rundir`, the one reader of a run directory: a complete run read back, the
 trace as numpy columns, events from ``events.json`` or (older runs) from the trace, and the one-line
-errors naming ``RUN_DIR``."""
+errors naming ``RUN_DIR``. (That reading a run leaves rerun unimported is checked in a fresh
+interpreter by tests/cli/test_packaging.py.)"""
 
 from __future__ import annotations
 
 import json
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -63,9 +62,3 @@ def test_bad_run_directories(policy_runs: list[Path], tmp_path: Path) -> None:
     pq.write_table(pq.read_table(broken / "trace.parquet").drop(["x"]), broken / "trace.parquet")
     with pytest.raises(BadInput, match=r"no column 'x'; not a run trace"):
         rundir.read_run_trace(broken)
-
-
-def test_reading_a_run_does_not_import_rerun(policy_runs: list[Path]) -> None:
-    code = (f"import sys, ftc_mj; ftc_mj.load_run({str(policy_runs[0])!r}); "
-            "assert 'rerun' not in sys.modules and 'ftc_mj.rerun' not in sys.modules")
-    subprocess.run([sys.executable, "-c", code], check=True, cwd=Path(__file__).resolve().parents[1])

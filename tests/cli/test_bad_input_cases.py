@@ -364,13 +364,14 @@ def test_leftovers_of_killed_runs_are_removed(tmp_path: Path) -> None:
 
 
 # ------------------------------------------------------------------------------------------ network
-def test_local_cluster_listens_on_localhost_only() -> None:
+def test_local_cluster_listens_on_localhost_only(dask_client: Any) -> None:
+    """The suite's one LocalCluster (``dask_client``, opened by :func:`ftc_mj.study.cluster.open_client`
+    as ``ftc-mj study`` opens its own): the dashboard and every listening socket of this process and its
+    worker processes are on the loopback interface."""
     psutil = pytest.importorskip("psutil")
-    from ftc_mj.study.cluster import open_client
 
-    with open_client(1, None) as client:
-        assert client.dashboard_link.startswith("http://127.0.0.1:")
-        pids = {os.getpid(), *(c.pid for c in psutil.Process().children(recursive=True))}
-        listening = [c for c in psutil.net_connections(kind="inet")
-                     if c.status == psutil.CONN_LISTEN and c.pid in pids]
-        assert listening and all(c.laddr.ip in ("127.0.0.1", "::1") for c in listening), listening
+    assert dask_client.dashboard_link.startswith("http://127.0.0.1:")
+    pids = {os.getpid(), *(c.pid for c in psutil.Process().children(recursive=True))}
+    listening = [c for c in psutil.net_connections(kind="inet")
+                 if c.status == psutil.CONN_LISTEN and c.pid in pids]
+    assert listening and all(c.laddr.ip in ("127.0.0.1", "::1") for c in listening), listening

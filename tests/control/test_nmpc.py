@@ -132,10 +132,10 @@ def test_nmpc_nominal_radii_steady_error(built, circle) -> None:
     check_bounds(res)
 
 
-def test_injected_failure_max_iter_zero(circle) -> None:
+def test_injected_failure_max_iter_zero(built, circle) -> None:
     cfg = cfg_with(solver="ipopt", max_iter=0)
     ref = circle
-    ctl = build_controller(cfg, ref)
+    ctl = built(build_controller, cfg, ref)  # shared with test_rate_bound's fallback test
     res = simulate(ctl, ref, 2.0, (0.0, 0.0, 0.0))
     assert len(res.outputs) == 20
     assert ctl.failures == 20
@@ -182,13 +182,14 @@ def test_over_budget_falls_back(circle) -> None:
 
 
 def test_heading_wrap(built, circle) -> None:
-    """A measured heading off by 2π k is the same pose."""
+    """A measured heading off by 2π k is the same pose (one build, reset between the two cold solves: a reset
+    NMPC is a new one, ``test_reset_controller_repeats_a_new_ones_loop``)."""
     ref = circle
     a = built(NMPC, ProblemSpec(), ref, solver="ipopt", time_budget=None, cold_time_budget=None)
-    b = built(NMPC, ProblemSpec(), ref, solver="ipopt", time_budget=None, cold_time_budget=None, tag="b")
     pose = np.array([0.0, -1.0, 0.1])
     oa = a.solve(0.0, pose, np.array(NOMINAL))
-    ob = b.solve(0.0, pose + np.array([0, 0, -4 * np.pi]), np.array(NOMINAL))
+    a.reset()
+    ob = a.solve(0.0, pose + np.array([0, 0, -4 * np.pi]), np.array(NOMINAL))
     np.testing.assert_allclose(oa.omega, ob.omega, atol=1e-6)
 
 

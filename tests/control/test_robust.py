@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig, load_config
-from ftc_mj.control import NMPC, problem_spec
+from ftc_mj.control import NMPC, ProblemSpec, problem_spec
 from ftc_mj.control.robust import RobustNMPC, normalised_weights, scenario_radii
 from ftc_mj.control.tracking import reference_at_nodes
 from ftc_mj.errors import BadInput
@@ -26,6 +26,7 @@ LEFT = [(1.0, 1.0), (1.0, 0.5)]  # no fault, left 50 %
 OMEGA_MAX = math.radians(1000.0)
 # IPOPT accepts a point whose constraints hold to its constr_viol_tol (1e-4 absolute, the default)
 IPOPT_VIOL = 1e-4
+UA = np.array([3.0, 7.0])  # 2 rad/s (= 20 rad/s² x 0.1 s) from the feed-forward (5.1, 4.9): binds
 
 
 def left_step(t: float) -> tuple[float, float]:
@@ -34,7 +35,11 @@ def left_step(t: float) -> tuple[float, float]:
 
 @pytest.fixture(scope="module")
 def setup(circle):
-    return problem_spec(RunConfig()), circle
+    """The default problem and the default circle. ``ProblemSpec()`` equals the config's problem (checked here) and
+    is the spec the other control tests build their nominal NMPCs with, so ``built`` hands out those builds."""
+    spec = ProblemSpec()
+    assert spec == problem_spec(RunConfig())
+    return spec, circle
 
 
 @pytest.fixture(scope="module")
@@ -48,6 +53,16 @@ def ip4(setup):
 def rti4(setup):
     spec, ref = setup
     return RobustNMPC(spec, ref, FOUR, solver="rti-daqp", time_budget=None, cold_time_budget=None)
+
+
+@pytest.fixture(scope="module")
+def ip4_solution(ip4):
+    """IPOPT's 4-scenario solution from the 5 m offset with the command in force ``UA``: the output and copies of the
+    scenario plans (X, U) — solved once for the tests of the NLP solution and of the RTI iterates against it."""
+    ip4.reset()
+    out = ip4.solve(0.0, OFFSET_POSE, NOMINAL, UA)
+    X, U = _stages(ip4)
+    return out, X.copy(), U.copy()
 
 
 def _stages(ctl: RobustNMPC) -> tuple[np.ndarray, np.ndarray]:
@@ -74,16 +89,13 @@ def _check_scenarios(ctl: RobustNMPC, X: np.ndarray, U: np.ndarray, x0: np.ndarr
     assert np.abs(U[0, 0] - u_applied).max() <= sp.omega_rate_max * sp.sample_time + tol
 
 
-def test_ipopt_non_anticipativity_and_every_scenarios_constraints(ip4, setup) -> None:
+def test_ipopt_non_anticipativity_and_every_scenarios_constraints(ip4, ip4_solution) -> None:
     """The NLP solution: identical shared inputs in all scenarios (one set of variables), the applied
     input is theirs, and each scenario's collocation (with its own radii), initial state, input bounds,
     rate rows and the rate bound relative to the applied command hold."""
-    ip4.reset()
-    _, ref = setup
-    ua = np.array([3.0, 7.0])  # 2 rad/s (= 20 rad/s² x 0.1 s) from the feed-forward (5.1, 4.9): binds
-    out = ip4.solve(0.0, OFFSET_POSE, NOMINAL, ua)
+    ua = UA
+    out, X, U = ip4_solution
     assert out.success and not out.fallback, out.status
-    X, U = _stages(ip4)
     assert ip4.k == 5  # LGL nodes at 0, 7, 25, 53 and 90 ms lie inside the first 0.1 s
     _check_scenarios(ip4, X, U, OFFSET_POSE, ua, IPOPT_VIOL)
     np.testing.assert_array_equal(out.omega, U[0, 0])
@@ -101,14 +113,12 @@ def test_ipopt_non_anticipativity_and_every_scenarios_constraints(ip4, setup) ->
     assert np.abs(U[1, ip4.k:] - U[2, ip4.k:]).max() > 0.1
 
 
-def test_rti_qp_iterates_converge_to_the_nlp_solution(ip4, rti4, setup) -> None:
+def test_rti_qp_iterates_converge_to_the_nlp_solution(ip4_solution, rti4, setup) -> None:
     """Gauss–Newton steps of the multi-stage QP from the reference guess converge to IPOPT's scenario
     plans; every QP iterate is non-anticipative and meets the linear constraints exactly."""
     _, ref = setup
-    ua = np.array([3.0, 7.0])
-    ip4.reset()
-    ip4.solve(0.0, OFFSET_POSE, NOMINAL, ua)
-    Xb, Ub = _stages(ip4)
+    ua = UA
+    _, Xb, Ub = ip4_solution
     r, psi = reference_at_nodes(ref, rti4.col.times(0.0), OFFSET_POSE[2])
     rti4.reset()
     Xg, Ug = rti4._guess(0.0, OFFSET_POSE, r, NOMINAL)

@@ -4,7 +4,8 @@ Strict mode: an exception inside a simulation fails the test that caused it inst
 as a failed run (the tests of the recorded failure turn it off). ``shared_runs``: the closed-loop runs
 of :data:`tests.support.shared_runs.SHARED_RUNS`, each simulated once per session on first use;
 ``policy_runs``: two of them written as run directories with recordings; ``dask_client``: the suite's
-one Dask cluster."""
+one Dask cluster (under pytest-xdist every test that uses it runs in the same worker: the
+``xdist_group`` below, with ``--dist loadgroup`` from the pytest options)."""
 
 from __future__ import annotations
 
@@ -44,3 +45,11 @@ def dask_client() -> Iterator[Any]:
 
     with open_client(2, None) as client:
         yield client
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Tests on the session's Dask cluster share one xdist worker, so a parallel run (``-n 2``) still
+    starts one cluster."""
+    for item in items:
+        if "dask_client" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.xdist_group("dask"))

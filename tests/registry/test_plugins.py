@@ -10,6 +10,7 @@ import textwrap
 import tomllib
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -145,11 +146,20 @@ values = ["safe", "late-handover"]
 
 
 @pytest.mark.slow
-def test_study_on_local_cluster_carries_plugin_components(my_components: str, tmp_path: Path) -> None:
-    """The workers know the plug-ins from the runs' ``plugins`` (imported when they validate a run)."""
+def test_study_on_local_cluster_carries_plugin_components(my_components: str, dask_client: Any,
+                                                          tmp_path: Path) -> None:
+    """The workers know the plug-ins from the runs' ``plugins`` (imported when they validate a run).
+
+    Runs on the session's LocalCluster, whose workers were spawned before ``examples/`` was on this
+    process's ``sys.path``: the folder is put on theirs (not imported there), as a LocalCluster
+    started now would inherit it, and taken off again afterwards."""
     study = tmp_path / "plugins.toml"
     study.write_text(STUDY)
-    result = ftc_mj.run_study(study, tmp_path / "out", workers=2)
+    dask_client.run(_worker_sys_path, str(EXAMPLES), True)
+    try:
+        result = ftc_mj.run_study(study, tmp_path / "out", client=dask_client)
+    finally:
+        dask_client.run(_worker_sys_path, str(EXAMPLES), False)
     df = result.results.sort("run_index")
     assert df.height == 4 and df["status"].to_list() == ["ok"] * 4, df.select("status", "error")
     assert df["estimator"].to_list() == ["ukf", "ukf", "textbook-ekf", "textbook-ekf"]
@@ -157,6 +167,14 @@ def test_study_on_local_cluster_carries_plugin_components(my_components: str, tm
     # the plug-in's runs are real estimates: the puncture at 1 s is seen in the left radius
     assert (df.filter(df["estimator"] == "textbook-ekf")["radius_final_error_L"].abs() < 0.3).all()
     assert ftc_mj.load_study(tmp_path / "out").results.height == 4
+
+
+def _worker_sys_path(folder: str, add: bool) -> None:
+    """Put ``folder`` first on (or take it off) the ``sys.path`` of the process this runs in."""
+    if add:
+        sys.path.insert(0, folder)
+    else:
+        sys.path.remove(folder)
 
 
 def test_a_study_sweeps_a_plugin_setting(my_components: str, tmp_path: Path) -> None:

@@ -21,8 +21,10 @@ from typing import Any
 import polars as pl
 import pytest
 import tomli_w
+from typer.testing import CliRunner
 
 from ftc_mj import resources
+from ftc_mj.cli import app
 from ftc_mj.study.plan import plan_study
 from ftc_mj.study.rows import wall_columns
 from ftc_mj.study.runner import run_study
@@ -119,7 +121,11 @@ def _cli(*args: str) -> list[str]:
 
 
 def test_interrupted_study_resumes_without_recomputing(small_study: Path, serial_reference: pl.DataFrame,
-                                                       tmp_path: Path) -> None:
+                                                       dask_client: Any, tmp_path: Path) -> None:
+    """A CLI study killed (SIGKILL of the process and its local workers: a real process) after two rows
+    is resumed by the same command, which computes only the missing runs. The resuming invocation runs
+    the CLI in this process on the session's cluster (``--address``): the process boundary matters
+    only for the kill, and the session's workers already hold the study's solver."""
     out = tmp_path / "out"
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     proc = subprocess.Popen(_cli(str(small_study), "--out", str(out), "--workers", "2", "-q"), cwd=ROOT, env=env,
@@ -138,9 +144,9 @@ def test_interrupted_study_resumes_without_recomputing(small_study: Path, serial
     n_before = len(list(rows.glob("[!.]*.parquet")))
     assert 2 <= n_before < 8, f"kill came too late ({n_before} rows)"
     assert not (out / "results.parquet").exists()
-    res = subprocess.run(_cli(str(small_study), "--out", str(out), "--workers", "2", "-q"), cwd=ROOT, env=env,
-                         capture_output=True, text=True, timeout=300)
-    assert res.returncode == 0, res.stderr
+    res = CliRunner().invoke(app, ["study", str(small_study), "--out", str(out), "--address",
+                                   dask_client.scheduler.address, "-q"])
+    assert res.exit_code == 0, res.output
     log = StudyStore(out).read_log()
     starts = [e for e in log if e["event"] == "start"]
     assert len(starts) == 2 and starts[1]["done_before"] == n_before and starts[1]["todo"] == 8 - n_before

@@ -5,21 +5,43 @@ as a failed run (the tests of the recorded failure turn it off). ``shared_runs``
 of :data:`tests.support.shared_runs.SHARED_RUNS`, each simulated once per session on first use;
 ``policy_runs``: two of them written as run directories with recordings; ``dask_client``: the suite's
 one Dask cluster (under pytest-xdist every test that uses it runs in the same worker: the
-``xdist_group`` below, with ``--dist loadgroup`` from the pytest options)."""
+``xdist_group`` below, with ``--dist loadgroup`` from the pytest options).
+
+Solver cache: the session's processes (xdist workers, CLI and example subprocesses, Dask workers)
+share one fresh IPOPT solver cache (:mod:`ftc_mj.control.solver_cache`) in a temporary folder removed
+at the end, so the suite never reads or writes the user's cache and each distinct NLP is derived once
+per session."""
 
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from ftc_mj.control.solver_cache import CACHE_ENV
 from ftc_mj.sim.loop import STRICT_ENV
 from tests.support.shared_runs import SharedRuns
 
 os.environ[STRICT_ENV] = "1"
+_OWN_CACHE: list[str] = []
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """A fresh solver cache for the session, made by the first process (xdist workers inherit it)."""
+    if not os.environ.get(CACHE_ENV):
+        _OWN_CACHE.append(tempfile.mkdtemp(prefix="ftc-mj-test-cache-"))
+        os.environ[CACHE_ENV] = _OWN_CACHE[0]
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    """Remove the session's solver cache (only the one this process made)."""
+    for folder in _OWN_CACHE:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 @pytest.fixture(scope="session")

@@ -37,6 +37,7 @@ import numpy as np
 from .base import ControlOutput
 from .condensed_qp import CondensedQP
 from .mpc import SOLVERS
+from .solver_cache import ipopt_solver
 from .solvers import ipopt_options, warm_started_solve
 from .spec import ProblemSpec, first_step_penalty
 from .tracking import PlanController
@@ -83,7 +84,7 @@ class NMPC(PlanController):
         self._lbx = np.concatenate([-np.inf * np.ones(3 * N), -sp.omega_max * np.ones(2 * N)])
         self._ubx = -self._lbx
         self._ubx[: 3 * N] = np.inf
-        self._nlp = ca.nlpsol("nmpc", "ipopt", {"x": w, "p": p, "f": J, "g": g}, self._ipopt_options())
+        self._nlp = ipopt_solver("nmpc", {"x": w, "p": p, "f": J, "g": g}, self._ipopt_options())
         self.nlp_size = (w.numel(), g.numel())
 
     def _ipopt_options(self) -> dict:

@@ -7,6 +7,7 @@ import numpy as np
 
 from .pathfollow_spec import SLACK_MAX, PathFollowingSpec, lateral_sides
 from .reference import Path
+from .solver_cache import ipopt_solver
 from .solvers import ipopt_options, warm_started_solve
 from .transcription import Collocation
 
@@ -76,7 +77,7 @@ class PathNLP:
         self._lbx = np.concatenate([-np.inf * np.ones(6 * N), np.zeros(N), [0.0]])
         self._ubx = np.concatenate([np.inf * np.ones(6 * N), spec.max_progress_speed * np.ones(N), [SLACK_MAX]])
         opts = ipopt_options(max_iter, cold_time_budget, time_budget)
-        self._solver = ca.nlpsol("pf_nmpc", "ipopt", {"x": w, "p": p, "f": J, "g": ca.vertcat(*g)}, opts)
+        self._solver = ipopt_solver("pf_nmpc", {"x": w, "p": p, "f": J, "g": ca.vertcat(*g)}, opts)
         self.size = (w.numel(), self._lbg.size)
         self.reset()
 

@@ -60,6 +60,7 @@ import numpy as np
 from .base import ControlOutput
 from .multistage_qp import MultiStageQP
 from .nmpc import NMPC
+from .solver_cache import ipopt_solver
 from .solvers import warm_started_solve
 from .spec import ProblemSpec, first_step_penalty
 from .transcription import Collocation
@@ -230,7 +231,7 @@ class RobustNMPC(NMPC):
         stage = np.concatenate([np.full(3 * N, np.inf), np.full(2 * (N - k), om)])
         self._ubx = np.concatenate([np.full(2 * k, om), np.tile(stage, S), np.full(int(worst), np.inf)])
         self._lbx = -self._ubx
-        self._nlp = ca.nlpsol("robust_nmpc", "ipopt", {"x": w, "p": p, "f": f, "g": g}, self._ipopt_options())
+        self._nlp = ipopt_solver("robust_nmpc", {"x": w, "p": p, "f": f, "g": g}, self._ipopt_options())
         self._costs = ca.Function("scenario_costs", [w, p], [J])
         self.nlp_size = (w.numel(), g.numel())
 

@@ -162,6 +162,14 @@ def tuning_section(outcomes: Sequence[TuningOutcome] | None) -> str:
     return "\n".join(parts)
 
 
+VARIANT_COLUMNS = (("mode-3 delay [s]", "mode_delay_1"), ("correct-mode fraction", "mode_correct_fraction"),
+                   ("final spread of mode probs", "mode_prob_spread_final"),
+                   ("R_L RMSE after fault [m]", "radius_rmse_L_after_fault"),
+                   ("R_L final error [m]", "radius_final_error_L"), ("in ±2σ", "innovation_in_2sigma"),
+                   ("max |cte| after fault [m]", "cross_track_max_after_fault"))
+"""(column header, metric) of the IMM-variant table."""
+
+
 def variant_table(rows: Mapping[str, Mapping[str, Any]]) -> list[dict[str, Any]]:
     """The scenario 2 IMM-UKF runs of both variants, feedback off and on."""
     table = []
@@ -171,13 +179,7 @@ def variant_table(rows: Mapping[str, Mapping[str, Any]]) -> list[dict[str, Any]]
             r = rows.get(lb)
             if r is None:
                 continue
-            table.append({"run": lb, "mode-3 delay [s]": num(r, "mode_delay_1"),
-                          "correct-mode fraction": num(r, "mode_correct_fraction"),
-                          "final spread of mode probs": num(r, "mode_prob_spread_final"),
-                          "R_L RMSE after fault [m]": num(r, "radius_rmse_L_after_fault"),
-                          "R_L final error [m]": num(r, "radius_final_error_L"),
-                          "in ±2σ": num(r, "innovation_in_2sigma"),
-                          "max |cte| after fault [m]": num(r, "cross_track_max_after_fault")})
+            table.append({"run": lb} | {head: num(r, metric) for head, metric in VARIANT_COLUMNS})
     return table
 
 

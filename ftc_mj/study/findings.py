@@ -82,12 +82,12 @@ def paired_text(df: pl.DataFrame, axis: str, base: Any, v: Any, keys: list[str],
     d = (j["_v"] - j["_b"]).to_numpy()
     worse = d > tolerance if mdef.lower_is_better else d < -tolerance
     excess = float(np.max(d) if mdef.lower_is_better else -np.min(d))
+    worst = np.max if mdef.lower_is_better else np.min
+    wv, wb = fmt_g(float(worst(j["_v"].to_numpy()))), fmt_g(float(worst(j["_b"].to_numpy())))
     u = f" {mdef.unit}" if mdef.unit else ""
     return (f"paired, {axis} = {v} vs {base}: worse by more than {tolerance:g}{u} in {int(worse.sum())} of "
-            f"{j.height} matched runs (largest excess {fmt_g(excess)}{u}; worst {axis} = {v}: "
-            f"{fmt_g(float(np.max(j['_v'].to_numpy()) if mdef.lower_is_better else np.min(j['_v'].to_numpy())))}{u}, "
-            f"worst {axis} = {base}: "
-            f"{fmt_g(float(np.max(j['_b'].to_numpy()) if mdef.lower_is_better else np.min(j['_b'].to_numpy())))}{u})")
+            f"{j.height} matched runs (largest excess {fmt_g(excess)}{u}; worst {axis} = {v}: {wv}{u}, "
+            f"worst {axis} = {base}: {wb}{u})")
 
 
 def _sentence(text: str) -> str:

@@ -1,7 +1,7 @@
 """``ftc-mj paper --publish DOCS``: ``DOCS/paper-claims.md`` and the figure selection from a fake output folder.
-The published text is what the retired ``docs/tools/paper_claims.py`` wrote from the same folder (its output is
-kept below as :data:`SCRIPT_TEXT`) but for the sentence that says how to regenerate it; bad input is one line
-naming ``--publish``, exit 2, nothing written. Fast: nothing runs."""
+The published text is what the paper-claims script this option replaced (deleted with the other docs tools) wrote
+from the same folder, kept below as :data:`SCRIPT_TEXT`, but for the sentence that says how to regenerate it; bad
+input is one line naming ``--publish``, exit 2, nothing written. Fast: nothing runs."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ SCRIPT_TEXT = """\
 > Copied from `{out}/claims.md`, written by `ftc-mj paper --out {out} --jobs 2 --seeds 3 --seed-set held-out \
 --report-only --tune` from the runs of `ftc-mj paper --out {out} --jobs 2 --seeds 3 --seed-set held-out --tune` \
 (finished 2026-12-02 04:53 UTC, commit 5233819-dirty; 12 runs, 1 failed, in 1273 s + 26 s report on 2 cores, 1-min \
-load average 2.3/3.3 at start/end). Regenerate with the commands in `docs/tools/paper_claims.py`.
+load average 2.3/3.3 at start/end). {regenerate}
 >
 > Judged on the held-out seeds 1000, 1001, 1002; the development seeds 0–9 are where the data-tuned parameters are \
 chosen (section *Seeds*).
@@ -63,9 +63,8 @@ output folder.
 - [`figures/radius_s1.png`](figures/radius_s1.png)
 - [`figures/trajectory_s2.png`](figures/trajectory_s2.png)
 """
-"""What ``python docs/tools/paper_claims.py OUT`` wrote to docs/paper-claims.md from :func:`fake_paper_out`'s
-folder (``{out}``, ``{base}``: its paths)."""
-OLD_REGENERATE = "Regenerate with the commands in `docs/tools/paper_claims.py`."
+"""What the deleted paper-claims script wrote to docs/paper-claims.md from :func:`fake_paper_out`'s folder
+(``{out}``, ``{base}``: its paths), its sentence pointing to the script's own instructions now ``{regenerate}``."""
 
 
 def fake_paper_out(root: Path) -> tuple[Path, Path]:
@@ -105,11 +104,9 @@ def test_published_text_is_the_scripts_with_the_real_commands(tmp_path: Path, mo
     docs = tmp_path / "docs"
     (docs / "figures").mkdir(parents=True)
     written = publish(out, docs)
-    expected = SCRIPT_TEXT.format(out=out, base=base)
-    assert expected.count(OLD_REGENERATE) == 1
-    assert (docs / "paper-claims.md").read_text() == expected.replace(OLD_REGENERATE, REGENERATE)
-    assert "`ftc-mj paper --quick --out runs/out/paper-quick`" in REGENERATE and "--publish docs" in REGENERATE
-    assert "docs/tools" not in REGENERATE
+    assert (docs / "paper-claims.md").read_text() == SCRIPT_TEXT.format(out=out, base=base, regenerate=REGENERATE)
+    assert REGENERATE.startswith("Regenerate with `ftc-mj paper --quick --out runs/out/paper-quick`")
+    assert "--publish docs" in REGENERATE
     assert written == [docs / "paper-claims.md", *(docs / "figures" / f for f in KEPT)]
     for f in KEPT:
         assert (docs / "figures" / f).read_bytes() == (out / "figures" / f).read_bytes()

@@ -1,6 +1,6 @@
-"""``ftc-mj study pathfollow_figure`` + ``--report``: the study is the four runs the retired
-``docs/tools/pathfollow_figure.py`` made, and the figure drawn from the study's rows shows what that script drew
-from the full traces (the same arrays, panels, colours and titles). Fast: instantaneous fake runs."""
+"""``ftc-mj study pathfollow_figure`` + ``--report``: the study is the four runs the figure script it replaced
+(deleted) made, and the figure drawn from the study's rows shows what that script drew from the full traces (the
+same arrays, panels, colours and titles). Fast: instantaneous fake runs."""
 
 from __future__ import annotations
 

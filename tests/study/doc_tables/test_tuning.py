@@ -1,5 +1,5 @@
 """``ftc-mj study tune_dwell --report`` / ``tune_growth --report``: the data-tuned parameters from the tuning
-studies' output folders, the text the retired ``docs/tools/tuning_table.py`` printed (its lines on these
+studies' output folders, the text the tuning-table script it replaced (deleted) printed (its lines on these
 synthetic results kept below), also from the folder ``ftc-mj paper --tune`` writes."""
 
 from __future__ import annotations

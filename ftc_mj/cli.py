@@ -292,7 +292,9 @@ def study(
     serial: Annotated[bool, typer.Option("--serial", help="Run in this process, without dask.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     report: Annotated[bool, typer.Option("--report", help="Runs nothing: print the study's published docs tables "
-                                                          "from its output folder (also OUT/doc_tables.md).")] = False,
+                                                          "from its output folder (also OUT/doc_tables.md); "
+                                                          "pathfollow_figure draws OUT/figures/pathfollow.png.")
+                      ] = False,
 ) -> None:
     """Sweep a study on dask.distributed: every finished run is persisted at once under
     OUT/rows/; re-running the same command computes only the missing runs; OUT/results.parquet,

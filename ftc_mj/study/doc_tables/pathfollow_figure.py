@@ -23,9 +23,7 @@ import polars as pl
 
 from ...config import load_config
 from ...errors import BadInput
-from ...model.kinematics import max_path_speed
 from ...paper.render import md_table
-from ...plant import LIFTOFF
 from ..plotting import pyplot, save_figure
 from ..series import stack_series
 from .results import read_results
@@ -65,17 +63,26 @@ def run_traces(df: pl.DataFrame) -> tuple[int, dict[tuple[str, str], Trace], dic
     return seed, traces, status
 
 
+def lifted(flags: np.ndarray) -> np.ndarray:
+    """True where the plant's flags (``plant_flags``, NaN = none) have the wheel lift-off bit
+    (:data:`~ftc_mj.plant.LIFTOFF`)."""
+    from ...plant import LIFTOFF
+
+    return (np.nan_to_num(flags).astype(np.int64) & LIFTOFF) != 0
+
+
 def figure_arrays(traces: dict[tuple[str, str], Trace], cfg: Any) -> dict[str, Trace]:
     """What each panel draws, per controller: scenario 4 ``t``, ``speed`` (m/s), ``cross_track`` (m) and, for
     pf-nmpc, ``feasible`` (m/s: the feasible speed on the reference circle for the true radii, capped at the
     reference speed; ``cfg`` gives the circle, the plant's half track and ω_max); scenario 3 ``t3``,
     ``lateral`` (``v · yaw rate``, m/s²) and ``lift`` (True where the plant flags a wheel off the ground)."""
+    from ...model.kinematics import max_path_speed
+
     out: dict[str, Trace] = {}
     for ctl in CONTROLLERS:
         tr, tr3 = traces["scenario4", ctl], traces["scenario3", ctl]
         d = {"t": tr["t"], "speed": tr["v"], "cross_track": tr["cross_track_error"], "t3": tr3["t"],
-             "lateral": tr3["v"] * tr3["yaw_rate"],
-             "lift": (np.nan_to_num(tr3["plant_flags"]).astype(np.int64) & LIFTOFF) != 0}
+             "lateral": tr3["v"] * tr3["yaw_rate"], "lift": lifted(tr3["plant_flags"])}
         if ctl == "pf-nmpc":
             d["feasible"] = np.minimum(max_path_speed(1.0 / cfg.reference.radius, tr["R_R"], tr["R_L"],
                                                       cfg.plant_half_track, cfg.robot.omega_max), cfg.reference.speed)
@@ -114,8 +121,7 @@ def run_table(traces: dict[tuple[str, str], Trace], status: dict[tuple[str, str]
     off the ground (s: flagged rows × the row interval) and the largest |v · yaw rate| (m/s²)."""
     rows = []
     for (sc, ctl), tr in traces.items():
-        e, t = np.abs(tr["cross_track_error"]), tr["t"]
-        lift = (np.nan_to_num(tr["plant_flags"]).astype(np.int64) & LIFTOFF) != 0
+        e, t, lift = np.abs(tr["cross_track_error"]), tr["t"], lifted(tr["plant_flags"])
         dt = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
         k = int(np.nanargmax(e)) if np.isfinite(e).any() else None
         rows.append({"scenario": sc, "controller": ctl, "status": status[sc, ctl], "rows": t.size,

@@ -292,7 +292,9 @@ def study(
     serial: Annotated[bool, typer.Option("--serial", help="Run in this process, without dask.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     report: Annotated[bool, typer.Option("--report", help="Runs nothing: print the study's published docs tables "
-                                                          "from its output folder (also OUT/doc_tables.md).")] = False,
+                                                          "from its output folder (also OUT/doc_tables.md); "
+                                                          "pathfollow_figure draws OUT/figures/pathfollow.png.")
+                      ] = False,
 ) -> None:
     """Sweep a study on dask.distributed: every finished run is persisted at once under
     OUT/rows/; re-running the same command computes only the missing runs; OUT/results.parquet,
@@ -498,10 +500,14 @@ def paper(
     list_: Annotated[bool, typer.Option("--list", help="Print the matrix labels and exit.")] = False,
     report_only: Annotated[bool, typer.Option("--report-only", help="Run nothing: rebuild the report from the "
                                               "finished runs of the same selection.")] = False,
+    publish: Annotated[str | None, typer.Option(metavar="DOCS", help="After the report, write DOCS/paper-claims.md "
+                                                "(a generated head note + claims.md) and copy the figure selection "
+                                                "into DOCS/figures/; DOCS must be an existing folder (e.g. docs). "
+                                                "Not with --quick.")] = None,
 ) -> None:
     """Run the paper's test matrix (38 runs + 31 extras) over seeds and judge every claim's checks with
     Wilson intervals (or, with --quick, take a single-seed look); write summary.csv, claims.md,
-    claims.json and figures/."""
+    claims.json and figures/ (with --publish DOCS also DOCS/paper-claims.md and DOCS/figures/)."""
     from .paper.matrix import full_matrix, select
 
     if list_:
@@ -521,7 +527,7 @@ def paper(
         assert out_dir is not None
         opts = PaperOptions(jobs=jobs, duration=duration, only=only, extras=extras, rrd=mode != PaperRrd.none,
                             fresh=fresh, report_only=report_only, quick=quick, seeds=seeds, seed_set=seed_set.value,
-                            tune=tune, baselines=list(baseline or []))
+                            tune=tune, baselines=list(baseline or []), publish=_folder(publish, "--publish"))
         opts.check()
         for d in (out_dir, out_dir / "runs", out_dir / "figures", out_dir / "compare"):
             remove_stale_temporaries(d)
@@ -533,8 +539,17 @@ def paper(
     except KeyboardInterrupt:
         _interrupted("interrupted; finished runs are kept and reused next time")
         return
+    _report_paper(res, compared)
+    if res.failed:
+        typer.echo(f"ftc-mj: {len(res.failed)} run(s) failed: {', '.join(res.failed)}", err=True)
+        raise typer.Exit(EXIT_FAILED)
+
+
+def _report_paper(res: Any, compared: list[Path]) -> None:
+    """What ``ftc-mj paper`` prints at the end: the runs, each claim's verdict, the tuned values, the
+    comparison recordings and what ``--publish`` wrote."""
     typer.echo(f"{len(res.rows)} runs in {res.wall_time_s:.1f} s (report {res.report_time_s:.1f} s) → {res.out}"
-               + (" [single-seed quick look]" if quick else ""))
+               + (" [single-seed quick look]" if res.quick else ""))
     for c in res.claims:
         typer.echo(f"  claim {c.id:>2}: {c.verdict:<15} {c.title}")
     for o in res.tuning:
@@ -543,9 +558,9 @@ def paper(
                                                                          else ""))
     for p in compared:
         typer.echo(f"  comparison: {p}")
-    if res.failed:
-        typer.echo(f"ftc-mj: {len(res.failed)} run(s) failed: {', '.join(res.failed)}", err=True)
-        raise typer.Exit(EXIT_FAILED)
+    if res.published:
+        typer.echo(f"  published: {res.published[0]} and {len(res.published) - 1} figure(s) in "
+                   f"{res.published[0].parent / 'figures'}")
 
 
 def _claim_comparisons(res: Any, out_dir: Path) -> list[Path]:

@@ -23,6 +23,9 @@ Layout of ``OUT``::
     OUT/figures/*.png      the figures
     OUT/paper_run.json     the invocation, wall times, machine load, verdicts
 
+``--publish DOCS`` then writes ``DOCS/paper-claims.md`` and copies the figure selection into ``DOCS/figures/``
+(:mod:`.publish`).
+
 Everything is written atomically; finished runs are reused (the study's persisted rows; the quick
 look recomputes its failed runs, over seeds a failed row is kept).
 """
@@ -45,6 +48,7 @@ from .claims import evaluate_all
 from .diff import claims_document, compare, load_baseline
 from .matrix import MatrixEntry, full_matrix, select
 from .matrix_study import AXIS, load_matrix_study, run_matrix_study
+from .publish import check_target, publish
 from .render import render_claims
 from .seeds import DEV_SEEDS, seed_set
 from .summary import write_summary_csv
@@ -74,6 +78,8 @@ class PaperOptions:
     seed_set: str = "held-out"
     tune: bool = False
     baselines: list[Path] = field(default_factory=list)
+    publish: Path | None = None
+    """Docs folder that receives ``paper-claims.md`` and the figure selection after the report (:mod:`.publish`)."""
 
     def check(self) -> None:
         if self.jobs < 1:
@@ -87,6 +93,10 @@ class PaperOptions:
             raise BadInput("--fresh: only with --quick (over seeds, finished rows are kept; use another --out)")
         if not self.quick:
             seed_set(self.seed_set, self.n_seeds)
+        if self.publish is not None:
+            if self.quick:
+                raise BadInput("--publish: publishes verdicts over seeds; not with --quick")
+            check_target(self.publish)
 
     @property
     def n_seeds(self) -> int:
@@ -107,6 +117,7 @@ class PaperOptions:
                                         ("--fresh", self.fresh), ("--report-only", self.report_only),
                                         ("--tune", self.tune)) if on]
         parts += [f"--baseline {b}" for b in self.baselines]
+        parts += [f"--publish {self.publish}"] if self.publish is not None else []
         return " ".join(parts)
 
 
@@ -126,6 +137,8 @@ class PaperResult:
     computed: int = 0
     """Runs computed by this invocation (the others were reused)."""
     quick: bool = False
+    published: list[Path] = field(default_factory=list)
+    """Files ``--publish`` wrote (``paper-claims.md`` first, then the figures)."""
 
     @property
     def failed(self) -> list[str]:
@@ -153,6 +166,8 @@ def run_paper(out: Path, opts: PaperOptions, *, show_progress: bool | None = Non
     load0 = os.getloadavg()
     res = run_matrix_and_report(out, entries, opts, show, echo)
     write_json(out / "paper_run.json", run_info(out, opts, res, load0))
+    if opts.publish is not None:
+        res.published = publish(out, opts.publish)
     return res
 
 

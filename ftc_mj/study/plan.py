@@ -210,6 +210,8 @@ def plan_study(
         ident_spec["analysis"]["trace_stats"] = [t.model_dump(mode="json") for t in spec.analysis.trace_stats]
     if spec.analysis.extras:
         ident_spec["analysis"]["extras"] = list(spec.analysis.extras)
+    if spec.analysis.timeseries_columns:  # more series in the rows (absent: the identity of older studies)
+        ident_spec["analysis"]["timeseries_columns"] = list(spec.analysis.timeseries_columns)
     ident_spec.pop("description", None)
     identity = {"spec": ident_spec, "extra": extra, "base": base_data}
     return StudyPlan(spec, path, canonical_hash(identity), runs, [ax.column for ax in spec.axes], extra,

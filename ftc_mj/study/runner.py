@@ -139,7 +139,8 @@ def run_study(
     persist = _persister(store, report, on_row)
     store.reconcile_log()  # rows a killed invocation persisted but did not get to log
     kw = {"rrd": "all" if rrd == "compare" else rrd, "runs_dir": str(store.runs_dir) if rrd != "none" else None,
-          "ts_rate": plan.spec.analysis.timeseries_rate, "run_fn": run_fn,
+          "ts_rate": plan.spec.analysis.timeseries_rate, "ts_columns": list(plan.spec.analysis.timeseries_columns),
+          "run_fn": run_fn,
           "trace_stats": [t.model_dump() for t in plan.spec.analysis.trace_stats],
           "extras": list(plan.spec.analysis.extras)}
     with _progress(progress, len(todo), plan.spec.name) as advance:

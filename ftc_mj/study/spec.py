@@ -227,12 +227,27 @@ class AnalysisSpec(_Strict):
     confusion_by: list[str] = Field(default_factory=list)
     """Axes for which a confusion matrix (true wheel × isolated wheel) is drawn per value."""
     timeseries_rate: Annotated[float, Field(gt=0, le=100)] = 2.0
-    """Rate (Hz) of the compact time series kept per run for over-time figures."""
+    """Rate (Hz) of the compact time series kept per run for over-time figures; the trace has one row per
+    estimator step, so ``estimator.rate`` (100 Hz by default) keeps every row."""
+    timeseries_columns: list[Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")]] = Field(
+        default_factory=list)
+    """Trace columns kept in the compact time series besides :data:`~ftc_mj.study.worker.TS_COLUMNS`
+    (``v``, ``yaw_rate``, ``plant_flags`` …, stored as ``ts_<column>``; a column a run's trace lacks is
+    left out of its row). Part of the study's identity when set."""
     trace_stats: list[TraceStatSpec] = Field(default_factory=list)
     """Statistics of the full trace added to each run's row (part of the study's identity)."""
     extras: list[Literal["pcrb_split"]] = Field(default_factory=list)
     """Per-run computations on the full trace (:mod:`ftc_mj.study.extras`) added to each run's row (part of
     the study's identity)."""
+
+    @model_validator(mode="after")
+    def _distinct_columns(self) -> AnalysisSpec:
+        seen: set[str] = set()
+        for i, c in enumerate(self.timeseries_columns):
+            if c in seen:
+                raise ValueError(f"timeseries_columns[{i}]: duplicate column {c!r}")
+            seen.add(c)
+        return self
 
 
 StudySpec.model_rebuild()

@@ -18,7 +18,7 @@ import shutil
 import socket
 import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -54,15 +54,20 @@ def _default_run_fn(cfg: RunConfig, out_root: Path | None, rrd: bool) -> Any:
     return execute(cfg, out_root, rrd=rrd)
 
 
-def compact_timeseries(trace: dict[str, np.ndarray], est_rate: float, rate: float) -> dict[str, list[float]]:
-    """Down-sample the trace to ``rate`` Hz: ``ts_t`` plus ``ts_<column>`` lists (NaN kept)."""
+def compact_timeseries(trace: dict[str, np.ndarray], est_rate: float, rate: float,
+                       columns: Sequence[str] = ()) -> dict[str, list[float]]:
+    """Down-sample the trace to ``rate`` Hz: ``ts_t`` plus ``ts_<column>`` lists (NaN kept) of
+    :data:`TS_COLUMNS` and the extra ``columns`` the trace has.
+
+    The trace has one row per estimator step (``est_rate``, Hz); every ``round(est_rate / rate)``-th row
+    is kept from the first, so ``rate = est_rate`` keeps them all."""
     t = np.asarray(trace.get("t", []), dtype=float)
     if t.size == 0:
         return {}
     step = max(1, int(round(est_rate / rate)))
     idx = np.arange(0, t.size, step)
     out: dict[str, list[float]] = {"ts_t": t[idx].tolist()}
-    for c in TS_COLUMNS:
+    for c in dict.fromkeys((*TS_COLUMNS, *columns)):
         if c in trace:
             out[f"ts_{c}"] = np.asarray(trace[c], dtype=float)[idx].tolist()
     return out
@@ -95,6 +100,7 @@ def run_one(
     rrd: str = "none",
     runs_dir: str | None = None,
     ts_rate: float = 2.0,
+    ts_columns: list[str] | None = None,
     run_fn: RunFn | None = None,
     trace_stats: list[dict[str, Any]] | None = None,
     extras: list[str] | None = None,
@@ -102,9 +108,10 @@ def run_one(
     """Execute one run (in a worker) and return ``{"metrics", "timeseries", "info"}`` as plain data.
 
     ``rrd``: ``none`` (no recording), ``all`` (every run's folder under ``runs_dir``) or
-    ``failures`` (the run folder is staged and kept only if the run failed). ``ts_rate`` (Hz): the compact
-    time series; ``trace_stats`` (:func:`window_stats`) and ``extras`` (:mod:`.extras`) add columns
-    computed from the full trace.
+    ``failures`` (the run folder is staged and kept only if the run failed). ``ts_rate`` (Hz) and
+    ``ts_columns`` (extra trace columns): the compact time series (:func:`compact_timeseries`);
+    ``trace_stats`` (:func:`window_stats`) and ``extras`` (:mod:`.extras`) add columns computed from the
+    full trace.
     """
     t0 = time.perf_counter()
     fn = run_fn or _default_run_fn
@@ -133,7 +140,7 @@ def run_one(
         metrics.update(window_stats(outcome.result.trace, trace_stats or []))
         metrics.update(run_extras(extras or [], cfg, outcome.result.trace))
         info["run_dir"] = str(outcome.run_dir) if outcome.run_dir is not None else None
-        ts = compact_timeseries(outcome.result.trace, cfg.estimator.rate, ts_rate)
+        ts = compact_timeseries(outcome.result.trace, cfg.estimator.rate, ts_rate, ts_columns or ())
     except Exception as exc:  # noqa: BLE001 - a failing run becomes a row, never a crashed study
         tb = traceback.format_exc(limit=3).strip().splitlines()
         metrics = {"status": "failed", "error": f"{type(exc).__name__}: {exc}", "traceback_tail": tb[-1] if tb else ""}

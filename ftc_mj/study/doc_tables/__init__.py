@@ -3,30 +3,47 @@
 to ``OUT/doc_tables.md``). One module per published table:
 
 - :mod:`.physical_plant`, :mod:`.rate_bound`, :mod:`.reconfiguration`, :mod:`.pathfollow`,
-  :mod:`.robust_ftc` — docs/findings.md;
+  :mod:`.robust_ftc` — docs/findings.md; :mod:`.pathfollow_figure` draws its figure
+  (``OUT/figures/pathfollow.png``, published as docs/figures/pathfollow.png);
 - :mod:`.fdi`, :mod:`.pcrb` — the summary and bound tables of docs/fdi.md;
-- :mod:`.findings` — the generated findings of docs/studies.md.
+- :mod:`.findings` — the generated findings of docs/studies.md;
+- :mod:`.tuning` — the data-tuned parameters of docs/studies.md (``tune_dwell``, ``tune_growth``).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 from ...errors import BadInput
 
 
 def _reports() -> dict[str, list[Callable[[Path], str]]]:
-    from . import fdi, findings, pathfollow, pcrb, physical_plant, rate_bound, reconfiguration, robust_ftc
+    from . import (
+        fdi,
+        findings,
+        pathfollow,
+        pathfollow_figure,
+        pcrb,
+        physical_plant,
+        rate_bound,
+        reconfiguration,
+        robust_ftc,
+        tuning,
+    )
 
     out: dict[str, list[Callable[[Path], str]]] = {name: [findings.report] for name in findings.STUDIES}
     out.setdefault("reconfiguration", []).insert(0, reconfiguration.report)
     out["physical_plant"].insert(0, physical_plant.report)
     out["rate_bound"] = [rate_bound.report]
     out["pathfollow"] = [pathfollow.report]
+    out["pathfollow_figure"] = [pathfollow_figure.report]
     out["robust_ftc"] = out["robust_ftc_fixed"] = [robust_ftc.report]
     out["fdi"] = [fdi.report]
     out["pcrb"] = [pcrb.report]
+    for name, tuned in tuning.tuned_by_study().items():
+        out[name] = [partial(tuning.report, tuned=tuned)]
     return out
 
 

@@ -63,8 +63,8 @@ def test_findings_section_and_refusals(tmp_path: Path) -> None:
                                     "## By `x`\n")
     assert doc_tables("severity", out) == "#### `severity` — generated findings (runs: 4 of 4 planned have " \
                                           "results)\n\n- a finding.\n"
-    with pytest.raises(BadInput, match="--report: study 'tune_dwell' has no published table"):
-        doc_tables("tune_dwell", out)
+    with pytest.raises(BadInput, match="--report: study 'no_such_study' has no published table"):
+        doc_tables("no_such_study", out)
     with pytest.raises(BadInput, match="--report: .* is not a study output folder"):
         doc_tables("severity", tmp_path / "missing")
 

@@ -1,31 +1,42 @@
-"""Regenerate docs/paper-claims.md (and its figures in docs/figures/) from an ``ftc-mj paper`` output.
-
-    .venv/bin/ftc-mj paper --quick --out runs/out/paper-quick         # single-seed verdicts (seed 0)
-    .venv/bin/ftc-mj paper --out runs/out/paper --tune --baseline docs/paper-claims.md \
-        --baseline runs/out/paper-quick                                 # the published and today's seed 0
-    .venv/bin/python docs/tools/paper_claims.py runs/out/paper
+"""``ftc-mj paper --publish DOCS``: the report of an output folder published as ``DOCS/paper-claims.md``, with
+the figure selection :data:`FIGURES` copied into ``DOCS/figures/``.
 
 The head note is generated: the command, commit, date and machine load from ``paper_run.json``, which
 seeds are development and which held-out, the tuning results, and the verdicts that changed against
-the baseline (``changes.md``, the mechanical comparison of :mod:`ftc_mj.paper.diff`); the body is
-``claims.md`` verbatim, with the figure list cut to the figures copied into docs/figures/.
+the baseline (``changes.md``, the mechanical comparison of :mod:`.diff`); the body is ``claims.md``
+verbatim, with the figure list cut to the figures copied.
 """
 
 from __future__ import annotations
 
 import json
 import shutil
-import sys
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[2]
+from ..errors import BadInput
+from ..io import atomic_path
+
 FIGURES = ("imm_variants_s2.png", "innovations_s2.png", "mode_probs_nofb.png", "policies.png",
            "radius_comparison_s4.png", "radius_s1.png", "trajectory_nmpc_vs_lmpc.png", "trajectory_s2.png",
            "wheel_rates_s2_nmpc_vs_lmpc.png")
 """The figures kept in the repository (the output folder has all of them)."""
 
+REGENERATE = ("Regenerate with `ftc-mj paper --quick --out runs/out/paper-quick` (the single-seed baseline), then "
+              "`ftc-mj paper --out runs/out/paper --tune --baseline docs/paper-claims.md --baseline "
+              "runs/out/paper-quick --publish docs` (add `--report-only` to rebuild from finished runs).")
+"""The last sentence of the head note's first paragraph: the commands that make the published file."""
+
+
+def check_target(docs: Path) -> None:
+    """``docs`` must be an existing folder (:class:`BadInput` naming ``--publish`` otherwise)."""
+    if not Path(docs).is_dir():
+        raise BadInput(f"--publish: {docs} is not a directory (the docs folder that receives paper-claims.md "
+                       "and figures/)")
+
 
 def head_note(out: Path) -> str:
+    """The generated block quote that opens ``paper-claims.md``: provenance of the output folder ``out``,
+    the seed sets, the tuned parameters and what changed against each baseline."""
     info = json.loads((out / "paper_run.json").read_text())
     load = "/".join(f"{x:.1f}" for x in (info.get("started_load_avg") or [])[:1] + (info.get("finished_load_avg")
                                                                                     or [])[:1])
@@ -34,8 +45,7 @@ def head_note(out: Path) -> str:
     lines = [f"> Copied from `{out}/claims.md`, written by {cmd} (finished {info.get('finished_at')}, "
              f"commit {info.get('commit')}; {info['runs']} runs, {len(info.get('failed') or [])} failed, in "
              f"{info.get('wall_time_s') or 0:.0f} s + {info.get('report_time_s') or 0:.0f} s report on "
-             f"{info.get('cpus')} cores, 1-min load average {load} at start/end). Regenerate with the commands "
-             f"in `docs/tools/paper_claims.py`."]
+             f"{info.get('cpus')} cores, 1-min load average {load} at start/end). {REGENERATE}"]
     doc = json.loads((out / "claims.json").read_text())
     seeds = doc.get("seeds") or []
     lines.append(f"> Judged on the {doc.get('seed_set', '?')} seeds {', '.join(map(str, seeds))}; the development "
@@ -57,7 +67,8 @@ def head_note(out: Path) -> str:
 
 
 def _provenance(src: str) -> str:
-    """`` (commit …, finished …; N seeds)`` for a baseline output folder that kept its ``paper_run.json``."""
+    """`` (the `ftc-mj paper` output of commit …, finished …)`` for a baseline output folder (a path as given on
+    the command line, relative to the working directory) that kept its ``paper_run.json``; empty otherwise."""
     run = Path(src) / "paper_run.json"
     if not run.is_file():
         return ""
@@ -66,6 +77,8 @@ def _provenance(src: str) -> str:
 
 
 def body(out: Path) -> str:
+    """``claims.md`` of ``out`` with its figure list cut to the :data:`FIGURES` the folder has (the list's
+    leading note kept)."""
     md = (out / "claims.md").read_text()
     main, _, figs = md.partition("\n## Figures\n")
     kept = [f for f in FIGURES if (out / "figures" / f).is_file()]
@@ -76,13 +89,18 @@ def body(out: Path) -> str:
             "folder.\n\n" + "\n".join(f"- [`figures/{f}`](figures/{f})" for f in kept) + "\n")
 
 
-def main(argv: list[str]) -> None:
-    out = Path(argv[1] if len(argv) > 1 else REPO / "runs" / "out" / "paper")
-    (REPO / "docs" / "paper-claims.md").write_text(head_note(out) + "\n" + body(out))
+def publish(out: Path, docs: Path) -> list[Path]:
+    """Write ``docs/paper-claims.md`` (:func:`head_note` and :func:`body` of the output folder ``out``) and copy
+    the selected figures into ``docs/figures/``; the files written, ``paper-claims.md`` first."""
+    check_target(docs)
+    out, docs = Path(out), Path(docs)
+    text = head_note(out) + "\n" + body(out)
+    written = [docs / "paper-claims.md"]
+    with atomic_path(written[0]) as tmp:
+        tmp.write_text(text)
     for f in FIGURES:
         if (out / "figures" / f).is_file():
-            shutil.copyfile(out / "figures" / f, REPO / "docs" / "figures" / f)
-
-
-if __name__ == "__main__":
-    main(sys.argv)
+            with atomic_path(docs / "figures" / f) as tmp:
+                shutil.copyfile(out / "figures" / f, tmp)
+            written.append(docs / "figures" / f)
+    return written

@@ -122,13 +122,13 @@ def _cli(*args: str) -> list[str]:
 
 def test_interrupted_study_resumes_without_recomputing(small_study: Path, serial_reference: pl.DataFrame,
                                                        dask_client: Any, tmp_path: Path) -> None:
-    """A CLI study killed (SIGKILL of the process and its local workers: a real process) after two rows
+    """A CLI study killed (SIGKILL of the process and its local worker: real processes) after two rows
     is resumed by the same command, which computes only the missing runs. The resuming invocation runs
     the CLI in this process on the session's cluster (``--address``): the process boundary matters
     only for the kill, and the session's workers already hold the study's solver."""
     out = tmp_path / "out"
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    proc = subprocess.Popen(_cli(str(small_study), "--out", str(out), "--workers", "2", "-q"), cwd=ROOT, env=env,
+    proc = subprocess.Popen(_cli(str(small_study), "--out", str(out), "--workers", "1", "-q"), cwd=ROOT, env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
     deadline = time.time() + 120
     rows = out / "rows"

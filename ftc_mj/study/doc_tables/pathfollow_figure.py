@@ -124,7 +124,7 @@ def run_table(traces: dict[tuple[str, str], Trace], status: dict[tuple[str, str]
         e, t, lift = np.abs(tr["cross_track_error"]), tr["t"], lifted(tr["plant_flags"])
         dt = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
         k = int(np.nanargmax(e)) if np.isfinite(e).any() else None
-        rows.append({"scenario": sc, "controller": ctl, "status": status[sc, ctl], "rows": t.size,
+        rows.append({"scenario": sc, "controller": ctl, "status": status[sc, ctl], "rows": str(t.size),
                      "max |e_c| (m)": None if k is None else f"{e[k]:.2f} at {t[k]:.1f} s",
                      "lowest speed (m/s)": f"{np.nanmin(tr['v']):.2f}" if t.size else None,
                      "wheel off the ground (s)": f"{np.sum(lift) * dt:.2f}" if t.size > 1 else None,

@@ -8,9 +8,11 @@ one Dask cluster (under pytest-xdist every test that uses it runs in the same wo
 ``xdist_group`` below, with ``--dist loadgroup`` from the pytest options).
 
 Solver cache: the session's processes (xdist workers, CLI and example subprocesses, Dask workers)
-share one fresh IPOPT solver cache (:mod:`ftc_mj.control.solver_cache`) in a temporary folder removed
-at the end, so the suite never reads or writes the user's cache and each distinct NLP is derived once
-per session."""
+share the suite's own IPOPT solver cache (:mod:`ftc_mj.control.solver_cache`), never the user's: pytest's
+cache folder ``.pytest_cache/d/ftc-mj-solvers`` (kept between sessions like numba's cache beside the
+sources, so each distinct NLP is derived once per clone; ``pytest --cache-clear`` empties it, entries
+unused for 14 days are pruned), or a temporary folder removed at the end when pytest's cache is off
+(``-p no:cacheprovider``). A loaded solver is bitwise the fresh build (``control/test_solver_cache.py``)."""
 
 from __future__ import annotations
 
@@ -23,23 +25,31 @@ from typing import Any
 
 import pytest
 
-from ftc_mj.control.solver_cache import CACHE_ENV
+from ftc_mj.control.solver_cache import CACHE_ENV, prune
 from ftc_mj.sim.loop import STRICT_ENV
 from tests.support.shared_runs import SharedRuns
 
 os.environ[STRICT_ENV] = "1"
 _OWN_CACHE: list[str] = []
+SOLVER_CACHE_MAX_AGE_S = 14 * 86400.0
+"""Cached solvers unused this long (s) are deleted when a session starts."""
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """A fresh solver cache for the session, made by the first process (xdist workers inherit it)."""
-    if not os.environ.get(CACHE_ENV):
-        _OWN_CACHE.append(tempfile.mkdtemp(prefix="ftc-mj-test-cache-"))
-        os.environ[CACHE_ENV] = _OWN_CACHE[0]
+    """The suite's solver cache, chosen by the main process (xdist workers inherit the variable)."""
+    if hasattr(config, "workerinput"):
+        return
+    if getattr(config, "cache", None) is not None:
+        root = config.cache.mkdir("ftc-mj-solvers")
+        prune(root / "solvers", SOLVER_CACHE_MAX_AGE_S)
+    else:
+        root = Path(tempfile.mkdtemp(prefix="ftc-mj-test-cache-"))
+        _OWN_CACHE.append(str(root))
+    os.environ[CACHE_ENV] = str(root)
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
-    """Remove the session's solver cache (only the one this process made)."""
+    """Remove the session's temporary solver cache (only one this process made)."""
     for folder in _OWN_CACHE:
         shutil.rmtree(folder, ignore_errors=True)
 

@@ -62,6 +62,8 @@ def test_run_study_serially_and_load_it_back(tmp_path: Path) -> None:
         [[axes]]
         key = "estimator.kind"
         values = ["ekf", "ukf"]
+        [analysis]
+        figures = false
     """))
     res = ftc_mj.run_study(study, tmp_path / "out", serial=True)
     assert res.results.height == 2 and res.results["estimator.kind"].to_list() == ["ekf", "ukf"]

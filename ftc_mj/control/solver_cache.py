@@ -10,7 +10,8 @@ Key: SHA-256 of the CasADi version, the solver name, the serialised problem (``x
 ``g``: every symbol, operation and constant) and the options. A changed problem, option or CasADi
 version is a new key; a file that cannot be read or loaded is rebuilt and replaced. Files are
 written atomically (a temporary name, then ``os.replace``), so concurrent processes never read half a
-file. Each entry is the zlib-compressed serialisation (a few MB).
+file. Each entry is the zlib-compressed serialisation (a few MB); loading an entry sets its
+modification time, so the oldest files are the least recently used (:func:`prune`).
 
 Where: ``$FTC_MJ_CACHE_DIR/solvers`` if set, else ``$XDG_CACHE_HOME/ftc-mj/solvers`` (default
 ``~/.cache/ftc-mj/solvers``). ``FTC_MJ_SOLVER_CACHE=off`` builds every solver afresh. Deleting the
@@ -22,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+import time
 import zlib
 from pathlib import Path
 
@@ -59,11 +61,16 @@ def problem_key(name: str, nlp: dict, opts: dict) -> str:
 
 def _load(path: Path) -> ca.Function | None:
     try:
-        return ca.Function.deserialize(zlib.decompress(path.read_bytes()).decode())
+        solver = ca.Function.deserialize(zlib.decompress(path.read_bytes()).decode())
     except FileNotFoundError:
         return None
     except (OSError, zlib.error, UnicodeDecodeError, RuntimeError):
         return None  # unreadable or from an incompatible build: rebuilt and replaced
+    try:
+        os.utime(path)  # the modification time is the last use: old entries can be pruned by age
+    except OSError:
+        pass
+    return solver
 
 
 def _store(path: Path, solver: ca.Function) -> None:
@@ -94,3 +101,18 @@ def ipopt_solver(name: str, nlp: dict, opts: dict) -> ca.Function:
     stats["built"] += 1
     _store(path, solver)
     return solver
+
+
+def prune(folder: Path, max_age_s: float) -> int:
+    """Delete the cached solvers in ``folder`` not used (built or loaded) for ``max_age_s`` seconds;
+    return how many were deleted."""
+    cutoff = time.time() - max_age_s
+    gone = 0
+    for path in Path(folder).glob("*.casadi.z"):
+        try:
+            if path.stat().st_mtime < cutoff:
+                path.unlink()
+                gone += 1
+        except OSError:
+            pass
+    return gone

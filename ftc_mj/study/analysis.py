@@ -24,8 +24,10 @@ from .tables import CONSISTENCY, CONSISTENCY_NOTE, axis_table, confusion, confus
 
 
 def analyse_study(plan: StudyPlan, results: pl.DataFrame, out: Path, *, figures: bool = True) -> str:
-    """Write ``out/summary.md`` (and ``out/figures/*.png``); return the markdown."""
+    """Write ``out/summary.md`` (and ``out/figures/*.png`` unless ``figures`` or the study's
+    ``[analysis] figures`` is false); return the markdown."""
     out = Path(out)
+    figures = figures and plan.spec.analysis.figures
     df = prepare(results)
     spec = plan.spec
     # runs whose physics blew up describe a frozen robot: counted apart, never averaged

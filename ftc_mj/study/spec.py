@@ -226,6 +226,9 @@ class AnalysisSpec(_Strict):
     findings: list[FindingSpec] = Field(default_factory=list)
     confusion_by: list[str] = Field(default_factory=list)
     """Axes for which a confusion matrix (true wheel × isolated wheel) is drawn per value."""
+    figures: bool = True
+    """Draw the summary's figures (``figures/*.png``: metrics by axis value, over time, confusion);
+    ``false`` writes the tables alone (drawing is most of an analysis's time: seconds per axis)."""
     timeseries_rate: Annotated[float, Field(gt=0, le=100)] = 2.0
     """Rate (Hz) of the compact time series kept per run for over-time figures; the trace has one row per
     estimator step, so ``estimator.rate`` (100 Hz by default) keeps every row."""

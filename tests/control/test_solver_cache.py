@@ -3,6 +3,8 @@ the options and nothing else; a broken file is rebuilt; the switch turns it off.
 
 from __future__ import annotations
 
+import os
+import time
 from pathlib import Path
 
 import casadi as ca
@@ -10,7 +12,7 @@ import numpy as np
 import pytest
 
 from ftc_mj.control import solver_cache
-from ftc_mj.control.solver_cache import CACHE_ENV, SWITCH_ENV, ipopt_solver, problem_key
+from ftc_mj.control.solver_cache import CACHE_ENV, SWITCH_ENV, ipopt_solver, problem_key, prune
 from ftc_mj.control.solvers import ipopt_options
 
 OPTS = ipopt_options(30, None, None)
@@ -70,3 +72,17 @@ def test_switched_off_writes_nothing(cache: Path, monkeypatch: pytest.MonkeyPatc
     ipopt_solver("t", rosenbrock(), OPTS)
     ipopt_solver("t", rosenbrock(), OPTS)
     assert solver_cache.stats == {"built": 2, "loaded": 0} and not cache.exists()
+
+
+def test_a_load_marks_the_entry_used_and_prune_deletes_only_unused_ones(cache: Path) -> None:
+    ipopt_solver("t", rosenbrock(), OPTS)
+    ipopt_solver("u", rosenbrock(a=2.0), OPTS)
+    (t_path,), (u_path,) = cache.glob("t-*.casadi.z"), cache.glob("u-*.casadi.z")
+    old = time.time() - 3600.0
+    for path in (t_path, u_path):
+        os.utime(path, (old, old))
+    ipopt_solver("t", rosenbrock(), OPTS)  # a load: used now
+    assert solver_cache.stats == {"built": 2, "loaded": 1}
+    assert t_path.stat().st_mtime > old + 3000.0
+    assert prune(cache, 1800.0) == 1
+    assert t_path.is_file() and not u_path.exists()

@@ -15,6 +15,7 @@ from ftc_mj.estimation.consistency import (
     anees_per_step,
     anis,
     autocorrelation_time,
+    chi2_average_bounds,
     combine,
     nees,
     nis,
@@ -23,6 +24,18 @@ from ftc_mj.estimation.factory import setup_from_config
 
 
 # ---------------------------------------------------------------------------- the maths
+def test_chi2_average_bounds_are_scipy_chi2_quantiles_bitwise() -> None:
+    """The bounds use the regularised incomplete gamma inverse directly (no scipy.stats import at run
+    time): bitwise the reference ``scipy.stats.chi2.ppf`` over integer and fractional dof, NaN for dof ≤ 0."""
+    dof = np.concatenate([np.arange(1.0, 400.0), np.geomspace(1e-3, 1e6, 500), [0.0, -1.0]])
+    for alpha in (0.05, 0.01, 0.3):
+        lo, hi = chi2_average_bounds(dof, alpha)
+        ok = dof > 0
+        np.testing.assert_array_equal(lo[ok], chi2.ppf(alpha / 2, dof[ok]) / dof[ok])
+        np.testing.assert_array_equal(hi[ok], chi2.ppf(1 - alpha / 2, dof[ok]) / dof[ok])
+        assert np.isnan(lo[~ok]).all() and np.isnan(hi[~ok]).all()
+
+
 def test_nees_is_the_full_quadratic_form_for_a_correlated_covariance() -> None:
     """Speed-only radius covariance: tight along the sum, loose along the split (correlation -0.9998)."""
     w = np.array([1.0, 1.0]) / np.sqrt(2.0)

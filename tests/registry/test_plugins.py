@@ -142,6 +142,8 @@ values = ["ukf", "textbook-ekf"]
 [[axes]]
 key = "reconfiguration.policy"
 values = ["safe", "late-handover"]
+[analysis]
+figures = false
 """
 
 

@@ -146,6 +146,8 @@ def test_study_rrd_compare(tmp_path: Path) -> None:
         key = "controller.open_loop_omega"
         values = [[5.0, 5.0], [5.0, 4.0]]
         labels = ["straight", "turn"]
+        [analysis]
+        figures = false
     """))
     res = CliRunner().invoke(app, ["study", str(p), "--out", str(tmp_path / "out"), "--serial", "--rrd", "compare",
                                    "-q"])

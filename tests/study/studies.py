@@ -17,3 +17,10 @@ unit = "m"
 """
 """Two axes (speed / speed + yaw rate × EKF / UKF: four combinations) and the finding on the final
 left-radius error by sensing; appended after a study's ``[base]`` table."""
+
+NO_FIGURES = """
+[analysis]
+figures = false
+"""
+"""Appended to a study whose test reads its rows or tables, not its figures: the summary is written
+without drawing (the figure code is checked by the tests that read the figures)."""

@@ -29,7 +29,7 @@ from ftc_mj.study.plan import plan_study
 from ftc_mj.study.rows import wall_columns
 from ftc_mj.study.runner import run_study
 from ftc_mj.study.store import StudyStore
-from tests.study.studies import SENSORS_BY_ESTIMATOR
+from tests.study.studies import NO_FIGURES, SENSORS_BY_ESTIMATOR
 
 ROOT = Path(__file__).resolve().parents[2]
 STUDIES = resources.resource_path("studies")
@@ -45,7 +45,7 @@ feedback = false
 "faults.left" = [[1.5, 2.0], [1.5, 1.0]]
 "estimator.decision.dwell" = 0.2
 "controller.time_budget" = 5.0   # no wall-time-dependent fallbacks: runs must be reproducible
-""" + SENSORS_BY_ESTIMATOR
+""" + SENSORS_BY_ESTIMATOR + NO_FIGURES
 
 
 def comparable(df: pl.DataFrame) -> pl.DataFrame:
@@ -159,10 +159,13 @@ def test_interrupted_study_resumes_without_recomputing(small_study: Path, serial
     assert set(final["invocation"].to_list()) == {starts[0]["invocation"], starts[1]["invocation"]}
 
 
-def reduced(name: str, tmp_path: Path, overrides: dict[str, Any], keep: dict[str, list[Any]]) -> Path:
-    """A copy of a shipped study with one seed, shorter runs and only the axis labels in ``keep``."""
+def reduced(name: str, tmp_path: Path, overrides: dict[str, Any], keep: dict[str, list[Any]],
+            figures: bool = True) -> Path:
+    """A copy of a shipped study with one seed, shorter runs and only the axis labels in ``keep`` (and its
+    summary without figures unless ``figures``)."""
     data = tomllib.loads((STUDIES / f"{name}.toml").read_text())
     data["seeds"] = 1
+    data.setdefault("analysis", {})["figures"] = figures
     data.setdefault("base", {}).update(overrides)
     for ax in data.get("axes", []):
         col = ax.get("name", ax.get("key"))
@@ -190,11 +193,14 @@ NUM = r"[0-9.]+(e[-+][0-9]+)?"
 ])
 def test_shipped_study_reduced(name: str, overrides: dict[str, Any], keep: dict[str, list[Any]], expect: str,
                                dask_client: Any, tmp_path: Path) -> None:
-    plan = plan_study(reduced(name, tmp_path, overrides, keep))
+    """Two runs of a shipped study on the cluster: its finding is stated; one of them (observability) also
+    draws its figures (the same figure code serves every study)."""
+    figures = name == "observability"
+    plan = plan_study(reduced(name, tmp_path, overrides, keep, figures))
     assert len(plan.runs) == 2
     rep = run_study(plan, tmp_path / "out", client=dask_client)
     assert rep.results is not None and rep.results.height == len(plan.runs)
     text = (tmp_path / "out" / "summary.md").read_text()
     assert "## Findings" in text
     assert re.search(expect, text), text[:3000]
-    assert (tmp_path / "out" / "figures" / f"by_{plan.axis_columns[0]}.png").is_file()
+    assert (tmp_path / "out" / "figures" / f"by_{plan.axis_columns[0]}.png").is_file() == figures

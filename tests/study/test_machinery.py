@@ -18,7 +18,7 @@ from ftc_mj.study.plan import plan_study
 from ftc_mj.study.rows import wall_columns
 from ftc_mj.study.runner import run_study
 from ftc_mj.study.store import StudyStore
-from tests.study.studies import SENSORS_BY_ESTIMATOR
+from tests.study.studies import NO_FIGURES, SENSORS_BY_ESTIMATOR
 from tests.support.fake_runs import FakeOutcome, FakeResult
 
 
@@ -192,14 +192,17 @@ def test_recordings_modes(tmp_path: Path, mode: str) -> None:
 
 
 def test_editing_findings_keeps_results(tmp_path: Path) -> None:
-    p = study(tmp_path)
+    p = study(tmp_path, STUDY + NO_FIGURES)
     out = tmp_path / "out"
     run_study(plan_study(p), out, serial=True, run_fn=fake_run, analyse=False)  # the edit's summary is checked
-    p.write_text(textwrap.dedent(STUDY).replace('baseline = "speed"', 'baseline = "speed+yaw"'))
+    p.write_text(textwrap.dedent(STUDY + NO_FIGURES).replace('baseline = "speed"', 'baseline = "speed+yaw"'))
     rep = run_study(plan_study(p), out, serial=True, run_fn=fake_run)
     assert rep.computed == [] and rep.already_done == 12
-    assert "sensors = speed raises it from 0.05" in (out / "summary.md").read_text()
+    summary = (out / "summary.md").read_text()
+    assert "sensors = speed raises it from 0.05" in summary
     assert (out / "study.toml").read_text() == p.read_text()
+    # [analysis] figures = false: the tables, no figure and no link to one
+    assert "| sensors |" in summary and "![" not in summary and not (out / "figures").exists()
 
 
 def test_bad_invocations_leave_results_untouched(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -207,7 +210,7 @@ def test_bad_invocations_leave_results_untouched(tmp_path: Path, monkeypatch: py
 
     from ftc_mj.cli import app
 
-    p = study(tmp_path)
+    p = study(tmp_path, STUDY + NO_FIGURES)
     out = tmp_path / "out"
     run_study(plan_study(p), out, serial=True, run_fn=fake_run, limit=5)
     snapshot = {q: q.read_bytes() for q in out.rglob("*") if q.is_file()}

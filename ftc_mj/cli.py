@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from typer.core import TyperGroup
+from typer.core import TyperCommand, TyperGroup
 
 from .errors import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED, EXIT_UNSTABLE, BadInput, RunFailed
 
@@ -47,6 +47,24 @@ class OneLineErrorGroup(TyperGroup):
         if not standalone_mode:
             return code
         sys.exit(code)
+
+
+class RegistryHelpCommand(TyperCommand):
+    """A command whose option help names the registered components: the tokens ``{estimators}``,
+    ``{decision_rules}``, ``{controllers}``, ``{policies}`` and ``{references}`` in an option's help are
+    replaced by the registry's names when the help is shown (loading the registries imports the
+    components, about a second, so not at import)."""
+
+    def format_help(self, ctx: Any, formatter: Any) -> None:
+        from .registry import REGISTRIES
+
+        for param in self.params:
+            text = getattr(param, "help", None)
+            if text and "{" in text:
+                for name, reg in REGISTRIES.items():
+                    text = text.replace("{" + name + "}", ", ".join(reg.names()))
+                param.help = text  # type: ignore[attr-defined]
+        super().format_help(ctx, formatter)
 
 
 app = typer.Typer(add_completion=False, pretty_exceptions_enable=False, cls=OneLineErrorGroup,
@@ -148,27 +166,26 @@ def _flag_overrides(ov: dict[str, Any], flags: list[tuple[str, str, Any]]) -> di
     return ov
 
 
-@app.command()
+@app.command(cls=RegistryHelpCommand)
 def run(
     scenario: Annotated[str, typer.Argument(help="Built-in scenario (scenario1..scenario4) or a TOML file.",
                                             metavar="SCENARIO", show_default=False)],
     estimator: Annotated[str | None, typer.Option(
-        metavar="NAME", help="FDI filter: a registered estimator (built-in ekf, ukf, imm-ekf, imm-ukf, none; "
-             "'ftc-mj components' lists all). "
+        metavar="NAME", help="FDI filter, a registered estimator: {estimators} (or a plug-in's, with --plugin). "
              f"[default: the scenario's estimator.kind, else {_D.estimator.kind}]")] = None,
     imm_models: Annotated[ImmModels | None, typer.Option(
         help=f"IMM bank size (imm-ekf/imm-ukf only). [default: {_D.estimator.imm_models}]")] = None,
     imm_variant: Annotated[ImmVariant | None, typer.Option(
         help=f"IMM variant (imm-ekf/imm-ukf only). [default: {_D.estimator.imm_variant}]")] = None,
     reconfig: Annotated[str | None, typer.Option(
-        metavar="NAME", help="Reconfiguration policy, registered: built-in none (nominal radii), direct (latest "
-             "estimate, the paper's feedback), safe (gated, clamped, rate-limited hand-over), truth (oracle). "
-             f"[default: the scenario's reconfiguration.policy, else {_D.reconfiguration.policy}]")] = None,
+        metavar="NAME", help="Reconfiguration policy, registered: {policies} (none: nominal radii; direct: "
+             "the latest estimate, the paper's feedback; safe: gated, clamped, rate-limited hand-over; truth: "
+             f"oracle). [default: the scenario's reconfiguration.policy, else {_D.reconfiguration.policy}]")] = None,
     feedback: Annotated[bool | None, typer.Option("--feedback/--no-feedback",
                                                   help="Aliases of --reconfig direct / --reconfig none.",
                                                   show_default=False)] = None,
     controller: Annotated[str | None, typer.Option(
-        metavar="NAME", help="Tracking controller, registered: built-in nmpc, lmpc, open-loop. "
+        metavar="NAME", help="Tracking controller, registered: {controllers}. "
              f"[default: the scenario's controller.kind, else {_D.controller.kind}]")] = None,
     seed: Annotated[int | None, typer.Option(help=f"Random seed of the noise. [default: {_D.seed}]")] = None,
     duration: Annotated[float | None, typer.Option(

@@ -33,6 +33,7 @@ from importlib.metadata import entry_points
 from typing import Any
 
 from .errors import BadInput
+from .suggest import did_you_mean
 
 NAME_RE = re.compile(r"^[a-z0-9][a-z0-9_.+-]{0,62}$")
 """A component name: lower-case letters, digits and ``_ . + -`` (it appears in run ids and file names)."""
@@ -132,8 +133,10 @@ class Registry:
 
     def unknown(self, name: str) -> str:
         """The message for an unregistered ``name``."""
-        return (f"unknown {self.kind} {name!r}; registered: {', '.join(self.names())} (register one with "
-                f"ftc_mj.register_{self.kind.replace(' ', '_')}, or name its module in plugins = [...])")
+        names = self.names()
+        return (f"unknown {self.kind} {name!r}{did_you_mean(name, names)}; registered: {', '.join(names)} "
+                f"(register one with ftc_mj.register_{self.kind.replace(' ', '_')}, or name its module in "
+                "plugins = [...])")
 
     def build(self, name: str, *args: Any, **kwargs: Any) -> Any:
         """``factory(*args, **kwargs)`` of ``name``."""

@@ -10,6 +10,7 @@ from typing import Any
 
 from .. import resources
 from ..errors import BadInput
+from ..suggest import did_you_mean
 
 BUILTIN_SCENARIOS = resources.builtin_scenarios()
 """Names of the scenarios shipped in the package (``scenario1`` … ``scenario4``)."""
@@ -22,12 +23,12 @@ def scenario_path(name_or_path: str | Path) -> Path:
     s = str(name_or_path)
     if s in BUILTIN_SCENARIOS:
         return resources.scenario_file(s)
-    return existing_file(s, "scenario", "no such built-in scenario or file")
+    return existing_file(s, "scenario", "no such built-in scenario or file", did_you_mean(s, BUILTIN_SCENARIOS))
 
 
-def existing_file(s: str, what: str, missing: str = "no such file") -> Path:
-    """``Path(s)`` if it names a readable regular file; else :class:`BadInput` (``what: why``), also for
-    names the OS rejects (NUL bytes, too long)."""
+def existing_file(s: str, what: str, missing: str = "no such file", hint: str = "") -> Path:
+    """``Path(s)`` if it names a readable regular file; else :class:`BadInput` (``what: why``, then ``hint``
+    when there is no such file, e.g. a "did you mean"), also for names the OS rejects (NUL bytes, too long)."""
     shown = s if len(s) <= 120 else s[:120] + "…"
     if not s or "\0" in s:
         raise BadInput(f"{what}: expected a file path, got {shown!r}")
@@ -37,7 +38,7 @@ def existing_file(s: str, what: str, missing: str = "no such file") -> Path:
     except OSError as err:
         raise BadInput(f"{what}: {shown}: {err.strerror}") from None
     if not found:
-        raise BadInput(f"{what}: {missing}: {shown}")
+        raise BadInput(f"{what}: {missing}: {shown}{hint}")
     return p
 
 

@@ -14,6 +14,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from ..errors import BadInput
+from ..suggest import first_leaf, suggest_key
 from .errors import one_line
 from .files import read_toml, scenario_path
 from .schema import RunConfig
@@ -25,9 +26,21 @@ def validate_config(data: dict[str, Any]) -> RunConfig:
     try:
         return RunConfig.model_validate(data)
     except ValidationError as err:
-        raise BadInput(one_line(err)) from None
+        raise BadInput(one_line(err) + unknown_key_hint(err)) from None
     except RecursionError:
         raise BadInput("config: values nested too deeply") from None
+
+
+def unknown_key_hint(err: ValidationError) -> str:
+    """``"; did you mean estimator.decision.rule?"`` when the first error of ``err`` is a key the run config
+    does not have and a close or a wrong-level key exists, else ``""``."""
+    e = err.errors()[0]
+    loc = [p for p in e["loc"] if isinstance(p, str)]
+    if e["type"] != "extra_forbidden" or len(loc) != len(e["loc"]):
+        return ""
+    parts = [*loc, *first_leaf(e.get("input"))]
+    key = suggest_key(RunConfig, parts, len(loc) - 1)
+    return f"; did you mean {key}?" if key else ""
 
 
 def section(model: type[BaseModel], value: Any, where: str) -> Any:

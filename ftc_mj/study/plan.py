@@ -22,6 +22,7 @@ from ..config import RunConfig, existing_file, read_toml, scenario_path, set_dot
 from ..errors import BadInput
 from ..identity import canonical_hash, run_digest
 from ..resources import builtin_studies, study_file
+from ..suggest import did_you_mean
 from .spec import AxisSpec, Scalar, StudySpec, flatten_dotted, key_error, read_study_spec
 
 PLACEHOLDER = re.compile(r"^\{([A-Za-z_][A-Za-z0-9_]*)\}$")
@@ -179,7 +180,7 @@ def study_path(name_or_path: str | Path) -> Path:
     s = str(name_or_path)
     if s in builtin_studies():
         return study_file(s)
-    return existing_file(s, "STUDY_FILE", "no such built-in study or file")
+    return existing_file(s, "STUDY_FILE", "no such built-in study or file", did_you_mean(s, builtin_studies()))
 
 
 def plan_study(

@@ -61,6 +61,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from ..config import RunConfig, SafeName, one_line, read_toml
 from ..errors import BadInput
+from ..suggest import suggest_key
 
 Scalar = str | int | float | bool
 RESERVED_COLUMNS = frozenset({"run_key", "run_index", "seed", "status", "error", "invocation"})
@@ -279,7 +280,8 @@ def key_error(key: str) -> str | None:
         fields = model.model_fields
         if part not in fields:
             where = ".".join(parts[:i]) or "the config"
-            return f"unknown key {part!r} in {where}"
+            near = suggest_key(RunConfig, parts, i)
+            return f"unknown key {part!r} in {where}" + (f" (did you mean {near}?)" if near else "")
         ann = fields[part].annotation
         sub = ann if isinstance(ann, type) and issubclass(ann, BaseModel) else None
         if typing.get_origin(ann) is typing.Annotated:

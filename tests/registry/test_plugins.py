@@ -41,7 +41,8 @@ def test_registry_names_are_unique_checked_and_listed() -> None:
         ftc_mj.register_estimator("My Filter", lambda cfg: None)
     with pytest.raises(TypeError, match="callable"):
         ftc_mj.register_estimator("not-callable", 3)  # type: ignore[arg-type]
-    with pytest.raises(BadInput, match=r"^estimator.kind: unknown estimator 'nope'; registered: ekf, imm-ekf"):
+    with pytest.raises(BadInput, match=r"^estimator.kind: unknown estimator 'nope' \(did you mean 'none'\?\); "
+                                       "registered: ekf, imm-ekf"):
         validate_config({"estimator": {"kind": "nope"}})
     try:
         ftc_mj.register_estimator("probe-filter", lambda cfg: None)

@@ -202,7 +202,9 @@ def run(
     """Run one closed-loop simulation and write OUT/<run-id>/ (config.toml, trace.parquet,
     metrics.json, events.json, run.rrd).
 
-    Exit codes: 0 ok; 1 the run failed (reason in metrics.json) or could not be written; 2 bad input
+    Exit codes: 0 the run completed (whatever the robot did: the first lines of the summary and
+    metrics.json's outcome say on the path, off the path or tipped over); 1 the run failed (reason in
+    metrics.json) or could not be written; 2 bad input
     (one line naming the field, nothing written); 3 the physics became unstable (status unstable: the
     robot froze where MuJoCo's state blew up, so its metrics are not results).
     """
@@ -350,6 +352,17 @@ def study(
     typer.echo(f"{plan.spec.name}: computed {len(outcome.computed)} runs ({n_bad} failed, {len(outcome.unstable)} "
                f"with unstable physics) in {outcome.wall_time_s:.1f} s; {done} of {outcome.planned} done; "
                f"results in {out_dir}")
+    if outcome.computed:
+        typer.echo(f"{plan.spec.name}: outcomes of the computed runs: {outcome_counts(outcome.outcomes)}")
+
+
+def outcome_counts(counts: dict[str, int]) -> str:
+    """``"3 on the path, 1 TIPPED OVER"``: the runs per physical outcome, best first, those that did not hold
+    the path in capitals."""
+    from .metrics.outcome import OUTCOMES
+
+    order = [*OUTCOMES, *sorted(set(counts) - set(OUTCOMES))]
+    return ", ".join(f"{counts[k]} {k if k == 'on the path' else k.upper()}" for k in order if counts.get(k))
 
 
 def _print_doc_tables(name: str, out_dir: Path) -> None:

@@ -62,7 +62,9 @@ Failures
 Run
     ``sim_time_s`` (simulated time, s); :func:`~ftc_mj.sim.run.run_metrics` adds the run's identity
     (``run_id``, ``scenario``, ``estimator``, ``controller``, ``policy``, ``sensing``, ``seed``, …),
-    ``status``, ``wall_time_s`` and ``realtime_factor``.
+    ``status`` (did the simulation complete), the physical outcome (``outcome``, ``outcome_rule``,
+    ``outcome_cross_track_m``, ``wheel_lifted``: :mod:`ftc_mj.metrics.outcome`), ``wall_time_s`` and
+    ``realtime_factor``.
 """
 
 from __future__ import annotations

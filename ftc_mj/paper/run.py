@@ -226,7 +226,8 @@ def _echo_rows(echo: Callable[[str], None] | None, total: int) -> Callable[[dict
         done[0] += 1
         if echo is not None:
             err = f" — {row.get('error')}" if row.get("status") != "ok" else ""
-            echo(f"[{done[0]}/{total}] {row.get(AXIS)} seed {row.get('seed')}: {row.get('status')} "
+            robot = f", robot {row['outcome']}" if row.get("outcome") else ""
+            echo(f"[{done[0]}/{total}] {row.get(AXIS)} seed {row.get('seed')}: {row.get('status')}{robot} "
                  f"({row.get('task_wall_s') or float('nan'):.1f} s){err}")
 
     return on_row

@@ -8,6 +8,8 @@ suffix is added). Before simulating, :func:`~ftc_mj.sim.output.check_output_root
 run (a usage error otherwise); a write that still fails raises
 :class:`~ftc_mj.errors.OutputError` and leaves nothing behind.
 
+A run's ``status`` says whether the *simulation* completed; its ``outcome``
+(:mod:`ftc_mj.metrics.outcome`) says what the robot did: on the path, off the path or tipped over.
 A run's ``status`` is ``ok``, ``failed`` (an exception ended it; ``error`` says which) or
 ``unstable``: the physics blew up (plant flag ``UNSTABLE`` or ``NAN``, or a non-finite true pose) —
 its metrics describe a frozen or reset robot and must not be read as results.
@@ -30,6 +32,7 @@ from ..identity import run_id
 from ..io import atomic_dir, remove_stale_temporaries, unique_dir, write_json, write_parquet, write_toml
 from ..metrics.fdi import fdi_sweep_metrics
 from ..metrics.onsets import fault_onsets
+from ..metrics.outcome import physical_outcome
 from ..metrics.run import compute_metrics
 from ..plant import NAN, UNSTABLE
 from ..telemetry.columns import trace_schema_metadata
@@ -84,6 +87,7 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
     if ds is not None:
         m["severity_R"] = getattr(ds, "severity_R", None)
         m["severity_L"] = getattr(ds, "severity_L", None)
+    m.update(physical_outcome(m))
     m["wall_time_s"] = res.wall_time
     m["realtime_factor"] = m["sim_time_s"] / res.wall_time if res.wall_time > 0 else float("nan")
     return m

@@ -1,4 +1,6 @@
-"""The short summary table printed after a run: each metric with its unit, radii shown as truth and
+"""The short summary printed after a run: first the physical outcome (on the path, off the path,
+tipped over: :mod:`ftc_mj.metrics.outcome`) beside the simulation status, then a table of each metric
+with its unit, radii shown as truth and
 estimate at the end of the run, errors signed as estimate − truth; then one line per fault onset
 (detected, missed, or after the end of the run) and a note when the ``safe`` policy kept the
 nominal radii because the split between the radii was not identified."""
@@ -14,7 +16,8 @@ from rich.table import Table
 from .run import RunOutcome
 
 SUMMARY_ROWS: tuple[tuple[str, str, str], ...] = (
-    ("status", "status", ""),
+    ("outcome", "outcome (robot)", ""),
+    ("status", "simulation status", ""),
     ("radius_final_error_R", "R_R final error (estimate − truth)", "m"),
     ("radius_final_error_L", "R_L final error (estimate − truth)", "m"),
     ("radius_rmse_R", "R_R RMSE", "m"),
@@ -106,6 +109,28 @@ def nominal_hold_note(m: dict[str, Any], trace: dict[str, np.ndarray], max_sigma
             f"tyre shrank ({why}); a yaw-rate gyro identifies it (--set sensors.yaw_rate_sigma=0.01).")
 
 
+OUTCOME_STYLE = {"on the path": "bold green", "off the path": "bold red", "tipped over": "bold white on red",
+                 "not judged": "bold yellow"}
+"""How each outcome is printed (rich styles; plain text without a terminal)."""
+
+
+def outcome_lines(m: dict[str, Any]) -> list[tuple[str, str]]:
+    """The summary's first lines, ``(text, rich style)``: the physical outcome with its rule, whether a
+    wheel lifted, and what the simulation status means (exit code 0 for a completed run, whatever the
+    robot did)."""
+    if "outcome" not in m:
+        return []
+    out = m["outcome"]
+    lines = [(f"OUTCOME: {out.upper()} ({m.get('outcome_rule')})", OUTCOME_STYLE.get(out, "bold"))]
+    if m.get("wheel_lifted"):
+        lines.append((f"a wheel lifted off the ground for {_fmt(m.get('liftoff_time_post_transient_s'))} s "
+                      "(outside the first second after each fault onset)", "yellow"))
+    status = m.get("status")
+    done = "the simulation completed" if status == "ok" else "the simulation did not complete soundly"
+    lines.append((f"simulation status: {status} ({done}; the outcome above is what the robot did)", ""))
+    return lines
+
+
 def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None) -> None:
     """Print the key metrics of a run (with units) and where its files are. ``max_sigma`` (m) is the
     safe policy's identification bound, for the note on a nominal hold."""
@@ -118,6 +143,8 @@ def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None) -> No
         if key not in m:
             continue
         value = m[key]
+        if key == "status" and value == "ok":
+            value = "ok (completed)"
         if key == "reconfig_handovers":
             value = f"{m.get('reconfig_handovers')} / {m.get('reconfig_holds')} / {m.get('reconfig_reverts')}"
         table.add_row(label, _fmt(value), unit)
@@ -125,6 +152,8 @@ def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None) -> No
             for row in radii_rows(m, trace):
                 table.add_row(*row)
     console = Console()
+    for text, style in outcome_lines(m):
+        console.print(text, style=style or None, soft_wrap=True)
     console.print(table)
     for line in onset_lines(m):
         console.print(line, soft_wrap=True)

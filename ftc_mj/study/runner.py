@@ -49,6 +49,9 @@ class StudyReport:
     """Keys of computed runs whose status is not ok (including ``unstable``)."""
     unstable: list[str] = field(default_factory=list)
     """Keys of computed runs whose physics became unstable (status ``unstable``)."""
+    outcomes: dict[str, int] = field(default_factory=dict)
+    """How many computed runs ended with each physical outcome (``on the path``, ``off the path``,
+    ``tipped over``, ``not judged``: :mod:`ftc_mj.metrics.outcome`)."""
     wall_time_s: float = 0.0
     results: pl.DataFrame | None = None
 
@@ -193,6 +196,8 @@ def _persister(store: StudyStore, report: StudyReport,
             report.failed.append(run.key)
         if row.get("status") == "unstable":
             report.unstable.append(run.key)
+        kind = str(row.get("outcome") or "not judged")
+        report.outcomes[kind] = report.outcomes.get(kind, 0) + 1
         if on_row is not None:
             on_row(row)
 

@@ -240,7 +240,7 @@ def run(
     except KeyboardInterrupt:
         _interrupted("interrupted; nothing of this run was written")
         return
-    _report_run(outcome, cfg, quiet)
+    _report_run(outcome, cfg, quiet, scenario)
 
 
 def _run_config(scenario: str, ov: dict[str, Any], flags: list[tuple[str, str, Any]], plugins: list[str]) -> Any:
@@ -261,14 +261,14 @@ def _run_config(scenario: str, ov: dict[str, Any], flags: list[tuple[str, str, A
     return cfg
 
 
-def _report_run(outcome: Any, cfg: Any, quiet: bool) -> None:
+def _report_run(outcome: Any, cfg: Any, quiet: bool, scenario: str) -> None:
     """Print the run folder (``-q``) or the summary table; exit 3 for unstable physics, 1 for a failed run."""
     from .sim.summary import print_run_summary
 
     if quiet:
         typer.echo(str(outcome.run_dir))
     else:
-        print_run_summary(outcome, cfg.reconfiguration.max_sigma)
+        print_run_summary(outcome, cfg.reconfiguration.max_sigma, scenario)
     status = outcome.metrics["status"]
     if status == "unstable":
         typer.echo(f"ftc-mj: physics unstable: {outcome.metrics['error']}", err=True)

@@ -7,6 +7,7 @@ nominal radii because the split between the radii was not identified."""
 
 from __future__ import annotations
 
+import shlex
 from typing import Any
 
 import numpy as np
@@ -95,9 +96,23 @@ def radii_rows(m: dict[str, Any], trace: dict[str, np.ndarray]) -> list[tuple[st
     return rows
 
 
-def nominal_hold_note(m: dict[str, Any], trace: dict[str, np.ndarray], max_sigma: float | None) -> str | None:
+WORKING_OPTIONS = ("--set", "sensors.yaw_rate_sigma=0.01", "--set", "controller.rate_penalty=1", "--reconfig", "safe")
+"""The options that keep scenario 2's robot on its path (docs/findings.md, finding 5): a yaw-rate gyro
+(σ 0.01 rad/s) separates the radii, the actuation-rate term in the cost ends the wheel-rate limit
+cycle, and the ``safe`` policy hands the identified radii over. Either alone is not enough: the gyro
+with the paper's cost tips the robot over."""
+
+
+def working_command(scenario: str) -> str:
+    """The full command running ``scenario`` with :data:`WORKING_OPTIONS` (quoted for a POSIX shell)."""
+    return shlex.join(["ftc-mj", "run", scenario, *WORKING_OPTIONS])
+
+
+def nominal_hold_note(m: dict[str, Any], trace: dict[str, np.ndarray], max_sigma: float | None,
+                      scenario: str | None = None) -> str | None:
     """One sentence when the ``safe`` policy never handed radii over although a fault was declared,
-    because the radius split was not identified (its σ above ``max_sigma``, or no isolated wheel)."""
+    because the radius split was not identified (its σ above ``max_sigma``, or no isolated wheel), ending
+    with the command that identifies it (:func:`working_command` of ``scenario``, default the run's name)."""
     if m.get("policy") != "safe" or m.get("reconfig_handovers") or m.get("detection_time") is None:
         return None
     split = _final(trace, "radius_split_std")
@@ -106,7 +121,9 @@ def nominal_hold_note(m: dict[str, Any], trace: dict[str, np.ndarray], max_sigma
         return None
     why = f"σ of the split {split:.2f} m > {max_sigma:g} m" if split is not None and max_sigma else "no wheel isolated"
     return ("The safe policy kept the nominal radii: a fault was declared, but the speed alone cannot tell which "
-            f"tyre shrank ({why}); a yaw-rate gyro identifies it (--set sensors.yaw_rate_sigma=0.01).")
+            f"tyre shrank ({why}). A yaw-rate gyro tells them apart and the actuation-rate term in the cost lets "
+            "the policy hand the estimates over (the gyro alone, with the paper's cost, tips the robot over); "
+            f"try: {working_command(scenario or str(m.get('scenario')))}")
 
 
 OUTCOME_STYLE = {"on the path": "bold green", "off the path": "bold red", "tipped over": "bold white on red",
@@ -131,9 +148,10 @@ def outcome_lines(m: dict[str, Any]) -> list[tuple[str, str]]:
     return lines
 
 
-def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None) -> None:
+def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None, scenario: str | None = None) -> None:
     """Print the key metrics of a run (with units) and where its files are. ``max_sigma`` (m) is the
-    safe policy's identification bound, for the note on a nominal hold."""
+    safe policy's identification bound, for the note on a nominal hold; ``scenario`` the scenario as the
+    user named it (a built-in name or a file), for the command the note suggests."""
     m, trace = outcome.metrics, outcome.result.trace
     table = Table(title=f"run {outcome.run_id}", show_header=True)
     table.add_column("metric")
@@ -157,8 +175,8 @@ def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None) -> No
     console.print(table)
     for line in onset_lines(m):
         console.print(line, soft_wrap=True)
-    note = nominal_hold_note(m, trace, max_sigma)
+    note = nominal_hold_note(m, trace, max_sigma, scenario)
     if note:
-        console.print(note)
+        console.print(note, soft_wrap=True)
     if outcome.run_dir is not None:
         console.print(f"written: {outcome.run_dir}")

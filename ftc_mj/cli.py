@@ -411,19 +411,21 @@ def view(run_dirs: Annotated[list[str], typer.Argument(
         help="A run directory (or a .rrd file); several run directories open their comparison.",
         metavar="RUN_DIR...", show_default=False)]) -> None:
     """Open a run's Rerun recording in the Rerun viewer, or the comparison of several runs."""
-    from .rerun.viewer import check_display, check_recording, open_viewer
+    import shlex
+
+    from .rerun.viewer import check_display, check_recording, open_viewer, screenshot_command
 
     try:
         if len(run_dirs) == 1:
             rrd = check_recording(Path(run_dirs[0]))
-            check_display(f"docs/screenshot.sh {rrd} OUT.png")
+            check_display(screenshot_command(str(rrd)))
             open_viewer(rrd)
             return
         from .rerun.overlay import load_runs
 
         load_runs(run_dirs)  # bad input first: exit 2 before anything else
-        check_display(f"ftc-mj compare {' '.join(run_dirs)} --out compare.rrd && "
-                      "docs/screenshot.sh compare.rrd OUT.png")
+        check_display(f"ftc-mj compare {shlex.join(run_dirs)} --out compare.rrd && "
+                      f"{screenshot_command('compare.rrd')}")
         with tempfile.TemporaryDirectory(prefix="ftc-mj-view.") as tmp:
             rrd = _compare(run_dirs, Path(tmp) / "comparison.rrd", None)
             open_viewer(rrd)

@@ -25,7 +25,9 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import os
 import re
+import sys
 import warnings
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -218,14 +220,26 @@ def takes_run_config(factory: Callable[..., Any]) -> bool:
     return bool(params) and params[0].name in ("cfg", "config")
 
 
+def current_directory_on_path() -> None:
+    """Make modules in the current directory importable, as ``python -m`` does (``ftc-mj run --plugin
+    my_components`` from the folder holding ``my_components.py``); the directory is appended, so an
+    installed package of the same name still wins."""
+    cwd = os.getcwd()
+    if "" not in sys.path and cwd not in sys.path:
+        sys.path.append(cwd)
+        importlib.invalidate_caches()
+
+
 def load_plugins(modules: Iterable[str]) -> None:
-    """Import each plug-in module once (importing registers its components). :class:`BadInput` naming
-    ``plugins`` if a name is malformed or the module cannot be imported."""
+    """Import each plug-in module once (importing registers its components), the current directory
+    searched too (:func:`current_directory_on_path`). :class:`BadInput` naming ``plugins`` if a name is
+    malformed or the module cannot be imported."""
     for name in modules:
         if not isinstance(name, str) or not MODULE_RE.match(name):
             raise BadInput(f"plugins: {name!r} is not a module name (e.g. \"my_pkg.filters\")")
         if name in _loaded_plugins:
             continue
+        current_directory_on_path()
         try:
             importlib.import_module(name)
         except Exception as err:  # noqa: BLE001 - whatever the plug-in raised, the user's module is named

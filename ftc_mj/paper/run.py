@@ -42,6 +42,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from pydantic import ValidationError
+
+from ..config import RunConfig, one_line
 from ..errors import BadInput
 from ..io import atomic_path, write_json
 from .claims import evaluate_all
@@ -84,8 +87,8 @@ class PaperOptions:
     def check(self) -> None:
         if self.jobs < 1:
             raise BadInput(f"--jobs: must be ≥ 1 (got {self.jobs})")
-        if self.duration is not None and not self.duration > 0:
-            raise BadInput(f"--duration: must be > 0 (got {self.duration})")
+        if self.duration is not None:
+            check_duration(self.duration)
         if self.quick and (self.seeds is not None or self.seed_set != "held-out" or self.tune or self.baselines):
             raise BadInput("--quick: a single-seed look at seed 0; --seeds, --seed-set, --tune and --baseline need the "
                            "seeded mode")
@@ -119,6 +122,15 @@ class PaperOptions:
         parts += [f"--baseline {b}" for b in self.baselines]
         parts += [f"--publish {self.publish}"] if self.publish is not None else []
         return " ".join(parts)
+
+
+def check_duration(duration: float) -> None:
+    """``--duration`` checked by the run config's own rule (a finite number in (0, 3600] s), before the
+    matrix is written to a temporary study file that an error would otherwise name."""
+    try:
+        RunConfig.model_validate({"duration": duration})
+    except ValidationError as err:
+        raise BadInput(f"--duration: {one_line(err).removeprefix('duration: ')}") from None
 
 
 @dataclass

@@ -1,13 +1,14 @@
 """Opening a recording in the native Rerun viewer (``ftc-mj view``).
 
-The viewer is the ``rerun`` executable of the installed rerun-sdk, started as ``rerun FILE``; like
-any native Rerun viewer it also starts its local gRPC server (port 9876 by default, bound to
-``0.0.0.0`` unless ``--bind`` is given).
+The viewer is the ``rerun`` executable of the installed rerun-sdk, started as ``rerun FILE --bind
+127.0.0.1``: like any native Rerun viewer it also starts its local gRPC server (port 9876 by
+default), which Rerun binds to ``0.0.0.0`` (every interface) unless ``--bind`` is given.
 """
 
 from __future__ import annotations
 
 import os
+import shlex
 import shutil
 import subprocess
 import sys
@@ -60,6 +61,28 @@ def check_display(headless_hint: str) -> None:
                         f"{headless_hint}")
 
 
+VIEWER_HOST = "127.0.0.1"
+"""The address the viewer's gRPC server listens on: this machine only."""
+
+
+def viewer_command(rrd: Path, extra_args: Iterable[str] = ()) -> list[str]:
+    """The command line opening ``rrd`` in the native viewer, its server bound to :data:`VIEWER_HOST`."""
+    return [_rerun_executable(), str(rrd), "--bind", VIEWER_HOST, *extra_args]
+
+
+def screenshot_command(rrd: str, out: str = "OUT.png") -> str:
+    """The shell command that renders a headless screenshot of ``rrd`` with the script shipped in the
+    package (``ftc_mj/data/screenshot.sh``: Xvfb and software Vulkan), for machines without a display."""
+    from ..resources import resource_path
+
+    try:
+        rerun = _rerun_executable()
+    except RunFailed:
+        rerun = "rerun"
+    script = resource_path("screenshot.sh")
+    return f"RERUN_BIN={shlex.quote(rerun)} bash {shlex.quote(str(script))} {shlex.quote(rrd)} {shlex.quote(out)}"
+
+
 def open_viewer(path: Path, *, wait: bool = True, extra_args: Iterable[str] = ()) -> None:
     """Open a recording in the native Rerun viewer.
 
@@ -72,7 +95,7 @@ def open_viewer(path: Path, *, wait: bool = True, extra_args: Iterable[str] = ()
         p = p / "run.rrd"
     if not p.is_file():
         raise BadInput(f"recording not found: {p}")
-    cmd = [_rerun_executable(), str(p), *extra_args]
+    cmd = viewer_command(p, extra_args)
     if not wait:
         subprocess.Popen(cmd, start_new_session=True)
         return

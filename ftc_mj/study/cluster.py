@@ -37,11 +37,12 @@ def validate_address(address: str) -> str:
 
 
 def validate_dashboard(address: str) -> str:
-    """Check ``HOST:PORT`` or ``:PORT`` of the dashboard (BadInput otherwise)."""
+    """``HOST:PORT`` of the dashboard; ``:PORT`` (no host) is ``127.0.0.1:PORT``, this machine only (dask
+    would listen on every interface). BadInput for anything else."""
     m = DASHBOARD_RE.match(address.strip())
     if not m or int(m.group(3)) > 65535:
         raise BadInput(f"--dashboard {address}: expected HOST:PORT, e.g. 127.0.0.1:8787 (port 0 = any free port)")
-    return address.strip()
+    return address.strip() if m.group(1) else f"127.0.0.1:{m.group(3)}"
 
 
 def probe_scheduler(address: str, timeout: float = HANDSHAKE_TIMEOUT_S) -> None:

@@ -30,6 +30,7 @@ import pyarrow.parquet as pq
 
 from ..errors import BadInput
 from ..io import atomic_path, remove_stale_temporaries, write_json
+from ..sim.output import check_output_root
 from .plan import StudyPlan, identity_diff
 
 
@@ -44,9 +45,13 @@ class StudyStore:
 
     # ------------------------------------------------------------------ identity
     def check(self, plan: StudyPlan) -> None:
-        """Refuse (BadInput) an output folder that holds another study's results. Read-only."""
+        """Refuse (BadInput naming ``--out``) an output folder that cannot be written (below a regular
+        file, in a folder without write permission, beyond the path limits: the checks of ``ftc-mj run``,
+        :func:`~ftc_mj.sim.output.check_output_root`) or that holds another study's results. Writes
+        nothing that stays."""
         if self.root.exists() and not self.root.is_dir():
             raise BadInput(f"--out: {self.root} exists and is not a directory")
+        check_output_root(self.root, max((f"{r.key}.parquet" for r in plan.runs), key=len, default="rows"))
         pj = self.root / "plan.json"
         if pj.is_file():
             try:

@@ -30,4 +30,5 @@ def test_open_viewer(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
 
     monkeypatch.setattr(viewer.subprocess, "run", fake_run)
     open_viewer(tmp_path)
-    assert seen and seen[0][-1] == str(tmp_path / "run.rrd") and Path(seen[0][0]).name == "rerun"
+    assert seen and seen[0][1] == str(tmp_path / "run.rrd") and Path(seen[0][0]).name == "rerun"
+    assert seen[0][2:4] == ["--bind", "127.0.0.1"]  # the viewer's gRPC server: this machine only

@@ -1,0 +1,88 @@
+"""The documented plug-in command works as printed from the folder holding the module (the current
+directory is searched as ``python -m`` does), and every server the tool starts listens on
+127.0.0.1 unless the user names another host: the study dashboard given as ``:PORT``, and the
+Rerun viewer's gRPC server started by ``ftc-mj view``."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from ftc_mj.rerun.viewer import VIEWER_HOST, viewer_command
+from ftc_mj.study.cluster import open_client, validate_dashboard
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLE = ROOT / "examples" / "my_components.py"
+
+
+def documented_command() -> list[str]:
+    """The command line the example's docstring prints, as argv after ``ftc-mj``."""
+    text = EXAMPLE.read_text()
+    line = text.split("``ftc-mj ", 1)[1].split("``", 1)[0]
+    return line.split()
+
+
+def test_the_plugin_command_works_as_printed_from_the_module_folder(tmp_path: Path) -> None:
+    shutil.copy(EXAMPLE, tmp_path / EXAMPLE.name)
+    args = documented_command()
+    assert args == ["run", "scenario2", "--plugin", "my_components", "--estimator", "textbook-ekf"]
+    # -P: no script or current folder on sys.path, as the installed console script `ftc-mj` starts
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run([sys.executable, "-P", "-c", "from ftc_mj.cli import app; app()", *args,
+                           "--duration", "1", "--no-rrd", "-q", "--out", "out"],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    (run_dir,) = (tmp_path / "out").iterdir()
+    assert "textbook-ekf" in run_dir.name
+
+
+def test_a_dashboard_without_a_host_listens_on_localhost_only() -> None:
+    psutil = pytest.importorskip("psutil")
+    assert validate_dashboard(":0") == "127.0.0.1:0" and validate_dashboard("0.0.0.0:0") == "0.0.0.0:0"
+    with open_client(1, None, ":0") as client:
+        assert client.dashboard_link.startswith("http://127.0.0.1:")
+        port = int(client.dashboard_link.split(":")[2].split("/")[0])
+        listening = [c for c in psutil.Process().net_connections(kind="inet") if c.status == psutil.CONN_LISTEN]
+        dashboard = [c for c in listening if c.laddr.port == port]
+        assert dashboard and all(c.laddr.ip == "127.0.0.1" for c in dashboard), listening
+
+
+def test_the_viewer_server_binds_to_localhost(tmp_path: Path) -> None:
+    """The command ``ftc-mj view`` starts, run for real: Rerun's gRPC server listens on 127.0.0.1
+    (its own log line says where; without a display the window fails right after, so the
+    sockets are sampled while it runs)."""
+    psutil = pytest.importorskip("psutil")
+    from ftc_mj.rerun.record import write_rrd
+    from tests.support.synthetic import synthetic_run
+
+    trace, solves, events, ref = synthetic_run(1.0)
+    write_rrd(tmp_path / "run.rrd", trace, run_id="r", solves=solves, events=events, reference_path=ref)
+    cmd = viewer_command(tmp_path / "run.rrd", ["--port", "0"])
+    assert cmd[-4:] == ["--bind", VIEWER_HOST, "--port", "0"] and VIEWER_HOST == "127.0.0.1"
+    env = {**os.environ, "XDG_CONFIG_HOME": str(tmp_path), "XDG_DATA_HOME": str(tmp_path),
+           "XDG_CACHE_HOME": str(tmp_path)}
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    seen: list = []
+    try:
+        viewer = psutil.Process(proc.pid)
+        deadline = time.monotonic() + 20
+        while proc.poll() is None and time.monotonic() < deadline:
+            try:
+                seen += [c for c in viewer.net_connections(kind="inet") if c.status == psutil.CONN_LISTEN]
+            except psutil.Error:
+                break
+            if seen and os.environ.get("DISPLAY"):
+                break
+            time.sleep(0.005)
+    finally:
+        proc.kill()
+        out = proc.communicate(timeout=10)[0]
+    assert "Listening for gRPC connections on 127.0.0.1:" in out, out[-2000:]
+    assert "0.0.0.0" not in out
+    assert all(c.laddr.ip == "127.0.0.1" for c in seen), seen

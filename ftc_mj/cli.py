@@ -310,6 +310,8 @@ def study(
     retry_failed: Annotated[bool, typer.Option("--retry-failed", help="Recompute runs whose row failed.")] = False,
     serial: Annotated[bool, typer.Option("--serial", help="Run in this process, without dask.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    list_: Annotated[bool, typer.Option("--list", help="Runs nothing: print the plan (one run a line: index, key, "
+                                                       "axis labels, seed) and exit.")] = False,
     report: Annotated[bool, typer.Option("--report", help="Runs nothing: print the study's published docs tables "
                                                           "from its output folder (also OUT/doc_tables.md); "
                                                           "pathfollow_figure draws OUT/figures/pathfollow.png.")
@@ -334,6 +336,11 @@ def study(
         if limit is not None and limit < 0:
             raise BadInput("--limit: must be >= 0")
         plan = plan_study(path, overrides=_overrides(set_ or []), seeds=seeds, plugins=plugin or [])
+        if list_:
+            from .study.listing import plan_lines
+
+            typer.echo("\n".join(plan_lines(plan)))
+            return
         out_dir = _folder(out) or Path("runs/out/studies") / plan.spec.name
         if report:
             _print_doc_tables(plan.spec.name, out_dir)
@@ -631,13 +638,17 @@ def components(plugin: Plugins = None) -> None:
 
 @app.command()
 def studies() -> None:
-    """List the built-in studies (run one with 'ftc-mj study NAME')."""
-    from .config import read_toml
-    from .resources import builtin_studies, study_file
+    """List the built-in studies: run count and simulated time, the whole description, the analyses that
+    apply (run one with 'ftc-mj study NAME'; its plan with 'ftc-mj study NAME --list')."""
+    import shutil
 
+    from .resources import builtin_studies
+    from .study.listing import study_entry
+    from .study.plan import plan_study
+
+    width = max(60, min(100, shutil.get_terminal_size((100, 24)).columns))
     for name in builtin_studies():
-        desc = str(read_toml(study_file(name), "study").get("description", "")).split("\n")[0]
-        typer.echo(f"{name}: {desc}")
+        typer.echo("\n".join(study_entry(name, plan_study(name), width)))
 
 
 def main() -> None:  # pragma: no cover - console entry point

@@ -23,7 +23,8 @@ args = parser.parse_args()
 cfg = ftc_mj.load_config("scenario2", {"sensors.yaw_rate_sigma": 0.01, "controller.rate_penalty": 1.0,
                                        "duration": args.duration})
 run = ftc_mj.run(cfg, args.out)
-print(f"{run.run_id}: {run.status}, fault declared {run.metrics['detection_delay']} s after it, "
+print(f"{run.run_id}: {run.status}, robot {run.metrics['outcome']}, fault declared "
+      f"{run.metrics['detection_delay']:.2f} s after it, "
       f"isolated: {run.metrics['isolated_wheel']}; written to {run.path}")
 
 tr = run.trace

@@ -200,7 +200,7 @@ def run(
                                                               "is still printed).")] = False,
 ) -> None:
     """Run one closed-loop simulation and write OUT/<run-id>/ (config.toml, trace.parquet,
-    metrics.json, events.json, run.rrd).
+    metrics.json with metrics.schema.json, events.json, run.rrd).
 
     Exit codes: 0 the run completed (whatever the robot did: the first lines of the summary and
     metrics.json's outcome say on the path, off the path or tipped over); 1 the run failed (reason in
@@ -268,7 +268,7 @@ def _report_run(outcome: Any, cfg: Any, quiet: bool, scenario: str) -> None:
     if quiet:
         typer.echo(str(outcome.run_dir))
     else:
-        print_run_summary(outcome, cfg.reconfiguration.max_sigma, scenario)
+        print_run_summary(outcome, cfg.reconfiguration.max_sigma, scenario, 1.0 / cfg.estimator.rate)
     status = outcome.metrics["status"]
     if status == "unstable":
         typer.echo(f"ftc-mj: physics unstable: {outcome.metrics['error']}", err=True)
@@ -634,6 +634,15 @@ def components(plugin: Plugins = None) -> None:
             typer.echo(f"{reg.config_key}: {', '.join(reg.names())}")
     except BadInput as err:
         _fail(str(err))
+
+
+@app.command()
+def metrics() -> None:
+    """List every key metrics.json can hold with its unit and one-line meaning (also written beside each
+    run's metrics.json as metrics.schema.json)."""
+    from .metrics.schema import schema_lines
+
+    typer.echo("\n".join(schema_lines()))
 
 
 @app.command()

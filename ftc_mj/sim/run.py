@@ -1,6 +1,7 @@
 """One run from a resolved config to its output directory.
 
-``DIR/<run-id>/`` receives ``config.toml`` (fully resolved), ``trace.parquet``, ``metrics.json``,
+``DIR/<run-id>/`` receives ``config.toml`` (fully resolved), ``trace.parquet``, ``metrics.json`` (with
+``metrics.schema.json``: each key's unit and meaning, :mod:`ftc_mj.metrics.schema`),
 ``events.json`` (the run's events: ``t`` in s, ``level``, ``text``) and ``run.rrd``. The directory
 is assembled under a temporary name and renamed into place at the end, so a killed run leaves no
 half-written output under its final name; an existing run directory is never overwritten (a
@@ -34,6 +35,7 @@ from ..metrics.fdi import fdi_sweep_metrics
 from ..metrics.onsets import fault_onsets
 from ..metrics.outcome import physical_outcome
 from ..metrics.run import compute_metrics
+from ..metrics.schema import schema as metrics_schema
 from ..plant import NAN, UNSTABLE
 from ..telemetry.columns import trace_schema_metadata
 from .loop import SimResult, simulate
@@ -168,4 +170,5 @@ def _write_run(final: Path, cfg: RunConfig, res: SimResult, metrics: dict[str, A
             metrics["rrd_write_s"] = time.perf_counter() - t0
         metrics["total_wall_time_s"] = res.wall_time + metrics.get("rrd_write_s", 0.0)
         write_json(tmp / "metrics.json", metrics)
+        write_json(tmp / "metrics.schema.json", metrics_schema())
         write_json(tmp / "events.json", [{"t": e.t, "level": e.level, "text": e.text} for e in res.events])

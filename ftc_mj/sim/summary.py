@@ -7,6 +7,7 @@ nominal radii because the split between the radii was not identified."""
 
 from __future__ import annotations
 
+import math
 import shlex
 from typing import Any
 
@@ -64,8 +65,24 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def onset_lines(metrics: dict[str, Any]) -> list[str]:
-    """One line per fault onset: its detection and isolation, or that it lies after the end of the run."""
+SAMPLED_TIMES = frozenset({"detection_time", "detection_delay", "time_to_correct_isolation",
+                           "reconfig_handover_delay"})
+"""Metrics that are times of trace samples (s): printed rounded to the sample period, not as the float
+sums they are (``0.9500000000000011``)."""
+
+
+def seconds(v: Any, sample_s: float | None) -> str:
+    """A time ``v`` (s) rounded to the sample period ``sample_s`` (s) and shown with its decimals (``0.95``
+    for 0.01 s); other values, or without a period, as :func:`_fmt`."""
+    if not isinstance(v, float) or not sample_s or not math.isfinite(v):
+        return _fmt(v)
+    decimals = max(0, math.ceil(-math.log10(sample_s) - 1e-9))
+    return f"{round(v / sample_s) * sample_s:.{decimals}f}"
+
+
+def onset_lines(metrics: dict[str, Any], sample_s: float | None = None) -> list[str]:
+    """One line per fault onset: its detection and isolation (times rounded to ``sample_s``, s), or that it
+    lies after the end of the run."""
     lines = []
     for e in metrics.get("onsets") or []:
         head = f"fault onset: {e['wheel']} at t = {e['time']:g} s"
@@ -73,8 +90,9 @@ def onset_lines(metrics: dict[str, Any]) -> list[str]:
             lines.append(f"{head}: after the end of the run ({_fmt(metrics.get('sim_time_s'))} s), "
                          "neither detected nor missed")
         elif "detection_time" in e:
-            lines.append(f"{head}: detection delay {_fmt(e['detection_delay'])} s, correct isolation after "
-                         f"{_fmt(e['time_to_correct_isolation'])} s, {e['false_isolations']} false isolation(s)"
+            lines.append(f"{head}: detection delay {seconds(e['detection_delay'], sample_s)} s, correct "
+                         f"isolation after {seconds(e['time_to_correct_isolation'], sample_s)} s, "
+                         f"{e['false_isolations']} false isolation(s)"
                          + (" — missed" if e["missed_detection"] else ""))
     return lines
 
@@ -148,10 +166,12 @@ def outcome_lines(m: dict[str, Any]) -> list[tuple[str, str]]:
     return lines
 
 
-def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None, scenario: str | None = None) -> None:
+def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None, scenario: str | None = None,
+                      sample_s: float | None = None) -> None:
     """Print the key metrics of a run (with units) and where its files are. ``max_sigma`` (m) is the
     safe policy's identification bound, for the note on a nominal hold; ``scenario`` the scenario as the
-    user named it (a built-in name or a file), for the command the note suggests."""
+    user named it (a built-in name or a file), for the command the note suggests; ``sample_s`` the trace's
+    sample period (s), to which times are rounded."""
     m, trace = outcome.metrics, outcome.result.trace
     table = Table(title=f"run {outcome.run_id}", show_header=True)
     table.add_column("metric")
@@ -165,7 +185,7 @@ def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None, scena
             value = "ok (completed)"
         if key == "reconfig_handovers":
             value = f"{m.get('reconfig_handovers')} / {m.get('reconfig_holds')} / {m.get('reconfig_reverts')}"
-        table.add_row(label, _fmt(value), unit)
+        table.add_row(label, seconds(value, sample_s) if key in SAMPLED_TIMES else _fmt(value), unit)
         if key == "radius_final_error_L":
             for row in radii_rows(m, trace):
                 table.add_row(*row)
@@ -173,7 +193,7 @@ def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None, scena
     for text, style in outcome_lines(m):
         console.print(text, style=style or None, soft_wrap=True)
     console.print(table)
-    for line in onset_lines(m):
+    for line in onset_lines(m, sample_s):
         console.print(line, soft_wrap=True)
     note = nominal_hold_note(m, trace, max_sigma, scenario)
     if note:

@@ -54,6 +54,18 @@ def test_summary_has_units_signs_radii_and_the_hold_note(capsys: pytest.CaptureF
         assert "kept the nominal radii" not in capsys.readouterr().out
 
 
+def test_times_are_rounded_to_the_sample(capsys: pytest.CaptureFixture[str]) -> None:
+    m = {**SAFE_HELD, "detection_time": 10.950000000000001, "detection_delay": 0.9500000000000011,
+         "onsets": [{"wheel": "left", "time": 10.0, "status": "in run", "detection_time": 10.950000000000001,
+                     "detection_delay": 0.9500000000000011, "time_to_correct_isolation": 1.2300000000000004,
+                     "false_isolations": 0, "missed_detection": False}]}
+    print_run_summary(outcome(m, 0.05), max_sigma=0.1, sample_s=0.01)
+    text = capsys.readouterr().out
+    assert "0000000" not in text
+    assert "10.95 │ s" in text
+    assert "detection delay 0.95 s, correct isolation after 1.23 s" in text
+
+
 def test_quiet_prints_the_run_folder(tmp_path: Path) -> None:
     res = CliRunner().invoke(app, ["run", "scenario1", "--duration", "0.3", "--controller", "open-loop", "--no-rrd",
                                    "--out", str(tmp_path), "-q"])

@@ -1,0 +1,47 @@
+"""Every key metrics.json can hold has a unit and a one-line meaning (``ftc-mj metrics``,
+``metrics.schema.json`` beside each run's metrics.json); a new metric without one fails here."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from ftc_mj.cli import app
+from ftc_mj.metrics.schema import METRICS, schema, undocumented
+
+
+def run(tmp_path: Path, args: list[str]) -> Path:
+    res = CliRunner().invoke(app, ["run", *args, "--out", str(tmp_path), "-q"])
+    assert res.exit_code == 0, res.output
+    (run_dir,) = tmp_path.iterdir()
+    return run_dir
+
+
+def test_every_metric_of_real_runs_is_documented(tmp_path: Path) -> None:
+    """A run with every kind of metric (a fault, FDI statistics with the PCRB, an IMM, a recording) and one
+    without an estimator: each key they write is in the schema, and the schema file beside them is it."""
+    full = run(tmp_path / "full", ["scenario2", "--duration", "10.5", "--estimator", "imm-ukf",
+                                   "--set", "estimator.decision.statistics=true"])
+    bare = run(tmp_path / "bare", ["scenario1", "--duration", "0.5", "--estimator", "none", "--no-rrd"])
+    for run_dir in (full, bare):
+        keys = json.loads((run_dir / "metrics.json").read_text())
+        assert undocumented(keys) == [], undocumented(keys)
+        assert json.loads((run_dir / "metrics.schema.json").read_text()) == schema()
+    keys = json.loads((full / "metrics.json").read_text())
+    assert {"fdi_records", "fdi_cumulative_kl", "onsets", "outcome", "rrd_write_s", "severity_L"} <= set(keys)
+
+
+def test_a_new_key_is_caught_and_every_entry_has_a_meaning() -> None:
+    assert undocumented({"status", "brand_new_metric"}) == ["brand_new_metric"]
+    assert all(meaning and "\n" not in meaning for _unit, meaning in METRICS.values())
+
+
+def test_ftc_mj_metrics_prints_every_key_with_its_unit() -> None:
+    res = CliRunner().invoke(app, ["metrics"])
+    assert res.exit_code == 0
+    lines = res.stdout.splitlines()
+    assert len(lines) == len(METRICS)
+    line = next(ln for ln in lines if ln.startswith("cross_track_max_recovered "))
+    assert "[m]" in line and "5 s after the onset" in line

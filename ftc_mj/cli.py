@@ -469,7 +469,8 @@ def compare(
 ) -> None:
     """Write one Rerun recording overlaying several runs: each under /runs/<label>/ on a shared sim_time
     timeline, with a blueprint that plots them together (trajectories, radii, cross-track error, wheel
-    rates, IMM mode probabilities, reconfiguration state; legend by run label)."""
+    rates, IMM mode probabilities, reconfiguration state; legend by run label), and print the runs' key
+    metrics side by side (one column per run), then the recording's path."""
     from .sim.output import check_output_root
 
     try:
@@ -483,7 +484,7 @@ def compare(
             raise BadInput(f"--out: {out} exists (give another name, or --overwrite)")
         from .rerun.overlay import load_runs
 
-        load_runs(run_dirs, _labels(labels, len(run_dirs)))  # every input checked before writing
+        runs = load_runs(run_dirs, _labels(labels, len(run_dirs)))  # every input checked before writing
         check_output_root(target.parent if str(target.parent) else Path("."), target.name)
         path = _compare(run_dirs, target, _labels(labels, len(run_dirs)))
     except BadInput as err:
@@ -492,6 +493,9 @@ def compare(
     except OSError as err:
         _fail(f"cannot write {out}: {err.strerror or err}", EXIT_FAILED)
         return
+    from .rerun.overlay import comparison_text
+
+    typer.echo(comparison_text(runs))
     typer.echo(str(path))
 
 

@@ -52,9 +52,9 @@ POINT_RATE_HZ = 10.0
 """Row rate of the robot marker ``/runs/<token>/robot``."""
 IDENTITY_KEYS = ("scenario", "estimator", "imm_models", "controller", "policy", "sensing", "rate_penalty", "seed")
 """Metrics that tell runs apart; default labels use the ones that differ."""
-SUMMARY_KEYS = (("status", ""), ("detection_delay", "s"), ("isolated_wheel", ""), ("radius_final_error_R", "m"),
-                ("radius_final_error_L", "m"), ("reconfig_handover_delay", "s"), ("cross_track_rms", "m"),
-                ("cross_track_max_recovered", "m"))
+SUMMARY_KEYS = (("outcome", ""), ("status", ""), ("detection_delay", "s"), ("isolated_wheel", ""),
+                ("radius_final_error_R", "m"), ("radius_final_error_L", "m"), ("reconfig_handover_delay", "s"),
+                ("cross_track_rms", "m"), ("cross_track_max_recovered", "m"))
 """Columns of the ``/summary`` table."""
 
 
@@ -263,6 +263,18 @@ def summary_markdown(runs: Sequence[RunData]) -> str:
         lines.append(f"| {r.label} | `{r.path.name}` | " + " | ".join(cells) + " |")
     lines += ["", "Radius errors are estimate − truth; cross-track error is positive left of the path."]
     return "\n".join(lines)
+
+
+def comparison_text(runs: Sequence[RunData]) -> str:
+    """The metrics of :data:`SUMMARY_KEYS` side by side for the terminal: one row per metric (with its
+    unit), one column per run (headed by its label), aligned in plain text."""
+    rows = [["metric", *(r.label for r in runs)], ["folder", *(r.path.name for r in runs)]]
+    rows += [[f"{k} ({u})" if u else k, *(_cell(r.metrics.get(k)) for r in runs)] for k, u in SUMMARY_KEYS]
+    widths = [max(len(row[c]) for row in rows) for c in range(len(rows[0]))]
+    lines = ["  ".join(cell.ljust(w) if c == 0 else cell.rjust(w) for c, (cell, w) in enumerate(zip(row, widths,
+                                                                                                  strict=True)))
+             for row in rows]
+    return "\n".join(line.rstrip() for line in lines)
 
 
 def _cell(v: Any) -> str:

@@ -4,6 +4,7 @@ study's runs (``study --rrd compare``)."""
 
 from __future__ import annotations
 
+import json
 import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,7 +37,15 @@ def test_compare_two_runs_one_recording_with_blueprint(runs: list[Path], tmp_pat
     out = tmp_path / "cmp.rrd"
     res = CliRunner().invoke(app, ["compare", *map(str, runs), "--out", str(out)])
     assert res.exit_code == 0, res.stderr
-    assert res.stdout.strip() == str(out)
+    *table, last = res.stdout.strip().splitlines()
+    assert last == str(out)
+    # the key metrics side by side in the terminal: a column per run, its values from its metrics.json
+    assert table[0].split() == ["metric", "policy=none", "policy=safe"]
+    row = {ln.split()[0]: ln.split()[1:] for ln in table[1:]}
+    metrics = [json.loads((d / "metrics.json").read_text()) for d in runs]
+    assert row["folder"] == [d.name for d in runs]
+    assert row["status"] == [m["status"] for m in metrics]
+    assert row["cross_track_rms"][1:] == [f"{m['cross_track_rms']:.3g}" for m in metrics]
     rd = RrdReader(str(out))
     assert len(rd.recordings()) == 1 and len(rd.blueprints()) == 1
     ents = entities(out)

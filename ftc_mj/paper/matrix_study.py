@@ -119,11 +119,13 @@ class MatrixResult:
 
 def run_matrix_study(plan: StudyPlan, *, workers: int, keep_seed: int | None, report_only: bool = False,
                      progress: bool = False, on_row: Callable[[dict[str, Any]], None] | None = None,
-                     runs_dir: Path | None = None, record: bool = False, retry_failed: bool = False) -> MatrixResult:
+                     runs_dir: Path | None = None, record: bool = False, retry_failed: bool = False,
+                     echo: Callable[[str], None] | None = None) -> MatrixResult:
     """Compute the plan's missing runs (none with ``report_only``) and collect all its rows; one
     worker runs them in this process (no Dask cluster). The runs of ``keep_seed`` keep their
     directory in ``runs_dir`` (default: the study's ``runs/``), with a recording when ``record``;
-    ``retry_failed`` recomputes the runs whose row says failed."""
+    ``retry_failed`` recomputes the runs whose row says failed; ``echo`` receives the study's one-line notes
+    (what it starts computing, before the first run finishes)."""
     from ..study.runner import run_study
     from ..study.store import StudyStore
 
@@ -136,7 +138,7 @@ def run_matrix_study(plan: StudyPlan, *, workers: int, keep_seed: int | None, re
     fn = functools.partial(run_with_report_metrics, keep_seed=keep_seed, record=record,
                            runs_dir=str(runs_dir if runs_dir is not None else store.runs_dir))
     rep = run_study(plan, folder, workers=workers, serial=workers == 1, run_fn=fn, analyse=False, progress=progress,
-                    on_row=on_row, retry_failed=retry_failed)
+                    on_row=on_row, retry_failed=retry_failed, echo=echo)
     df = rep.results
     rows = df.to_dicts() if df is not None and df.height else []
     return MatrixResult(plan, folder, rows, len(rep.computed), rep.wall_time_s)

@@ -267,7 +267,7 @@ def run_matrix_and_report(out: Path, entries: list[MatrixEntry], opts: PaperOpti
     res = run_matrix_study(plan, workers=opts.jobs, keep_seed=seeds[0], report_only=opts.report_only,
                            progress=show, on_row=None if show else _echo_rows(echo, len(plan.runs)),
                            runs_dir=out / "runs" if opts.quick else None, record=opts.quick and opts.rrd,
-                           retry_failed=opts.quick)
+                           retry_failed=opts.quick, echo=echo)
     wall = time.perf_counter() - t0
     t1 = time.perf_counter()
     rows_by_seed = res.by_seed()

@@ -146,6 +146,9 @@ def run_study(
           "run_fn": run_fn,
           "trace_stats": [t.model_dump() for t in plan.spec.analysis.trace_stats],
           "extras": list(plan.spec.analysis.extras)}
+    local = not serial and client is None and address is None
+    if todo and (serial or local):  # before the workers start (a remote scheduler: once it answered)
+        say(starting_line(len(todo), already, workers if local else None))
     with _progress(progress, len(todo), plan.spec.name) as advance:
         if not todo:
             store.init(plan)
@@ -156,6 +159,8 @@ def run_study(
             ctx = (contextlib.nullcontext(client) if client is not None
                    else open_client(workers, address, dashboard))
             with ctx as cl:
+                if not local:
+                    say(starting_line(len(todo), already, "the cluster's"))
                 store.init(plan)
                 store.log("start", invocation=invocation, todo=len(todo), done_before=already,
                           backend=str(cl.scheduler.address) if hasattr(cl, "scheduler") else "dask")
@@ -163,6 +168,16 @@ def run_study(
     report.wall_time_s = time.perf_counter() - t0
     _finish(plan, store, report, rrd, analyse, say)
     return report
+
+
+def starting_line(todo: int, already: int, workers: int | str | None) -> str:
+    """What a study says in its first second, before any run has finished: how many runs it computes and
+    where (``workers``: local worker processes, a cluster, or ``None`` for this process), and why the first
+    result takes a while (each process builds or loads its solvers first)."""
+    where = "in this process" if workers is None else f"on {workers} worker process{'es' if workers != 1 else ''}"
+    done = f" ({already} done before)" if already else ""
+    return (f"computing {todo} run(s){done} {where}; starting — each process builds or loads its solvers "
+            "before its first run finishes")
 
 
 def _select(plan: StudyPlan, store: StudyStore, address: str | None, rrd: str, limit: int | None,

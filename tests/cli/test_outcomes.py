@@ -66,6 +66,21 @@ def fake_run(cfg: RunConfig, out_root: Path | None, rrd: bool) -> FakeOutcome:
     return FakeOutcome(m, FakeResult({"t": t, "cross_track_error": 0.0 * t}))
 
 
+def test_a_study_says_what_it_starts_before_the_first_run_finishes(tmp_path: Path) -> None:
+    (tmp_path / "s.toml").write_text('name = "start"\nscenario = "scenario2"\nseeds = 3\n[base]\nduration = 1.0\n')
+    said: list[str] = []
+
+    def fake(cfg: RunConfig, out_root: Path | None, rrd: bool) -> FakeOutcome:
+        said.append(f"run {cfg.seed}")
+        return fake_run(cfg, out_root, rrd)
+
+    run_study(plan_study(tmp_path / "s.toml"), tmp_path / "out", serial=True, run_fn=fake, analyse=False,
+              echo=said.append)
+    assert said[0] == ("computing 3 run(s) in this process; starting — each process builds or loads its solvers "
+                       "before its first run finishes")
+    assert said[1:4] == ["run 0", "run 1", "run 2"]
+
+
 def test_a_study_counts_outcomes(tmp_path: Path) -> None:
     (tmp_path / "s.toml").write_text(textwrap.dedent("""
         name = "outcomes"

@@ -55,8 +55,19 @@ def read_toml(path: Path, what: str = "config") -> dict[str, Any]:
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as err:
-        raise BadInput(f"{what} {path}: not UTF-8 text (byte 0x{raw[err.start]:02x} at offset {err.start})") from None
+        raise BadInput(f"{what} {path}: {not_utf8(raw, err.start)}") from None
     return parse_toml(text, f"{what} {path}")
+
+
+def not_utf8(raw: bytes, at: int) -> str:
+    """Where a file stops being UTF-8 text, so the user can find and fix it: the byte, its line and
+    column (1-based), and what to do (save as UTF-8; or the file is not text at all)."""
+    line = raw.count(b"\n", 0, at) + 1
+    column = at - (raw.rfind(b"\n", 0, at) + 1) + 1
+    binary = b"\0" in raw[:4096]
+    fix = ("it is not a text file (it holds NUL bytes)" if binary
+           else "save it with the UTF-8 encoding (e.g. a Latin-1 'é' is the byte 0xe9)")
+    return f"not UTF-8 text: byte 0x{raw[at]:02x} at line {line}, column {column}; {fix}"
 
 
 def parse_toml(text: str, what: str) -> dict[str, Any]:

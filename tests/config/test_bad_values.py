@@ -88,8 +88,9 @@ def test_bad_value_through_a_scenario_file(tmp_path: Path, case: str, body: str,
 # ------------------------------------------------------------------------------------------ hand-listed
 FILE_CASES = [
     ("toml:syntax", "bad.toml", "invalid TOML"),
-    ("toml:binary", "binary.toml", "scenario binary.toml: not UTF-8"),
-    ("toml:latin1", "latin1.toml", "not UTF-8"),
+    ("toml:binary", "binary.toml", "scenario binary.toml: not UTF-8 text: byte 0x80 at line 2, column 118; it is "
+                                   "not a text file (it holds NUL bytes)"),
+    ("toml:latin1", "latin1.toml", "not UTF-8 text: byte 0xe9 at line 1, column 19; save it with the UTF-8 encoding"),
     ("toml:nested", "nested.toml", "nested too deeply"),
     ("toml:duplicate", "dupkey.toml", "invalid TOML"),
     ("toml:huge", "huge.toml", "larger than 4 MiB"),

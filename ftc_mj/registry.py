@@ -156,7 +156,8 @@ class Registry:
         if name not in _warned:
             _warned.add(name)
             warnings.warn(f"{self.kind} {name!r} ({entry.origin}): factory(cfg) is the old contract; take "
-                          "(settings, context) instead (docs/plugins.md)", DeprecationWarning, stacklevel=2)
+                          "(settings, context) instead (docs/plugins.md of the source repository)", DeprecationWarning,
+                          stacklevel=2)
         return entry.factory(run_config, *extra, **kwargs)
 
     # ---------------------------------------------------------------- loading

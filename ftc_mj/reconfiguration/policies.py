@@ -107,7 +107,8 @@ class ReconfigurationPolicy(ABC):
     def __init__(self, settings: Any, context: RunContext | None = None) -> None:
         if not isinstance(context, RunContext):
             raise TypeError(f"{type(self).__name__}: ReconfigurationPolicy(cfg) is the old contract; take (settings, "
-                            "context) and call super().__init__(settings, context) (docs/plugins.md)")
+                            "context) and call super().__init__(settings, context) (docs/plugins.md of the source "
+                            "repository)")
         self.settings = settings
         self.nominal = np.array(context.nominal_radii, dtype=float)
         self.floor = context.min_radius

@@ -86,3 +86,34 @@ def test_the_viewer_server_binds_to_localhost(tmp_path: Path) -> None:
     assert "Listening for gRPC connections on 127.0.0.1:" in out, out[-2000:]
     assert "0.0.0.0" not in out
     assert all(c.laddr.ip == "127.0.0.1" for c in seen), seen
+
+
+def message_strings() -> list[tuple[str, int, str]]:
+    """Every string literal of the package that is not a docstring (what the tool can print), with its
+    file and line; the paper's report texts (written into claims.md for the repository's docs) left out."""
+    import ast
+
+    import ftc_mj
+
+    pkg = Path(ftc_mj.__file__).parent
+    out = []
+    for path in pkg.rglob("*.py"):
+        if "paper" in path.relative_to(pkg).parts:
+            continue
+        tree = ast.parse(path.read_text())
+        # docstrings, also of attributes: bare string statements
+        docstrings = {id(n.value) for n in ast.walk(tree) if isinstance(n, ast.Expr)}
+        for n in ast.walk(tree):
+            if isinstance(n, ast.Constant) and isinstance(n.value, str) and id(n) not in docstrings:
+                out.append((str(path.relative_to(pkg)), n.lineno, n.value))
+    return out
+
+
+def test_printed_messages_name_no_file_the_wheel_lacks() -> None:
+    """A message naming a repository file (``docs/…``, ``examples/…``, ``benchmarks/…``) says it is in the
+    source repository; files the tool itself points at are shipped in the package (``ftc_mj/data``)."""
+    import re
+
+    bad = [(f, ln, s) for f, ln, s in message_strings()
+           if re.search(r"(?<![\w/])(docs|examples|benchmarks)/\w", s) and "source repository" not in s]
+    assert bad == [], bad

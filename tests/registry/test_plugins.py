@@ -248,7 +248,8 @@ def test_factories_get_their_settings_and_the_run_context() -> None:
     (w,) = caught
     assert w.category is DeprecationWarning and "\n" not in str(w.message)
     assert str(w.message) == ("estimator 'old-probe-for-warning' (tests.registry.test_plugins): factory(cfg) is "
-                              "the old contract; take (settings, context) instead (docs/plugins.md)")
+                              "the old contract; take (settings, context) instead (docs/plugins.md of the source "
+                              "repository)")
 
 
 def test_an_old_style_plugin_still_runs(my_components: str) -> None:

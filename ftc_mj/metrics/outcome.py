@@ -52,7 +52,7 @@ def physical_outcome(m: dict[str, Any]) -> dict[str, Any]:
         out["outcome_rule"] = "the chassis rolled or pitched past plant.tipped_limit_deg"
     elif ct is None:
         out["outcome"] = "not judged"
-        out["outcome_rule"] = f"no cross-track error {window} (the run ended before)"
+        out["outcome_rule"] = f"no cross-track error {window}: the run ended before"
     else:
         off = ct > OFF_PATH_M
         out["outcome"] = "off the path" if off else "on the path"

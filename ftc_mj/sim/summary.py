@@ -80,6 +80,21 @@ def seconds(v: Any, sample_s: float | None) -> str:
     return f"{round(v / sample_s) * sample_s:.{decimals}f}"
 
 
+CONSISTENCY_TESTS = {"nis_mean": "nis_test", "radius_nees_mean": "radius_nees_test"}
+"""Summary rows whose value is judged against the 95 % χ² bounds stored beside it."""
+
+
+def consistency_verdict(value: Any, test: Any) -> str:
+    """``value`` with its verdict against the two-sided 95 % bounds ``test`` (``lo``, ``hi``): consistent
+    inside them; above: the filter is overconfident (its covariance too small for its errors); below:
+    conservative (too large). Just the value without bounds."""
+    if not isinstance(value, float) or not isinstance(test, dict) or test.get("lo") is None or not math.isfinite(value):
+        return _fmt(value)
+    lo, hi = float(test["lo"]), float(test["hi"])
+    verdict = ("consistent" if lo <= value <= hi else "overconfident" if value > hi else "conservative")
+    return f"{_fmt(value)} ({verdict}: 95 % bounds {lo:.3g}–{hi:.3g})"
+
+
 def onset_lines(metrics: dict[str, Any], sample_s: float | None = None) -> list[str]:
     """One line per fault onset: its detection and isolation (times rounded to ``sample_s``, s), or that it
     lies after the end of the run."""
@@ -141,7 +156,7 @@ def nominal_hold_note(m: dict[str, Any], trace: dict[str, np.ndarray], max_sigma
     return ("The safe policy kept the nominal radii: a fault was declared, but the speed alone cannot tell which "
             f"tyre shrank ({why}). A yaw-rate gyro tells them apart and the actuation-rate term in the cost lets "
             "the policy hand the estimates over (the gyro alone, with the paper's cost, tips the robot over); "
-            f"try: {working_command(scenario or str(m.get('scenario')))}")
+            f"try: {working_command(scenario or str(m.get('scenario') or 'SCENARIO'))}")
 
 
 OUTCOME_STYLE = {"on the path": "bold green", "off the path": "bold red", "tipped over": "bold white on red",
@@ -185,7 +200,11 @@ def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None, scena
             value = "ok (completed)"
         if key == "reconfig_handovers":
             value = f"{m.get('reconfig_handovers')} / {m.get('reconfig_holds')} / {m.get('reconfig_reverts')}"
-        table.add_row(label, seconds(value, sample_s) if key in SAMPLED_TIMES else _fmt(value), unit)
+        if key in CONSISTENCY_TESTS:
+            text = consistency_verdict(value, m.get(CONSISTENCY_TESTS[key]))
+        else:
+            text = seconds(value, sample_s) if key in SAMPLED_TIMES else _fmt(value)
+        table.add_row(label, text, unit)
         if key == "radius_final_error_L":
             for row in radii_rows(m, trace):
                 table.add_row(*row)

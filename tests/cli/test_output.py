@@ -54,6 +54,16 @@ def test_summary_has_units_signs_radii_and_the_hold_note(capsys: pytest.CaptureF
         assert "kept the nominal radii" not in capsys.readouterr().out
 
 
+def test_nis_and_nees_carry_their_verdict(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("COLUMNS", "200")  # a table cell is not wrapped
+    m = {**SAFE_HELD, "nis_mean": 0.8775, "nis_test": {"lo": 0.954, "hi": 1.047},
+         "radius_nees_mean": 5.87, "radius_nees_test": {"lo": 1.456, "hi": 2.629}}
+    print_run_summary(outcome(m, 0.05), max_sigma=0.1)
+    text = " ".join(capsys.readouterr().out.split())
+    assert "0.8775 (conservative: 95 % bounds 0.954–1.05)" in text
+    assert "5.87 (overconfident: 95 % bounds 1.46–2.63)" in text
+
+
 def test_times_are_rounded_to_the_sample(capsys: pytest.CaptureFixture[str]) -> None:
     m = {**SAFE_HELD, "detection_time": 10.950000000000001, "detection_delay": 0.9500000000000011,
          "onsets": [{"wheel": "left", "time": 10.0, "status": "in run", "detection_time": 10.950000000000001,

@@ -641,12 +641,13 @@ def components(plugin: Plugins = None) -> None:
 
 
 @app.command()
-def metrics() -> None:
+def metrics(markdown: Annotated[bool, typer.Option("--markdown", help="As a Markdown table (docs/metrics.md).")]
+            = False) -> None:
     """List every key metrics.json can hold with its unit and one-line meaning (also written beside each
     run's metrics.json as metrics.schema.json)."""
-    from .metrics.schema import schema_lines
+    from .metrics.schema import schema_lines, schema_markdown
 
-    typer.echo("\n".join(schema_lines()))
+    typer.echo(schema_markdown() if markdown else "\n".join(schema_lines()), nl=not markdown)
 
 
 @app.command()

@@ -45,3 +45,10 @@ def test_ftc_mj_metrics_prints_every_key_with_its_unit() -> None:
     assert len(lines) == len(METRICS)
     line = next(ln for ln in lines if ln.startswith("cross_track_max_recovered "))
     assert "[m]" in line and "5 s after the onset" in line
+
+
+def test_docs_metrics_md_is_the_tools_table() -> None:
+    docs = Path(__file__).resolve().parents[2] / "docs" / "metrics.md"
+    res = CliRunner().invoke(app, ["metrics", "--markdown"])
+    assert res.exit_code == 0
+    assert res.stdout == docs.read_text(), "regenerate: ftc-mj metrics --markdown > docs/metrics.md"

@@ -652,8 +652,9 @@ def metrics(markdown: Annotated[bool, typer.Option("--markdown", help="As a Mark
 
 @app.command()
 def studies() -> None:
-    """List the built-in studies: run count and simulated time, the whole description, the analyses that
-    apply (run one with 'ftc-mj study NAME'; its plan with 'ftc-mj study NAME --list')."""
+    """List the built-in studies: run count and simulated time (with the expected duration where
+    runs/out/studies/NAME records this machine's rate), the whole description, the analyses that apply
+    (run one with 'ftc-mj study NAME'; its plan with 'ftc-mj study NAME --list')."""
     import shutil
 
     from .resources import builtin_studies
@@ -662,7 +663,8 @@ def studies() -> None:
 
     width = max(60, min(100, shutil.get_terminal_size((100, 24)).columns))
     for name in builtin_studies():
-        typer.echo("\n".join(study_entry(name, plan_study(name), width)))
+        plan = plan_study(name)
+        typer.echo("\n".join(study_entry(name, plan, width, Path("runs/out/studies") / plan.spec.name)))
 
 
 def main() -> None:  # pragma: no cover - console entry point

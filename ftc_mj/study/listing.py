@@ -5,6 +5,7 @@ plan, one run a line). Reads the plan only; nothing is simulated or written."""
 from __future__ import annotations
 
 import textwrap
+from pathlib import Path
 from typing import Any
 
 from .plan import StudyPlan
@@ -50,10 +51,25 @@ def _hours(seconds: float) -> str:
     return f"{seconds / 3600:.1f} h" if seconds >= 3600 else f"{seconds / 60:.0f} min"
 
 
-def study_entry(name: str, plan: StudyPlan, width: int = 100) -> list[str]:
-    """The lines ``ftc-mj studies`` prints for one built-in study: name, run count and simulated time,
-    the whole description wrapped to ``width`` characters, the analyses that apply."""
+def measured_rate(out: Path) -> float | None:
+    """Runs per minute this machine computed for the study whose output folder is ``out``: all the runs its
+    finished invocations computed over their wall time (``log.jsonl``); ``None`` before any."""
+    from .store import StudyStore
+
+    ends = [e for e in StudyStore(out).read_log() if e.get("event") == "end" and e.get("computed")]
+    runs = sum(int(e["computed"]) for e in ends)
+    wall = sum(float(e.get("wall_time_s") or 0.0) for e in ends)
+    return 60.0 * runs / wall if runs and wall > 0 else None
+
+
+def study_entry(name: str, plan: StudyPlan, width: int = 100, out: Path | None = None) -> list[str]:
+    """The lines ``ftc-mj studies`` prints for one built-in study: name, run count and simulated time (and,
+    if its output folder ``out`` records finished invocations, the expected duration at the rate measured
+    there), the whole description wrapped to ``width`` characters, the analyses that apply."""
     head = f"{name}: {len(plan.runs)} runs, {_hours(simulated_s(plan))} simulated"
+    rate = measured_rate(out) if out is not None else None
+    if rate:
+        head += f"; about {_hours(60.0 * len(plan.runs) / rate)} at the {rate:.3g} runs/min measured in {out}"
     desc = " ".join(plan.spec.description.split()) or "(no description)"
     wrap = {"width": width, "break_on_hyphens": False, "break_long_words": False, "initial_indent": "    "}
     lines = [head, *textwrap.wrap(desc, subsequent_indent="    ", **wrap)]

@@ -12,9 +12,11 @@ from ftc_mj.cli import app
 from ftc_mj.resources import builtin_studies
 from ftc_mj.study.listing import fdi_curves_apply
 from ftc_mj.study.plan import plan_study
+from ftc_mj.study.store import StudyStore
 
 
-def test_studies_lists_counts_whole_descriptions_and_analyses() -> None:
+def test_studies_lists_counts_whole_descriptions_and_analyses(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # no study folders: no measured durations
     res = CliRunner().invoke(app, ["studies"])
     assert res.exit_code == 0, res.output
     blocks = {}
@@ -41,6 +43,20 @@ def test_fdi_curves_is_offered_only_where_it_can_run(study: str, applies: bool) 
     """fdi-curves needs a severity axis, logged decision statistics and no-fault runs (``severity`` has
     no no-fault runs: the command would fail after the user picked it)."""
     assert fdi_curves_apply(plan_study(study)) is applies
+
+
+def test_studies_give_the_expected_duration_at_the_rate_measured_here(tmp_path: Path,
+                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """A study folder whose log records 12 runs computed in 60 s: 12 runs/min, so the 108 runs of
+    ``severity`` take about 9 min; a study without a folder gets no guess."""
+    monkeypatch.chdir(tmp_path)
+    plan = plan_study("severity")
+    StudyStore(tmp_path / "runs/out/studies" / plan.spec.name).log("end", computed=12, wall_time_s=60.0)
+    res = CliRunner().invoke(app, ["studies"])
+    heads = {ln.split(":")[0]: ln for ln in res.stdout.splitlines() if not ln.startswith(" ")}
+    assert heads["severity"] == ("severity: 108 runs, 36 min simulated; about 9 min at the 12 runs/min measured in "
+                                 "runs/out/studies/severity")
+    assert "measured" not in heads["fdi"]
 
 
 def test_study_list_prints_the_plan_and_runs_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -16,6 +16,7 @@ import logging
 import os
 import re
 import signal
+import sys
 from collections.abc import Iterator
 from typing import Any
 
@@ -90,6 +91,7 @@ def open_client(workers: int, address: str | None, dashboard: str = "127.0.0.1:0
         return
     if workers < 1:
         raise BadInput("--workers: must be >= 1")
+    _quiet_resource_tracker()
     with _sigint_ignored_by_children():
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                                dashboard_address=validate_dashboard(dashboard), silence_logs=logging.ERROR)
@@ -100,6 +102,22 @@ def open_client(workers: int, address: str | None, dashboard: str = "127.0.0.1:0
         with _quiet_distributed():
             client.close()
             cluster.close()
+
+
+TRACKER_WARNING = "ignore:resource_tracker:UserWarning:multiprocessing.resource_tracker"
+"""The ``-W`` filter of the warning multiprocessing's resource tracker prints when the study process was
+killed (SIGKILL) before it could release its semaphores: "There appear to be N leaked semaphore objects"."""
+
+
+def _quiet_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker with :data:`TRACKER_WARNING`: after a killed study it still
+    removes the semaphores dask's processes left, without a warning that reads like a bug of the user's
+    (the tracker inherits this interpreter's ``-W`` options; one started earlier keeps its own)."""
+    from multiprocessing import resource_tracker
+
+    if TRACKER_WARNING not in sys.warnoptions:
+        sys.warnoptions.append(TRACKER_WARNING)
+    resource_tracker.ensure_running()
 
 
 @contextlib.contextmanager

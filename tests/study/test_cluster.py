@@ -7,6 +7,7 @@ Kept small for 2 shared cores: short durations, one seed, first and last value o
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import signal
@@ -204,3 +205,36 @@ def test_shipped_study_reduced(name: str, overrides: dict[str, Any], keep: dict[
     assert "## Findings" in text
     assert re.search(expect, text), text[:3000]
     assert (tmp_path / "out" / "figures" / f"by_{plan.axis_columns[0]}.png").is_file() == figures
+
+
+@pytest.mark.slow
+def test_a_killed_study_leaves_no_leaked_semaphore_warning(small_study: Path, tmp_path: Path) -> None:
+    """SIGKILL of the study process alone (its local worker outlives it for a moment): multiprocessing's
+    resource tracker removes the semaphores dask left without printing "There appear to be N leaked
+    semaphore objects", which reads like a bug to the user who pressed kill."""
+    psutil = pytest.importorskip("psutil")
+    out, err = tmp_path / "out", tmp_path / "stderr.txt"
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    with open(err, "w") as fh:
+        proc = subprocess.Popen(_cli(str(small_study), "--out", str(out), "--workers", "1", "-q"), cwd=ROOT, env=env,
+                                stdout=subprocess.DEVNULL, stderr=fh, start_new_session=True)
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and proc.poll() is None and not list((out / "rows").glob("[!.]*.parquet")):
+            time.sleep(0.05)
+        assert proc.poll() is None, "the study finished before it could be killed"
+        session = [p for p in psutil.process_iter() if _sid(p) == proc.pid]
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+        psutil.wait_procs([p for p in session if p.pid != proc.pid], timeout=60)  # the tracker's last words
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert "leaked" not in err.read_text(), err.read_text()
+
+
+def _sid(p: Any) -> int | None:
+    try:
+        return os.getsid(p.pid)
+    except OSError:
+        return None

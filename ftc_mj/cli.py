@@ -641,8 +641,9 @@ def components(plugin: Plugins = None) -> None:
 
 
 @app.command()
-def metrics(markdown: Annotated[bool, typer.Option("--markdown", help="As a Markdown table (docs/metrics.md).")]
-            = False) -> None:
+def metrics(markdown: Annotated[bool, typer.Option(
+        "--markdown", help="As a Markdown table (the text of docs/metrics.md in the source repository).")] = False,
+            ) -> None:
     """List every key metrics.json can hold with its unit and one-line meaning (also written beside each
     run's metrics.json as metrics.schema.json)."""
     from .metrics.schema import schema_lines, schema_markdown

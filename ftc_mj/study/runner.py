@@ -131,7 +131,8 @@ def run_study(
     ``dashboard``). Validation of the output folder and of the address happens before anything is
     written. ``rrd = "compare"`` keeps every run's folder (like ``all``) and writes
     ``OUT/compare.rrd`` overlaying them (:func:`write_study_comparison`). ``echo`` receives one-line
-    notes: quarantined rows, what a ``limit`` took.
+    notes: quarantined rows, what a ``limit`` took and, with the progress bar, what starts (before the
+    first run finishes).
     """
     say = echo or (lambda _s: None)
     store = StudyStore(out)
@@ -147,7 +148,8 @@ def run_study(
           "trace_stats": [t.model_dump() for t in plan.spec.analysis.trace_stats],
           "extras": list(plan.spec.analysis.extras)}
     local = not serial and client is None and address is None
-    if todo and (serial or local):  # before the workers start (a remote scheduler: once it answered)
+    announce = bool(todo) and progress  # with the progress bar: why it stays at 0 for a while
+    if announce and (serial or local):  # before the workers start (a remote scheduler: once it answered)
         say(starting_line(len(todo), already, workers if local else None))
     with _progress(progress, len(todo), plan.spec.name) as advance:
         if not todo:
@@ -159,7 +161,7 @@ def run_study(
             ctx = (contextlib.nullcontext(client) if client is not None
                    else open_client(workers, address, dashboard))
             with ctx as cl:
-                if not local:
+                if announce and not local:
                     say(starting_line(len(todo), already, "the cluster's"))
                 store.init(plan)
                 store.log("start", invocation=invocation, todo=len(todo), done_before=already,

@@ -75,7 +75,7 @@ def test_a_study_says_what_it_starts_before_the_first_run_finishes(tmp_path: Pat
         return fake_run(cfg, out_root, rrd)
 
     run_study(plan_study(tmp_path / "s.toml"), tmp_path / "out", serial=True, run_fn=fake, analyse=False,
-              echo=said.append)
+              echo=said.append, progress=True)
     assert said[0] == ("computing 3 run(s) in this process; starting — each process builds or loads its solvers "
                        "before its first run finishes")
     assert said[1:4] == ["run 0", "run 1", "run 2"]

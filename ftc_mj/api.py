@@ -25,14 +25,15 @@ import json
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
-
-import polars as pl
+from typing import TYPE_CHECKING, Any
 
 from .config import RunConfig, config_to_toml_dict, validate_config
 from .config import load_config as _load_config
 from .errors import BadInput
 from .telemetry import Event
+
+if TYPE_CHECKING:  # polars is imported where a DataFrame is made (the command line's run needs none)
+    import polars as pl
 
 
 @dataclass
@@ -105,18 +106,25 @@ def run(config: RunConfig | str | Path | Mapping[str, Any] = "scenario2", out: s
         Re-raise a component's exception instead of recording a failed run (default: the
         ``FTC_MJ_STRICT`` environment variable).
     """
-    from .sim.run import execute
+    import polars as pl
 
     cfg = _config(config, overrides)
-    out_root = Path(out) if out is not None else None
+    outcome = simulate_run(cfg, Path(out) if out is not None else None, rrd=rrd, progress=progress, strict=strict)
+    return Run(cfg, outcome.run_id, outcome.metrics, pl.DataFrame(outcome.result.trace), list(outcome.result.events),
+               outcome.run_dir, outcome)
+
+
+def simulate_run(cfg: RunConfig, out_root: Path | None, *, rrd: bool | None = None,
+                 progress: bool | Callable[[float], None] = False, strict: bool | None = None) -> Any:
+    """:func:`run`'s simulation of a resolved config without the trace as a DataFrame: the
+    :class:`~ftc_mj.sim.run.RunOutcome` (the command line's run, which needs no polars)."""
     if progress is True:
         from .sim.progress import run_with_progress
 
-        outcome = run_with_progress(cfg, out_root, rrd=cfg.output.rrd if rrd is None else rrd, show=True)
-    else:
-        outcome = execute(cfg, out_root, rrd=rrd, progress=progress or None, strict=strict)
-    return Run(cfg, outcome.run_id, outcome.metrics, pl.DataFrame(outcome.result.trace), list(outcome.result.events),
-               outcome.run_dir, outcome)
+        return run_with_progress(cfg, out_root, rrd=cfg.output.rrd if rrd is None else rrd, show=True)
+    from .sim.run import execute
+
+    return execute(cfg, out_root, rrd=rrd, progress=progress or None, strict=strict)
 
 
 def load_run(path: str | Path) -> Run:
@@ -172,6 +180,8 @@ def run_study(study: str | Path | Any, out: str | Path | None = None, *, workers
                                                                   plugins=plugins)
     out_dir = Path(out) if out is not None else Path("runs/out/studies") / plan.spec.name
     report = _run(plan, out_dir, workers=workers, client=client, address=address, serial=serial, **kwargs)
+    import polars as pl
+
     results = report.results if report.results is not None else pl.DataFrame()
     return Study(out_dir, results, plan.to_json(), report)
 
@@ -179,6 +189,8 @@ def run_study(study: str | Path | Any, out: str | Path | None = None, *, workers
 def load_study(path: str | Path) -> Study:
     """A finished study folder read back (``results.parquet``, ``plan.json``);
     :class:`~ftc_mj.errors.BadInput` if it has no results."""
+    import polars as pl
+
     d = Path(path)
     res = d / "results.parquet"
     if not res.is_file():

@@ -49,6 +49,7 @@ class OneLineErrorGroup(TyperGroup):
         sys.exit(code)
 
 
+
 class RegistryHelpCommand(TyperCommand):
     """A command whose option help names the registered components: the tokens ``{estimators}``,
     ``{decision_rules}``, ``{controllers}``, ``{policies}`` and ``{references}`` in an option's help are
@@ -230,7 +231,7 @@ def run(
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     show = cfg.output.progress and not quiet and sys.stderr.isatty()
     try:
-        outcome = api.run(cfg, out_root, rrd=not no_rrd and cfg.output.rrd, progress=show).outcome
+        outcome = api.simulate_run(cfg, out_root, rrd=not no_rrd and cfg.output.rrd, progress=show)
     except BadInput as err:  # an unwritable --out, a model MuJoCo cannot simulate: nothing has been written
         _fail(str(err))
         return
@@ -263,11 +264,11 @@ def _run_config(scenario: str, ov: dict[str, Any], flags: list[tuple[str, str, A
 
 def _report_run(outcome: Any, cfg: Any, quiet: bool, scenario: str) -> None:
     """Print the run folder (``-q``) or the summary table; exit 3 for unstable physics, 1 for a failed run."""
-    from .sim.summary import print_run_summary
-
     if quiet:
         typer.echo(str(outcome.run_dir))
     else:
+        from .sim.summary import print_run_summary
+
         print_run_summary(outcome, cfg.reconfiguration.max_sigma, scenario, 1.0 / cfg.estimator.rate)
     status = outcome.metrics["status"]
     if status == "unstable":

@@ -46,39 +46,8 @@ class OneLineErrorGroup(TyperGroup):
             typer.echo(f"ftc-mj: error: {msg}{hint}", err=True)
         if not standalone_mode:
             return code
-        if args is None and _FAST_EXIT:  # this process's own command line (click's test runner passes args)
-            exit_without_teardown(code)
         sys.exit(code)
 
-
-_FAST_EXIT: set[str] = set()
-"""Names of the commands invoked that end the process without the interpreter's teardown."""
-
-
-def exit_without_teardown(code: int) -> None:
-    """End the process with ``code`` after flushing stdout and stderr and running the ``atexit`` handlers,
-    but without the interpreter's teardown: freeing every module and object of the simulation stack
-    (numba, LLVM, CasADi, MuJoCo, scipy, pydantic) takes ≈ 0.35 s of a short run's ≈ 1.9 s. Every file of a
-    run is closed by then (written under a temporary name and renamed); the C library's buffers are flushed
-    too. Falls back to ``sys.exit`` while another thread runs or if flushing fails (a closed pipe: Python's
-    usual exit reports it)."""
-    import atexit
-    import ctypes
-    import threading
-
-    if threading.active_count() > 1:
-        sys.exit(code)
-    try:
-        sys.stdout.flush()
-        sys.stderr.flush()
-    except (OSError, ValueError):
-        sys.exit(code)
-    atexit._run_exitfuncs()
-    try:
-        ctypes.CDLL(None).fflush(None)  # what C libraries (IPOPT, MuJoCo) printed and the C library still buffers
-    except (OSError, AttributeError):
-        sys.exit(code)
-    os._exit(code)
 
 
 class RegistryHelpCommand(TyperCommand):
@@ -242,7 +211,6 @@ def run(
     """
     from . import api
 
-    _FAST_EXIT.add("run")
     flags = [
         ("--estimator", "estimator.kind", estimator),
         ("--imm-models", "estimator.imm_models", int(imm_models.value) if imm_models else None),

@@ -71,8 +71,11 @@ def read_config(run_dir: Path) -> RunConfig:
 
 
 def read_metrics(run_dir: Path) -> dict[str, Any]:
-    """The run's ``metrics.json`` (``OSError``/``ValueError`` when it cannot be read)."""
-    return json.loads((run_dir / METRICS).read_text())
+    """The run's ``metrics.json`` (``OSError``/``ValueError`` when it cannot be read), renamed metrics under
+    their new names (:func:`ftc_mj.metrics.schema.upgrade_names`: run folders written before a rename)."""
+    from .metrics.schema import upgrade_names
+
+    return upgrade_names(json.loads((run_dir / METRICS).read_text()))
 
 
 def read_trace(path: str | Path) -> dict[str, np.ndarray]:

@@ -87,8 +87,9 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
                       "MuJoCo state); the plant froze there, so these metrics are not results")
     ds = res.decision
     if ds is not None:
-        m["severity_R"] = getattr(ds, "severity_R", None)
-        m["severity_L"] = getattr(ds, "severity_L", None)
+        # the decision's severity at the last step: 1 - R_hat/R0 of the filter's radius estimate then
+        m["radius_loss_estimate_final_R"] = getattr(ds, "severity_R", None)
+        m["radius_loss_estimate_final_L"] = getattr(ds, "severity_L", None)
     m.update(physical_outcome(m))
     m["wall_time_s"] = res.wall_time
     m["realtime_factor"] = m["sim_time_s"] / res.wall_time if res.wall_time > 0 else float("nan")

@@ -37,7 +37,7 @@ from ..metrics.outcome import physical_outcome
 from ..metrics.run import compute_metrics
 from ..metrics.schema import schema as metrics_schema
 from ..plant import NAN, UNSTABLE
-from ..telemetry.columns import trace_schema_metadata
+from ..telemetry.columns import INTEGER_COLUMNS, trace_schema_metadata
 from .loop import SimResult, simulate
 from .output import check_output_root, output_bytes
 
@@ -157,7 +157,7 @@ def _write_run(final: Path, cfg: RunConfig, res: SimResult, metrics: dict[str, A
     """Assemble the run directory under a temporary name and rename it to ``final``."""
     with atomic_dir(final) as tmp:
         write_toml(tmp / "config.toml", config_to_toml_dict(cfg))
-        write_parquet(tmp / "trace.parquet", res.trace, metadata=trace_schema_metadata())
+        write_parquet(tmp / "trace.parquet", res.trace, metadata=trace_schema_metadata(), integers=INTEGER_COLUMNS)
         if want_rrd:
             from ..rerun.record import write_rrd
 

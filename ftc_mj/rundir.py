@@ -48,7 +48,8 @@ def require(run_dir: Path, *names: str) -> None:
 
 def read_run(path: str | Path) -> tuple[RunConfig, dict[str, Any], pl.DataFrame, list[Event]]:
     """A complete run directory read back: ``(config, metrics, trace, events)``, the trace one row per
-    estimator step; :class:`~ftc_mj.errors.BadInput` if a file is missing or unreadable."""
+    estimator step with the types of the simulated run's (:func:`as_simulated`);
+    :class:`~ftc_mj.errors.BadInput` if a file is missing or unreadable."""
     import polars as pl
 
     d = Path(path)
@@ -56,10 +57,22 @@ def read_run(path: str | Path) -> tuple[RunConfig, dict[str, Any], pl.DataFrame,
     try:
         cfg = read_config(d)
         metrics = read_metrics(d)
-        trace = pl.read_parquet(d / TRACE)
+        trace = as_simulated(pl.read_parquet(d / TRACE))
     except (OSError, ValueError, tomllib.TOMLDecodeError) as err:
         raise BadInput(f"RUN_DIR: {d}: unreadable run ({str(err).splitlines()[0][:120]})") from None
     return cfg, metrics, trace, read_events(d, trace)
+
+
+def as_simulated(trace: pl.DataFrame) -> pl.DataFrame:
+    """A trace read from ``trace.parquet`` with the column types the simulation gives it: the codes and
+    counts stored as integers with nulls (:data:`~ftc_mj.telemetry.columns.INTEGER_COLUMNS`) as floats
+    with NaN for "no value", ``plant_flags`` an integer."""
+    import polars as pl
+
+    from .telemetry.columns import INTEGER_COLUMNS
+
+    cols = [c for c in INTEGER_COLUMNS if c != "plant_flags" and c in trace.columns and trace[c].dtype.is_integer()]
+    return trace.with_columns(pl.col(c).cast(pl.Float64).fill_null(float("nan")) for c in cols)
 
 
 def read_config(run_dir: Path) -> RunConfig:
@@ -71,8 +84,11 @@ def read_config(run_dir: Path) -> RunConfig:
 
 
 def read_metrics(run_dir: Path) -> dict[str, Any]:
-    """The run's ``metrics.json`` (``OSError``/``ValueError`` when it cannot be read)."""
-    return json.loads((run_dir / METRICS).read_text())
+    """The run's ``metrics.json`` (``OSError``/``ValueError`` when it cannot be read), renamed metrics under
+    their new names (:func:`ftc_mj.metrics.schema.upgrade_names`: run folders written before a rename)."""
+    from .metrics.schema import upgrade_names
+
+    return upgrade_names(json.loads((run_dir / METRICS).read_text()))
 
 
 def read_trace(path: str | Path) -> dict[str, np.ndarray]:

@@ -34,7 +34,8 @@ fault in the run); ``isolation_correct``: ``isolated_wheel == true_fault_wheel``
 a fault); ``first_declaration_time`` (any declaration, None if none); ``declarations`` (count
 of declarations); ``radius_anomaly_s``: time a radius estimate spent above nominal beyond the
 decision's thresholds (not a puncture, never declared).
-``severity_R/L`` (fractional radius loss 0..1 of the last decision) are added by
+``radius_loss_estimate_final_R/L`` (the decision's severity at the last step: fractional radius
+loss ``1 - R_hat/R0``, 0..1, of the filter's final estimate; ``severity_R/L`` before 2026-12) are added by
 :func:`~ftc_mj.sim.run.run_metrics`. Without an estimator only ``onsets`` (no detection keys).
 """
 

@@ -17,7 +17,8 @@ model predicts for the same wheel rates, ``[V, ψ̇]_true - [V, ψ̇](R0, ω)``,
 second before the onset (the model's bias on a fault-free robot), and ``R`` the sensor noise: the
 shift actually observed, whatever the plant does (on the MuJoCo robot a punctured tyre first slips
 and the chassis keeps its speed, so the shift builds up over tenths of a second instead of at once).
-The list stops once ``K`` exceeds :data:`KL_CAP` or after :data:`KL_PROFILE_S` seconds.
+The list stops once ``K`` exceeds :data:`KL_CAP` or after :data:`KL_PROFILE_S` seconds;
+``fdi_cumulative_kl_t`` holds the time (s) of each value.
 
 PCRB ratios: ``radius_pcrb_rms_R/L`` is the root-mean-square of the bound's σ (m) and
 ``radius_rmse_over_pcrb_R/L`` the radius RMSE over it, both from ``settle_time`` seconds on.
@@ -94,7 +95,10 @@ def fdi_sweep_metrics(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float
     d = cfg.estimator.decision
     m["fdi_records"] = {r: first_alarm_records(trace, r, d.max_split_sigma) for r in RULES}
     if onset is not None:
-        m["fdi_cumulative_kl"] = cumulative_kl(cfg, trace, onset)
+        kl = cumulative_kl(cfg, trace, onset)
+        k0 = int(np.searchsorted(np.asarray(trace["t"], float), onset - 1e-9))
+        m["fdi_cumulative_kl"] = kl
+        m["fdi_cumulative_kl_t"] = [float(t) for t in np.asarray(trace["t"], float)[k0: k0 + len(kl)]]
     late = np.asarray(trace["t"], float) >= settle_time
     for w in ("R", "L"):
         err = np.asarray(trace[f"R_{w}_hat"], float)[late] - np.asarray(trace[f"R_{w}"], float)[late]

@@ -7,25 +7,59 @@ dimensionless number, ``fraction`` for a share in [0, 1], ``count`` for an integ
 for text, flags and nested records (whose fields the meaning names). Times are from the start of the
 run; "the onset" is the first scheduled fault onset in the run. ``None`` (JSON ``null``) marks a
 value that does not apply to the run.
+
+A renamed metric keeps its old name in the table (``renamed_from``, ``renamed_in``): the meaning the
+tool prints says "renamed from OLD in YYYY-MM", and :func:`upgrade_names` gives metrics and results
+tables written before the rename their new names, so old run folders and study results still read.
 """
 
 from __future__ import annotations
 
 import tomllib
-from typing import Any
+from typing import TYPE_CHECKING, Any, overload
+
+if TYPE_CHECKING:
+    import polars as pl
 
 
-def _load() -> dict[str, tuple[str, str]]:
+def _load() -> dict[str, dict[str, Any]]:
     """The table shipped as ``ftc_mj/data/metrics.toml`` (data, in the order a reader meets the keys)."""
     from ..resources import resource_path
 
     with open(resource_path("metrics.toml"), "rb") as fh:
-        table = tomllib.load(fh)
-    return {k: (str(v["unit"]), str(v["meaning"])) for k, v in table.items()}
+        return tomllib.load(fh)
 
 
-METRICS: dict[str, tuple[str, str]] = _load()
+def _meaning(entry: dict[str, Any]) -> str:
+    old = entry.get("renamed_from")
+    return str(entry["meaning"]) + (f" (renamed from `{old}` in {entry['renamed_in']})" if old else "")
+
+
+_TABLE = _load()
+METRICS: dict[str, tuple[str, str]] = {k: (str(v["unit"]), _meaning(v)) for k, v in _TABLE.items()}
 """metric key -> (unit, one-line meaning)."""
+RENAMED: dict[str, str] = {str(v["renamed_from"]): k for k, v in _TABLE.items() if "renamed_from" in v}
+"""old metric name -> its name now (metrics renamed; results written before keep the old name)."""
+
+
+@overload
+def upgrade_names(table: dict[str, Any]) -> dict[str, Any]: ...
+@overload
+def upgrade_names(table: pl.DataFrame) -> pl.DataFrame: ...
+def upgrade_names(table: Any) -> Any:
+    """``metrics.json`` (a dict) or a study's results table (a polars frame, flattened metrics as
+    columns) with every renamed metric under its new name (:data:`RENAMED`); a key that already has its
+    new name is left alone, so a table written partly before and partly after a rename reads whole."""
+    if isinstance(table, dict):
+        return {(RENAMED.get(k, k) if RENAMED.get(k) not in table else k): v for k, v in table.items()}
+    cols = set(table.columns)
+    old = [c for c in table.columns if c in RENAMED]
+    both = [c for c in old if RENAMED[c] in cols]  # rows of both ages: fill the new column from the old
+    if both:
+        import polars as pl
+
+        table = table.with_columns(pl.coalesce(RENAMED[c], c).alias(RENAMED[c]) for c in both).drop(both)
+    return table.rename({c: RENAMED[c] for c in old if c not in both})
 
 
 def undocumented(keys: Any) -> list[str]:

@@ -8,8 +8,11 @@ labels; each value sets the entry's scenario — name, description, duration, bo
 and its overrides), crossed with the seeds. Each worker runs
 :func:`run_with_report_metrics`: the run plus the report's trace-derived metrics
 (:func:`~ftc_mj.paper.derived.report_metrics`), so the persisted rows carry everything the claims
-read. The runs of one seed (``keep_seed``) also keep their run directory (config, trace, metrics;
-a recording only in the quick look) for the figures.
+read. The runs of one seed (``keep_seed``) also keep their run directory (config, metrics, events and
+the trace) for the figures: without a recording the trace keeps only :func:`kept_columns` (what the
+figures, the claims' comparison recordings and a recording of the run read), a third of the columns —
+the quick look's 69 runs of 40 s then write 27 MB of traces instead of about 110 MB; with a recording
+(quick look, ``--rrd runs|compare``) the whole trace.
 
 The study folder is ``OUT/study/<study hash>``: the same invocation resumes there and computes only
 the runs without a row; another selection, seed list or duration is another study.
@@ -85,16 +88,41 @@ def load_matrix_study(entries: Sequence[MatrixEntry], seeds: Sequence[int], dura
     return dataclasses.replace(plan, path=final)
 
 
+EXTRA_KEPT_COLUMNS: tuple[str, ...] = ("R_R_model", "R_L_model", "reconfig_state", "plant_flags")
+"""Trace columns kept beside :data:`ftc_mj.rerun.record.REQUIRED_COLUMNS` and ``mode_prob_<k>`` in a
+run directory without a recording (:func:`kept_columns`)."""
+
+
+def kept_columns(columns: Sequence[str]) -> list[str]:
+    """Of a trace's ``columns``, those a run directory kept for the figures keeps: what
+    :mod:`ftc_mj.paper.figures` draws, the claims' comparison recordings (:mod:`ftc_mj.rerun.overlay`)
+    show and :func:`~ftc_mj.rerun.record.write_rrd` needs (so ``ftc-mj view`` still opens the run)."""
+    from ..rerun.record import REQUIRED_COLUMNS
+
+    keep = {*REQUIRED_COLUMNS, *EXTRA_KEPT_COLUMNS}
+    return [c for c in columns if c in keep or c.startswith("mode_prob_")]
+
+
 def run_with_report_metrics(cfg: RunConfig, out_root: Path | None, rrd: bool, *, keep_seed: int | None = None,
                             runs_dir: str | None = None, record: bool = False) -> Any:
     """A study ``run_fn``: :func:`~ftc_mj.sim.run.execute`, then the report metrics added to the
-    outcome's metrics. Runs of ``keep_seed`` are written under ``runs_dir``, with a recording when
-    ``record`` (the study's own ``out_root`` and ``rrd`` are not used)."""
-    from ..sim.run import execute
+    outcome's metrics. Runs of ``keep_seed`` are written under ``runs_dir``: with a recording and the whole
+    trace when ``record``, else with the trace's :func:`kept_columns` (the study's own ``out_root`` and
+    ``rrd`` are not used)."""
+    from ..sim.output import check_output_root, output_bytes
+    from ..sim.run import execute, run_id_for, write_outcome
     from .derived import report_metrics
 
     keep = Path(runs_dir) if runs_dir is not None and cfg.seed == keep_seed else None
-    outcome = execute(cfg, keep, rrd=record and keep is not None)
+    if keep is None or record:
+        outcome = execute(cfg, keep, rrd=record and keep is not None)
+    else:
+        check_output_root(keep, run_id_for(cfg), output_bytes(cfg, False))
+        outcome = execute(cfg, None, rrd=False)
+        res = outcome.result
+        compact = dataclasses.replace(res, trace={c: res.trace[c] for c in kept_columns(list(res.trace))})
+        written = write_outcome(dataclasses.replace(outcome, result=compact), cfg, keep, False)
+        outcome = dataclasses.replace(written, result=res)
     outcome.metrics.update(report_metrics(cfg, outcome.result.trace))
     return outcome
 

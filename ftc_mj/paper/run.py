@@ -15,7 +15,8 @@ Layout of ``OUT``::
 
     OUT/study/<hash>/      the matrix as a study (rows/, log.jsonl, results.parquet, matrix.toml;
                            over seeds also runs/: the run directories of the first seed, for the figures)
-    OUT/runs/<run-id>/     the quick look's run directories (with run.rrd unless --rrd none)
+    OUT/runs/<run-id>/     the quick look's run directories (config, metrics, events and the trace columns the
+                           figures need; with --rrd runs|compare also run.rrd and the whole trace)
     OUT/tuning/<study>/<hash>/   the tuning studies (--tune)
     OUT/summary.csv        one row per run and seed: identity + flattened metrics + report metrics
     OUT/claims.md          the claims, checks, verdicts; OUT/claims.json the same, machine-readable
@@ -70,8 +71,9 @@ class PaperOptions:
     """Every run shortened to this many seconds (None: the scenario's)."""
     only: list[str] | None = None
     extras: bool = True
-    rrd: bool = True
-    """Quick look: a recording in each run directory."""
+    rrd: bool = False
+    """Quick look: a recording and the whole trace in each run directory (else the trace columns the
+    figures need, :func:`~ftc_mj.paper.matrix_study.kept_columns`)."""
     fresh: bool = False
     figures: bool = True
     report_only: bool = False
@@ -116,7 +118,7 @@ class PaperOptions:
         parts += ["--quick"] if self.quick else [f"--seeds {self.n_seeds}", f"--seed-set {self.seed_set}"]
         parts += [f"--duration {self.duration:g}"] if self.duration is not None else []
         parts += [f"--only '{p}'" for p in self.only or []]
-        parts += [flag for flag, on in (("--no-extras", not self.extras), ("--no-rrd", not self.rrd),
+        parts += [flag for flag, on in (("--no-extras", not self.extras), ("--rrd runs", self.quick and self.rrd),
                                         ("--fresh", self.fresh), ("--report-only", self.report_only),
                                         ("--tune", self.tune)) if on]
         parts += [f"--baseline {b}" for b in self.baselines]

@@ -37,7 +37,7 @@ from ..metrics.outcome import physical_outcome
 from ..metrics.run import compute_metrics
 from ..metrics.schema import schema as metrics_schema
 from ..plant import NAN, UNSTABLE
-from ..telemetry.columns import trace_schema_metadata
+from ..telemetry.columns import INTEGER_COLUMNS, trace_schema_metadata
 from .loop import SimResult, simulate
 from .output import check_output_root, output_bytes
 
@@ -87,8 +87,9 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
                       "MuJoCo state); the plant froze there, so these metrics are not results")
     ds = res.decision
     if ds is not None:
-        m["severity_R"] = getattr(ds, "severity_R", None)
-        m["severity_L"] = getattr(ds, "severity_L", None)
+        # the decision's severity at the last step: 1 - R_hat/R0 of the filter's radius estimate then
+        m["radius_loss_estimate_final_R"] = getattr(ds, "severity_R", None)
+        m["radius_loss_estimate_final_L"] = getattr(ds, "severity_L", None)
     m.update(physical_outcome(m))
     m["wall_time_s"] = res.wall_time
     m["realtime_factor"] = m["sim_time_s"] / res.wall_time if res.wall_time > 0 else float("nan")
@@ -156,7 +157,7 @@ def _write_run(final: Path, cfg: RunConfig, res: SimResult, metrics: dict[str, A
     """Assemble the run directory under a temporary name and rename it to ``final``."""
     with atomic_dir(final) as tmp:
         write_toml(tmp / "config.toml", config_to_toml_dict(cfg))
-        write_parquet(tmp / "trace.parquet", res.trace, metadata=trace_schema_metadata())
+        write_parquet(tmp / "trace.parquet", res.trace, metadata=trace_schema_metadata(), integers=INTEGER_COLUMNS)
         if want_rrd:
             from ..rerun.record import write_rrd
 

@@ -3,7 +3,8 @@
 The columns are those of :mod:`ftc_mj.telemetry.columns` (SI units and radians), plus the
 controller's own ``telemetry_columns`` and one ``mode_prob_<j>`` per IMM mode. Every cell starts
 as NaN; a step writes only the cells it produced (an estimate on every step with a filter, the
-solver's statistics on controller samples only), so a NaN means "not produced at this step".
+solver's statistics on controller samples only), so a NaN means "not produced at this step". The
+plant's flags (``plant_flags``, a bit set written on every row) are an integer column instead.
 Nothing is logged call by call: the arrays are handed over whole at the end of the run.
 """
 
@@ -27,6 +28,7 @@ class TraceWriter:
         self.extra = tuple(extra)
         self.n_modes = n_modes
         self.columns: dict[str, np.ndarray] = {c: np.full(n, np.nan) for c in (*BASE_COLUMNS, *self.extra)}
+        self.columns["plant_flags"] = np.zeros(n, dtype=np.int64)
         for j in range(n_modes):
             self.columns[f"mode_prob_{j + 1}"] = np.full(n, np.nan)
 
@@ -46,7 +48,7 @@ class TraceWriter:
             c["x_meas"][k], c["y_meas"][k] = rd.position
         c["roll"][k], c["pitch"][k], c["z"][k] = tr.roll, tr.pitch, tr.z_chassis
         c["slip_R"][k], c["slip_L"][k] = tr.slip_R, tr.slip_L
-        c["plant_flags"][k] = tr.flags
+        c["plant_flags"][k] = int(tr.flags)
 
     def cross_track(self, k: int, error: float) -> None:
         """Signed distance (m) of the true position to the reference path, positive left of it."""

@@ -30,6 +30,7 @@ import pyarrow.parquet as pq
 
 from ..errors import BadInput
 from ..io import atomic_path, remove_stale_temporaries, write_json
+from ..metrics.schema import upgrade_names
 from ..sim.output import check_output_root
 from .plan import StudyPlan, identity_diff
 
@@ -129,7 +130,7 @@ class StudyStore:
         frames = [pl.read_parquet(p) for p in paths if p.is_file()]
         if not frames:
             return pl.DataFrame()
-        return pl.concat(frames, how="diagonal_relaxed")
+        return upgrade_names(pl.concat(frames, how="diagonal_relaxed"))  # rows written before a rename
 
     def collect(self, plan: StudyPlan) -> pl.DataFrame:
         """Write ``results.parquet`` (atomically) with the rows of the plan's runs, in plan order."""

@@ -39,7 +39,7 @@ COVARIANCE_COLUMNS: dict[tuple[int, int], str] = {
 """Upper off-diagonal entries ``P[i, j]`` of the 5×5 state covariance and their trace columns."""
 
 
-__all__ = ["BASE_COLUMNS", "COVARIANCE_COLUMNS", "STATE", "WHEEL_CODES"]
+__all__ = ["BASE_COLUMNS", "COVARIANCE_COLUMNS", "INTEGER_COLUMNS", "STATE", "WHEEL_CODES"]
 
 BASE_COLUMNS: tuple[str, ...] = (
     "t", "x", "y", "psi", "v", "yaw_rate", "v_meas", "yaw_rate_meas", "R_R", "R_L",
@@ -67,6 +67,13 @@ CODED_COLUMNS: dict[str, str] = {
     "cross_track_error": "signed distance to the reference path (m), positive = left of it",
 }
 """Meaning of the trace's coded columns, also stored in the Parquet schema metadata of ``trace.parquet``."""
+
+INTEGER_COLUMNS: tuple[str, ...] = (
+    "plant_flags", "fault_detected", "fault_suspected", "declared_wheel", "radius_anomaly", "reconfig_state",
+    "solver_ok", "solver_iterations", "nis_dof", *(c for c in STAT_COLUMNS if c.endswith("_wheel")),
+)
+"""Integer codes, flags and counts: stored in ``trace.parquet`` as integers with nulls where the run
+produced no value (in memory ``plant_flags`` is an int64 column, the others floats with NaN)."""
 
 
 def trace_schema_metadata() -> dict[str, str]:

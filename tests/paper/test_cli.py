@@ -7,9 +7,11 @@ import csv
 import json
 from pathlib import Path
 
+import pyarrow.parquet as pq
 from typer.testing import CliRunner
 
 from ftc_mj.cli import app
+from ftc_mj.rerun.record import REQUIRED_COLUMNS
 
 runner = CliRunner()
 QUICK = ["--only", "s2-ukf-*fb-nmpc",  # NMPC feedback off and on
@@ -74,9 +76,11 @@ def test_quick_look_is_the_study_with_seed_0_and_retries_a_failed_run(tmp_path: 
         assert r["policy"] == ("none" if "nofb" in r["label"] else "safe" if "safe" in r["label"] else "direct")
         assert float(r["radius_rmse_L"]) >= 0 and r["solve_time_ms_median"] != ""
         run_dir = Path(r["run_dir"])
-        for name in ("config.toml", "trace.parquet", "metrics.json", "run.rrd"):
+        for name in ("config.toml", "trace.parquet", "metrics.json", "events.json"):
             assert (run_dir / name).is_file(), (run_dir, name)
-        assert run_dir.parent == out / "runs"
+        assert run_dir.parent == out / "runs" and not (run_dir / "run.rrd").exists()  # recordings on request
+        columns = pq.read_schema(run_dir / "trace.parquet").names  # the columns the figures need
+        assert set(REQUIRED_COLUMNS) <= set(columns) and "reconfig_state" in columns and "nis" not in columns
     md = (out / "claims.md").read_text()
     assert "## Verdicts" in md and "## Thresholds" in md and "single-seed quick look" in md
     doc = json.loads((out / "claims.json").read_text())
@@ -93,6 +97,16 @@ def test_quick_look_is_the_study_with_seed_0_and_retries_a_failed_run(tmp_path: 
     assert (out / "claims.md").is_file() and (out / "compare" / "claim-1.rrd").is_file()
     info = json.loads((out / "paper_run.json").read_text())
     assert info["report_only"] is True and info["reused"] == 3
+
+
+def test_quick_look_recordings_on_request_keep_the_whole_trace(tmp_path: Path) -> None:
+    out = tmp_path / "paper"
+    res = runner.invoke(app, ["paper", "--quick", "--out", str(out), "--rrd", "runs", "--only", "s2-ukf-nofb-nmpc",
+                              "--duration", "1", "--jobs", "1"])
+    assert res.exit_code == 0, res.output
+    (run_dir,) = (out / "runs").iterdir()
+    assert (run_dir / "run.rrd").is_file() and "nis" in pq.read_schema(run_dir / "trace.parquet").names
+    assert "--rrd runs" in json.loads((out / "paper_run.json").read_text())["command"]
 
 
 SEEDED = ["--only", "s2-ukf-nofb-nmpc", "--only", "s2-ukf-fb-nmpc", "--seeds", "2", "--duration", "2", "--jobs", "1"]

@@ -5,11 +5,15 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
+
+import pytest
 
 from ftc_mj.config import validate_config
 from ftc_mj.paper.claims import evaluate_all
 from ftc_mj.paper.derived import onsets_of_config, report_metrics
 from ftc_mj.paper.figures import make_figures, read_run_dir
+from ftc_mj.paper.matrix_study import kept_columns
 from ftc_mj.paper.render import render_claims
 from ftc_mj.paper.verdicts import combine
 
@@ -50,3 +54,38 @@ def test_figures_sequential_and_in_worker_processes(fake_run_dirs: dict[str, Pat
     assert [p.name for p in par] == [p.name for p in seq] and len(seq) >= 3
     for a, b in zip(seq, par, strict=True):
         assert a.read_bytes() == b.read_bytes()
+
+
+class _Reads(dict):
+    """A trace that notes every column asked for (read or tested)."""
+
+    asked: set[str] = set()
+
+    def __getitem__(self, k: str) -> Any:
+        self.asked.add(k)
+        return super().__getitem__(k)
+
+    def get(self, k: str, default: Any = None) -> Any:
+        self.asked.add(k)
+        return super().get(k, default)
+
+    def __contains__(self, k: object) -> bool:
+        self.asked.add(str(k))
+        return super().__contains__(k)
+
+
+def test_the_figures_read_only_the_columns_a_quick_look_run_keeps(fake_run_dirs: dict[str, Path], tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """Run folders without a recording keep :func:`~ftc_mj.paper.matrix_study.kept_columns` of the trace: every
+    column a figure asks for is among them."""
+    from ftc_mj.paper import figures
+
+    real = figures.read_run_dir
+
+    def noting(run_dir: Path | None) -> tuple[Any, dict[str, Any]]:
+        trace, cfg = real(run_dir)
+        return (None if trace is None else _Reads(trace)), cfg
+
+    monkeypatch.setattr(figures, "read_run_dir", noting)
+    assert len(make_figures(fake_run_dirs, tmp_path / "f")) >= 8
+    assert _Reads.asked and set(kept_columns(sorted(_Reads.asked))) == _Reads.asked

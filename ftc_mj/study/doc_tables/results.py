@@ -8,14 +8,18 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 
+from ...metrics.schema import upgrade_names
+
 
 def read_results(out: Path) -> pl.DataFrame:
     """Rows of a study output folder (the final table, or the rows persisted so far; empty if none)."""
     res = Path(out) / "results.parquet"
     if res.is_file():
-        return pl.read_parquet(res)
+        return upgrade_names(pl.read_parquet(res))
     files = sorted((Path(out) / "rows").glob("*.parquet"))
-    return pl.concat([pl.read_parquet(f) for f in files], how="diagonal_relaxed") if files else pl.DataFrame()
+    if not files:
+        return pl.DataFrame()
+    return upgrade_names(pl.concat([pl.read_parquet(f) for f in files], how="diagonal_relaxed"))
 
 
 def float_column(df: pl.DataFrame, name: str) -> np.ndarray:

@@ -14,6 +14,7 @@ import polars as pl
 
 from ...config import RunConfig, validate_config
 from ...errors import BadInput
+from ...metrics.schema import upgrade_names
 from ..plan import plan_study
 
 RULES: tuple[str, ...] = ("sigma", "mode", "cusum", "glr")
@@ -60,7 +61,7 @@ def load_cells(study_dir: Path, fault_axis: str) -> tuple[list[Cell], list[str]]
     res = Path(study_dir) / "results.parquet"
     if not res.is_file():
         raise BadInput(f"STUDY_DIR: {study_dir} has no results.parquet (run `ftc-mj study` first)")
-    df = pl.read_parquet(res)
+    df = upgrade_names(pl.read_parquet(res))
     plan = json.loads((Path(study_dir) / "plan.json").read_text())
     axes = list(plan.get("axis_columns", []))
     if fault_axis not in axes:

@@ -19,6 +19,7 @@ import numpy as np
 import polars as pl
 
 from ...io import atomic_path
+from ...metrics.schema import upgrade_names
 from ..series import stack_series
 from .cells import load_cells
 from .curves import Point, RuleCurves, sweep
@@ -180,7 +181,7 @@ def fdi_curves(study_dir: Path, out: Path | None = None, *, fault_axis: str = "s
     out = Path(out) if out is not None else study_dir / "fdi"
     cells, keys = load_cells(study_dir, fault_axis)
     curves = sweep(cells, horizon, arl0)
-    df = pl.read_parquet(study_dir / "results.parquet")
+    df = upgrade_names(pl.read_parquet(study_dir / "results.parquet"))
     out.mkdir(parents=True, exist_ok=True)
     write_csv(curves, keys, out / "fdi_curves.csv")
     lines = [f"# FDI operating characteristics: `{study_dir.name}`", "",

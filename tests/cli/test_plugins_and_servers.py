@@ -9,6 +9,7 @@ import os
 import shutil
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -68,6 +69,9 @@ def test_the_viewer_server_binds_to_localhost(tmp_path: Path) -> None:
     env = {**os.environ, "XDG_CONFIG_HOME": str(tmp_path), "XDG_DATA_HOME": str(tmp_path),
            "XDG_CACHE_HOME": str(tmp_path)}
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True)  # type: ignore[arg-type]
+    reader.start()
     seen: list = []
     try:
         viewer = psutil.Process(proc.pid)
@@ -77,12 +81,14 @@ def test_the_viewer_server_binds_to_localhost(tmp_path: Path) -> None:
                 seen += [c for c in viewer.net_connections(kind="inet") if c.status == psutil.CONN_LISTEN]
             except psutil.Error:
                 break
-            if seen and os.environ.get("DISPLAY"):
-                break
+            if seen and any("Listening for gRPC" in ln for ln in list(lines)):
+                break  # listening, and it said where (the window may fail later without a display)
             time.sleep(0.005)
     finally:
         proc.kill()
-        out = proc.communicate(timeout=10)[0]
+        proc.wait(timeout=10)
+        reader.join(timeout=10)
+    out = "".join(lines)
     assert "Listening for gRPC connections on 127.0.0.1:" in out, out[-2000:]
     assert "0.0.0.0" not in out
     assert all(c.laddr.ip == "127.0.0.1" for c in seen), seen

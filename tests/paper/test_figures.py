@@ -35,10 +35,24 @@ def test_report_metrics_and_claims_from_run_dirs(fake_run_dirs: dict[str, Path])
     assert "s2-ukf-fb-lmpc" in md
 
 
-def test_figures_sequential_and_in_worker_processes(fake_run_dirs: dict[str, Path], tmp_path: Path) -> None:
+def test_figures_sequential_and_in_worker_processes(fake_run_dirs: dict[str, Path], tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     """Every figure whose runs exist is drawn (the others skipped, not an error); worker processes
-    write the same PNGs as the sequential rendering."""
-    figs = make_figures(fake_run_dirs, tmp_path / "seq")
+    write the same PNGs as the sequential rendering. Run folders without a recording keep
+    :func:`~ftc_mj.paper.matrix_study.kept_columns` of the trace: every column a figure asks for (noted
+    during the sequential rendering) is among them."""
+    from ftc_mj.paper import figures
+
+    real = figures.read_run_dir
+
+    def noting(run_dir: Path | None) -> tuple[Any, dict[str, Any]]:
+        trace, cfg = real(run_dir)
+        return (None if trace is None else _Reads(trace)), cfg
+
+    with monkeypatch.context() as m:
+        m.setattr(figures, "read_run_dir", noting)
+        figs = make_figures(fake_run_dirs, tmp_path / "seq")
+    assert _Reads.asked and set(kept_columns(sorted(_Reads.asked))) == _Reads.asked
     names = {p.name for p in figs}
     for expected in ("innovations_s2.png", "radius_s2.png", "trajectory_s2.png", "wheel_rates_s2_nmpc_vs_lmpc.png",
                      "radius_comparison_s4.png", "mode_probs_fb.png", "imm_variants_s2.png",
@@ -72,20 +86,3 @@ class _Reads(dict):
     def __contains__(self, k: object) -> bool:
         self.asked.add(str(k))
         return super().__contains__(k)
-
-
-def test_the_figures_read_only_the_columns_a_quick_look_run_keeps(fake_run_dirs: dict[str, Path], tmp_path: Path,
-                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
-    """Run folders without a recording keep :func:`~ftc_mj.paper.matrix_study.kept_columns` of the trace: every
-    column a figure asks for is among them."""
-    from ftc_mj.paper import figures
-
-    real = figures.read_run_dir
-
-    def noting(run_dir: Path | None) -> tuple[Any, dict[str, Any]]:
-        trace, cfg = real(run_dir)
-        return (None if trace is None else _Reads(trace)), cfg
-
-    monkeypatch.setattr(figures, "read_run_dir", noting)
-    assert len(make_figures(fake_run_dirs, tmp_path / "f")) >= 8
-    assert _Reads.asked and set(kept_columns(sorted(_Reads.asked))) == _Reads.asked

@@ -123,14 +123,18 @@ def _cli(*args: str) -> list[str]:
 
 def test_interrupted_study_resumes_without_recomputing(small_study: Path, serial_reference: pl.DataFrame,
                                                        dask_client: Any, tmp_path: Path) -> None:
-    """A CLI study killed (SIGKILL of the process and its local worker: real processes) after two rows
-    is resumed by the same command, which computes only the missing runs. The resuming invocation runs
-    the CLI in this process on the session's cluster (``--address``): the process boundary matters
-    only for the kill, and the session's workers already hold the study's solver."""
-    out = tmp_path / "out"
+    """A CLI study killed after two rows (SIGKILL of the study process alone, as a user's kill does; its
+    local worker outlives it for a moment) is resumed by the same command, which computes only the
+    missing runs. The kill prints nothing: multiprocessing's resource tracker removes the semaphores
+    dask left without "There appear to be N leaked semaphore objects", which reads like a bug. The
+    resuming invocation runs the CLI in this process on the session's cluster (``--address``): the
+    process boundary matters only for the kill, and the session's workers already hold the solver."""
+    psutil = pytest.importorskip("psutil")
+    out, err = tmp_path / "out", tmp_path / "stderr.txt"
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    proc = subprocess.Popen(_cli(str(small_study), "--out", str(out), "--workers", "1", "-q"), cwd=ROOT, env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+    with open(err, "w") as fh:
+        proc = subprocess.Popen(_cli(str(small_study), "--out", str(out), "--workers", "1", "-q"), cwd=ROOT,
+                                env=env, stdout=subprocess.DEVNULL, stderr=fh, start_new_session=True)
     deadline = time.time() + 120
     rows = out / "rows"
     try:
@@ -138,10 +142,15 @@ def test_interrupted_study_resumes_without_recomputing(small_study: Path, serial
             if rows.is_dir() and len(list(rows.glob("[!.]*.parquet"))) >= 2:
                 break
             time.sleep(0.05)
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)  # the client and its local workers (same new session)
+        assert proc.poll() is None, "the study finished before it could be killed"
+        session = [p for p in psutil.process_iter() if _sid(p) == proc.pid]
+        os.kill(proc.pid, signal.SIGKILL)
         proc.wait(timeout=30)
+        psutil.wait_procs([p for p in session if p.pid != proc.pid], timeout=60)  # the tracker's last words
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)  # whatever of the session is left
+    assert "leaked" not in err.read_text(), err.read_text()
     n_before = len(list(rows.glob("[!.]*.parquet")))
     assert 2 <= n_before < 8, f"kill came too late ({n_before} rows)"
     assert not (out / "results.parquet").exists()
@@ -205,32 +214,6 @@ def test_shipped_study_reduced(name: str, overrides: dict[str, Any], keep: dict[
     assert "## Findings" in text
     assert re.search(expect, text), text[:3000]
     assert (tmp_path / "out" / "figures" / f"by_{plan.axis_columns[0]}.png").is_file() == figures
-
-
-@pytest.mark.slow
-def test_a_killed_study_leaves_no_leaked_semaphore_warning(small_study: Path, tmp_path: Path) -> None:
-    """SIGKILL of the study process alone (its local worker outlives it for a moment): multiprocessing's
-    resource tracker removes the semaphores dask left without printing "There appear to be N leaked
-    semaphore objects", which reads like a bug to the user who pressed kill."""
-    psutil = pytest.importorskip("psutil")
-    out, err = tmp_path / "out", tmp_path / "stderr.txt"
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    with open(err, "w") as fh:
-        proc = subprocess.Popen(_cli(str(small_study), "--out", str(out), "--workers", "1", "-q"), cwd=ROOT, env=env,
-                                stdout=subprocess.DEVNULL, stderr=fh, start_new_session=True)
-    try:
-        deadline = time.time() + 120
-        while time.time() < deadline and proc.poll() is None and not list((out / "rows").glob("[!.]*.parquet")):
-            time.sleep(0.05)
-        assert proc.poll() is None, "the study finished before it could be killed"
-        session = [p for p in psutil.process_iter() if _sid(p) == proc.pid]
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=30)
-        psutil.wait_procs([p for p in session if p.pid != proc.pid], timeout=60)  # the tracker's last words
-    finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGKILL)
-    assert "leaked" not in err.read_text(), err.read_text()
 
 
 def _sid(p: Any) -> int | None:

@@ -72,16 +72,21 @@ def policy_runs(shared_runs: SharedRuns) -> list[Path]:
 def dask_client() -> Iterator[Any]:
     """A client of one LocalCluster for the whole session: 2 single-threaded worker processes on
     127.0.0.1 (:func:`ftc_mj.study.cluster.open_client`), started on first use, closed at the end.
-    Tests pass it as ``client=`` instead of starting a cluster of their own."""
+    Tests pass it as ``client=`` instead of starting a cluster of their own. Its dashboard is given as
+    ``--dashboard :0`` would give it (no host): ``test_local_cluster_listens_on_localhost_only`` checks
+    that it listens on 127.0.0.1."""
     from ftc_mj.study.cluster import open_client
 
-    with open_client(2, None) as client:
+    with open_client(2, None, ":0") as client:
         yield client
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Tests on the session's Dask cluster share one xdist worker, so a parallel run (``-n 2``) still
-    starts one cluster."""
+    starts one cluster; they are collected first, so that their worker takes the group (about 40 s) at the
+    start and the other tests balance the two workers at the end."""
+    on_cluster = {id(item) for item in items if "dask_client" in getattr(item, "fixturenames", ())}
     for item in items:
-        if "dask_client" in getattr(item, "fixturenames", ()):
+        if id(item) in on_cluster:
             item.add_marker(pytest.mark.xdist_group("dask"))
+    items.sort(key=lambda item: id(item) not in on_cluster)  # stable: the order within each part is kept

@@ -4,6 +4,7 @@ analyses that apply; ``ftc-mj study NAME --list`` prints the plan and runs nothi
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pytest
 from typer.testing import CliRunner
@@ -16,8 +17,21 @@ from ftc_mj.study.store import StudyStore
 
 
 def test_studies_lists_counts_whole_descriptions_and_analyses(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each block states what the study's plan holds: the plans the command made are kept and read
+    back here (planning every built-in study validates thousands of run configs; once is enough)."""
+    import ftc_mj.study.plan as plan_module
+
     monkeypatch.chdir(tmp_path)  # no study folders: no measured durations
+    plans: dict[str, Any] = {}
+    real = plan_module.plan_study
+
+    def planning(name: Any, *args: Any, **kwargs: Any) -> Any:
+        plans[name] = real(name, *args, **kwargs)
+        return plans[name]
+
+    monkeypatch.setattr(plan_module, "plan_study", planning)
     res = CliRunner().invoke(app, ["studies"])
+    monkeypatch.undo()
     assert res.exit_code == 0, res.output
     blocks = {}
     for line in res.stdout.splitlines():
@@ -28,7 +42,7 @@ def test_studies_lists_counts_whole_descriptions_and_analyses(tmp_path: Path, mo
             blocks[name].append(line.strip())
     assert list(blocks) == list(builtin_studies())
     for name, lines in blocks.items():
-        plan = plan_study(name)
+        plan = plans[name]
         assert lines[0].startswith(f"{name}: {len(plan.runs)} runs, "), lines[0]
         text = " ".join(lines[1:])
         assert " ".join(plan.spec.description.split()) in text, name  # whole, not cut mid-sentence

@@ -39,7 +39,8 @@ def test_custom_estimator_against_the_ukf(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_custom_policy_study_on_a_local_cluster(tmp_path: Path) -> None:
-    out = _run("custom_policy_study.py", ["--duration", "3", "--seeds", "1", "--out", "study"], tmp_path)
+    args = ["--duration", "3", "--seeds", "1", "--workers", "1", "--out", "study"]
+    out = _run("custom_policy_study.py", args, tmp_path)
     for policy in ("none", "safe", "late-handover"):
         assert f"│ {policy} " in out, out
     assert (tmp_path / "study" / "results.parquet").is_file()

@@ -68,22 +68,23 @@ def test_a_gyro_dropout_leaves_the_speed_update() -> None:
 
 
 def test_the_truth_of_the_faults_is_in_the_trace_and_the_events() -> None:
-    """A locked left wheel at 1.5 s and a speed bias of 0.3 m/s from 0.5 s: ``fault_lock_L`` is 0 until the
-    row after the onset (the state that acted in the last physics step) and 1 from then on, the wheel's
-    rate 0 with it; the speed offset column holds the bias from its onset; each fault has an onset event
-    naming its class, target and size; a run without them has no such column."""
-    res, _ = _run(**{"faults.actuator": [{"wheel": "left", "kind": "lock", "onset": 1.5}],
+    """A locked left wheel at 1.509 s (the last physics step before the 1.51 s row) and a speed bias of
+    0.3 m/s from 0.5 s: ``fault_lock_L`` is 0 until the row after the onset (the state that acted in the
+    last physics step) and 1 from then on, the wheel's rate 0 with it; the speed offset column holds the
+    bias from its onset; each fault has an onset event naming its class, target and size; a run without
+    them has no such column."""
+    res, _ = _run(**{"faults.actuator": [{"wheel": "left", "kind": "lock", "onset": 1.509}],
                      "faults.sensor": [{"sensor": "speed", "kind": "bias", "onset": 0.5, "size": 0.3}]})
     tr = res.trace
     t = tr["t"]
     assert set(FAULT_TRUTH_COLUMNS) & set(tr) == {"fault_effectiveness_R", "fault_effectiveness_L", "fault_lock_R",
                                                   "fault_lock_L", "fault_speed_offset", "fault_speed_dropout"}
-    locked = t > 1.5 + 1e-9
+    locked = t > 1.509
     assert np.array_equal(tr["fault_lock_L"] == 1.0, locked) and np.all(tr["fault_lock_R"] == 0.0)
     assert np.all(tr["omega_L"][locked] == 0.0) and np.all(tr["fault_effectiveness_L"] == 1.0)
     np.testing.assert_array_equal(tr["fault_speed_offset"], np.where(t >= 0.5 - 1e-9, 0.3, 0.0))
     texts = {(e.t, e.text) for e in res.events}
-    assert (1.5, "fault injected: wheel_lock on left, size 1") in texts
+    assert (1.509, "fault injected: wheel_lock on left, size 1") in texts
     assert (0.5, "fault injected: speed_bias on speed, size 0.3 m/s") in texts
     healthy, _ = _run()
     assert not set(FAULT_TRUTH_COLUMNS) & set(healthy.trace)

@@ -62,6 +62,7 @@ class Sensors:
         self.settings = settings
         self.seed = int(seed)
         self.faults = SensorFaults(faults)
+        self._faulty = bool(self.faults)  # read at every sample: a plain attribute, not a __bool__ call
         self._fix_period = 1.0 / float(settings.position_rate)
         self.reset()
 
@@ -77,7 +78,7 @@ class Sensors:
         e = self.rng.standard_normal(_N_DRAWS).tolist()
         speed = truth.v + c.speed_sigma * e[0]
         yaw = None if c.yaw_rate_sigma is None else truth.yaw_rate + c.yaw_rate_sigma * e[1]
-        if self.faults:
+        if self._faulty:
             speed, yaw = self.faults.apply(t, speed, yaw)
         position = None
         if c.position_sigma is not None and t + _EPS_T >= self._next_fix:

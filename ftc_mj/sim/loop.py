@@ -206,6 +206,7 @@ class ClosedLoop:
         estimator = self.parts.estimator
         self.n_modes = len(getattr(estimator, "hypotheses", None) or ())
         self.fault_columns = fault_columns(self.parts)
+        self.sensor_faults = bool(self.parts.sensors.faults)
         self.trace = TraceWriter(self.n, tuple(getattr(self.parts.controller, "telemetry_columns", ())),
                                  self.n_modes, self.fault_columns)
         self.solves: list[Solve] = []
@@ -267,7 +268,7 @@ class ClosedLoop:
         this one's) and update with the readings (a sample a faulty sensor did not deliver, NaN, is handed
         over as absent: the filter updates with the channels present, or only predicts); returns the output
         and the wheel rates (rad/s) used."""
-        if self.parts.sensors.faults:
+        if self.sensor_faults:
             z = Measurement(speed=present(rd.speed), yaw_rate=present(rd.yaw_rate), position=rd.position)
         else:
             z = Measurement(speed=rd.speed, yaw_rate=rd.yaw_rate, position=rd.position)

@@ -1,0 +1,175 @@
+"""The Gymnasium environment: the API contract (``check_env``), the same plant as ``ftc-mj run`` (an
+episode driven by the NMPC's commands is the run, bitwise), one scorer for any controller, determinism,
+the observation's conventions, the reward's definition and the ending of an episode."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from ftc_mj.control.factory import build_controller, build_reference
+from ftc_mj.envs import ENV_ID, DiffDriveEnv
+from ftc_mj.errors import BadInput
+from ftc_mj.plant import TIPPED
+from tests.support.shared_runs import SHARED_RUNS
+
+KINEMATIC = {"plant.kind": "kinematic", "duration": 2.0}
+"""Scenario 2 on the kinematic plant, 2 s: 20 controller periods."""
+SHARED = "s2-puncture-5s-safe"
+"""The shared 5 s MuJoCo run with the left puncture at 3 s, declared and handed over by the safe policy."""
+SOLVER_COLUMNS = {"solve_time_ms", "solver_iterations", "solver_ok"}
+"""The controller's own trace columns: an action has no solver."""
+POSE = ("x_pose", "y_pose", "psi_pose")
+
+
+def nmpc_episode(env: DiffDriveEnv, **reset: object) -> float:
+    """One episode commanded by the built-in NMPC, built outside the environment from its config and fed
+    what the loop feeds it: the time, the pose the sensors read, the policy's radii and the last command.
+    The return."""
+    obs, info = env.reset(**reset)
+    controller = build_controller(env.config, build_reference(env.config))
+    pose = [env.observation_names.index(n) for n in POSE]
+    applied, total, done = None, 0.0, False
+    while not done:
+        cmd = controller.solve(info["t"], obs[pose], info["model_radii"], applied)
+        applied = np.array(cmd.omega, dtype=float)
+        obs, reward, terminated, truncated, info = env.step(cmd.omega)
+        total, done = total + reward, terminated or truncated
+    return total
+
+
+def random_episode(env: DiffDriveEnv, action_seed: int, **reset: object) -> tuple[list[np.ndarray], float]:
+    """One episode of uniformly random wheel rates (the action space seeded with ``action_seed``):
+    observations, return."""
+    obs, _ = env.reset(**reset)
+    env.action_space.seed(action_seed)
+    seen, total, done = [obs], 0.0, False
+    while not done:
+        obs, reward, terminated, truncated, _ = env.step(env.action_space.sample())
+        seen.append(obs)
+        total, done = total + reward, terminated or truncated
+    return seen, total
+
+
+@pytest.fixture(scope="module")
+def nmpc_env() -> tuple[DiffDriveEnv, float]:
+    """The shared MuJoCo run's config as an environment, after one NMPC-commanded episode, and its return."""
+    scenario, overrides = SHARED_RUNS[SHARED]
+    env = DiffDriveEnv(scenario, overrides)
+    return env, nmpc_episode(env)
+
+
+@pytest.fixture(scope="module")
+def random_env() -> tuple[DiffDriveEnv, float]:
+    """The same config after one random-policy episode (seed 0), and its return."""
+    scenario, overrides = SHARED_RUNS[SHARED]
+    env = DiffDriveEnv(scenario, overrides)
+    return env, random_episode(env, 0)[1]
+
+
+def test_check_env_passes() -> None:
+    env = DiffDriveEnv("scenario2", KINEMATIC, observe_filter=True)
+    with pytest.warns(UserWarning):  # gymnasium recommends [-1, 1] actions and finite bounds: rad/s, m are unbounded
+        check_env(env, skip_render_check=True)
+
+
+def test_made_by_id_and_by_module_id() -> None:
+    for env_id in (ENV_ID, f"ftc_mj.envs:{ENV_ID}"):
+        env = gym.make(env_id, scenario="scenario1", overrides=KINEMATIC)
+        assert isinstance(env.unwrapped, DiffDriveEnv) and env.unwrapped.config.name == "scenario1"
+
+
+def test_nmpc_through_the_env_is_the_run_bitwise(nmpc_env, shared_runs) -> None:
+    """Same plant, faults, sensors, filter, decision and policy: with the NMPC's commands as actions the
+    trace equals ``ftc-mj run``'s in every column but the solver's, bit for bit, and so do the events."""
+    env, _ = nmpc_env
+    trace, events = env.episode_trace()
+    run = shared_runs[SHARED].result
+    assert list(trace) == list(run.trace)
+    differing = [c for c in trace if c not in SOLVER_COLUMNS
+                 and not np.array_equal(trace[c], run.trace[c], equal_nan=True)]
+    assert differing == []
+    assert events == run.events and any("fault declared: left" in e.text for e in events)
+
+
+def test_random_policy_and_nmpc_scored_by_the_same_scorer(nmpc_env, random_env, shared_runs) -> None:
+    """Both episodes get the run's metrics; the NMPC's equal the run's (but for identity and wall clock),
+    and random wheel rates stray farther from the circle than the NMPC (cross-track RMS, m)."""
+    nmpc, random = nmpc_env[0].episode_metrics(), random_env[0].episode_metrics()
+    run = shared_runs[SHARED].metrics
+    assert set(nmpc) == set(random) == set(run)
+    assert nmpc["controller"] == random["controller"] == "agent"
+    for key in ("cross_track_rms", "cross_track_max", "detection_delay", "isolated_wheel", "outcome"):
+        assert nmpc[key] == run[key], key
+    assert random["cross_track_rms"] > 5 * nmpc["cross_track_rms"]
+
+
+def test_return_is_minus_the_integral_of_the_squared_cross_track_error(nmpc_env, random_env) -> None:
+    """reward = -Δt Σ e² over the rows after each action: the return is -Δt Σ_{k ≥ 1} e_k² of the trace (m²·s),
+    to the round-off of summing 50 terms in a different order (relative 1e-12)."""
+    for env, total in (nmpc_env, random_env):
+        e = env.episode_trace()[0]["cross_track_error"][1:]
+        assert total == pytest.approx(-env.loop.dt * float(np.dot(e, e)), rel=1e-12)
+    assert random_env[1] < nmpc_env[1]
+
+
+def test_same_seed_same_observations_and_another_seed_other_noise() -> None:
+    env = DiffDriveEnv("scenario2", KINEMATIC)
+    first, _ = random_episode(env, 1, seed=3)
+    again, _ = random_episode(DiffDriveEnv("scenario2", KINEMATIC), 1, seed=3)
+    other, _ = random_episode(env, 1, seed=4)
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+    v = env.observation_names.index("v_meas")
+    assert first[0][v] != other[0][v] and env.config.seed == 4
+
+
+def test_observation_is_what_the_loop_sensed_with_masks_for_missing_sensors() -> None:
+    """The sensor entries equal the trace's sensor columns at the sample's row; no gyro: its entry 0.0 and
+    its mask 0; with a gyro: mask 1 and the reading."""
+    names = DiffDriveEnv("scenario2", KINEMATIC, observe_filter=True).observation_names
+    for sigma, valid in ((None, 0.0), (0.01, 1.0)):
+        env = DiffDriveEnv("scenario2", {**KINEMATIC, "sensors.yaw_rate_sigma": sigma} if sigma else KINEMATIC,
+                           observe_filter=True)
+        env.reset()
+        obs, *_ = env.step([5.0, 4.0])
+        assert env.observation_space.contains(obs)
+        o = dict(zip(names, obs, strict=True))
+        trace = env.loop.trace.columns
+        assert o["t"] == trace["t"][10] == 0.1
+        assert o["v_meas"] == trace["v_meas"][10] and o["yaw_rate_valid"] == valid
+        assert o["yaw_rate_meas"] == (trace["yaw_rate_meas"][10] if sigma else 0.0)
+        assert o["R_L_hat"] == trace["R_L_hat"][10] and o["filter_valid"] == 1.0
+
+
+def test_tip_over_terminates_with_the_penalty_and_the_row_that_saw_it() -> None:
+    """A hard turn at 10 m/s rolls the MuJoCo robot about 3.6°: with the tip-over limit at 2° the episode
+    terminates there, the reward carries the penalty and the trace ends on the row flagged TIPPED."""
+    env = DiffDriveEnv("scenario1", {"duration": 3.0, "plant.tipped_limit_deg": 2.0}, tip_penalty=1000.0)
+    env.reset()
+    terminated = truncated = False
+    while not (terminated or truncated):
+        _, reward, terminated, truncated, info = env.step([10.0, 0.0])
+    assert terminated and not truncated and reward < -1000.0 and info["plant_flags"] & TIPPED
+    trace, _ = env.episode_trace()
+    assert trace["plant_flags"][-1] & TIPPED and len(trace["t"]) < 300
+    assert env.episode_metrics()["outcome"] == "tipped over"
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step([0.0, 0.0])
+
+
+def test_bad_options_and_actions_name_the_field() -> None:
+    env = DiffDriveEnv("scenario2", KINEMATIC)
+    with pytest.raises(BadInput, match=r"^options\.speed: not an option"):
+        env.reset(options={"speed": 3})
+    with pytest.raises(BadInput, match=r"^options\.split: must be one of dev, test"):
+        env.reset(options={"split": "train", "index": 0})
+    with pytest.raises(BadInput, match=r"^options\.index"):
+        env.reset(options={"split": "dev", "index": -1})
+    with pytest.raises(BadInput, match=r"^options\.split: this installation has no benchmark draws"):
+        env.reset(options={"split": "dev", "index": 0})
+    env.reset(options={"scenario": "scenario1", "overrides": {"duration": 1.0}})
+    assert env.config.name == "scenario1" and env.config.duration == 1.0
+    with pytest.raises(ValueError, match="^action"):
+        env.step([np.nan, 0.0])

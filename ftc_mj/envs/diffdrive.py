@@ -34,6 +34,7 @@ from gymnasium import spaces
 
 from ..config import RunConfig, load_config
 from ..control.base import ControlOutput
+from ..errors import BadInput
 from ..plant import NAN, TIPPED, UNSTABLE
 from ..sim.loop import ClosedLoop, Sample, SimResult
 from ..sim.run import RunOutcome, run_metrics, write_outcome
@@ -90,11 +91,12 @@ class DiffDriveEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start the episode ``options`` names (:mod:`ftc_mj.envs.episode`); the first observation is the
-        controller sample at t = 0."""
+        controller sample at t = 0. :class:`~ftc_mj.errors.BadInput` naming a bad option or setting; an
+        exception of a component during the episode propagates (as in strict mode, ``FTC_MJ_STRICT=1``)."""
         super().reset(seed=seed)
         cfg = episode_config(self.scenario, self.overrides, options, seed)
         if float(cfg.robot.omega_max) != self.omega_max:
-            raise ValueError(f"robot.omega_max: the episode's {cfg.robot.omega_max} rad/s differs from the "
+            raise BadInput(f"robot.omega_max: the episode's {cfg.robot.omega_max} rad/s differs from the "
                              f"action space's {self.omega_max} rad/s; make the environment with that override")
         self.config = cfg
         self._wall0 = time.perf_counter()

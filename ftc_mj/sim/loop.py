@@ -73,6 +73,18 @@ class SimResult:
     geometry: RobotGeometry | None = None
 
 
+@dataclass(frozen=True)
+class Sample:
+    """What estimator step ``k`` knows before its command (:meth:`ClosedLoop.measure`)."""
+
+    t: float
+    """Time (s) of the step."""
+    truth: Truth
+    reading: SensorReading
+    radii: np.ndarray | None
+    """The radii [R_R, R_L] (m) the policy gives the controller on a controller sample; ``None`` between samples."""
+
+
 STRICT_ENV = "FTC_MJ_STRICT"
 """Environment variable: ``1`` makes :func:`simulate` re-raise a component's exception instead of
 recording it (the test suite sets it)."""
@@ -155,18 +167,6 @@ def wire(cfg: RunConfig) -> Components:
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
     return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting)
-
-
-@dataclass(frozen=True)
-class Sample:
-    """What estimator step ``k`` knows before its command (:meth:`ClosedLoop.measure`)."""
-
-    t: float
-    """Time (s) of the step."""
-    truth: Truth
-    reading: SensorReading
-    radii: np.ndarray | None
-    """The radii [R_R, R_L] (m) the policy gives the controller on a controller sample; ``None`` between samples."""
 
 
 class ClosedLoop:

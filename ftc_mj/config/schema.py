@@ -122,6 +122,20 @@ class RunConfig(StrictModel):
             raise ValueError("controller.robust.weighting: 'posterior' needs an estimator (estimator.kind is 'none')")
         return self
 
+    @model_validator(mode="after")
+    def _faults_fit_plant(self) -> RunConfig:
+        """A gyro fault needs a gyro (``sensors.yaw_rate_sigma``); the kinematic plant has no servo, so
+        of the actuator faults it takes only ``lock`` (its wheel rates are the commands)."""
+        for i, f in enumerate(self.faults.sensor):
+            if f.sensor == "yaw_rate" and self.sensors.yaw_rate_sigma is None:
+                raise ValueError(f"faults.sensor[{i}].sensor: 'yaw_rate' needs a gyro (set sensors.yaw_rate_sigma)")
+        if self.plant.kind == "kinematic":
+            for i, f in enumerate(self.faults.actuator):
+                if f.kind != "lock":
+                    raise ValueError(f"faults.actuator[{i}].kind: {f.kind!r} needs a servo (plant.kind = 'mujoco'); "
+                                     "the kinematic plant takes 'lock' only")
+        return self
+
     # ---------------------------------------------------------------- resolved values
     @property
     def plant_wheel_radius(self) -> float:

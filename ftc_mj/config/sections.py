@@ -10,13 +10,22 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BeforeValidator, Field, Strict, field_validator, model_validator
+from pydantic import (
+    BeforeValidator,
+    Field,
+    SerializerFunctionWrapHandler,
+    Strict,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 
 from .. import resources
 from .types import (
     DEFAULT_MODEL_FILE,
+    FLOAT_BOUND,
     OMEGA_MAX,
     AngleDeg,
     FiniteFloat,
@@ -70,6 +79,13 @@ class PlantConfig(StrictModel):
     """Sliding friction of the caster(s); 0 = frictionless (the kinematic model's assumption)."""
     actuator_gain: PosFloat | None = None
     """Velocity-actuator gain kv (N m s/rad); ``None`` keeps the MJCF value."""
+    payload_mass: ranged(0.0, 1.0e4, unit="kg") = 0.0
+    """Mass (kg) of a payload fixed to the chassis (a uniform 0.4 m ball); 0 = none (the MJCF robot as it is).
+    It adds to the chassis weight *after* the struts' preload is set, so they sag under it, and it moves the
+    centre of mass, hence the load each tyre and the caster carry and the lift-off lateral acceleration."""
+    payload_offset: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (0.0, 0.0, 0.0)
+    """Position (m) of the payload's centre in the chassis frame: forward of the axle midpoint, to the left,
+    and up from the hub height (the chassis frame's origin; negative = below the axle)."""
     initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (0.0, 0.0, 0.0)
     """Initial (x, y, psi) of the axle midpoint (m, m, rad)."""
     start_moving: Flag = True
@@ -142,21 +158,92 @@ def _check_schedule(v: Breakpoints) -> Breakpoints:
     return v
 
 
-class FaultConfig(StrictModel):
-    """Piecewise-linear wheel-radius schedules: lists of ``[t, radius]`` breakpoints.
+FaultTime = ranged(0.0, FLOAT_BOUND, unit="s")
+"""A fault's onset (s): any time from 0; one after the end of a run never happens in it."""
 
+
+class ActuatorFaultConfig(StrictModel):
+    """One fault of a wheel's velocity servo (``[[faults.actuator]]``), permanent from ``onset``.
+
+    ``loss``: loss of effectiveness, the servo's gain and its torque limit both scaled by
+    ``effectiveness``; ``lock``: the wheel is held at zero rate (a seized bearing or gearbox);
+    ``unresponsive``: the servo applies no torque and the wheel turns freely. The physics of each:
+    :mod:`ftc_mj.plant.actuator_faults`.
+    """
+
+    wheel: Literal["right", "left"]
+    kind: Literal["loss", "lock", "unresponsive"]
+    onset: FaultTime
+    effectiveness: ranged(0.0, 1.0, hi_open=True) | None = None
+    """``loss`` only: the fraction of the servo's gain and torque limit that remains, in [0, 1)."""
+
+    @model_validator(mode="after")
+    def _effectiveness_for_loss(self) -> ActuatorFaultConfig:
+        """``effectiveness`` is given for a ``loss`` and for nothing else."""
+        if self.kind == "loss" and self.effectiveness is None:
+            raise ValueError("effectiveness: a 'loss' needs the remaining fraction in [0, 1)")
+        if self.kind != "loss" and self.effectiveness is not None:
+            raise ValueError(f"effectiveness: only a 'loss' has one, not a {self.kind!r}")
+        return self
+
+
+class SensorFaultConfig(StrictModel):
+    """One fault of a sensor (``[[faults.sensor]]``) from ``onset`` for ``duration`` seconds.
+
+    ``bias``: a constant offset ``size`` (m/s for the speed sensor, rad/s for the gyro); ``drift``: an
+    offset growing at ``size`` per second (m/s², rad/s²) from 0 at the onset; ``dropout``: the samples
+    are missing (NaN in the reading; the filters update with the channels present). The physics of each:
+    :mod:`ftc_mj.plant.sensor_faults`.
+    """
+
+    sensor: Literal["speed", "yaw_rate"]
+    kind: Literal["bias", "drift", "dropout"]
+    onset: FaultTime
+    size: FiniteFloat | None = None
+    """``bias``: the offset (m/s or rad/s); ``drift``: its growth rate (m/s² or rad/s²); not for ``dropout``."""
+    duration: ranged(0.0, 1.0e9, lo_open=True, unit="s") = 1.0e9
+    """How long the fault lasts (s); the default outlasts any run (at most 3600 s)."""
+
+    @model_validator(mode="after")
+    def _size_for_offsets(self) -> SensorFaultConfig:
+        """``size`` is given for a ``bias`` or ``drift`` and not for a ``dropout``."""
+        if self.kind != "dropout" and self.size is None:
+            raise ValueError(f"size: a {self.kind!r} needs its size (m/s or rad/s; per second for a drift)")
+        if self.kind == "dropout" and self.size is not None:
+            raise ValueError("size: a 'dropout' has no size (its samples are missing)")
+        return self
+
+
+class FaultConfig(StrictModel):
+    """The injected faults: tyre punctures, servo faults and sensor faults.
+
+    ``right``/``left``: piecewise-linear wheel-radius schedules, lists of ``[t, radius]`` breakpoints.
     Before the first breakpoint the radius is the nominal one; after the last it is held. A step is
-    two breakpoints at the same time. Empty = no fault on that wheel.
+    two breakpoints at the same time. Empty = no fault on that wheel. ``actuator``/``sensor``: lists of
+    :class:`ActuatorFaultConfig` / :class:`SensorFaultConfig` tables. Empty lists are left out of the
+    resolved config, so a run without such faults has the identity (run id, study key) it had before
+    they existed.
     """
 
     right: Breakpoints = Field(default_factory=list)
     left: Breakpoints = Field(default_factory=list)
+    actuator: Annotated[list[ActuatorFaultConfig], Field(max_length=100)] = Field(default_factory=list)
+    sensor: Annotated[list[SensorFaultConfig], Field(max_length=100)] = Field(default_factory=list)
 
     @field_validator("right", "left")
     @classmethod
     def _valid_schedule(cls, v: Breakpoints) -> Breakpoints:
         """Each wheel's schedule checked by :func:`_check_schedule`."""
         return _check_schedule(v)
+
+    @model_serializer(mode="wrap")
+    def _omit_empty(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """The fields, without ``actuator``/``sensor`` when they are empty."""
+        data = handler(self)
+        for name in ("actuator", "sensor"):
+            if not data.get(name):
+                data.pop(name, None)
+        return data
 
 
 class SensorConfig(StrictModel):

@@ -23,10 +23,10 @@ import numpy as np
 class Measurement:
     """One estimator step's sensor data (SI units). ``None`` = not available this step."""
 
-    speed: float
-    """Measured forward speed of the axle midpoint (m/s)."""
+    speed: float | None
+    """Measured forward speed of the axle midpoint (m/s); ``None`` while the speed sensor drops out."""
     yaw_rate: float | None = None
-    """Measured yaw rate (rad/s)."""
+    """Measured yaw rate (rad/s); ``None`` without a gyro or while it drops out."""
     position: np.ndarray | None = None
     """Measured (x, y) position fix (m)."""
 

@@ -1,4 +1,5 @@
-"""Tyre-puncture fault profiles: piecewise-linear wheel radius against time.
+"""Tyre-puncture fault profiles (piecewise-linear wheel radius against time), and every configured fault as a
+record (:func:`fault_list`: punctures, servo faults, sensor faults), the truth a scorer judges FDI against.
 
 A schedule is a list of ``(t, r)`` breakpoints (s, m). Before the first breakpoint the radius is the nominal one;
 between breakpoints it is interpolated linearly; after the last it is held. Two breakpoints at the same time make a
@@ -17,6 +18,7 @@ from __future__ import annotations
 import math
 from bisect import bisect_right
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 
 from ..errors import BadInput
 from .settings import FaultSettings
@@ -156,3 +158,52 @@ def wheel_schedules(faults: FaultSettings, nominal: float) -> tuple[RadiusSchedu
     """The radius schedules ``(right, left)`` of the fault settings around the ``nominal`` radius (m)."""
     return (RadiusSchedule(faults.right, nominal, "faults.right"),
             RadiusSchedule(faults.left, nominal, "faults.left"))
+
+
+FAULT_UNITS: dict[str, str] = {
+    "puncture": "m", "actuator_loss": "", "wheel_lock": "", "actuator_unresponsive": "",
+    "speed_bias": "m/s", "speed_drift": "m/s²", "speed_dropout": "s",
+    "gyro_bias": "rad/s", "gyro_drift": "rad/s²", "gyro_dropout": "s",
+}
+"""Every fault class and the unit of its :attr:`FaultSpec.size` (``""``: a fraction)."""
+
+_ACTUATOR_CLASS = {"loss": "actuator_loss", "lock": "wheel_lock", "unresponsive": "actuator_unresponsive"}
+_SENSOR_PREFIX = {"speed": "speed", "yaw_rate": "gyro"}
+
+
+@dataclass(frozen=True)
+class FaultSpec:
+    """One configured fault: its class (a key of :data:`FAULT_UNITS`), what it hits (``"right"``/``"left"``
+    wheel, ``"speed"``/``"yaw_rate"`` sensor), its onset (s) and its size in the class's unit: the radius
+    lost (m, nominal minus the radius farthest from it; positive = deflated) of a puncture; the fraction of
+    the servo lost (1 − effectiveness; 1 for a lock or an unresponsive servo); the bias (m/s, rad/s), the
+    drift rate (m/s², rad/s²) or the dropout's duration (s) of a sensor fault."""
+
+    fault_class: str
+    target: str
+    onset: float
+    size: float
+
+    def describe(self) -> str:
+        """``actuator_loss on left, size 0.5`` (with the unit when the size has one)."""
+        unit = FAULT_UNITS[self.fault_class]
+        return f"{self.fault_class} on {self.target}, size {self.size:g}{' ' + unit if unit else ''}"
+
+
+def fault_list(faults: FaultSettings, nominal_radius: float) -> list[FaultSpec]:
+    """Every fault of the settings (``[faults]``) around the plant's ``nominal_radius`` (m): the punctures
+    (right, then left; a wheel whose schedule never departs from nominal has none), then the servo faults
+    and the sensor faults in the order they are configured."""
+    out: list[FaultSpec] = []
+    for wheel, bps in (("right", faults.right), ("left", faults.left)):
+        onset = schedule_onset(bps, nominal_radius)
+        if onset is not None:
+            farthest = max((float(r) for _, r in bps), key=lambda r: abs(r - nominal_radius))
+            out.append(FaultSpec("puncture", wheel, onset, nominal_radius - farthest))
+    for a in faults.actuator:
+        lost = 1.0 - float(a.effectiveness) if a.kind == "loss" else 1.0  # type: ignore[arg-type]
+        out.append(FaultSpec(_ACTUATOR_CLASS[a.kind], a.wheel, float(a.onset), lost))
+    for f in faults.sensor:
+        size = float(f.duration) if f.kind == "dropout" else float(f.size)  # type: ignore[arg-type]
+        out.append(FaultSpec(f"{_SENSOR_PREFIX[f.sensor]}_{f.kind}", f.sensor, float(f.onset), size))
+    return out

@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from ..model.kinematics import body_rates, inverse_rates, pose_rates
+from .actuator_faults import ActuatorFaults
 from .base import PlantClock
 from .faults import EPS_T, RadiusSchedule, wheel_index, wheel_schedules
 from .settings import FaultSettings, PlantSettings, RobotSettings, plant_geometry
@@ -26,7 +27,8 @@ from .truth import Truth
 
 class KinematicPlant(PlantClock):
     """The kinematic model as a plant (see module docstring); settings as for :class:`~ftc_mj.plant.robot.Plant`
-    (of the plant settings it reads the timestep, the geometry overrides and the initial pose)."""
+    (of the plant settings it reads the timestep, the geometry overrides and the initial pose; of the servo
+    faults it takes ``lock``: a locked wheel's rate is 0 whatever the command)."""
 
     kind = "kinematic"
     model = None
@@ -39,6 +41,8 @@ class KinematicPlant(PlantClock):
         self.omega_max: float = float(robot.omega_max)
         self.initial_pose: tuple[float, float, float] = tuple(float(v) for v in plant.initial_pose)  # type: ignore[assignment]
         self.schedules: tuple[RadiusSchedule, RadiusSchedule] = wheel_schedules(faults, self.nominal_radius)
+        self.actuator_faults = ActuatorFaults(faults.actuator, self.dt)
+        self._locked = (False, False)
         self.reset()
 
     def reset(self) -> None:
@@ -48,6 +52,7 @@ class KinematicPlant(PlantClock):
         self._k = 0
         self._cmd = [0.0, 0.0]
         self._radius = [s.value(EPS_T) for s in self.schedules]
+        self._restart_servo_faults()
 
     @property
     def frozen(self) -> bool:
@@ -66,6 +71,14 @@ class KinematicPlant(PlantClock):
         for w in (float(omega_R), float(omega_L)):
             out.append(0.0 if w != w else max(-lim, min(lim, w)))
         self._cmd = out
+        if self._locked != (False, False):
+            self._cmd = [0.0 if lk else w for w, lk in zip(out, self._locked, strict=True)]
+
+    def _apply_servo(self, eff: tuple[float, float], lock: tuple[bool, bool]) -> None:
+        """Hold a locked wheel at rate 0 (``eff`` has no meaning without a servo: the configuration admits
+        ``lock`` only)."""
+        self._locked = lock
+        self.set_command(*self._cmd)
 
     def set_motion(self, v: float, yaw_rate: float) -> None:
         """Start in steady motion: wheel rates (rad/s) giving forward speed ``v`` (m/s) and ``yaw_rate`` (rad/s)."""
@@ -102,9 +115,8 @@ class KinematicPlant(PlantClock):
         k4 = f(p + dt * k3)
         self._pose = (p + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)).tolist()
 
-    def advance(self, n: int) -> None:
+    def _advance(self, n: int) -> None:
         """Advance ``n`` physics steps with the held commands, applying the fault schedules per step."""
-        n = int(n)
         if n <= 0:
             return
         k0, dt = self._k, self.dt

@@ -2,17 +2,21 @@
 
 Every :meth:`Sensors.read` draws the same fixed block of standard normals, whichever sensors are configured, so
 a run is deterministic for a given config and seed, and switching a sensor on or off does not change the noise
-sequence of the others (e.g. adding a gyro leaves the speed noise identical).
+sequence of the others (e.g. adding a gyro leaves the speed noise identical). Sensor faults
+(:mod:`~ftc_mj.plant.sensor_faults`: bias, drift, dropout of the speed sensor or the gyro) act on top of
+the noise and draw nothing.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from .settings import SensorSettings
+from .sensor_faults import SensorFaults
+from .settings import SensorFaultSettings, SensorSettings
 from .truth import Truth
 
 _N_DRAWS = 9  # speed, yaw rate, position x, position y, omega_R, omega_L, pose x, pose y, pose psi
@@ -26,8 +30,10 @@ class SensorReading:
 
     Attributes:
         t: sample time (s).
-        speed: forward speed of the axle midpoint + N(0, speed_sigma^2) (m/s).
-        yaw_rate: gyro, yaw rate + N(0, yaw_rate_sigma^2) (rad/s); ``None`` without a gyro.
+        speed: forward speed of the axle midpoint + N(0, speed_sigma^2) (m/s), + a fault's offset; NaN while
+            the sensor drops out.
+        yaw_rate: gyro, yaw rate + N(0, yaw_rate_sigma^2) (rad/s), + a fault's offset; NaN while it drops out;
+            ``None`` without a gyro.
         position: ``[x, y]`` + N(0, position_sigma^2 I) (m) when a fix is due at ``position_rate``; else ``None``.
         omega_R, omega_L: encoder wheel rates + N(0, encoder_sigma^2) (rad/s).
         pose: ``[x, y, psi]`` handed to the controller (m, m, rad), + N(0, pose_sigma^2 I) when ``pose_sigma > 0``.
@@ -49,11 +55,14 @@ class Sensors:
         settings: the sensor settings (noise levels in SI units; ``None`` = sensor absent;
             :class:`~ftc_mj.plant.settings.SensorSettings`).
         seed: seed of the generator; the same settings and seed give the same readings.
+        faults: the sensor faults (``[[faults.sensor]]`` tables; none by default).
     """
 
-    def __init__(self, settings: SensorSettings, seed: int) -> None:
+    def __init__(self, settings: SensorSettings, seed: int, faults: Sequence[SensorFaultSettings] = ()) -> None:
         self.settings = settings
         self.seed = int(seed)
+        self.faults = SensorFaults(faults)
+        self._faulty = bool(self.faults)  # read at every sample: a plain attribute, not a __bool__ call
         self._fix_period = 1.0 / float(settings.position_rate)
         self.reset()
 
@@ -69,6 +78,8 @@ class Sensors:
         e = self.rng.standard_normal(_N_DRAWS).tolist()
         speed = truth.v + c.speed_sigma * e[0]
         yaw = None if c.yaw_rate_sigma is None else truth.yaw_rate + c.yaw_rate_sigma * e[1]
+        if self._faulty:
+            speed, yaw = self.faults.apply(t, speed, yaw)
         position = None
         if c.position_sigma is not None and t + _EPS_T >= self._next_fix:
             position = np.array([truth.x + c.position_sigma * e[2], truth.y + c.position_sigma * e[3]])

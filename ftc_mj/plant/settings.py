@@ -59,13 +59,48 @@ class PlantSettings(Protocol):
     """Velocity-servo gain kv (N m s/rad); ``None`` keeps the MJCF value."""
     wheel_load_fraction: float
     """Share of the chassis weight on the two wheel slides (the caster takes the rest)."""
+    payload_mass: float
+    """Payload fixed to the chassis (kg); 0 = none."""
+    payload_offset: Sequence[float]
+    """Payload centre in the chassis frame (m): forward, left, up from the hub height."""
+
+
+class ActuatorFaultSettings(Protocol):
+    """One servo fault (``[[faults.actuator]]``, :mod:`ftc_mj.plant.actuator_faults`)."""
+
+    wheel: str
+    """``"right"`` or ``"left"``."""
+    kind: str
+    """``"loss"``, ``"lock"`` or ``"unresponsive"``."""
+    onset: float
+    """Time (s) from which the fault acts."""
+    effectiveness: float | None
+    """``loss``: the remaining fraction of the servo's gain and torque limit, in [0, 1)."""
+
+
+class SensorFaultSettings(Protocol):
+    """One sensor fault (``[[faults.sensor]]``, :mod:`ftc_mj.plant.sensor_faults`)."""
+
+    sensor: str
+    """``"speed"`` or ``"yaw_rate"``."""
+    kind: str
+    """``"bias"``, ``"drift"`` or ``"dropout"``."""
+    onset: float
+    """Time (s) from which the fault acts."""
+    size: float | None
+    """Bias (m/s or rad/s) or drift rate (m/s² or rad/s²); ``None`` for a dropout."""
+    duration: float
+    """Time (s) the fault lasts."""
 
 
 class FaultSettings(Protocol):
-    """The tyre faults (``[faults]``): ``[t, radius]`` breakpoints (s, m) of each wheel's radius."""
+    """The faults (``[faults]``): ``[t, radius]`` breakpoints (s, m) of each wheel's radius, the servo faults
+    and the sensor faults."""
 
     right: Sequence[Sequence[float]]
     left: Sequence[Sequence[float]]
+    actuator: Sequence[ActuatorFaultSettings]
+    sensor: Sequence[SensorFaultSettings]
 
 
 class SensorSettings(Protocol):

@@ -188,7 +188,10 @@ class SafePolicy(ReconfigurationPolicy):
 
     # ---------------------------------------------------------------- estimator rate
     def observe(self, out: FilterOutput) -> None:
-        """Record this step's NIS per measurement (rejected measurements count as inconsistent)."""
+        """Record this step's NIS per measurement (rejected measurements count as inconsistent; a step
+        without any measurement, a sensor dropout's predict-only step, is no evidence and is skipped)."""
+        if np.size(out.innovation) == 0 and not out.rejected:
+            return
         m = max(int(np.size(out.innovation)), 1)
         r = float(out.nis) / m if np.isfinite(out.nis) and not out.rejected else 1e3
         if len(self._nis) == self._nis.maxlen:

@@ -5,8 +5,9 @@ Left column: a 3D overview of the whole reference (fixed eye), a 3D close-up in 
 time-series views — right radius, left radius (one y range from truth and estimate; the ±2σ lines
 may leave it while the filter is uncertain), innovation ±2σ (tab: NIS), wheel rates with commands and
 ±limit, IMM mode probabilities (IMM runs only), cross-track error, speed (tabs: yaw rate, attitude,
-fault flag, reconfiguration state), path following (if recorded), NMPC solve time (tabs: iterations,
-status). The time panel is on ``sim_time`` with the cursor at the end of the run.
+fault flag, reconfiguration state, the injected servo and sensor faults), path following (if
+recorded), NMPC solve time (tabs: iterations, status). The time panel is on ``sim_time`` with the
+cursor at the end of the run.
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ from collections.abc import Mapping
 
 import numpy as np
 import rerun.blueprint as rrb
+
+from ftc_mj.telemetry.columns import FAULT_TRUTH_COLUMNS
 
 PF_FIRST_COLUMN = "pf_progress"
 """The trace column whose presence marks a path-following run (its views are added)."""
@@ -119,6 +122,9 @@ def _motion_tabs(trace: Mapping[str, np.ndarray]) -> rrb.View | rrb.Container:
     if "reconfig_state" in trace:
         speed.append(_ts("/reconfiguration", "Reconfiguration (0 nominal, 1 hold, 2 handed over, 3 reverted)",
                          axis_y=rrb.ScalarAxis(range=(-0.1, 3.1))))
+    if any(c in trace for c in FAULT_TRUTH_COLUMNS):
+        speed.append(_ts("/injected", "Injected faults: servo effectiveness, lock (0/1), sensor offsets "
+                                      "(m/s, rad/s), dropout (0/1)"))
     return rrb.Tabs(*speed, active_tab=0) if len(speed) > 1 else speed[0]
 
 

@@ -49,6 +49,9 @@ Time series (``Scalars``; one sample per trace row unless stated):
   ``/attitude/{roll,pitch,z}`` (if present); ``/fault/detected`` (if ``fault_detected`` is present;
   0/1); ``/reconfiguration/state`` (if ``reconfig_state`` is present; 0 nominal, 1 hold, 2 handed
   over, 3 reverted) — :func:`_log_motion` and :func:`_log_modes`.
+- ``/injected/<name>``: the injected servo and sensor faults' truth, trace columns ``fault_<name>``
+  (:data:`~ftc_mj.telemetry.columns.FAULT_TRUTH_COLUMNS`, present only in a run with such a fault):
+  servo effectiveness and lock per wheel, sensor offsets and dropout flags — :func:`_log_injected`.
 - ``/path_following/{progress,contouring_error,lag_error}``, ``/path_following/speed/{desired,planned,
   progress}``, ``/path_following/lateral_accel/{planned,bound}``, ``/path_following/slack``: the
   path-following NMPC's telemetry (trace columns ``pf_*``, if present), only at solve times —
@@ -72,6 +75,7 @@ import numpy as np
 import rerun as rr
 
 from ftc_mj.telemetry import Event, RobotGeometry, Solve
+from ftc_mj.telemetry.columns import FAULT_TRUTH_COLUMNS
 
 from .blueprint import run_blueprint
 from .stream import growing_path, recording_file, seconds_to_ns, send_events, send_series, strips_column
@@ -143,6 +147,7 @@ def write_rrd(path: Path, trace: Mapping[str, np.ndarray], *, run_id: str, app_i
         _log_wheel_rates(sink, omega_max)
         _log_modes(sink, m)
         _log_motion(sink)
+        _log_injected(sink)
         _log_path_following(sink)
         _log_events(sink, list(events or []) + failures)
 
@@ -422,6 +427,13 @@ def _log_motion(sink: _Sink) -> None:
         scalars("/fault/detected", col("fault_detected"), _LIMIT, "fault detected", 1.5)
     if "reconfig_state" in trace:
         scalars("/reconfiguration/state", col("reconfig_state"), _EST, "reconfiguration state", 1.5)
+
+
+def _log_injected(sink: _Sink) -> None:
+    """The injected faults' truth columns present in the trace, as ``/injected/<name>``."""
+    for k, name in enumerate(c for c in FAULT_TRUTH_COLUMNS if c in sink.trace):
+        color = _MODE_COLORS[k % len(_MODE_COLORS)]
+        sink.scalars(f"/injected/{name.removeprefix('fault_')}", sink.col(name), color, name, 1.5)
 
 
 def _log_path_following(sink: _Sink) -> None:

@@ -45,6 +45,9 @@ from ..estimation.factory import build_estimator, setup_from_config
 from ..estimation.pcrb import pcrb_columns
 from ..metrics.onsets import fault_onsets
 from ..plant import SensorReading, Sensors, Truth
+from ..plant.actuator_faults import ACTUATOR_COLUMNS
+from ..plant.faults import fault_list
+from ..plant.sensor_faults import SENSOR_COLUMNS
 from ..reconfiguration.factory import build_policy, build_scenario_weighting
 from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
@@ -156,7 +159,7 @@ def wire(cfg: RunConfig) -> Components:
     """Build (or take from the per-process :mod:`.cache`, reset) every component of the run ``cfg``; with
     ``plant.start_moving`` the plant starts at the reference's speed (m/s) and yaw rate (rad/s) at t = 0."""
     plant = plant_for(cfg)
-    sensors = Sensors(cfg.sensors, cfg.seed)
+    sensors = Sensors(cfg.sensors, cfg.seed, cfg.faults.sensor)
     reference = build_reference(cfg)
     controller = controller_for(cfg, reference)
     estimator = build_estimator(cfg)
@@ -167,6 +170,33 @@ def wire(cfg: RunConfig) -> Components:
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
     return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting)
+
+
+def present(value: float | None) -> float | None:
+    """A sensor sample, or ``None`` (not available this step) for a missing one (NaN)."""
+    return None if value is None or value != value else value
+
+
+def fault_columns(parts: Components) -> tuple[str, ...]:
+    """The ``fault_*`` truth columns of a run (:data:`~ftc_mj.plant.actuator_faults.ACTUATOR_COLUMNS` with
+    servo faults, :data:`~ftc_mj.plant.sensor_faults.SENSOR_COLUMNS` of each faulty sensor); none without."""
+    cols: tuple[str, ...] = ACTUATOR_COLUMNS if parts.plant.actuator_faults else ()
+    for s in parts.sensors.faults.sensors:
+        cols += SENSOR_COLUMNS[s]
+    return cols
+
+
+def fault_events(cfg: RunConfig) -> list[Event]:
+    """An event at the onset of every servo and sensor fault (class, target, size: :func:`fault_list`), and
+    at the end of a sensor fault that ends within the run (the punctures' events are the schedules')."""
+    events = []
+    for spec in fault_list(cfg.faults, cfg.plant_wheel_radius):
+        if spec.fault_class != "puncture":
+            events.append(Event(spec.onset, "warn", f"fault injected: {spec.describe()}"))
+    for f in cfg.faults.sensor:
+        if f.onset + f.duration < cfg.duration:
+            events.append(Event(f.onset + f.duration, "info", f"fault cleared: {f.sensor} {f.kind}"))
+    return events
 
 
 class ClosedLoop:
@@ -190,11 +220,14 @@ class ClosedLoop:
         self.est_per_ctl = cfg.estimator_per_controller
         estimator = self.parts.estimator
         self.n_modes = len(getattr(estimator, "hypotheses", None) or ())
+        self.fault_columns = fault_columns(self.parts)
+        self.sensor_faults = bool(self.parts.sensors.faults)
         self.trace = TraceWriter(self.n, tuple(getattr(self.parts.controller, "telemetry_columns", ())),
-                                 self.n_modes)
+                                 self.n_modes, self.fault_columns)
         self.solves: list[Solve] = []
         self.events: list[Event] = [Event(t_on, "warn", f"fault injected: {wheel} tyre radius schedule starts")
                                     for wheel, t_on in fault_onsets(cfg).items() if t_on is not None]
+        self.events += fault_events(cfg)
         self.u_prev: np.ndarray | None = None
         self.out: FilterOutput | None = None
         self.cmd = ControlOutput(omega=np.zeros(2))
@@ -245,6 +278,9 @@ class ClosedLoop:
         rd = self.parts.sensors.read(tr, t)
         u_meas = np.array([rd.omega_R, rd.omega_L])
         self.trace.truth(k, t, tr, rd, u_meas)
+        if self.fault_columns:
+            self.trace.fault_truth(k, {**(plant.fault_truth() if plant.actuator_faults else {}),
+                                       **self.parts.sensors.faults.truth(t)})
         new = tr.flags & ~self.flags_seen
         if new:
             self.flags_seen |= new
@@ -255,8 +291,13 @@ class ClosedLoop:
 
     def estimate(self, rd: SensorReading, u_meas: np.ndarray) -> tuple[FilterOutput, np.ndarray]:
         """One filter step: predict with the wheel rates measured at the previous step (at the first step,
-        this one's) and update with the readings; returns the output and the wheel rates (rad/s) used."""
-        z = Measurement(speed=rd.speed, yaw_rate=rd.yaw_rate, position=rd.position)
+        this one's) and update with the readings (a sample a faulty sensor did not deliver, NaN, is handed
+        over as absent: the filter updates with the channels present, or only predicts); returns the output
+        and the wheel rates (rad/s) used."""
+        if self.sensor_faults:
+            z = Measurement(speed=present(rd.speed), yaw_rate=present(rd.yaw_rate), position=rd.position)
+        else:
+            z = Measurement(speed=rd.speed, yaw_rate=rd.yaw_rate, position=rd.position)
         u_pred = self.u_prev if self.u_prev is not None else u_meas
         self.out = self.parts.estimator.step(u_pred, z)
         return self.out, u_pred

@@ -22,12 +22,14 @@ from ..telemetry.columns import BASE_COLUMNS, COVARIANCE_COLUMNS, STATE, WHEEL_C
 
 class TraceWriter:
     """The trace of one run: ``n`` rows of the base columns, ``extra`` columns (a controller's
-    telemetry) and ``n_modes`` mode-probability columns, written row by row."""
+    telemetry), ``n_modes`` mode-probability columns and the ``faults`` truth columns of the run's servo and
+    sensor faults, written row by row."""
 
-    def __init__(self, n: int, extra: Sequence[str] = (), n_modes: int = 0) -> None:
+    def __init__(self, n: int, extra: Sequence[str] = (), n_modes: int = 0, faults: Sequence[str] = ()) -> None:
         self.extra = tuple(extra)
         self.n_modes = n_modes
-        self.columns: dict[str, np.ndarray] = {c: np.full(n, np.nan) for c in (*BASE_COLUMNS, *self.extra)}
+        self.columns: dict[str, np.ndarray] = {c: np.full(n, np.nan) for c in (*BASE_COLUMNS, *self.extra,
+                                                                              *faults)}
         self.columns["plant_flags"] = np.zeros(n, dtype=np.int64)
         for j in range(n_modes):
             self.columns[f"mode_prob_{j + 1}"] = np.full(n, np.nan)
@@ -49,6 +51,12 @@ class TraceWriter:
         c["roll"][k], c["pitch"][k], c["z"][k] = tr.roll, tr.pitch, tr.z_chassis
         c["slip_R"][k], c["slip_L"][k] = tr.slip_R, tr.slip_L
         c["plant_flags"][k] = int(tr.flags)
+
+    def fault_truth(self, k: int, values: dict[str, float]) -> None:
+        """The injected faults' state at row ``k`` (the ``fault_*`` truth columns, in their units)."""
+        c = self.columns
+        for name, value in values.items():
+            c[name][k] = value
 
     def cross_track(self, k: int, error: float) -> None:
         """Signed distance (m) of the true position to the reference path, positive left of it."""

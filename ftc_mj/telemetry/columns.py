@@ -20,6 +20,10 @@ filters' model along the true trajectory, ``R_R_pcrb_std, R_L_pcrb_std, radius_s
 (m, :mod:`ftc_mj.estimation.pcrb`); every fault-decision rule's statistic
 (:data:`~ftc_mj.estimation.rule_statistics.STAT_COLUMNS`: ``sigma_stat, mode_stat, cusum_stat,
 glr_stat`` with their ``*_wheel`` isolation codes, ``glr_drop`` (m), ``glr_onset`` (s), …).
+Only in a run with such faults, the injected faults' truth (:data:`FAULT_TRUTH_COLUMNS`):
+``fault_effectiveness_R/L`` (fraction of each servo's gain and torque limit acting), ``fault_lock_R/L``
+(0/1), ``fault_speed_offset`` (m/s), ``fault_yaw_rate_offset`` (rad/s), ``fault_speed_dropout``,
+``fault_yaw_rate_dropout`` (0/1).
 """
 
 from __future__ import annotations
@@ -27,6 +31,8 @@ from __future__ import annotations
 from ..estimation.change import WHEEL_CODES
 from ..estimation.pcrb import PCRB_COLUMNS
 from ..estimation.rule_statistics import STAT_COLUMNS
+from ..plant.actuator_faults import ACTUATOR_COLUMNS
+from ..plant.sensor_faults import SENSOR_COLUMNS
 from ..plant.truth import FLAG_NAMES
 
 STATE = ("x", "y", "psi", "R_R", "R_L")
@@ -39,7 +45,11 @@ COVARIANCE_COLUMNS: dict[tuple[int, int], str] = {
 """Upper off-diagonal entries ``P[i, j]`` of the 5×5 state covariance and their trace columns."""
 
 
-__all__ = ["BASE_COLUMNS", "COVARIANCE_COLUMNS", "INTEGER_COLUMNS", "STATE", "WHEEL_CODES"]
+FAULT_TRUTH_COLUMNS: tuple[str, ...] = (*ACTUATOR_COLUMNS, *(c for cols in SENSOR_COLUMNS.values() for c in cols))
+"""The injected servo and sensor faults' truth columns (present only in a run with such a fault; the
+punctures' truth is ``R_R``/``R_L``)."""
+
+__all__ = ["BASE_COLUMNS", "COVARIANCE_COLUMNS", "FAULT_TRUTH_COLUMNS", "INTEGER_COLUMNS", "STATE", "WHEEL_CODES"]
 
 BASE_COLUMNS: tuple[str, ...] = (
     "t", "x", "y", "psi", "v", "yaw_rate", "v_meas", "yaw_rate_meas", "R_R", "R_L",

@@ -244,3 +244,18 @@ def test_scenario_weighting_only_for_a_filtered_robust_nmpc() -> None:
     assert w.weights(None, np.array([2.0, 2.0])) is None
     p = w.weights(_out(2.0, 1.0, 0.01), np.array([2.0, 2.0]))
     assert p is not None and p.sum() == pytest.approx(1.0)
+
+
+def test_a_step_without_measurements_is_no_evidence_for_the_safe_policy() -> None:
+    """A sensor dropout's predict-only step (no channel: empty innovation, NIS NaN, not rejected) leaves the
+    safe policy's mean NIS as it was; a rejected measurement still counts as inconsistent (NIS/dim 1000)."""
+    fb = _fb("safe")
+    fb.observe(_out(2.0, 1.0, 0.01, nis=1.0))
+    empty = FilterOutput(x=np.array([0, 0, 0, 2.0, 1.0]), P=np.eye(5), innovation=np.zeros(0), S=np.zeros((0, 0)),
+                         nis=np.nan, speed_innovation=np.nan, speed_innovation_std=np.nan)
+    for _ in range(50):
+        fb.observe(empty)
+    assert fb.nis_ratio == 1.0  # type: ignore[attr-defined]
+    fb.observe(FilterOutput(x=empty.x, P=empty.P, innovation=np.zeros(0), S=empty.S, nis=np.nan,
+                            speed_innovation=np.nan, speed_innovation_std=np.nan, rejected=True))
+    assert fb.nis_ratio == pytest.approx(1001.0 / 2)  # type: ignore[attr-defined]

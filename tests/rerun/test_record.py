@@ -12,6 +12,7 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
+from ftc_mj.rerun.blueprint import _motion_tabs
 from ftc_mj.rerun.read import read_scalar_series
 from ftc_mj.rerun.record import REQUIRED_COLUMNS, write_rrd
 from ftc_mj.telemetry import Event, RobotGeometry, Solve
@@ -284,3 +285,21 @@ def test_parallel_writes_do_not_mix(tmp_path: Path) -> None:
 def test_file_size_bound(rrd: Path) -> None:
     """A 40 s run's recording stays below the 10 MB budget (speed is measured in benchmarks/)."""
     assert rrd.stat().st_size < 10e6
+
+
+def test_injected_faults_are_recorded_when_the_run_has_them(tmp_path: Path) -> None:
+    """A trace with servo and sensor fault truth columns: each is the series ``/injected/<name>`` (every row,
+    the values as given) and the blueprint gets their view; a trace without them has no ``/injected``."""
+    trace, _, _, _ = synthetic_run(2.0, n_modes=0)
+    t = trace["t"]
+    trace = {**trace, "fault_lock_L": (t >= 1.0).astype(float), "fault_effectiveness_L": np.ones_like(t),
+             "fault_speed_offset": np.where(t >= 0.5, 0.3, 0.0)}
+    path = tmp_path / "faults.rrd"
+    write_rrd(path, trace, run_id="faults")
+    for name in ("lock_L", "effectiveness_L", "speed_offset"):
+        tt, v = read_scalar_series(path, f"/injected/{name}")
+        np.testing.assert_allclose(tt, t, atol=1e-9)
+        np.testing.assert_array_equal(v, trace[f"fault_{name}"])
+    assert "/injected" in [v.origin for v in _motion_tabs(trace).contents]
+    plain = {k: v for k, v in trace.items() if not k.startswith("fault_")}
+    assert "/injected" not in [v.origin for v in _motion_tabs(plain).contents]

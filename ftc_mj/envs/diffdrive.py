@@ -6,15 +6,17 @@ reconfiguration policy — built by the same factories into the same :class:`~ft
 only the controller's command is replaced by the action. One :meth:`~DiffDriveEnv.step` is one controller
 period (``1 / controller.rate``, 0.1 s by default): the action ``[omega_R, omega_L]`` (rad/s, within the
 robot's ``omega_max``) is held on the plant for that period while the filter and the decision run at
-their own rate, exactly as the loop holds the NMPC's command. Given the NMPC's commands, an episode's
-trace is bitwise the trace of ``ftc-mj run`` of the same config (but for the solver's own columns).
+their own rate, exactly as the loop holds the NMPC's command. No controller is built: given the NMPC's
+commands, an episode's trace is bitwise the trace of ``ftc-mj run`` of the same config but for the
+controller's own columns (the solver's statistics; the telemetry of ``pf-nmpc`` or ``robust-nmpc``).
 
 Reward: ``-Δt · Σ e²`` over the estimator steps the action was in force (``e`` the true cross-track error,
 m; ``Δt`` the estimator period, s), so that an episode's return is minus the integral of the squared
 distance to the path (m²·s), minus ``tip_penalty`` if the robot tips over. The episode terminates when
 the robot tips over (plant flag ``TIPPED``) or its physics becomes unstable (``UNSTABLE``/``NAN``), and is
 truncated at the run's ``duration``. The episode's trace and events (:meth:`~DiffDriveEnv.episode_trace`)
-have the form ``ftc-mj run`` writes, so an episode is scored like a run (:meth:`~DiffDriveEnv.episode_metrics`).
+have the form ``ftc-mj run`` writes, so an episode is scored like a run: by the benchmark's scorer
+(:meth:`~DiffDriveEnv.episode_score`) and by the run metrics (:meth:`~DiffDriveEnv.episode_metrics`).
 
 No rendering: MuJoCo's off-screen renderer needs an OpenGL context chosen before ``mujoco`` is imported
 (``MUJOCO_GL``); :meth:`~DiffDriveEnv.write_run` writes the episode as a run folder with its Rerun
@@ -32,12 +34,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ..benchmark.score import score_run
 from ..config import RunConfig, load_config
 from ..control.base import ControlOutput
 from ..errors import BadInput
 from ..plant import NAN, TIPPED, UNSTABLE
 from ..sim.loop import ClosedLoop, Sample, SimResult
-from ..sim.run import RunOutcome, run_metrics, write_outcome
+from ..sim.run import RunOutcome, run_metrics, unstable_time, write_outcome
 from ..telemetry import Event
 from .episode import episode_config
 from .observation import filter_values, observation_names, observation_space, sensor_values
@@ -100,7 +103,7 @@ class DiffDriveEnv(gym.Env):
                              f"action space's {self.omega_max} rad/s; make the environment with that override")
         self.config = cfg
         self._wall0 = time.perf_counter()
-        self.loop = ClosedLoop(cfg)
+        self.loop = ClosedLoop(cfg, with_controller=False)
         self._k = 0
         self._sample = self.loop.measure(0)
         self._done = False
@@ -176,6 +179,13 @@ class DiffDriveEnv(gym.Env):
         """The episode's trace columns (as ``ftc-mj run`` writes them) and events, for a scorer."""
         res = self.episode_result()
         return res.trace, res.events
+
+    def episode_score(self) -> dict[str, Any]:
+        """The episode's benchmark scores (:func:`ftc_mj.benchmark.score.score_run`, as ``ftc-mj bench``
+        scores a run); its status is ``unstable`` if the physics blew up, else ``ok``."""
+        res = self.episode_result()
+        status = "unstable" if unstable_time(res.trace) is not None else "ok"
+        return score_run(self.config, res.trace, res.events, status=status)
 
     def episode_metrics(self, result: SimResult | None = None) -> dict[str, Any]:
         """The episode's run metrics (``metrics.json``'s keys, :func:`ftc_mj.sim.run.run_metrics`), with

@@ -1,7 +1,8 @@
 """Which run an episode of :class:`~ftc_mj.envs.DiffDriveEnv` is: the run config from ``reset``'s options.
 
-- ``{"split": "dev"|"test", "index": i}``: the benchmark draw ``ftc_mj.benchmark.draws.draw(split, i)``
-  (its scenario, including its sensor-noise seed: a draw is the same run for every method);
+- ``{"split": "dev"|"test", "index": i}`` (and optionally ``"version"``, default ``ftc-v1``): the benchmark
+  draw ``ftc_mj.benchmark.draws.draw(split, i, version)`` (its scenario, including its sensor-noise seed:
+  a draw is the same run for every method);
 - ``{"scenario": NAME_OR_PATH}``: a built-in scenario or a scenario TOML file, as ``ftc-mj run`` reads it;
 - no options: the environment's own scenario.
 
@@ -13,15 +14,17 @@ keeps its own.
 from __future__ import annotations
 
 import copy
-import importlib
 from collections.abc import Mapping
 from typing import Any
 
+from ..benchmark.definition import SPLITS
+from ..benchmark.draws import MAX_INDEX, draw
 from ..config import RunConfig, load_config, set_dotted, validate_config
 from ..errors import BadInput
 
-OPTION_KEYS = frozenset({"split", "index", "scenario", "overrides"})
-SPLITS = ("dev", "test")
+OPTION_KEYS = frozenset({"split", "index", "version", "scenario", "overrides"})
+DEFAULT_VERSION = "ftc-v1"
+"""The benchmark version of a draw when the options name none."""
 
 
 def episode_config(scenario: str, overrides: Mapping[str, Any], options: Mapping[str, Any] | None,
@@ -35,27 +38,25 @@ def episode_config(scenario: str, overrides: Mapping[str, Any], options: Mapping
     if not isinstance(extra, Mapping):
         raise BadInput(f"options.overrides: expected a table of dotted keys, got {type(extra).__name__}")
     merged = {**overrides, **extra}
-    if "split" in opts or "index" in opts:
+    if "split" in opts or "index" in opts or "version" in opts:
         if "scenario" in opts:
             raise BadInput("options.scenario: give either a scenario or a benchmark draw (split, index)")
-        return _apply(draw_scenario(opts.get("split"), opts.get("index")), merged)
+        return _apply(draw_scenario(opts.get("split"), opts.get("index"), opts.get("version", DEFAULT_VERSION)),
+                      merged)
     if seed is not None:
         merged = {**merged, "seed": int(seed)}
     return load_config(str(opts.get("scenario", scenario)), merged)
 
 
-def draw_scenario(split: Any, index: Any) -> dict[str, Any]:
-    """The scenario table of the benchmark draw ``(split, index)``."""
+def draw_scenario(split: Any, index: Any, version: Any = DEFAULT_VERSION) -> dict[str, Any]:
+    """The scenario table of the benchmark draw ``(split, index)`` of benchmark ``version``."""
     if split not in SPLITS:
         raise BadInput(f"options.split: must be one of {', '.join(SPLITS)}, got {split!r}")
-    if isinstance(index, bool) or not isinstance(index, int) or index < 0:
-        raise BadInput(f"options.index: must be an integer ≥ 0, got {index!r}")
-    try:
-        draws = importlib.import_module("ftc_mj.benchmark.draws")
-    except ModuleNotFoundError:
-        raise BadInput("options.split: this installation has no benchmark draws (ftc_mj.benchmark.draws); "
-                       "use options={'scenario': NAME}") from None
-    return draws.draw(split, index).scenario()
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < MAX_INDEX:
+        raise BadInput(f"options.index: must be an integer in [0, {MAX_INDEX}), got {index!r}")
+    if not isinstance(version, str):
+        raise BadInput(f"options.version: must be a benchmark version's name, got {version!r}")
+    return draw(split, index, version).scenario()
 
 
 def _apply(data: Mapping[str, Any], overrides: Mapping[str, Any]) -> RunConfig:

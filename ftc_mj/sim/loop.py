@@ -146,6 +146,7 @@ class Components:
     sensors: Sensors
     reference: Any
     controller: Any
+    """``None``: an agent commands the wheels (:class:`ftc_mj.envs.DiffDriveEnv`)."""
     estimator: Any
     """``None``: the run has no filter (and then no fault decision)."""
     decision: FaultDecision | None
@@ -155,17 +156,18 @@ class Components:
     """A robust NMPC's scenario weights from the filter (``None``: as configured)."""
 
 
-def wire(cfg: RunConfig) -> Components:
+def wire(cfg: RunConfig, *, with_controller: bool = True) -> Components:
     """Build (or take from the per-process :mod:`.cache`, reset) every component of the run ``cfg``; with
-    ``plant.start_moving`` the plant starts at the reference's speed (m/s) and yaw rate (rad/s) at t = 0."""
+    ``plant.start_moving`` the plant starts at the reference's speed (m/s) and yaw rate (rad/s) at t = 0.
+    ``with_controller=False``: no controller (and no scenario weighting for one): an agent commands."""
     plant = plant_for(cfg)
     sensors = Sensors(cfg.sensors, cfg.seed, cfg.faults.sensor)
     reference = build_reference(cfg)
-    controller = controller_for(cfg, reference)
+    controller = controller_for(cfg, reference) if with_controller else None
     estimator = build_estimator(cfg)
     decision = build_fault_decision(cfg) if estimator is not None else None
     policy = build_policy(cfg, with_estimator=estimator is not None)
-    weighting = build_scenario_weighting(cfg)
+    weighting = build_scenario_weighting(cfg) if with_controller else None
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
@@ -211,9 +213,9 @@ class ClosedLoop:
     between, instead of :meth:`control`.
     """
 
-    def __init__(self, cfg: RunConfig) -> None:
+    def __init__(self, cfg: RunConfig, *, with_controller: bool = True) -> None:
         self.cfg = cfg
-        self.parts = wire(cfg)
+        self.parts = wire(cfg, with_controller=with_controller)
         self.n = cfg.n_estimator_steps
         self.dt = 1.0 / cfg.estimator.rate
         self.phys_per_est = cfg.physics_per_estimator

@@ -1,6 +1,7 @@
 """The Gymnasium environment: the API contract (``check_env``), the same plant as ``ftc-mj run`` (an
-episode driven by the NMPC's commands is the run, bitwise), one scorer for any controller, determinism,
-the observation's conventions, the reward's definition and the ending of an episode."""
+episode driven by the NMPC's commands is the run, bitwise), the benchmark's scorer for any controller
+(on a shared run's config and on a benchmark draw), determinism, the observation's conventions, the
+reward's definition and the ending of an episode."""
 
 from __future__ import annotations
 
@@ -9,6 +10,9 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
+from ftc_mj.benchmark.draws import draw
+from ftc_mj.benchmark.score import SCORE_COLUMNS, score_run
+from ftc_mj.config import load_config, validate_config
 from ftc_mj.control.factory import build_controller, build_reference
 from ftc_mj.envs import ENV_ID, DiffDriveEnv
 from ftc_mj.errors import BadInput
@@ -22,6 +26,12 @@ SHARED = "s2-puncture-5s-safe"
 SOLVER_COLUMNS = {"solve_time_ms", "solver_iterations", "solver_ok"}
 """The controller's own trace columns: an action has no solver."""
 POSE = ("x_pose", "y_pose", "psi_pose")
+
+
+def run_config(name: str):
+    """The resolved config of the shared run ``name``."""
+    scenario, overrides = SHARED_RUNS[name]
+    return load_config(scenario, overrides)
 
 
 def nmpc_episode(env: DiffDriveEnv, **reset: object) -> float:
@@ -95,15 +105,36 @@ def test_nmpc_through_the_env_is_the_run_bitwise(nmpc_env, shared_runs) -> None:
 
 
 def test_random_policy_and_nmpc_scored_by_the_same_scorer(nmpc_env, random_env, shared_runs) -> None:
-    """Both episodes get the run's metrics; the NMPC's equal the run's (but for identity and wall clock),
-    and random wheel rates stray farther from the circle than the NMPC (cross-track RMS, m)."""
+    """Both episodes are scored by the benchmark's scorer and get the run's metrics; the NMPC's scores are
+    those of ``ftc-mj run``'s trace exactly, its metrics too (but for identity and wall clock), and random
+    wheel rates stray farther from the circle than the NMPC (cross-track RMS, m)."""
+    run = shared_runs[SHARED]
+    nmpc_score, random_score = nmpc_env[0].episode_score(), random_env[0].episode_score()
+    assert set(nmpc_score) == set(random_score) == set(SCORE_COLUMNS)
+    assert nmpc_score == score_run(run_config(SHARED), run.result.trace, run.result.events)
     nmpc, random = nmpc_env[0].episode_metrics(), random_env[0].episode_metrics()
-    run = shared_runs[SHARED].metrics
-    assert set(nmpc) == set(random) == set(run)
+    assert set(nmpc) == set(random) == set(run.metrics)
     assert nmpc["controller"] == random["controller"] == "agent"
     for key in ("cross_track_rms", "cross_track_max", "detection_delay", "isolated_wheel", "outcome"):
-        assert nmpc[key] == run[key], key
+        assert nmpc[key] == run.metrics[key], key
     assert random["cross_track_rms"] > 5 * nmpc["cross_track_rms"]
+
+
+def test_a_benchmark_draw_scored_for_the_nmpc_and_a_random_policy() -> None:
+    """Draw dev 2 (circle, right tyre deflating from 6.64 s, seed 769) on the kinematic plant, 14 s: the
+    episode is the draw's run (its config, its seed whatever ``seed`` says); the NMPC through the
+    environment succeeds (within 0.5 m of the path from 5 s after the onset), random wheel rates do not."""
+    env = DiffDriveEnv("scenario2", {"plant.kind": "kinematic", "duration": 14.0})
+    d = draw("dev", 2)
+    nmpc_episode(env, seed=5, options={"split": "dev", "index": 2})
+    expected = validate_config({**d.scenario(), "plant": {**d.scenario()["plant"], "kind": "kinematic"},
+                                "duration": 14.0})
+    assert env.config == expected and env.config.seed == d.seed == 769
+    nmpc = env.episode_score()
+    random_episode(env, 0, options={"split": "dev", "index": 2})
+    random = env.episode_score()
+    assert nmpc["success"] and nmpc["isolation"] == "correct" and nmpc["contouring_max"] < 0.5
+    assert not random["success"] and random["contouring_rms"] > 1.0
 
 
 def test_return_is_minus_the_integral_of_the_squared_cross_track_error(nmpc_env, random_env) -> None:
@@ -167,8 +198,8 @@ def test_bad_options_and_actions_name_the_field() -> None:
         env.reset(options={"split": "train", "index": 0})
     with pytest.raises(BadInput, match=r"^options\.index"):
         env.reset(options={"split": "dev", "index": -1})
-    with pytest.raises(BadInput, match=r"^options\.split: this installation has no benchmark draws"):
-        env.reset(options={"split": "dev", "index": 0})
+    with pytest.raises(BadInput, match=r"^options\.scenario: give either"):
+        env.reset(options={"split": "dev", "index": 0, "scenario": "scenario1"})
     env.reset(options={"scenario": "scenario1", "overrides": {"duration": 1.0}})
     assert env.config.name == "scenario1" and env.config.duration == 1.0
     with pytest.raises(ValueError, match="^action"):

@@ -1,5 +1,6 @@
 """Drive the robot through the Gymnasium environment: random wheel rates against a hand-written tracking
-law (no MPC), each episode scored like an ``ftc-mj run`` (its metrics.json keys).
+law (no MPC), each episode scored like a run: by ``ftc-mj bench``'s scorer (``success``: on the path from
+5 s after the fault, not tipped) and by the run metrics (``ftc-mj run``'s metrics.json keys).
 
     python examples/gym_random_policy.py [--duration 15] [--seed 0] [--out DIR]
 
@@ -44,7 +45,7 @@ def tracking_law(obs: np.ndarray) -> np.ndarray:
     return np.array([(v + w * half_track) / o["R_R_model"], (v - w * half_track) / o["R_L_model"]])
 
 
-print(f"{'policy':<10} {'return (m²·s)':>14} {'cross-track RMS (m)':>20}  outcome")
+print(f"{'policy':<10} {'return (m²·s)':>14} {'cross-track RMS (m)':>20} {'bench success':>14}  outcome")
 for policy in ("random", "tracking"):
     obs, info = env.reset(seed=args.seed)
     env.action_space.seed(args.seed)
@@ -53,7 +54,7 @@ for policy in ("random", "tracking"):
         action = env.action_space.sample() if policy == "random" else tracking_law(obs)
         obs, reward, terminated, truncated, info = env.step(action)
         total, done = total + reward, terminated or truncated
-    m = env.unwrapped.episode_metrics()
-    print(f"{policy:<10} {total:>14.1f} {m['cross_track_rms']:>20.3f}  {m['outcome']}")
+    m, score = env.unwrapped.episode_metrics(), env.unwrapped.episode_score()
+    print(f"{policy:<10} {total:>14.1f} {m['cross_track_rms']:>20.3f} {score['success']!s:>14}  {m['outcome']}")
     if args.out:
         print(f"  written to {env.unwrapped.write_run(args.out)}")

@@ -174,6 +174,25 @@ def test_observation_is_what_the_loop_sensed_with_masks_for_missing_sensors() ->
         assert o["R_L_hat"] == trace["R_L_hat"][10] and o["filter_valid"] == 1.0
 
 
+def test_a_speed_dropout_is_masked() -> None:
+    """A speed-sensor dropout from 0.5 s to 0.8 s: the trace's speed is NaN there, the observation's
+    ``v_meas`` 0.0 with ``speed_valid`` 0; before and after, the reading with mask 1."""
+    dropout = {"sensor": "speed", "kind": "dropout", "onset": 0.5, "duration": 0.3}
+    env = DiffDriveEnv("scenario2", {**KINEMATIC, "faults.sensor": [dropout]})
+    v, ok = env.observation_names.index("v_meas"), env.observation_names.index("speed_valid")
+    seen = {}
+    obs, info = env.reset()
+    while info["t"] < 1.0:
+        seen[round(info["t"], 2)] = (obs[v], obs[ok])
+        obs, _, _, _, info = env.step([5.1, 4.9])
+    trace = env.loop.trace.columns
+    for t, (value, valid) in seen.items():
+        k = round(t / env.loop.dt)
+        dropped = 0.5 <= t < 0.8
+        assert valid == (0.0 if dropped else 1.0) and np.isnan(trace["v_meas"][k]) == dropped, t
+        assert value == (0.0 if dropped else trace["v_meas"][k]), t
+
+
 def test_tip_over_terminates_with_the_penalty_and_the_row_that_saw_it() -> None:
     """A hard turn at 10 m/s rolls the MuJoCo robot about 3.6°: with the tip-over limit at 2° the episode
     terminates there, the reward carries the penalty and the trace ends on the row flagged TIPPED."""

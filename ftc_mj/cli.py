@@ -669,6 +669,9 @@ def bench(
                                                             "the healthy robot follows every drawn path).")] = False,
     compare: Annotated[int, typer.Option(help="Rerun comparisons of this many draws where the methods differ "
                                               "most (OUT/compare/).")] = 1,
+    publish: Annotated[str | None, typer.Option(metavar="DOCS", help="Also write DOCS/benchmark.md (the benchmark, "
+                                                "its distributions and this report) and DOCS/figures/benchmark/; "
+                                                "DOCS must be an existing folder (e.g. docs).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Score methods on draws of the benchmark (faults, conditions, paths, noise from a versioned definition) on
@@ -687,11 +690,22 @@ def bench(
         if address is not None:
             validate_address(address)
         out_dir = _folder(out) or Path("runs/out/bench") / f"{version}-{split.value}{'-healthy' if healthy else ''}"
+        docs = _folder(publish, "--publish")
+        if docs is not None and not docs.is_dir():
+            raise BadInput(f"--publish: {docs} is not an existing folder")
         bp = plan_bench(load_methods(methods), split.value, draws, version=version, start=start, healthy=healthy,
                         out=out_dir)
         report, path = run_bench(bp, out_dir, workers=workers, address=address, compare=compare,
                                  progress=not quiet and sys.stderr.isatty(),
                                  echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True))
+        if docs is not None:
+            from .benchmark.publish import argv_of
+            from .benchmark.publish import publish as publish_docs
+
+            argv = argv_of(methods=methods, split=split.value, draws=draws, start=start or None, out=out,
+                           workers=workers, benchmark=None if version == "ftc-v1" else version, healthy=healthy,
+                           publish=publish)
+            typer.echo(f"bench: wrote {publish_docs(docs, path, out_dir, argv, version)}")
     except (BadInput, StudyInterruptedError, KeyboardInterrupt) as err:
         _end_study(err)
         return

@@ -50,7 +50,7 @@ from ..metrics.outcome import OFF_PATH_M
 from ..metrics.path import path_following_metrics
 from ..metrics.run import plant_metrics, reconfiguration_metrics
 from ..metrics.series import first_time, starts
-from ..plant.faults import schedule_onset, wheel_schedules
+from ..plant.faults import fault_list, wheel_schedules
 
 SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "liftoff_s", "false_alarm", "detected",
                  "detection_delay", "isolation", "reconfig_delay", "lorden_delay_bound", "radius_pcrb_R",
@@ -59,23 +59,13 @@ SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "lifto
 
 
 def fault_truth(cfg: RunConfig) -> list[dict[str, Any]]:
-    """Every configured fault as ``{fault_class, target, onset (s), size, end (s)}`` in onset order: punctures
-    from the radius schedules (``end``: when the radius stops changing), actuator and sensor faults from their
-    ``[[faults.actuator]]`` / ``[[faults.sensor]]`` tables when the configuration has them."""
-    out: list[dict[str, Any]] = []
-    for wheel, sch in zip(("right", "left"), wheel_schedules(cfg.faults, cfg.plant_wheel_radius), strict=True):
-        if sch.active:
-            onset = schedule_onset(sch.breakpoints, sch.nominal)
-            out.append({"fault_class": "puncture", "target": wheel, "onset": float(onset),
-                        "size": sch.final / sch.nominal, "end": float(sch.end_time)})
-    kinds = {"loss": "actuator_loss", "lock": "wheel_lock", "unresponsive": "actuator_unresponsive"}
-    for a in getattr(cfg.faults, "actuator", None) or []:
-        out.append({"fault_class": kinds[a.kind], "target": a.wheel, "onset": float(a.onset),
-                    "size": float(getattr(a, "effectiveness", 0.0) or 0.0), "end": float(a.onset)})
-    for s in getattr(cfg.faults, "sensor", None) or []:
-        prefix = "speed" if s.sensor == "speed" else "gyro"
-        out.append({"fault_class": f"{prefix}_{s.kind}", "target": s.sensor, "onset": float(s.onset),
-                    "size": float(getattr(s, "size", 0.0) or 0.0), "end": float(s.onset)})
+    """Every configured fault (:func:`~ftc_mj.plant.faults.fault_list`: class, target, onset in s, size in the
+    class's unit) as a dict with ``end`` (s) — when a puncture's radius stops changing, the onset otherwise —
+    in onset order."""
+    R0 = cfg.plant_wheel_radius
+    ends = {w: s.end_time for w, s in zip(("right", "left"), wheel_schedules(cfg.faults, R0), strict=True)}
+    out = [{"fault_class": f.fault_class, "target": f.target, "onset": f.onset, "size": f.size,
+            "end": ends[f.target] if f.fault_class == "puncture" else f.onset} for f in fault_list(cfg.faults, R0)]
     return sorted(out, key=lambda f: f["onset"])
 
 

@@ -88,7 +88,7 @@ def _add_payload(spec: mujoco.MjSpec, plant: PlantSettings) -> None:
     if m <= 0.0:
         return
     offset = [float(v) for v in plant.payload_offset]
-    body = spec.body("chassis").add_body(name="payload", pos=offset, mass=m,
+    body = spec.body("chassis").add_body(name="payload", pos=offset, ipos=[0.0, 0.0, 0.0], mass=m,
                                          inertia=[0.4 * m * PAYLOAD_RADIUS ** 2] * 3)
     body.add_geom(name="payload_visual", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[PAYLOAD_RADIUS, 0, 0],
                   contype=0, conaffinity=0, rgba=[0.9, 0.7, 0.1, 1.0], density=0.0)

@@ -18,6 +18,7 @@ from ftc_mj.benchmark.draws import TARGETS, draw
 from ftc_mj.config import validate_config
 from ftc_mj.errors import BadInput
 from ftc_mj.identity import canonical_hash
+from ftc_mj.plant.faults import fault_list
 
 N = 1000
 """Draws per split for the distribution checks."""
@@ -127,11 +128,16 @@ def test_mean_of_a_uniform_factor(draws):
     assert abs(v.mean() - (r.low + r.high) / 2) <= SIGMAS * (r.high - r.low) / math.sqrt(12 * v.size)
 
 
-def test_tyre_fault_draws_are_valid_scenarios(draws):
-    tyre = [x for x in draws["dev"][:60] if all(f.family == "tyre" for f in x.faults)]
-    assert len(tyre) > 10
-    for x in tyre:
+def test_draws_are_valid_scenarios_with_their_faults(draws):
+    """Every draw's scenario validates, and the plant's fault list (class, target, onset) is the drawn one."""
+    classes = set()
+    for x in draws["dev"][:80]:
         cfg = validate_config(x.scenario())
         assert cfg.seed == x.seed and cfg.reference.kind == x.path
+        got = sorted((f.fault_class, f.target, f.onset) for f in fault_list(cfg.faults, cfg.plant_wheel_radius))
+        want = sorted(("puncture" if f.family == "tyre" else f.fault_class, f.target, f.onset) for f in x.faults)
+        assert got == want, x.index
+        classes |= {f.fault_class for f in x.faults}
         healthy = validate_config(x.scenario(with_faults=False))
-        assert not healthy.faults.right and not healthy.faults.left
+        assert fault_list(healthy.faults, healthy.plant_wheel_radius) == []
+    assert len(classes) >= 8  # the first 80 draws cover most classes

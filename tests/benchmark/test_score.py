@@ -39,9 +39,9 @@ def test_fault_truth_of_a_double_puncture():
     f = fault_truth(cfg)
     assert [(x["fault_class"], x["target"], x["onset"]) for x in f] == [("puncture", "left", 5.0),
                                                                         ("puncture", "right", 10.0)]
-    assert f[0]["size"] == pytest.approx(0.5)
+    assert f[0]["size"] == pytest.approx(1.0)  # radius lost (m)
     ramp = fault_truth(load_config("scenario4"))[0]
-    assert ramp["onset"] == 10.0 and ramp["end"] == 29.0 and ramp["size"] == pytest.approx(0.05)
+    assert ramp["onset"] == 10.0 and ramp["end"] == 29.0 and ramp["size"] == pytest.approx(1.9)
 
 
 def _verdict(codes: list[str], faults: list[dict]) -> str:

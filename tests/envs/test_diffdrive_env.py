@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
+import ftc_mj
 from ftc_mj.benchmark.draws import draw
 from ftc_mj.benchmark.score import SCORE_COLUMNS, score_run
 from ftc_mj.config import load_config, validate_config
@@ -135,6 +136,17 @@ def test_a_benchmark_draw_scored_for_the_nmpc_and_a_random_policy() -> None:
     random = env.episode_score()
     assert nmpc["success"] and nmpc["isolation"] == "correct" and nmpc["contouring_max"] < 0.5
     assert not random["success"] and random["contouring_rms"] > 1.0
+
+
+def test_an_episode_written_as_a_run_folder_reads_back(nmpc_env, tmp_path) -> None:
+    """``write_run`` gives a run folder ``ftc_mj.load_run`` reads: the episode's trace (every column, NaN
+    where nothing was produced), its events and metrics, the agent named as the controller."""
+    env, _ = nmpc_env
+    run = ftc_mj.load_run(env.write_run(tmp_path, rrd=False))
+    trace, events = env.episode_trace()
+    assert run.run_id == env.episode_metrics()["run_id"] and "_agent_" in run.run_id
+    assert run.metrics["controller"] == "agent" and run.events == events
+    assert all(np.array_equal(run.trace[c].to_numpy(), trace[c], equal_nan=True) for c in trace)
 
 
 def test_return_is_minus_the_integral_of_the_squared_cross_track_error(nmpc_env, random_env) -> None:

@@ -86,6 +86,7 @@ class DiffDriveEnv(gym.Env):
         self.observation_names = observation_names(self.observe_filter)
         self.render_mode = None
         self.loop: ClosedLoop | None = None
+        self._plants: dict[str, Any] = {}  # this environment's own plants, reused across its resets
         self._k = 0
         self._sample: Sample | None = None
         self._done = True
@@ -103,7 +104,7 @@ class DiffDriveEnv(gym.Env):
                              f"action space's {self.omega_max} rad/s; make the environment with that override")
         self.config = cfg
         self._wall0 = time.perf_counter()
-        self.loop = ClosedLoop(cfg, with_controller=False)
+        self.loop = ClosedLoop(cfg, with_controller=False, plants=self._plants)
         self._k = 0
         self._sample = self.loop.measure(0)
         self._done = False

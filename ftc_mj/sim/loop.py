@@ -156,11 +156,12 @@ class Components:
     """A robust NMPC's scenario weights from the filter (``None``: as configured)."""
 
 
-def wire(cfg: RunConfig, *, with_controller: bool = True) -> Components:
+def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any] | None = None) -> Components:
     """Build (or take from the per-process :mod:`.cache`, reset) every component of the run ``cfg``; with
     ``plant.start_moving`` the plant starts at the reference's speed (m/s) and yaw rate (rad/s) at t = 0.
-    ``with_controller=False``: no controller (and no scenario weighting for one): an agent commands."""
-    plant = plant_for(cfg)
+    ``with_controller=False``: no controller (and no scenario weighting for one): an agent commands;
+    ``plants``: the caller's own plant store instead of the per-process cache (:func:`.cache.plant_for`)."""
+    plant = plant_for(cfg, plants)
     sensors = Sensors(cfg.sensors, cfg.seed, cfg.faults.sensor)
     reference = build_reference(cfg)
     controller = controller_for(cfg, reference) if with_controller else None
@@ -213,9 +214,10 @@ class ClosedLoop:
     between, instead of :meth:`control`.
     """
 
-    def __init__(self, cfg: RunConfig, *, with_controller: bool = True) -> None:
+    def __init__(self, cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any] | None = None
+                 ) -> None:
         self.cfg = cfg
-        self.parts = wire(cfg, with_controller=with_controller)
+        self.parts = wire(cfg, with_controller=with_controller, plants=plants)
         self.n = cfg.n_estimator_steps
         self.dt = 1.0 / cfg.estimator.rate
         self.phys_per_est = cfg.physics_per_estimator

@@ -168,6 +168,21 @@ def test_same_seed_same_observations_and_another_seed_other_noise() -> None:
     assert first[0][v] != other[0][v] and env.config.seed == 4
 
 
+def test_two_environments_stepped_in_turn_are_each_the_one_alone() -> None:
+    """Each environment owns its MuJoCo plant: stepping another one in between (as a vector of
+    environments does) leaves an episode bitwise what it is alone."""
+    overrides = {"duration": 0.5}
+    alone, _ = random_episode(DiffDriveEnv("scenario1", overrides), 0)
+    a, b = DiffDriveEnv("scenario1", overrides), DiffDriveEnv("scenario1", overrides)
+    seen = [a.reset()[0]]
+    b.reset()
+    a.action_space.seed(0)
+    for _ in range(5):
+        seen.append(a.step(a.action_space.sample())[0])
+        b.step([0.0, 0.0])
+    assert all(np.array_equal(x, y) for x, y in zip(alone, seen, strict=True))
+
+
 def test_observation_is_what_the_loop_sensed_with_masks_for_missing_sensors() -> None:
     """The sensor entries equal the trace's sensor columns at the sample's row; no gyro: its entry 0.0 and
     its mask 0; with a gyro: mask 1 and the reading."""

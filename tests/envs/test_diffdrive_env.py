@@ -232,6 +232,8 @@ def test_tip_over_terminates_with_the_penalty_and_the_row_that_saw_it() -> None:
     trace, _ = env.episode_trace()
     assert trace["plant_flags"][-1] & TIPPED and len(trace["t"]) < 300
     assert env.episode_metrics()["outcome"] == "tipped over"
+    score = env.episode_score()
+    assert score["tipped"] is True and score["success"] is False
     with pytest.raises(RuntimeError, match="reset"):
         env.step([0.0, 0.0])
 

@@ -21,8 +21,9 @@ per 1000 runs at 6–8 s a run)."""
 HEALTHY_CHECK = (
     "**Healthy-path check.** The ranges were chosen so that the healthy robot follows every drawn path: "
     "`ftc-mj bench feedback-off --healthy --draws 40 --workers 1` (the nominal NMPC with the actuation-rate "
-    "term, every dev draw 0–39 without its faults, 2026-12-03) stayed within 0.20 m of the path from 5 s on in "
-    "all 40 draws (bound 0.5 m, the success rule; mean 0.097 m), with no lift-off and no tip-over. Paths: "
+    "term, every dev draw 0–39 without its faults, 2026-12-03) stayed within 0.19 m of the path from 5 s on in "
+    "all 40 draws (largest in draw 24, a figure-eight of 50 m lobes at 8.2 m/s; bound 0.5 m, the success rule; "
+    "mean of the 40 largest errors 0.096 m), with no lift-off and no tip-over. Paths: "
     "circles of 40–120 m, figure-eights of 50–80 m lobes and straight lines; lines with turns are not a "
     "built-in reference (a figure-eight reverses its curvature instead).")
 
@@ -83,7 +84,8 @@ def publish(docs: Path, report: Path, out: Path, argv: list[str], version: str) 
         "`ftc_mj.benchmark.draws.draw(split, index)`. Built-in methods: "
         + "; ".join(f"`{k}`: {v[0]}" for k, v in BUILTIN.items()) + ".", "",
         "## Seeds", "",
-        f"The `dev` split's run seeds lie in {_r(d.seeds.dev)} and the `test` split's from {d.seeds.test.low:g} "
+        f"The `dev` split's run seeds lie in {int(d.seeds.dev.low)}–{int(d.seeds.dev.high) - 1} and the `test` "
+        f"split's from {int(d.seeds.test.low)} "
         "(different entropies in the definition: disjoint streams). Develop and tune on `dev`; a study flagged "
         "`tuning = true` (tune_dwell, tune_growth, robust_hybrid_dev) refuses seeds ≥ 1000, and the leaderboard "
         "shows test-split results only, each with its method's settings digest and the package version.", "",

@@ -7,6 +7,7 @@ the study file's folder), base overrides, the axes to sweep and the Monte-Carlo 
     name = "observability"
     scenario = "scenario2"
     seeds = 5                            # or a list: [0, 3, 7]
+    tuning = false                       # true: a tuning study; held-out seeds (>= 1000) are refused
 
     [base]                               # dotted keys or nested tables
     duration = 30.0

@@ -74,7 +74,9 @@ class DiffDriveEnv(gym.Env):
                  observe_filter: bool = False, tip_penalty: float | None = None,
                  render_mode: str | None = None) -> None:
         if render_mode is not None:
-            raise ValueError(f"render_mode: this environment does not render, got {render_mode!r}")
+            raise BadInput(f"render_mode: this environment does not render, got {render_mode!r}")
+        if tip_penalty is not None and not (np.isfinite(tip_penalty) and tip_penalty >= 0):
+            raise BadInput(f"tip_penalty: must be a finite number ≥ 0 (m²·s), got {tip_penalty!r}")
         self.scenario = str(scenario)
         self.overrides = dict(overrides or {})
         self.observe_filter = bool(observe_filter)

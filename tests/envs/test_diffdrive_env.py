@@ -239,6 +239,10 @@ def test_tip_over_terminates_with_the_penalty_and_the_row_that_saw_it() -> None:
 
 
 def test_bad_options_and_actions_name_the_field() -> None:
+    with pytest.raises(BadInput, match=r"^tip_penalty: must be a finite number"):
+        DiffDriveEnv("scenario2", KINEMATIC, tip_penalty=-1.0)
+    with pytest.raises(BadInput, match=r"^render_mode: this environment does not render"):
+        DiffDriveEnv("scenario2", KINEMATIC, render_mode="rgb_array")
     env = DiffDriveEnv("scenario2", KINEMATIC)
     with pytest.raises(BadInput, match=r"^options\.speed: not an option"):
         env.reset(options={"speed": 3})

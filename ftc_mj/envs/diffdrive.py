@@ -34,6 +34,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ..benchmark.draws import Draw
 from ..benchmark.score import score_run
 from ..config import RunConfig, load_config
 from ..control.base import ControlOutput
@@ -88,6 +89,8 @@ class DiffDriveEnv(gym.Env):
         self.observation_names = observation_names(self.observe_filter)
         self.render_mode = None
         self.loop: ClosedLoop | None = None
+        self.draw: Draw | None = None
+        """The benchmark draw of the episode (``None``: a scenario)."""
         self._plants: dict[str, Any] = {}  # this environment's own plants, reused across its resets
         self._k = 0
         self._sample: Sample | None = None
@@ -100,7 +103,7 @@ class DiffDriveEnv(gym.Env):
         controller sample at t = 0. :class:`~ftc_mj.errors.BadInput` naming a bad option or setting; an
         exception of a component during the episode propagates (as in strict mode, ``FTC_MJ_STRICT=1``)."""
         super().reset(seed=seed)
-        cfg = episode_config(self.scenario, self.overrides, options, seed)
+        cfg, self.draw = episode_config(self.scenario, self.overrides, options, seed)
         if float(cfg.robot.omega_max) != self.omega_max:
             raise BadInput(f"robot.omega_max: the episode's {cfg.robot.omega_max} rad/s differs from the "
                              f"action space's {self.omega_max} rad/s; make the environment with that override")
@@ -189,6 +192,17 @@ class DiffDriveEnv(gym.Env):
         res = self.episode_result()
         status = "unstable" if unstable_time(res.trace) is not None else "ok"
         return score_run(self.config, res.trace, res.events, status=status)
+
+    def episode_row(self, method: str) -> dict[str, Any]:
+        """The episode as a row of ``ftc-mj bench``'s ``scores.parquet`` for the method named ``method``: the
+        draw (index, fault class, split, benchmark version) and :meth:`episode_score`. Rows of an agent and
+        of the built-in methods on the same draws go to :func:`ftc_mj.benchmark.stats.aggregate` and
+        :func:`~ftc_mj.benchmark.stats.paired`. :class:`BadInput` for an episode that is not a draw."""
+        if self.draw is None:
+            raise BadInput("episode_row: the episode is not a benchmark draw (reset with options split, index)")
+        d = self.draw
+        return {"method": method, "draw": d.index, "fault_class": d.fault_class, "split": d.split,
+                "benchmark": d.version, **self.episode_score()}
 
     def episode_metrics(self, result: SimResult | None = None) -> dict[str, Any]:
         """The episode's run metrics (``metrics.json``'s keys, :func:`ftc_mj.sim.run.run_metrics`), with

@@ -18,7 +18,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..benchmark.definition import SPLITS
-from ..benchmark.draws import MAX_INDEX, draw
+from ..benchmark.draws import MAX_INDEX, Draw, draw
 from ..config import RunConfig, load_config, set_dotted, validate_config
 from ..errors import BadInput
 
@@ -28,8 +28,9 @@ DEFAULT_VERSION = "ftc-v1"
 
 
 def episode_config(scenario: str, overrides: Mapping[str, Any], options: Mapping[str, Any] | None,
-                   seed: int | None) -> RunConfig:
-    """The resolved run config of an episode (module docstring); :class:`BadInput` naming the option."""
+                   seed: int | None) -> tuple[RunConfig, Draw | None]:
+    """The resolved run config of an episode (module docstring) and its benchmark draw (``None`` for a
+    scenario); :class:`BadInput` naming the option."""
     opts = dict(options or {})
     unknown = sorted(set(opts) - OPTION_KEYS)
     if unknown:
@@ -41,22 +42,22 @@ def episode_config(scenario: str, overrides: Mapping[str, Any], options: Mapping
     if "split" in opts or "index" in opts or "version" in opts:
         if "scenario" in opts:
             raise BadInput("options.scenario: give either a scenario or a benchmark draw (split, index)")
-        return _apply(draw_scenario(opts.get("split"), opts.get("index"), opts.get("version", DEFAULT_VERSION)),
-                      merged)
+        d = benchmark_draw(opts.get("split"), opts.get("index"), opts.get("version", DEFAULT_VERSION))
+        return _apply(d.scenario(), merged), d
     if seed is not None:
         merged = {**merged, "seed": int(seed)}
-    return load_config(str(opts.get("scenario", scenario)), merged)
+    return load_config(str(opts.get("scenario", scenario)), merged), None
 
 
-def draw_scenario(split: Any, index: Any, version: Any = DEFAULT_VERSION) -> dict[str, Any]:
-    """The scenario table of the benchmark draw ``(split, index)`` of benchmark ``version``."""
+def benchmark_draw(split: Any, index: Any, version: Any = DEFAULT_VERSION) -> Draw:
+    """The benchmark draw ``(split, index)`` of benchmark ``version``."""
     if split not in SPLITS:
         raise BadInput(f"options.split: must be one of {', '.join(SPLITS)}, got {split!r}")
     if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < MAX_INDEX:
         raise BadInput(f"options.index: must be an integer in [0, {MAX_INDEX}), got {index!r}")
     if not isinstance(version, str):
         raise BadInput(f"options.version: must be a benchmark version's name, got {version!r}")
-    return draw(split, index, version).scenario()
+    return draw(split, index, version)
 
 
 def _apply(data: Mapping[str, Any], overrides: Mapping[str, Any]) -> RunConfig:

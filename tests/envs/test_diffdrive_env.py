@@ -13,6 +13,7 @@ from gymnasium.utils.env_checker import check_env
 import ftc_mj
 from ftc_mj.benchmark.draws import draw
 from ftc_mj.benchmark.score import SCORE_COLUMNS, score_run
+from ftc_mj.benchmark.stats import paired
 from ftc_mj.config import load_config, validate_config
 from ftc_mj.control.factory import build_controller, build_reference
 from ftc_mj.envs import ENV_ID, DiffDriveEnv
@@ -124,18 +125,22 @@ def test_random_policy_and_nmpc_scored_by_the_same_scorer(nmpc_env, random_env, 
 def test_a_benchmark_draw_scored_for_the_nmpc_and_a_random_policy() -> None:
     """Draw dev 2 (circle, right tyre deflating from 6.64 s, seed 769) on the kinematic plant, 14 s: the
     episode is the draw's run (its config, its seed whatever ``seed`` says); the NMPC through the
-    environment succeeds (within 0.5 m of the path from 5 s after the onset), random wheel rates do not."""
+    environment succeeds (within 0.5 m of the path from 5 s after the onset), random wheel rates do not;
+    both as rows of the benchmark's scores, compared by its paired statistics."""
     env = DiffDriveEnv("scenario2", {"plant.kind": "kinematic", "duration": 14.0})
     d = draw("dev", 2)
     nmpc_episode(env, seed=5, options={"split": "dev", "index": 2})
     expected = validate_config({**d.scenario(), "plant": {**d.scenario()["plant"], "kind": "kinematic"},
                                 "duration": 14.0})
     assert env.config == expected and env.config.seed == d.seed == 769
-    nmpc = env.episode_score()
+    nmpc = env.episode_row("nmpc-through-env")
     random_episode(env, 0, options={"split": "dev", "index": 2})
-    random = env.episode_score()
+    random = env.episode_row("random")
     assert nmpc["success"] and nmpc["isolation"] == "correct" and nmpc["contouring_max"] < 0.5
     assert not random["success"] and random["contouring_rms"] > 1.0
+    assert nmpc["draw"] == random["draw"] == 2 and nmpc["fault_class"] == d.fault_class == "puncture_ramp"
+    comparison = paired([nmpc, random], "contouring_rms", "random", "nmpc-through-env")
+    assert comparison.a_larger == 1 and comparison.b_larger == 0
 
 
 def test_an_episode_written_as_a_run_folder_reads_back(nmpc_env, tmp_path) -> None:
@@ -254,5 +259,7 @@ def test_bad_options_and_actions_name_the_field() -> None:
         env.reset(options={"split": "dev", "index": 0, "scenario": "scenario1"})
     env.reset(options={"scenario": "scenario1", "overrides": {"duration": 1.0}})
     assert env.config.name == "scenario1" and env.config.duration == 1.0
+    with pytest.raises(BadInput, match=r"^episode_row: the episode is not a benchmark draw"):
+        env.episode_row("agent")
     with pytest.raises(ValueError, match="^action"):
         env.step([np.nan, 0.0])

@@ -349,11 +349,8 @@ def study(
         outcome = run_study(plan, out_dir, workers=workers, address=address, serial=serial, rrd=rrd.value,
                             limit=limit, retry_failed=retry_failed, progress=not quiet and sys.stderr.isatty(),
                             dashboard=dashboard, echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True)).report
-    except BadInput as err:
-        _fail(str(err))
-        return
-    except (StudyInterruptedError, KeyboardInterrupt) as err:
-        _interrupted(str(err) if isinstance(err, StudyInterruptedError) else "interrupted")
+    except (BadInput, StudyInterruptedError, KeyboardInterrupt) as err:
+        _end_study(err)
         return
     done = outcome.already_done + len(outcome.computed)
     n_bad = len(outcome.failed) - len(outcome.unstable)
@@ -362,6 +359,14 @@ def study(
                f"results in {out_dir}")
     if outcome.computed:
         typer.echo(f"{plan.spec.name}: outcomes of the computed runs: {outcome_counts(outcome.outcomes)}")
+
+
+def _end_study(err: BaseException) -> None:
+    """End ``ftc-mj study`` / ``bench`` after bad input (one line, exit 2) or an interruption (one line, 130;
+    every finished run is persisted)."""
+    if isinstance(err, BadInput):
+        _fail(str(err))
+    _interrupted(str(err) if not isinstance(err, KeyboardInterrupt) else "interrupted")
 
 
 def outcome_counts(counts: dict[str, int]) -> str:
@@ -641,6 +646,72 @@ def components(plugin: Plugins = None) -> None:
             typer.echo(f"{reg.config_key}: {', '.join(reg.names())}")
     except BadInput as err:
         _fail(str(err))
+
+
+class BenchSplit(StrEnum):
+    dev = "dev"
+    test = "test"
+
+
+@app.command()
+def bench(
+    methods: Annotated[list[str], typer.Argument(metavar="METHOD...", help="Built-in methods (paper, safe, pathfollow, "
+                                                 "hybrid, passive, feedback-off) or method TOML files.")],
+    split: Annotated[BenchSplit, typer.Option(help="dev (develop and tune there) or test (sealed: the leaderboard)."
+                                              )] = BenchSplit.dev,
+    draws: Annotated[int, typer.Option(help="Number of draws (from --start).")] = 8,
+    start: Annotated[int, typer.Option(help="Index of the first draw (replay one draw: --start I --draws 1).")] = 0,
+    out: Annotated[str | None, typer.Option(help="Output folder (default runs/out/bench/<version>-<split>).")] = None,
+    workers: Annotated[int, typer.Option(help="Local Dask worker processes.")] = 2,
+    address: Annotated[str | None, typer.Option(help="Scheduler of a running Dask cluster, tcp://HOST:PORT.")] = None,
+    version: Annotated[str, typer.Option("--benchmark", help="Benchmark definition version.")] = "ftc-v1",
+    healthy: Annotated[bool, typer.Option("--healthy", help="Run every draw without its faults (the check that "
+                                                            "the healthy robot follows every drawn path).")] = False,
+    compare: Annotated[int, typer.Option(help="Rerun comparisons of this many draws where the methods differ "
+                                              "most (OUT/compare/).")] = 1,
+    publish: Annotated[str | None, typer.Option(metavar="DOCS", help="Also write DOCS/benchmark.md (the benchmark, "
+                                                "its distributions and this report) and DOCS/figures/benchmark/; "
+                                                "DOCS must be an existing folder (e.g. docs).")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+) -> None:
+    """Score methods on draws of the benchmark (faults, conditions, paths, noise from a versioned definition) on
+    Dask: OUT/draws.parquet, OUT/scores.parquet, the report (leaderboard.md on the test split), figures and
+    Rerun comparisons. Every run is persisted as it finishes; re-running the command computes only the rest."""
+    from .benchmark.methods import load_methods
+    from .benchmark.run import plan_bench, run_bench
+    from .study.cluster import validate_address
+    from .study.runner import StudyInterruptedError
+
+    try:
+        if workers < 1:
+            raise BadInput("--workers: must be >= 1")
+        if compare < 0:
+            raise BadInput("--compare: must be >= 0")
+        if address is not None:
+            validate_address(address)
+        out_dir = _folder(out) or Path("runs/out/bench") / f"{version}-{split.value}{'-healthy' if healthy else ''}"
+        docs = _folder(publish, "--publish")
+        if docs is not None and not docs.is_dir():
+            raise BadInput(f"--publish: {docs} is not an existing folder")
+        bp = plan_bench(load_methods(methods), split.value, draws, version=version, start=start, healthy=healthy,
+                        out=out_dir)
+        report, path = run_bench(bp, out_dir, workers=workers, address=address, compare=compare,
+                                 progress=not quiet and sys.stderr.isatty(),
+                                 echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True))
+        if docs is not None:
+            from .benchmark.publish import argv_of
+            from .benchmark.publish import publish as publish_docs
+
+            argv = argv_of(methods=methods, split=split.value, draws=draws, start=start or None, out=out,
+                           workers=workers, benchmark=None if version == "ftc-v1" else version, healthy=healthy,
+                           publish=publish)
+            typer.echo(f"bench: wrote {publish_docs(docs, path, out_dir, argv, version)}")
+    except (BadInput, StudyInterruptedError, KeyboardInterrupt) as err:
+        _end_study(err)
+        return
+    done = report.already_done + len(report.computed)
+    typer.echo(f"bench: computed {len(report.computed)} runs ({len(report.failed)} not ok) in "
+               f"{report.wall_time_s:.1f} s; {done} of {report.planned} done; report {path}")
 
 
 @app.command()

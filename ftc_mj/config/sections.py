@@ -79,6 +79,13 @@ class PlantConfig(StrictModel):
     """Sliding friction of the caster(s); 0 = frictionless (the kinematic model's assumption)."""
     actuator_gain: PosFloat | None = None
     """Velocity-actuator gain kv (N m s/rad); ``None`` keeps the MJCF value."""
+    payload_mass: ranged(0.0, 1.0e4, unit="kg") = 0.0
+    """Mass (kg) of a payload fixed to the chassis (a uniform 0.4 m ball); 0 = none (the MJCF robot as it is).
+    It adds to the chassis weight *after* the struts' preload is set, so they sag under it, and it moves the
+    centre of mass, hence the load each tyre and the caster carry and the lift-off lateral acceleration."""
+    payload_offset: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (0.0, 0.0, 0.0)
+    """Position (m) of the payload's centre in the chassis frame: forward of the axle midpoint, to the left,
+    and up from the hub height (the chassis frame's origin; negative = below the axle)."""
     initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (0.0, 0.0, 0.0)
     """Initial (x, y, psi) of the axle midpoint (m, m, rad)."""
     start_moving: Flag = True

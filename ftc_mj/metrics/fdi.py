@@ -85,6 +85,15 @@ def cumulative_kl(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float) ->
     return [float(v) for v in (K[: stop[0] + 1] if stop.size else K)]
 
 
+def lorden_delays(K: np.ndarray, arl0: np.ndarray, dt: float) -> np.ndarray:
+    """Lorden's lower bound on the delay (s) of any change detector whose mean time between false alarms is
+    ``arl0`` (s), for a change whose cumulative information from its onset is ``K`` (nats per row of
+    ``dt`` s, non-decreasing): the time the information first reaches ``log(ARL0 / dt)`` (Lorden 1971,
+    asymptotically), ``inf`` beyond the profile."""
+    j = np.searchsorted(K, np.log(np.maximum(np.asarray(arl0, float) / dt, 1.0)), side="left")
+    return np.where(j < K.size, j * dt, np.inf)
+
+
 def fdi_sweep_metrics(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float | None,
                 settle_time: float = 5.0) -> dict[str, Any]:
     """First-alarm records, the fault's cumulative information (``onset``: the first fault onset, s, or

@@ -239,7 +239,8 @@ def _header(rows_by_seed: Mapping[int, Mapping[str, Mapping[str, Any]]], meta: M
               "## Verdict rule\n", (SINGLE_SEED_RULE if single else RULE + " " + _min_pass(len(seeds))) + "\n",
               "## Seeds\n", f"Development seeds: {', '.join(str(s) for s in DEV_SEEDS)} — the single-seed looks at "
               f"the matrix and the studies that shaped the loop used them, and the data-tuned parameters are chosen "
-              f"on them. Held-out seeds: {HELD_OUT_START} and up, used by no study file. This report judges on "
+              f"on them. Held-out seeds: {HELD_OUT_START} and up, used by no tuning study (a study flagged "
+              "tuning = true refuses them). This report judges on "
               f"{describe(seeds)}.\n"]
     return parts
 

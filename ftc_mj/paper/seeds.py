@@ -4,16 +4,16 @@ held-out seeds (where the claims are judged).
 Every single-seed look at the matrix before the seeded verdicts, and the studies that shaped the loop,
 used seeds 0–9 (the config default is seed 0; those studies use ``seeds = n`` with n ≤ 10, i.e.
 0 … n − 1), and the data-tuned parameters (:mod:`.tuning`) are chosen on them: they are the
-development seeds. The held-out seeds start at 1000; no study file uses them, so nothing was chosen
-on them.
+development seeds. The held-out seeds start at 1000; no tuning study (``tuning = true`` in its file) may
+use them — planning one refuses them — so nothing is chosen on them.
 """
 
 from __future__ import annotations
 
 from ..errors import BadInput
+from ..study.spec import HELD_OUT_START
 
 DEV_SEEDS: tuple[int, ...] = tuple(range(10))
-HELD_OUT_START = 1000
 SEED_SETS = ("held-out", "dev")
 
 

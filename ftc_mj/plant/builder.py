@@ -73,6 +73,25 @@ def _edit_spec(spec: mujoco.MjSpec, plant: PlantSettings, robot: RobotSettings) 
     mu_c = float(plant.caster_friction)
     caster.friction = [mu_c, 0.0, 0.0]
     caster.condim = 1 if mu_c == 0.0 else 3
+    _add_payload(spec, plant)
+
+
+PAYLOAD_RADIUS = 0.2
+"""Radius (m) of the uniform ball whose inertia a payload gets (a compact load; its mass matters, not its shape)."""
+
+
+def _add_payload(spec: mujoco.MjSpec, plant: PlantSettings) -> None:
+    """A payload of ``plant.payload_mass`` (kg) at ``plant.payload_offset`` (m, chassis frame) as a body welded to
+    the chassis, with a uniform ball's inertia and a drawn-only geom; nothing without a mass (the model stays the
+    MJCF's, bit for bit)."""
+    m = float(getattr(plant, "payload_mass", 0.0) or 0.0)
+    if m <= 0.0:
+        return
+    offset = [float(v) for v in plant.payload_offset]
+    body = spec.body("chassis").add_body(name="payload", pos=offset, ipos=[0.0, 0.0, 0.0], mass=m,
+                                         inertia=[0.4 * m * PAYLOAD_RADIUS ** 2] * 3)
+    body.add_geom(name="payload_visual", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[PAYLOAD_RADIUS, 0, 0],
+                  contype=0, conaffinity=0, rgba=[0.9, 0.7, 0.1, 1.0], density=0.0)
 
 
 def _edit_chassis(spec: mujoco.MjSpec, plant: PlantSettings, R: float, b: float) -> float:

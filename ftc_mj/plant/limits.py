@@ -3,7 +3,8 @@
 Quasi-steady turn at lateral acceleration ``a`` (m/s², towards the centre) while braking at ``a_x``
 (m/s²), wheels rolling without slip, frictionless caster (it carries load but no lateral force).
 Every number is read by name from the compiled model (``ftc_mj/plant/builder.py`` applies the
-settings' edits first): body masses and centres of mass (``chassis``, ``hub_*``, ``tyre_*``), the half
+settings' edits first): body masses and centres of mass (``chassis``, ``hub_*``, ``tyre_*``, and
+``payload`` when there is one), the half
 track ``b`` (``hub_*`` positions), the tyre radius ``R`` (``wheel_*`` spheres) and friction ``μ``, the
 tyres' axle inertia ``I``, the caster position ``x_c``, the servo gain ``k_v`` (``act_*``).
 
@@ -114,6 +115,8 @@ def lateral_accel_limits(model: mujoco.MjModel) -> LateralLimits:
     axle = data.xpos[model.body("chassis").id]
     heading = data.xmat[model.body("chassis").id].reshape(3, 3)[:, 0]
     bodies = [model.body("chassis").id] + [model.body(f"{p}_{s}").id for p in ("hub", "tyre") for s in SIDES]
+    payload = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "payload")  # plant.payload_mass > 0
+    bodies += [payload] if payload >= 0 else []
     mass = np.array([model.body_mass[i] for i in bodies])
     com = np.array([data.xipos[i] for i in bodies])
     M = float(mass.sum())

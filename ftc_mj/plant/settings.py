@@ -59,6 +59,10 @@ class PlantSettings(Protocol):
     """Velocity-servo gain kv (N m s/rad); ``None`` keeps the MJCF value."""
     wheel_load_fraction: float
     """Share of the chassis weight on the two wheel slides (the caster takes the rest)."""
+    payload_mass: float
+    """Payload fixed to the chassis (kg); 0 = none."""
+    payload_offset: Sequence[float]
+    """Payload centre in the chassis frame (m): forward, left, up from the hub height."""
 
 
 class ActuatorFaultSettings(Protocol):

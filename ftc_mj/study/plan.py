@@ -23,7 +23,7 @@ from ..errors import BadInput
 from ..identity import canonical_hash, run_digest
 from ..resources import builtin_studies, study_file
 from ..suggest import did_you_mean
-from .spec import AxisSpec, Scalar, StudySpec, flatten_dotted, key_error, read_study_spec
+from .spec import AxisSpec, Scalar, StudySpec, check_tuning_seeds, flatten_dotted, key_error, read_study_spec
 
 PLACEHOLDER = re.compile(r"^\{([A-Za-z_][A-Za-z0-9_]*)\}$")
 MAX_RUNS = 10_000
@@ -199,6 +199,9 @@ def plan_study(
     spec = read_study_spec(path, seeds)
     extra = dict(extra_overrides or {})
     base_data, base_ov = _base(spec, path, extra)
+    base_seed = base_ov.get("seed", base_data.get("seed", 0))
+    check_tuning_seeds(spec, path, list(spec.seeds) if isinstance(spec.seeds, list) else list(range(spec.seeds))
+                       if isinstance(spec.seeds, int) else [base_seed] if isinstance(base_seed, int) else [])
     axis_vals = [expand_axis(i, ax) for i, ax in enumerate(spec.axes)]
     label_axes = _check_placeholders(spec, path, base_ov, axis_vals)
     _check_keys(spec, path, base_ov, axis_vals, label_axes)
@@ -214,6 +217,7 @@ def plan_study(
     if spec.analysis.timeseries_columns:  # more series in the rows (absent: the identity of older studies)
         ident_spec["analysis"]["timeseries_columns"] = list(spec.analysis.timeseries_columns)
     ident_spec.pop("description", None)
+    ident_spec.pop("tuning", None)  # a flag on how results may be used: the runs (and their folder) are the same
     identity = {"spec": ident_spec, "extra": extra, "base": base_data}
     return StudyPlan(spec, path, canonical_hash(identity), runs, [ax.column for ax in spec.axes], extra,
                      json.loads(json.dumps(identity, default=str)))

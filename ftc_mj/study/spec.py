@@ -7,6 +7,7 @@ the study file's folder), base overrides, the axes to sweep and the Monte-Carlo 
     name = "observability"
     scenario = "scenario2"
     seeds = 5                            # or a list: [0, 3, 7]
+    tuning = false                       # true: a tuning study; held-out seeds (>= 1000) are refused
 
     [base]                               # dotted keys or nested tables
     duration = 30.0
@@ -64,6 +65,9 @@ from ..errors import BadInput
 from ..suggest import suggest_key
 
 Scalar = str | int | float | bool
+HELD_OUT_START = 1000
+"""The seed policy: seeds 0–999 are development seeds (tune and explore there), seeds from 1000 on are
+held out (judged on, never tuned on); the benchmark's test split draws its run seeds there too."""
 RESERVED_COLUMNS = frozenset({"run_key", "run_index", "seed", "status", "error", "invocation"})
 
 
@@ -160,6 +164,9 @@ class StudySpec(_Strict):
     seeds: Annotated[int, Field(ge=1, le=100_000)] | list[Annotated[int, Field(ge=0)]] | None = None
     """Monte-Carlo seeds: a count (seeds 0 … n-1) or an explicit list; unset = the base seed."""
     analysis: AnalysisSpec = Field(default_factory=lambda: AnalysisSpec())
+    tuning: bool = False
+    """A tuning study (something is chosen on its results): it may run development seeds only (below
+    :data:`HELD_OUT_START`); planning one with a held-out seed is refused (:func:`check_tuning_seeds`)."""
 
     @model_validator(mode="after")
     def _names(self) -> StudySpec:
@@ -295,6 +302,15 @@ def key_error(key: str) -> str | None:
         elif sub is not None:
             return f"{key} is a table, not a value (set its keys)"
     return None
+
+
+def check_tuning_seeds(spec: StudySpec, path: Path, seeds: list[int]) -> None:
+    """Refuse (:class:`BadInput`, one line) a tuning study whose plan holds a held-out seed: the sealed
+    seeds are never tuned on."""
+    held = sorted(s for s in seeds if s >= HELD_OUT_START)
+    if spec.tuning and held:
+        raise BadInput(f"study {path}: seeds: a tuning study (tuning = true) runs development seeds only "
+                       f"(0-{HELD_OUT_START - 1}); got held-out seed {held[0]} — tune on dev, judge on held-out")
 
 
 def read_study_spec(path: Path, seeds: int | None = None) -> StudySpec:

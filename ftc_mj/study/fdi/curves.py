@@ -46,6 +46,7 @@ import numpy as np
 from ...config import RunConfig
 from ...estimation.decision_factory import calibrated_threshold
 from ...estimation.rule_statistics import sigma_isolation
+from ...metrics.fdi import lorden_delays
 from ..stats import Estimate, mean_ci, rate_ci
 from .cells import RULES, Cell, Run
 
@@ -190,9 +191,7 @@ def lorden_bound(cell: Cell, severity: Any, arl0: np.ndarray, dt: float) -> np.n
     if not prof:
         return np.full(arl0.shape, np.nan)
     n = min(p.size for p in prof)
-    K = np.mean([p[:n] for p in prof], axis=0)
-    j = np.searchsorted(K, np.log(np.maximum(arl0 / dt, 1.0)), side="left")
-    return np.where(j < n, j * dt, np.inf)
+    return lorden_delays(np.mean([p[:n] for p in prof], axis=0), arl0, dt)
 
 
 # ---------------------------------------------------------------------------- sweep

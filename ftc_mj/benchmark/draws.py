@@ -1,0 +1,256 @@
+"""Draws of the benchmark: each a pure function of (version, split, index) — the same draw on every
+machine and in every process.
+
+The random stream of draw ``index`` of ``split`` is numpy's PCG64 seeded by
+``SeedSequence(entropy=<the split's entropy in the definition>, spawn_key=(<version tag>, index))``: the
+splits' streams are disjoint (different entropies), a draw never depends on another, and its values
+are drawn in one fixed order (:func:`draw`). The run's sensor-noise seed is part of the draw: dev
+seeds lie in 0–999, test seeds from 1000 on (the project's seed policy, ``[seeds]`` of the definition).
+
+A draw becomes a scenario (:meth:`Draw.scenario`) in the scenario-file format: the tyre faults as radius
+schedules (``[faults] right/left``), the actuator and sensor faults as ``[[faults.actuator]]`` /
+``[[faults.sensor]]`` tables, ``[plant]`` friction, servo gain and payload, ``[reference]`` path and
+speed, ``[sensors]`` noise, ``duration`` and ``seed``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..config import RobotConfig
+from ..errors import BadInput
+from .definition import FAULT_CLASSES, PATH_KINDS, SPLITS, BenchmarkDefinition, Range, load_definition
+
+WHEELS = ("right", "left")
+MAX_INDEX = 10**9
+"""Largest draw index (a draw's index is part of its random stream's key)."""
+
+
+@dataclass(frozen=True)
+class FaultDraw:
+    """One drawn fault: its class (:data:`~ftc_mj.benchmark.definition.FAULT_CLASSES`), target
+    (``right``/``left`` wheel, ``speed``/``yaw_rate`` sensor), onset (s) and size — the remaining radius
+    or servo fraction of a puncture or loss, the bias (m/s, rad/s) or drift rate (m/s², rad/s²) of a sensor
+    fault, 0 for a lock or an unresponsive servo — plus a ramp's rate (m/s) and a dropout's duration (s)."""
+
+    fault_class: str
+    target: str
+    onset: float
+    size: float
+    rate: float = 0.0
+    duration: float = 0.0
+
+    @property
+    def family(self) -> str:
+        """``tyre``, ``actuator`` or ``sensor``."""
+        if self.fault_class.startswith("puncture"):
+            return "tyre"
+        return "sensor" if self.target in ("speed", "yaw_rate") else "actuator"
+
+
+@dataclass(frozen=True)
+class Draw:
+    """One draw: every factor (SI units) and the run seed."""
+
+    version: str
+    split: str
+    index: int
+    seed: int
+    duration: float
+    faults: tuple[FaultDraw, ...]
+    tyre_friction: float
+    actuator_gain: float
+    payload_mass: float
+    payload_offset: tuple[float, float, float]
+    path: str
+    path_radius: float
+    direction: str
+    speed: float
+    speed_sigma: float
+    gyro_sigma: float | None
+    pose_sigma: float
+    nominal_radius: float = field(default_factory=lambda: float(RobotConfig().wheel_radius))
+
+    @property
+    def name(self) -> str:
+        """The run name: ``<version>-<split>-<index, 6 digits>``."""
+        return f"{self.version}-{self.split}-{self.index:06d}"
+
+    @property
+    def fault_class(self) -> str:
+        """The first fault's class (``none`` without a fault)."""
+        return self.faults[0].fault_class if self.faults else "none"
+
+    def factors(self) -> dict[str, Any]:
+        """Every drawn factor, flat (one row of ``draws.parquet``); absent values are ``None``."""
+        out: dict[str, Any] = {"version": self.version, "split": self.split, "index": self.index, "name": self.name,
+                               "seed": self.seed, "duration": self.duration, "fault_class": self.fault_class,
+                               "n_faults": len(self.faults)}
+        for i in range(2):
+            f = asdict(self.faults[i]) if i < len(self.faults) else dict.fromkeys(
+                ("fault_class", "target", "onset", "size", "rate", "duration"))
+            for k, v in f.items():
+                out[f"fault{i + 1}_{k}"] = v
+        out.update(tyre_friction=self.tyre_friction, actuator_gain=self.actuator_gain, payload_mass=self.payload_mass,
+                   payload_offset_x=self.payload_offset[0], payload_offset_y=self.payload_offset[1],
+                   payload_offset_z=self.payload_offset[2], path=self.path, path_radius=self.path_radius,
+                   direction=self.direction, speed=self.speed, speed_sigma=self.speed_sigma,
+                   gyro=self.gyro_sigma is not None, gyro_sigma=self.gyro_sigma, pose_sigma=self.pose_sigma)
+        return out
+
+    def scenario(self, *, with_faults: bool = True) -> dict[str, Any]:
+        """The draw in the scenario-file format (:func:`ftc_mj.config.validate_config` takes it as it is);
+        ``with_faults=False`` drops every fault (the healthy robot on the same path and conditions)."""
+        ref: dict[str, Any] = {"kind": self.path, "speed": self.speed, "direction": self.direction}
+        if self.path != "line":
+            ref["radius"] = self.path_radius
+        sensors: dict[str, Any] = {"speed_sigma": self.speed_sigma, "pose_sigma": self.pose_sigma}
+        if self.gyro_sigma is not None:
+            sensors["yaw_rate_sigma"] = self.gyro_sigma
+        plant: dict[str, Any] = {"tyre_friction": self.tyre_friction, "actuator_gain": self.actuator_gain}
+        if self.payload_mass > 0:
+            plant.update(payload_mass=self.payload_mass, payload_offset=list(self.payload_offset))
+        out: dict[str, Any] = {"name": self.name, "description": f"benchmark {self.version}, {self.split} draw "
+                               f"{self.index}", "duration": self.duration, "seed": self.seed, "plant": plant,
+                               "sensors": sensors, "reference": ref}
+        out["faults"] = fault_tables(self.faults, self.nominal_radius) if with_faults else {"right": [], "left": []}
+        return out
+
+
+def fault_tables(faults: tuple[FaultDraw, ...], R0: float) -> dict[str, Any]:
+    """The ``[faults]`` section of drawn faults: radius schedules (``[t, r]`` breakpoints, m) for the
+    punctures, ``actuator`` and ``sensor`` tables for the rest (only when there are any)."""
+    out: dict[str, Any] = {"right": [], "left": []}
+    for f in faults:
+        if f.fault_class == "puncture_step":
+            out[f.target] = [[f.onset, R0], [f.onset, f.size * R0]]
+        elif f.fault_class == "puncture_ramp":
+            out[f.target] = [[f.onset, R0], [f.onset + (1.0 - f.size) * R0 / f.rate, f.size * R0]]
+        elif f.family == "actuator":
+            kind = {"actuator_loss": "loss", "wheel_lock": "lock", "actuator_unresponsive": "unresponsive"}
+            table: dict[str, Any] = {"wheel": f.target, "kind": kind[f.fault_class], "onset": f.onset}
+            if f.fault_class == "actuator_loss":
+                table["effectiveness"] = f.size
+            out.setdefault("actuator", []).append(table)
+        else:
+            table = {"sensor": f.target, "kind": f.fault_class.split("_", 1)[1], "onset": f.onset}
+            if f.fault_class.endswith("dropout"):
+                table["duration"] = f.duration
+            else:
+                table["size"] = f.size
+            out.setdefault("sensor", []).append(table)
+    return out
+
+
+# ---------------------------------------------------------------------------- drawing
+def version_tag(version: str) -> int:
+    """A 32-bit number naming the version in the draws' random streams (SHA-256 of the name)."""
+    return int.from_bytes(hashlib.sha256(version.encode()).digest()[:4], "big")
+
+
+def generator(d: BenchmarkDefinition, split: str, index: int) -> np.random.Generator:
+    """The random stream of draw ``index`` of ``split`` (module docstring)."""
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(
+        entropy=d.splits[split], spawn_key=(version_tag(d.version), index))))
+
+
+def uniform(rng: np.random.Generator, r: Range) -> float:
+    """A uniform value in ``r`` (``low`` if the range is a point)."""
+    return float(rng.uniform(r.low, r.high)) if r.high > r.low else float(r.low)
+
+
+def choose(rng: np.random.Generator, table: dict[str, float], names: tuple[str, ...]) -> str:
+    """A name drawn with the table's probabilities (names in the definition's order: stable streams)."""
+    keys = [n for n in names if table.get(n, 0.0) > 0.0]
+    p = np.array([table[k] for k in keys])
+    return keys[int(rng.choice(len(keys), p=p / p.sum()))]
+
+
+TARGETS = {"puncture_step": WHEELS, "puncture_ramp": WHEELS, "actuator_loss": WHEELS, "wheel_lock": WHEELS,
+           "actuator_unresponsive": WHEELS, "speed_bias": ("speed",), "speed_drift": ("speed",),
+           "speed_dropout": ("speed",), "gyro_bias": ("yaw_rate",), "gyro_drift": ("yaw_rate",),
+           "gyro_dropout": ("yaw_rate",)}
+"""The targets a fault class can hit."""
+
+
+def draw_fault(rng: np.random.Generator, d: BenchmarkDefinition, cls: str, onset: float,
+               exclude: str | None = None) -> FaultDraw:
+    """A fault of class ``cls`` at ``onset`` (s) on a target other than ``exclude``, with its size drawn."""
+    f = d.fault
+    targets = [t for t in TARGETS[cls] if t != exclude]
+    target = targets[int(rng.integers(len(targets)))]
+    sign = 1.0 if rng.random() < 0.5 else -1.0
+    if cls == "puncture_step":
+        return FaultDraw(cls, target, onset, round(uniform(rng, f.puncture_fraction), 4))
+    if cls == "puncture_ramp":
+        return FaultDraw(cls, target, onset, round(uniform(rng, f.ramp_final_fraction), 4),
+                         rate=round(uniform(rng, f.ramp_rate), 4))
+    if cls == "actuator_loss":
+        return FaultDraw(cls, target, onset, round(uniform(rng, f.effectiveness), 4))
+    if cls in ("wheel_lock", "actuator_unresponsive"):
+        return FaultDraw(cls, target, onset, 0.0)
+    if cls.endswith("dropout"):
+        return FaultDraw(cls, target, onset, 0.0, duration=round(uniform(rng, f.dropout_duration), 3))
+    size = {"speed_bias": f.speed_bias, "speed_drift": f.speed_drift, "gyro_bias": f.gyro_bias,
+            "gyro_drift": f.gyro_drift}[cls]
+    return FaultDraw(cls, target, onset, round(sign * uniform(rng, size), 5))
+
+
+def draw_faults(rng: np.random.Generator, d: BenchmarkDefinition) -> tuple[FaultDraw, ...]:
+    """No fault, one, or (with probability ``fault.double``) two on different targets, the second later."""
+    first_cls = choose(rng, d.fault.classes, FAULT_CLASSES)
+    if first_cls == "none":
+        return ()
+    first = draw_fault(rng, d, first_cls, round(uniform(rng, d.fault.onset), 2))
+    if rng.random() >= d.fault.double:
+        return (first,)
+    others = {c: p for c, p in d.fault.classes.items()
+              if c != "none" and any(t != first.target for t in TARGETS[c])}
+    second_cls = choose(rng, others, FAULT_CLASSES)
+    onset = round(first.onset + uniform(rng, d.fault.second_delay), 2)
+    return (first, draw_fault(rng, d, second_cls, onset, exclude=first.target))
+
+
+def draw_path(rng: np.random.Generator, d: BenchmarkDefinition) -> tuple[str, float, str, float]:
+    """Path kind, radius (m; ``inf`` for a line), direction and speed (m/s, uniform in ``path.speed`` up to
+    ``sqrt(max_lateral_accel · radius)``)."""
+    p = d.path
+    kind = choose(rng, p.kinds, PATH_KINDS)
+    radii = {"circle": p.circle_radius, "figure8": p.figure8_radius}.get(kind)
+    radius = float(radii[int(rng.integers(len(radii)))]) if radii else math.inf
+    direction = "ccw" if rng.random() < p.direction_ccw else "cw"
+    cap = math.sqrt(p.max_lateral_accel * radius)
+    speed = round(uniform(rng, Range(low=p.speed.low, high=min(p.speed.high, max(cap, p.speed.low)))), 3)
+    return kind, radius, direction, speed
+
+
+def draw(split: str, index: int, version: str = "ftc-v1") -> Draw:
+    """Draw ``index`` of ``split`` of benchmark ``version`` (a pure function; module docstring)."""
+    if split not in SPLITS:
+        raise BadInput(f"--split: expected {' or '.join(SPLITS)}, got {split!r}")
+    if not (isinstance(index, int) and 0 <= index < MAX_INDEX):
+        raise BadInput(f"index: must be an integer in [0, {MAX_INDEX}), got {index!r}")
+    d = load_definition(version)
+    rng = generator(d, split, index)
+    seeds = getattr(d.seeds, split)
+    seed = int(rng.integers(int(seeds.low), int(seeds.high)))
+    faults = draw_faults(rng, d)
+    kind, radius, direction, speed = draw_path(rng, d)
+    gyro_fault = any(f.target == "yaw_rate" for f in faults)
+    gyro = gyro_fault or rng.random() < d.sensors.gyro
+    s = d.sensors
+    gsig = float(math.exp(rng.uniform(math.log(s.gyro_sigma.low), math.log(s.gyro_sigma.high))))
+    pl = d.plant
+    payload = (uniform(rng, pl.payload_offset_x), uniform(rng, pl.payload_offset_y), uniform(rng, pl.payload_offset_z))
+    return Draw(
+        version=d.version, split=split, index=index, seed=seed, duration=d.duration, faults=faults,
+        tyre_friction=round(uniform(rng, pl.tyre_friction), 4), actuator_gain=round(uniform(rng, pl.actuator_gain), 1),
+        payload_mass=round(uniform(rng, pl.payload_mass), 2), payload_offset=tuple(round(v, 3) for v in payload),
+        path=kind, path_radius=radius, direction=direction, speed=speed,
+        speed_sigma=round(uniform(rng, s.speed_sigma), 4), gyro_sigma=round(gsig, 5) if gyro else None,
+        pose_sigma=round(uniform(rng, s.pose_sigma), 4))

@@ -1,0 +1,134 @@
+"""The methods a benchmark scores: built-in names or a small TOML file of settings.
+
+A method is a named combination of estimator, decision rule, reconfiguration policy and controller —
+the run-config keys of those sections (:data:`METHOD_SECTIONS`) and nothing the draw sets (faults,
+plant, sensors, path, duration, seed). A method file::
+
+    name = "my-ukf-safe"
+    description = "..."
+    plugins = ["my_pkg.filters"]       # optional: modules registering plug-in components
+    [settings]                         # dotted keys or nested tables
+    "estimator.kind" = "ukf"
+    "reconfiguration.policy" = "safe"
+
+Its *digest* hashes its resolved settings (those sections after validation, defaults filled in, plus
+the plug-in modules): a test-split result records it, so a leaderboard entry names exactly what was run.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any
+
+from pydantic import Field, ValidationError
+
+from ..config import RunConfig, SafeName, existing_file, one_line, read_toml, set_dotted, validate_config
+from ..config.types import StrictModel
+from ..errors import BadInput
+from ..identity import canonical_hash
+from ..study.spec import flatten_dotted, key_error
+
+METHOD_SECTIONS = ("estimator", "controller", "reconfiguration", "model")
+"""The run-config sections a method may set (what it is); the draw sets the rest (what it faces)."""
+
+ACTIVE = {"estimator.kind": "ukf", "controller.rate_penalty": 1.0}
+BUILTIN: dict[str, tuple[str, dict[str, Any]]] = {
+    "paper": ("the paper's loop: UKF, NMPC with the paper's cost, feedback on (policy direct)",
+              {"estimator.kind": "ukf", "controller.kind": "nmpc", "reconfiguration.policy": "direct",
+               "controller.rate_penalty": 0.0}),
+    "safe": ("UKF, NMPC with the actuation-rate term, the safe policy (the default loop)",
+             {**ACTIVE, "controller.kind": "nmpc", "reconfiguration.policy": "safe"}),
+    "pathfollow": ("UKF, the path-following NMPC (pf-nmpc) with the actuation-rate term, the safe policy",
+                   {**ACTIVE, "controller.kind": "pf-nmpc", "reconfiguration.policy": "safe"}),
+    "hybrid": ("UKF, the robust multi-stage NMPC re-weighted by the filter's posterior (hybrid FTC)",
+               {**ACTIVE, "controller.kind": "robust-nmpc", "controller.robust.weighting": "posterior",
+                "reconfiguration.policy": "none"}),
+    "passive": ("UKF (FDI scored), the robust multi-stage NMPC with fixed weights (passive FTC)",
+                {**ACTIVE, "controller.kind": "robust-nmpc", "reconfiguration.policy": "none"}),
+    "feedback-off": ("UKF (FDI scored), the nominal NMPC with the actuation-rate term, never reconfigured",
+                     {**ACTIVE, "controller.kind": "nmpc", "reconfiguration.policy": "none"}),
+}
+"""Built-in methods: name → (description, settings). ``feedback-off`` is also the healthy-path check's
+nominal NMPC."""
+
+
+class MethodFile(StrictModel):
+    """A method file (module docstring)."""
+
+    name: SafeName
+    description: Annotated[str, Field(max_length=2000)] = ""
+    plugins: Annotated[list[str], Field(max_length=50)] = Field(default_factory=list)
+    settings: dict[str, Any] = Field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Method:
+    """A method: its name, description, settings (dotted keys) and plug-in modules."""
+
+    name: str
+    description: str
+    settings: dict[str, Any]
+    plugins: tuple[str, ...] = ()
+    source: str = "built-in"
+    digest: str = field(default="", compare=False)
+
+    def apply(self, scenario: dict[str, Any]) -> RunConfig:
+        """The run config of a draw's ``scenario`` run by this method (validated; :class:`BadInput`)."""
+        data = {**scenario, "plugins": list(self.plugins)} if self.plugins else dict(scenario)
+        data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
+        for k, v in self.settings.items():
+            set_dotted(data, k, v)
+        try:
+            return validate_config(data)
+        except BadInput as err:
+            raise BadInput(f"method {self.name}: {err}") from None
+
+
+def check_settings(settings: dict[str, Any], where: str) -> dict[str, Any]:
+    """``settings`` flattened to dotted keys, each a run-config key inside :data:`METHOD_SECTIONS`."""
+    flat = flatten_dotted(settings)
+    for k in flat:
+        err = key_error(k)
+        if err:
+            raise BadInput(f"{where}: settings.{k}: {err}")
+        if k.split(".")[0] not in METHOD_SECTIONS:
+            raise BadInput(f"{where}: settings.{k}: a method sets only {', '.join(METHOD_SECTIONS)}; the draw sets "
+                           "the faults, plant, sensors, path, duration and seed")
+    return flat
+
+
+def resolved_digest(method: Method) -> str:
+    """16 hex digits of the method's resolved settings (:data:`METHOD_SECTIONS` of a validated config with its
+    settings, defaults filled in) and plug-in modules."""
+    cfg = method.apply({"name": "digest"})
+    dump = cfg.model_dump(mode="json")
+    return canonical_hash({"sections": {s: dump[s] for s in METHOD_SECTIONS}, "plugins": list(method.plugins)})[:16]
+
+
+def load_method(spec: str) -> Method:
+    """A built-in method name or a method file path, validated (:class:`BadInput` naming the field)."""
+    if spec in BUILTIN:
+        desc, settings = BUILTIN[spec]
+        m = Method(spec, desc, dict(settings))
+    else:
+        path = existing_file(spec, "METHOD", f"no such built-in method ({', '.join(BUILTIN)}) or file")
+        try:
+            f = MethodFile.model_validate(read_toml(path, "method"))
+        except ValidationError as err:
+            raise BadInput(f"method {path}: {one_line(err)}") from None
+        m = Method(f.name, f.description, check_settings(f.settings, f"method {path}"), tuple(f.plugins),
+                   str(Path(path).resolve()))
+    return Method(m.name, m.description, m.settings, m.plugins, m.source, resolved_digest(m))
+
+
+def load_methods(specs: list[str]) -> list[Method]:
+    """Every method of the command line, with distinct names."""
+    if not specs:
+        raise BadInput(f"METHOD: name at least one method (built-in: {', '.join(BUILTIN)}, or a method file)")
+    methods = [load_method(s) for s in specs]
+    names = [m.name for m in methods]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise BadInput(f"METHOD: {dup[0]!r} given twice (methods need distinct names)")
+    return methods

@@ -1,0 +1,111 @@
+"""``ftc-mj bench … --publish DOCS``: ``DOCS/benchmark.md`` — what the benchmark is, its distributions
+(generated from the definition), the seeds used for what, and the report of the invocation (the
+leaderboard on the test split), with its figures copied to ``DOCS/figures/benchmark/``."""
+
+from __future__ import annotations
+
+import shlex
+import shutil
+from pathlib import Path
+from typing import Any
+
+from ..errors import BadInput
+from ..io import atomic_path
+from .definition import BenchmarkDefinition, Range, load_definition
+from .methods import BUILTIN
+
+FULL_RUN = ("ftc-mj bench paper safe pathfollow hybrid passive feedback-off --split test --draws 200 --workers 2 "
+            "--out runs/out/bench/ftc-v1-test --publish docs")
+"""The command that writes the leaderboard of the built-in methods into docs/benchmark.md (about 1 h of 2 cores
+per 1000 runs at 6–8 s a run)."""
+HEALTHY_CHECK = (
+    "**Healthy-path check.** The ranges were chosen so that the healthy robot follows every drawn path: "
+    "`ftc-mj bench feedback-off --healthy --draws 40 --workers 1` (the nominal NMPC with the actuation-rate "
+    "term, every dev draw 0–39 without its faults, 2026-12-03) stayed within 0.19 m of the path from 5 s on in "
+    "all 40 draws (largest in draw 24, a figure-eight of 50 m lobes at 8.2 m/s; bound 0.5 m, the success rule; "
+    "mean of the 40 largest errors 0.096 m), with no lift-off and no tip-over. Paths: "
+    "circles of 40–120 m, figure-eights of 50–80 m lobes and straight lines; lines with turns are not a "
+    "built-in reference (a figure-eight reverses its curvature instead).")
+
+
+def _r(r: Range, unit: str = "", digits: int = 3) -> str:
+    return f"{r.low:.{digits}g}–{r.high:.{digits}g}{' ' + unit if unit else ''}"
+
+
+def definition_tables(d: BenchmarkDefinition) -> list[str]:
+    """The distributions of the definition as Markdown tables (units in the cells)."""
+    f, p, pa, s = d.fault, d.plant, d.path, d.sensors
+    lines = [f"Benchmark `{d.version}` (`ftc_mj/data/benchmarks/{d.version}.toml`), runs of {d.duration:g} s.", "",
+             "| fault class | probability |", "|---|---|"]
+    lines += [f"| {c} | {v:g} |" for c, v in f.classes.items()]
+    lines += ["", "| factor | distribution |", "|---|---|",
+              f"| second fault | probability {f.double:g} given a first; another target, "
+              f"{_r(f.second_delay, 's')} later |",
+              f"| onset of the first fault | uniform {_r(f.onset, 's')} |",
+              f"| step puncture: remaining radius | uniform {_r(f.puncture_fraction)} of nominal |",
+              f"| ramp puncture: final radius, rate | uniform {_r(f.ramp_final_fraction)} of nominal; "
+              f"{_r(f.ramp_rate, 'm/s')} |",
+              f"| servo loss of effectiveness | remaining gain and torque uniform {_r(f.effectiveness)} |",
+              f"| speed bias / drift | ± uniform {_r(f.speed_bias, 'm/s')} / ± {_r(f.speed_drift, 'm/s²')} |",
+              f"| gyro bias / drift | ± uniform {_r(f.gyro_bias, 'rad/s')} / ± {_r(f.gyro_drift, 'rad/s²')} |",
+              f"| sensor dropout | uniform {_r(f.dropout_duration, 's')} |",
+              f"| tyre friction | uniform {_r(p.tyre_friction)} |",
+              f"| servo gain | uniform {_r(p.actuator_gain, 'N m s/rad', 5)} |",
+              f"| payload mass; centre (forward, left, up from the axle) | uniform {_r(p.payload_mass, 'kg')}; "
+              f"{_r(p.payload_offset_x, 'm')}, {_r(p.payload_offset_y, 'm')}, {_r(p.payload_offset_z, 'm')} |",
+              "| path | " + ", ".join(f"{k} {v:g}" for k, v in pa.kinds.items()) + f"; circle radius one of "
+              f"{', '.join(f'{r:g}' for r in pa.circle_radius)} m, figure-eight lobe one of "
+              f"{', '.join(f'{r:g}' for r in pa.figure8_radius)} m; counter-clockwise {pa.direction_ccw:g} |",
+              f"| desired speed | uniform {_r(pa.speed, 'm/s')}, capped at √({pa.max_lateral_accel:g} m/s² × radius) |",
+              f"| speed sensor σ | uniform {_r(s.speed_sigma, 'm/s')} |",
+              f"| yaw-rate gyro | present with probability {s.gyro:g} (always with a gyro fault); σ log-uniform "
+              f"{_r(s.gyro_sigma, 'rad/s')} |",
+              f"| pose noise σ (controller's pose) | uniform {_r(s.pose_sigma, 'm (and rad)')} |"]
+    return lines
+
+
+def publish(docs: Path, report: Path, out: Path, argv: list[str], version: str) -> Path:
+    """Write ``docs/benchmark.md`` (module docstring) from the finished bench in ``out``; returns its path."""
+    if not docs.is_dir():
+        raise BadInput(f"--publish: {docs} is not an existing folder")
+    d = load_definition(version)
+    fig_dir = docs / "figures" / "benchmark"
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    for png in sorted((out / "figures").glob("*.png")):
+        shutil.copyfile(png, fig_dir / png.name)
+    body = report.read_text().replace("](figures/", "](figures/benchmark/")
+    body = "\n".join(("#" + ln) if ln.startswith("#") else ln for ln in body.splitlines())
+    text = "\n".join([
+        "# The ftc-mj benchmark", "",
+        f"Generated by `{shlex.join(['ftc-mj', *argv])}`; do not edit by hand.", "",
+        "A method — estimator, decision rule, reconfiguration policy and controller, built-in or a method file "
+        "(`name`, `[settings]` of the sections estimator, controller, reconfiguration, model) — is scored on "
+        "draws of faults and conditions. A draw is a pure function of (version, split, index): "
+        "`ftc_mj.benchmark.draws.draw(split, index)`. Built-in methods: "
+        + "; ".join(f"`{k}`: {v[0]}" for k, v in BUILTIN.items()) + ".", "",
+        "## Seeds", "",
+        f"The `dev` split's run seeds lie in {int(d.seeds.dev.low)}–{int(d.seeds.dev.high) - 1} and the `test` "
+        f"split's from {int(d.seeds.test.low)} "
+        "(different entropies in the definition: disjoint streams). Develop and tune on `dev`; a study flagged "
+        "`tuning = true` (tune_dwell, tune_growth, robust_hybrid_dev) refuses seeds ≥ 1000, and the leaderboard "
+        "shows test-split results only, each with its method's settings digest and the package version.", "",
+        "## Distributions", "", *definition_tables(d), "", HEALTHY_CHECK, "",
+        *([] if "--split test" in " ".join(argv) and "--healthy" not in argv else
+          ["**Leaderboard.** Not generated yet: the leaderboard shows test-split results only; "
+           f"`{FULL_RUN}` writes it into this page.", ""]),
+        body])
+    path = docs / "benchmark.md"
+    with atomic_path(path) as tmp:
+        tmp.write_text(text + "\n")
+    return path
+
+
+def argv_of(**opts: Any) -> list[str]:
+    """The command line of a bench invocation (for the generated page's header)."""
+    args = list(opts.pop("methods"))
+    for k, v in opts.items():
+        if v is True:
+            args.append(f"--{k}")
+        elif v not in (None, False):
+            args += [f"--{k}", str(v)]
+    return ["bench", *args]

@@ -1,0 +1,128 @@
+"""``ftc-mj bench``: methods × draws on the study machinery (Dask, one row per run persisted at once,
+resumable; :mod:`ftc_mj.study.runner`), each run scored in its worker by
+:func:`~ftc_mj.benchmark.score.score_run`, then the outputs (:mod:`.report`).
+
+The runs of a bench form a :class:`~ftc_mj.study.plan.StudyPlan` built here instead of from a study file:
+one run per (method, draw), keyed by its resolved config (:func:`~ftc_mj.study.plan.run_key`), labelled
+``method``, ``draw`` and ``fault_class``. The plan's identity is the benchmark version, the split, the
+draw indices, the methods' digests and the ``healthy`` flag, so a rerun of the same command into the same
+folder computes only the missing runs, and a different bench is refused there.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import BadInput
+from ..identity import canonical_hash
+from ..io import atomic_path
+from ..study.plan import PlannedRun, StudyPlan, run_key
+from ..study.spec import AnalysisSpec, StudySpec
+from ..study.store import StudyStore
+from .definition import SPLITS, load_definition
+from .draws import Draw, draw
+from .methods import Method
+from .score import score_run
+
+KEPT_METRICS = ("run_id", "status", "error", "outcome", "wall_time_s", "realtime_factor")
+"""The run metrics a bench row keeps beside the scores."""
+MAX_DRAWS = 2000
+"""Largest ``--draws`` (the plan of a study is at most 10 000 runs; at ~6 s a run 2000 draws are hours)."""
+
+
+def bench_run(cfg: Any, out_root: Path | None, rrd: bool) -> Any:
+    """Run one (method, draw) and score it (the worker's ``run_fn``): the run's outcome whose metrics are
+    :data:`KEPT_METRICS` and the scores (:func:`~ftc_mj.benchmark.score.score_run`)."""
+    from ..sim.run import execute
+
+    outcome = execute(cfg, out_root, rrd=rrd)
+    scores = score_run(cfg, outcome.result.trace, outcome.result.events, status=str(outcome.metrics.get("status")))
+    scores.pop("status", None)
+    outcome.metrics = {**{k: outcome.metrics.get(k) for k in KEPT_METRICS}, **scores}
+    return outcome
+
+
+@dataclass
+class BenchPlan:
+    """The runs of a bench and what they come from."""
+
+    plan: StudyPlan
+    draws: list[Draw]
+    methods: list[Method]
+    split: str
+    version: str
+    healthy: bool
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+def check_request(split: str, n_draws: int, start: int) -> None:
+    """The split and draw range (:class:`BadInput` naming the option)."""
+    if split not in SPLITS:
+        raise BadInput(f"--split: expected {' or '.join(SPLITS)}, got {split!r}")
+    if not 1 <= n_draws <= MAX_DRAWS:
+        raise BadInput(f"--draws: must be in [1, {MAX_DRAWS}], got {n_draws}")
+    if start < 0:
+        raise BadInput(f"--start: must be >= 0, got {start}")
+
+
+def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str = "ftc-v1", start: int = 0,
+               healthy: bool = False, out: Path | None = None) -> BenchPlan:
+    """Every (method, draw) run of draws ``start … start + n_draws - 1`` (validated; :class:`BadInput`)."""
+    from .. import __version__
+
+    check_request(split, n_draws, start)
+    load_definition(version)
+    draws = [draw(split, i, version) for i in range(start, start + n_draws)]
+    runs: list[PlannedRun] = []
+    seen: dict[str, str] = {}
+    for m in methods:
+        for d in draws:
+            cfg = m.apply(d.scenario(with_faults=not healthy))
+            key = run_key(cfg)
+            if key in seen:
+                raise BadInput(f"METHOD: {m.name} and {seen[key]} resolve to the same runs")
+            seen[key] = m.name
+            runs.append(PlannedRun(len(runs), key, {"method": m.name, "draw": d.index, "fault_class":
+                                                    "none" if healthy else d.fault_class}, cfg.seed,
+                                   cfg.model_dump(mode="json")))
+    meta = {"benchmark": version, "split": split, "draws": [start, start + n_draws], "healthy": healthy,
+            "methods": {m.name: {"digest": m.digest, "source": m.source, "description": m.description,
+                                 "settings": m.settings, "plugins": list(m.plugins)} for m in methods},
+            "package_version": __version__}
+    identity = {k: v for k, v in meta.items() if k != "package_version"}
+    identity["methods"] = {m.name: m.digest for m in methods}
+    name = f"bench-{version}-{split}" + ("-healthy" if healthy else "")
+    spec = StudySpec(name=name, description=f"ftc-mj bench {version} {split}", scenario="scenario1",
+                     analysis=AnalysisSpec(figures=False))
+    path = (Path(out) if out is not None else Path(".")) / "bench.json"
+    plan = StudyPlan(spec, path, canonical_hash(identity), runs, ["method", "draw", "fault_class"], {},
+                     json.loads(json.dumps(identity, default=str)))
+    return BenchPlan(plan, draws, methods, split, version, healthy, meta)
+
+
+def prepare_output(bp: BenchPlan, out: Path) -> None:
+    """Refuse an output folder that cannot take this bench (another bench's results, unwritable: the study
+    store's checks), then write ``OUT/bench.json`` (the bench's definition: version, split, draws, methods
+    with their settings and digests, package version)."""
+    StudyStore(out).check(bp.plan)
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out / "bench.json") as tmp:
+        tmp.write_text(json.dumps(bp.meta, indent=2, sort_keys=True, default=str) + "\n")
+
+
+def run_bench(bp: BenchPlan, out: Path, *, workers: int = 2, address: str | None = None, progress: bool = False,
+              compare: int = 1, echo: Any = None) -> tuple[Any, Path]:
+    """Compute the bench's missing runs into ``out`` (the study runner: Dask, rows persisted one by one),
+    then write the outputs (:func:`~ftc_mj.benchmark.report.write_outputs`); returns the study report and
+    the report file."""
+    from ..study.runner import run_study
+    from .report import write_outputs
+
+    prepare_output(bp, out)
+    report = run_study(bp.plan, out, workers=workers, address=address, run_fn=bench_run, analyse=False,
+                       progress=progress, echo=echo)
+    assert report.results is not None
+    return report, write_outputs(bp, report.results, out, compare=compare, echo=echo)

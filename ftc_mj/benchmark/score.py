@@ -1,0 +1,179 @@
+"""The benchmark's score of one finished run: :func:`score_run` (config, trace, events) → flat dict.
+
+Every score reuses the run metrics (:mod:`ftc_mj.metrics`); what is new is the fault truth of every
+fault class (tyre, actuator, sensor), the isolation verdict against it, and the per-draw bounds.
+
+Path
+    ``contouring_max`` / ``contouring_rms`` (m): |cross-track error| from
+    :data:`~ftc_mj.metrics.path.RECOVERED_AFTER_S` after the *last* fault onset (a fault-free run: from
+    that long after the start) — :func:`~ftc_mj.metrics.path.path_following_metrics`.
+Safety
+    ``tipped``; ``liftoff_s`` (s a wheel was off the ground outside the
+    :data:`~ftc_mj.metrics.run.FAULT_TRANSIENT_S` after every onset) — :func:`~ftc_mj.metrics.run.plant_metrics`.
+``success``
+    The run completed, did not tip over, and ``contouring_max`` ≤ :data:`~ftc_mj.metrics.outcome.OFF_PATH_M`.
+FDI (runs with an estimator)
+    ``false_alarm``: a declaration before the first onset (any, without a fault); ``detected``: a
+    declaration starts after the first onset; ``detection_delay`` (s) from the first onset;
+    ``isolation``: the wheel of the last declaration after the first onset against the truth —
+    ``correct`` (the faults are punctures and it names exactly the punctured wheels), ``unknown``
+    (declared, wheel unknown), ``wrong`` (anything else: a healthy wheel, or any wheel when a fault is
+    not a puncture — the filters model radius faults only, so a sensor or actuator fault declared as a
+    puncture is a false isolation), ``none`` (nothing declared after the onset), ``n/a`` (no fault).
+Reconfiguration
+    ``reconfig_delay`` (s): first hand-over after the first onset —
+    :func:`~ftc_mj.metrics.run.reconfiguration_metrics`.
+Bounds
+    ``lorden_delay_bound`` (s): Lorden's lower bound on the delay of any rule with mean time between false
+    alarms ``estimator.decision.arl0`` for this draw's first change: the first time the cumulative
+    Kullback–Leibler information of the change reaches ``log(ARL0 / dt)`` (:func:`~ftc_mj.metrics.fdi.lorden_delays`);
+    the change is the true plant's departure from the nominal model (:func:`~ftc_mj.metrics.fdi.cumulative_kl`)
+    or, for a sensor bias/drift, the injected offset over the sensor's σ; ``None`` when it is not reached
+    within :data:`~ftc_mj.metrics.fdi.KL_PROFILE_S` (a dropout or an actuator fault the wheel-rate inputs explain).
+    ``radius_pcrb_R/L`` (m): the posterior Cramér–Rao bound at the end of the run on each radius for the
+    model that generated the data since the last radius change (radii constant: no process noise,
+    :func:`~ftc_mj.estimation.pcrb.trace_pcrb`), beside the filter's final error ``radius_error_R/L`` (m).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..config import RunConfig
+from ..metrics.detection import WHEEL_OF_CODE, declared_wheel_codes
+from ..metrics.fdi import KL_PROFILE_S, cumulative_kl, lorden_delays
+from ..metrics.outcome import OFF_PATH_M
+from ..metrics.path import path_following_metrics
+from ..metrics.run import plant_metrics, reconfiguration_metrics
+from ..metrics.series import first_time, starts
+from ..plant.faults import fault_list, wheel_schedules
+
+SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "liftoff_s", "false_alarm", "detected",
+                 "detection_delay", "isolation", "reconfig_delay", "lorden_delay_bound", "radius_pcrb_R",
+                 "radius_pcrb_L", "radius_error_R", "radius_error_L", "solver_fallbacks", "status")
+"""The keys :func:`score_run` returns (``None`` where a score does not apply)."""
+
+
+def fault_truth(cfg: RunConfig) -> list[dict[str, Any]]:
+    """Every configured fault (:func:`~ftc_mj.plant.faults.fault_list`: class, target, onset in s, size in the
+    class's unit) as a dict with ``end`` (s) — when a puncture's radius stops changing, the onset otherwise —
+    in onset order."""
+    R0 = cfg.plant_wheel_radius
+    ends = {w: s.end_time for w, s in zip(("right", "left"), wheel_schedules(cfg.faults, R0), strict=True)}
+    out = [{"fault_class": f.fault_class, "target": f.target, "onset": f.onset, "size": f.size,
+            "end": ends[f.target] if f.fault_class == "puncture" else f.onset} for f in fault_list(cfg.faults, R0)]
+    return sorted(out, key=lambda f: f["onset"])
+
+
+def isolation_verdict(code: np.ndarray, t: np.ndarray, faults: list[dict[str, Any]]) -> str:
+    """``correct`` / ``unknown`` / ``wrong`` / ``none`` / ``n/a`` (module docstring) of the declared-wheel
+    codes ``code`` per step at times ``t`` (s)."""
+    if not faults:
+        return "n/a"
+    after = t >= faults[0]["onset"]
+    declared = code[after & (code > 0)]
+    if declared.size == 0:
+        return "none"
+    last = WHEEL_OF_CODE.get(int(declared[-1]))
+    if last == "unknown":
+        return "unknown"
+    if any(f["fault_class"] != "puncture" for f in faults):
+        return "wrong"
+    wheels = {f["target"] for f in faults}
+    truth = "both" if wheels == {"right", "left"} else wheels.pop()
+    return "correct" if last == truth else "wrong"
+
+
+def fdi_scores(trace: dict[str, np.ndarray], faults: list[dict[str, Any]]) -> dict[str, Any]:
+    """False alarm, detection, its delay (s) and the isolation verdict of a run with an estimator."""
+    t = np.asarray(trace["t"], float)
+    code = declared_wheel_codes(trace)
+    t0 = faults[0]["onset"] if faults else math.inf
+    begin = starts(code > 0)
+    t_det = first_time(begin & (t >= t0), t) if faults else None
+    return {"false_alarm": bool(np.any(begin & (t < t0))), "detected": t_det is not None if faults else None,
+            "detection_delay": None if t_det is None else t_det - t0,
+            "isolation": isolation_verdict(code, t, faults)}
+
+
+def sensor_kl(cfg: RunConfig, trace: dict[str, np.ndarray], fault: dict[str, Any]) -> np.ndarray:
+    """Cumulative KL information (nats per row) of a sensor bias or drift from its onset: ``Σ ½ (offset/σ)²``
+    with the injected offset (m/s or rad/s) and the sensor's σ; empty for a dropout (no information)."""
+    sigma = cfg.sensors.speed_sigma if fault["target"] == "speed" else cfg.sensors.yaw_rate_sigma
+    t = np.asarray(trace["t"], float)
+    t = t[(t >= fault["onset"] - 1e-9) & (t < fault["onset"] + KL_PROFILE_S)]
+    if sigma is None or fault["fault_class"].endswith("dropout") or t.size == 0:
+        return np.zeros(0)
+    dt = 1.0 / cfg.estimator.rate
+    offset = fault["size"] * ((t - fault["onset"] + dt) if fault["fault_class"].endswith("drift") else np.ones_like(t))
+    return np.cumsum(0.5 * (offset / sigma) ** 2)
+
+
+def bound_scores(cfg: RunConfig, trace: dict[str, np.ndarray], faults: list[dict[str, Any]]) -> dict[str, Any]:
+    """Lorden's delay bound (s) for the first change and the radius PCRB at the end (m; module docstring)."""
+    out: dict[str, Any] = {"lorden_delay_bound": None}
+    dt = 1.0 / cfg.estimator.rate
+    if faults:
+        f = faults[0]
+        K = (sensor_kl(cfg, trace, f) if f["target"] in ("speed", "yaw_rate")
+             else np.asarray(cumulative_kl(cfg, trace, f["onset"]), float))
+        if K.size:
+            d = float(lorden_delays(K, np.array([cfg.estimator.decision.arl0]), dt)[0])
+            out["lorden_delay_bound"] = d if math.isfinite(d) else None
+    out.update(radius_bound(cfg, trace, max((f["end"] for f in faults if f["fault_class"] == "puncture"),
+                                            default=0.0)))
+    return out
+
+
+def radius_bound(cfg: RunConfig, trace: dict[str, np.ndarray], since: float) -> dict[str, Any]:
+    """The PCRB σ (m) of each radius at the last row for radii constant since ``since`` (s), and the
+    filter's final errors (m); ``None`` without an estimator."""
+    from ..estimation.factory import setup_from_config
+    from ..estimation.pcrb import trace_pcrb
+
+    t = np.asarray(trace["t"], float)
+    keys = ("radius_pcrb_R", "radius_pcrb_L", "radius_error_R", "radius_error_L")
+    if cfg.estimator.kind == "none" or not np.any(np.isfinite(trace.get("R_R_hat", np.array([np.nan])))):
+        return dict.fromkeys(keys)
+    k0 = min(int(np.searchsorted(t, since - 1e-9)), t.size - 1)
+    B = trace_pcrb(setup_from_config(cfg), trace, q_radius=0.0, start=k0)[-1]
+    return {"radius_pcrb_R": float(np.sqrt(max(B[3, 3], 0.0))), "radius_pcrb_L": float(np.sqrt(max(B[4, 4], 0.0))),
+            "radius_error_R": float(abs(trace["R_R_hat"][-1] - trace["R_R"][-1])),
+            "radius_error_L": float(abs(trace["R_L_hat"][-1] - trace["R_L"][-1]))}
+
+
+def _text(e: Any) -> str:
+    return str(e.get("text", "")) if isinstance(e, dict) else str(getattr(e, "text", ""))
+
+
+def score_run(config: RunConfig, trace: dict[str, np.ndarray], events: Sequence[Any],
+              status: str = "ok") -> dict[str, float | str | bool | None]:
+    """The scores of one finished run (module docstring; keys :data:`SCORE_COLUMNS`). ``trace``: the columns
+    :mod:`ftc_mj.sim` writes; ``events``: the run's events (``Event`` objects or ``{t, level, text}``
+    dicts); ``status``: the run's (``ok``, ``failed``, ``unstable``) — only ``ok`` can succeed."""
+    cfg = config
+    tr = {k: np.asarray(v) for k, v in trace.items()}
+    t = np.asarray(tr["t"], float)
+    faults = [f for f in fault_truth(cfg) if t.size and f["onset"] <= t[-1]]
+    onsets = {f"f{i}": f["onset"] for i, f in enumerate(faults)}
+    path = path_following_metrics(cfg, tr, onsets)
+    plant = plant_metrics(tr, {}, onsets, 1.0 / cfg.estimator.rate)
+    cmax = path.get("contouring_max_recovered", math.nan)
+    out: dict[str, Any] = {
+        "status": status,
+        "contouring_max": cmax, "contouring_rms": path.get("contouring_rms_recovered", math.nan),
+        "tipped": plant["tipped"], "liftoff_s": plant["liftoff_time_post_transient_s"],
+        "success": bool(status == "ok" and not plant["tipped"] and math.isfinite(cmax) and cmax <= OFF_PATH_M),
+        "solver_fallbacks": sum(_text(e).startswith("solver fallback") for e in events),
+    }
+    with_filter = cfg.estimator.kind != "none" and "fault_detected" in tr
+    out.update(fdi_scores(tr, faults) if with_filter else
+               {"false_alarm": None, "detected": None, "detection_delay": None, "isolation": None})
+    rc = reconfiguration_metrics(tr, faults[0]["onset"] if faults else None)
+    out["reconfig_delay"] = rc.get("reconfig_handover_delay")
+    out.update(bound_scores(cfg, tr, faults))
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}

@@ -1,0 +1,47 @@
+"""The bench's outputs from a results table (no simulation): draws.parquet has every drawn factor, one row a
+draw; scores.parquet one row per method × draw with the settings digest and the package version; the report
+is a leaderboard on the test split only; --publish writes docs/benchmark.md with the distributions."""
+
+from __future__ import annotations
+
+import polars as pl
+import pytest
+
+from ftc_mj import __version__
+from ftc_mj.benchmark.methods import load_methods
+from ftc_mj.benchmark.publish import publish
+from ftc_mj.benchmark.report import write_outputs
+from ftc_mj.benchmark.run import plan_bench
+
+
+def _results(bp) -> pl.DataFrame:
+    rows = []
+    for r in bp.plan.runs:
+        good = r.labels["method"] == "safe" or r.labels["draw"] % 2 == 0
+        rows.append({"run_key": r.key, "run_index": r.index, **r.labels, "status": "ok", "outcome": "on the path",
+                     "success": good, "tipped": False, "false_alarm": False, "contouring_max": 0.1 if good else 2.0,
+                     "contouring_rms": 0.05, "detection_delay": 0.8, "isolation": "correct", "reconfig_delay": 1.0,
+                     "lorden_delay_bound": 0.2, "radius_pcrb_R": 0.01, "radius_error_R": 0.02, "ts_t": [0.0, 0.5]})
+    return pl.DataFrame(rows)
+
+
+@pytest.mark.parametrize("split", ["dev", "test"])
+def test_outputs_of_a_bench(tmp_path, split):
+    bp = plan_bench(load_methods(["safe", "feedback-off"]), split, 4)
+    path = write_outputs(bp, _results(bp), tmp_path, compare=0)
+    assert path.name == ("leaderboard.md" if split == "test" else "dev-report.md")
+    draws = pl.read_parquet(tmp_path / "draws.parquet")
+    assert draws.height == 4 and {"seed", "fault_class", "tyre_friction", "payload_mass", "path", "speed_sigma",
+                                  "fault1_onset", "gyro_sigma"} <= set(draws.columns)
+    scores = pl.read_parquet(tmp_path / "scores.parquet")
+    assert scores.height == 8 and not any(c.startswith("ts_") for c in scores.columns)
+    assert set(scores["package_version"]) == {__version__}
+    assert dict(zip(scores["method"], scores["method_digest"], strict=True)) == {m.name: m.digest for m in bp.methods}
+    text = path.read_text()
+    assert "does the safe policy beat feedback off" in text and "| safe − feedback-off | success | 4 |" in text
+    assert (tmp_path / "figures" / "success_by_class.png").stat().st_size > 0
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    page = publish(docs, path, tmp_path, ["bench", "safe", "feedback-off", "--split", split], "ftc-v1").read_text()
+    assert "| tyre friction | uniform 0.7–1.2 |" in page and ("Not generated yet" in page) == (split == "dev")
+    assert (docs / "figures" / "benchmark" / "success_by_class.png").is_file()

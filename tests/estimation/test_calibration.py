@@ -22,7 +22,7 @@ def test_null_innovations_are_white_under_the_filters_own_model_and_smaller_with
     variance is a small fraction of 1 (S counts a radius random walk that is not there)."""
     cfg = decision_cfg("cusum", 0.01)
     point = nominal_point_of(cfg)
-    q_own = cfg.estimator.q_rate[3] / cfg.estimator.rate
+    q_own = (cfg.estimator.q_diffusion[3] / cfg.estimator.rate) ** 0.5
     for q in (q_own, 0.0):
         null = NullInnovations(point, 200, np.random.default_rng(4), q)
         E = np.array([null.next() for _ in range(500)])  # (steps, chains, channels)
@@ -40,7 +40,7 @@ def test_cusum_calibration_reproduces_siegmund() -> None:
     threshold must give Siegmund's ARL0. ±10 % (1σ) Monte-Carlo rate and a few % approximation error:
     the bound allows 30 %."""
     cfg = decision_cfg("cusum", None)
-    q_own = cfg.estimator.q_rate[3] / cfg.estimator.rate
+    q_own = (cfg.estimator.q_diffusion[3] / cfg.estimator.rate) ** 0.5
     arl0_steps = 5000
     h = null_threshold("cusum", nominal_point_of(cfg), 1.0, 50, arl0_steps, q_radius=q_own)
     assert 0.7 < siegmund_arl0(h, 1.0) / arl0_steps < 1.3

@@ -206,6 +206,11 @@ class DecisionConfig(StrictModel):
     glr_window: PosFloat = 0.5
     """GLR: onsets considered (s back from the current step); the filter absorbs a radius jump well within
     it, after which a jump leaves no trace in the innovations."""
+    change_holdoff: NonNegFloat = 2.0
+    """``cusum``/``glr``: time (s) after a declared change during which further threshold crossings only
+    re-anchor the residual generator and add no wheel: on the physical plant a puncture is followed by a
+    transient the constant-radius model cannot explain (the tyre settling, wheel slip, the controller's
+    reaction), which the detectors would otherwise read as further changes."""
     isolation_llr: PosFloat = 4.6
     """``cusum``/``glr``: a wheel is isolated when its hypothesis leads the runner-up by this log-likelihood
     ratio (nats; 4.6 ≈ 99:1 odds); otherwise the declared wheel is ``'unknown'``."""

@@ -50,12 +50,17 @@ decision_rules.register("cusum", _change("cusum"), origin=BUILTIN, calibrate="cu
 decision_rules.register("glr", _change("glr"), origin=BUILTIN, calibrate="glr", detectors=True)
 
 
-def nominal_point_of(cfg: RunConfig) -> NominalPoint:
-    """The run's residual generator (:func:`.residual.residual_setup`) at its reference's steady speed (m/s)
-    and yaw rate (rad/s) with nominal radii (:func:`.calibration.nominal_point`); a line has no yaw rate."""
+def reference_rates(cfg: RunConfig) -> tuple[float, float]:
+    """The run's reference's steady speed (m/s) and yaw rate (rad/s); a line has no yaw rate."""
     ref = cfg.reference
     psidot = 0.0 if ref.kind == "line" else ref.speed / ref.radius * (1.0 if ref.direction == "ccw" else -1.0)
-    return nominal_point(residual_setup(setup_from_config(cfg)), ref.speed, psidot)
+    return ref.speed, psidot
+
+
+def nominal_point_of(cfg: RunConfig) -> NominalPoint:
+    """The run's residual generator (:func:`.residual.residual_setup`) at its reference's steady speed and
+    yaw rate with nominal radii (:func:`.calibration.nominal_point`)."""
+    return nominal_point(residual_setup(setup_from_config(cfg)), *reference_rates(cfg))
 
 
 def glr_window_of(cfg: RunConfig) -> int:

@@ -21,6 +21,7 @@ import polars as pl
 from ...io import atomic_path
 from ...metrics.schema import upgrade_names
 from ..series import stack_series
+from ..stats import fmt_g
 from .cells import load_cells
 from .curves import Point, RuleCurves, sweep
 from .figures import draw_all
@@ -29,6 +30,15 @@ from .figures import draw_all
 # ---------------------------------------------------------------------------- tables
 def _f(e: Any, pct: bool = False, unit: str = "") -> str:
     return e.fmt(unit, pct=pct) if e is not None else "—"
+
+
+def _range(e: Any, unit: str = "s") -> str:
+    """Mean and its (asymmetric, percentile-bootstrap) 95 % interval: ``m [lo, hi] unit``."""
+    if e is None or e.n == 0 or not math.isfinite(e.mean):
+        return "—"
+    if not math.isfinite(e.lo):
+        return f"{fmt_g(e.mean)} {unit}"
+    return f"{fmt_g(e.mean)} [{fmt_g(e.lo)}, {fmt_g(e.hi)}] {unit}"
 
 
 def _arl(e: Any) -> str:
@@ -44,7 +54,7 @@ def point_rows(rc: RuleCurves, p: Point, keys: list[str]) -> list[str]:
     lines = []
     for sev in sorted(p.delay, key=str):
         cells = [str(rc.cell.key[k]) for k in keys] + [rc.rule, f"{p.h:.3g}", _arl(p.arl0), str(sev),
-                                                       _f(p.early[sev], pct=True), _f(p.delay[sev], unit="s"),
+                                                       _f(p.early[sev], pct=True), _range(p.delay[sev]),
                                                        f"{p.delay[sev].n}", _f(p.pd[sev], pct=True),
                                                        _f(p.iso[sev], pct=True), _f(p.unknown[sev], pct=True)]
         lines.append("| " + " | ".join(cells) + " |")

@@ -100,11 +100,11 @@ def _legend(fig: Any, rows: dict[Any, list[RuleCurves]], lorden: bool = False) -
 
 
 def _finish(fig: Any, text: str, legend_rows: int) -> None:
-    """Title ``text`` wrapped to the figure's width (about 19 characters per inch at 8 pt), above the
+    """Title ``text`` wrapped to the figure's width (about 16 characters per inch at 8 pt), above the
     panels, and the layout fitted between it and the legend's ``legend_rows`` rows below."""
     import textwrap
 
-    width = max(30, int(19 * fig.get_figwidth()))
+    width = max(30, int(16 * fig.get_figwidth()))
     lines = [ln for part in text.split("\n") for ln in textwrap.wrap(part, width)]
     fig.suptitle("\n".join(lines), fontsize=8, x=0.02, ha="left")
     title_in, legend_in = 0.13 * len(lines) + 0.05, 0.2 * legend_rows + 0.05
@@ -241,13 +241,12 @@ def fig_rmse(df: pl.DataFrame, keys: list[str], severity_of: dict[str, Any], pat
             ax.tick_params(labelsize=7)
             ax.grid(alpha=0.3, which="both")
             if j == 0:
-                ax.set_ylabel("R_L RMSE (—), bound σ: filters' model (--),\nconstant radii (··) (m)", fontsize=7)
+                ax.set_ylabel("R_L RMSE (—) and bounds' σ (m)", fontsize=7)
             if i == len(sevs) - 1:
                 ax.set_xlabel("t (s)", fontsize=7)
     axs[0, 0].legend(fontsize=6)
-    fig.suptitle("left-radius RMSE over seeds against the posterior Cramér–Rao bounds of the filters' random-walk "
-                 "model and of the model that made the data", fontsize=8)
-    fig.tight_layout()
+    _finish(fig, "left-radius RMSE over seeds against the posterior Cramér–Rao bounds of the filters' random-walk "
+                 "model (--) and of the model that made the data, radii constant between changes (··)", 0)
     save_figure(fig, path)
 
 

@@ -39,7 +39,7 @@ class TextbookEKF:
         self.x = np.array([*context.initial_pose, *context.nominal_radii], dtype=float)
         self.P = np.diag(np.square(settings.p0_sigma))
         q_scale = TextbookEKFSettings.model_validate(settings.options).q_scale
-        self.Q = q_scale * np.diag(np.square(np.asarray(settings.q_rate) * dt))
+        self.Q = q_scale * np.diag(np.asarray(settings.q_diffusion) * dt)
         sen = context.sensors
         self.r = [sen.speed_sigma**2] + ([sen.yaw_rate_sigma**2] if sen.yaw_rate_sigma else [])
 

@@ -187,7 +187,9 @@ decision_rules = Registry("decision rule", "ftc_mj.decision_rules", "ftc_mj.esti
                           "estimator.decision.rule")
 """``factory(settings: DecisionConfig, context: RunContext) -> DecisionRule`` (``settings``: the
 ``[estimator.decision]`` section); meta ``calibrate="cusum"|"glr"``: the factory is called with that
-detector's calibrated threshold (LLR units) as a third argument."""
+detector's calibrated threshold (LLR units) as a third argument; meta ``detectors=True``: and with the
+run's :class:`~ftc_mj.estimation.residual.ChangeDetectors` (the no-fault residual generator with its
+CUSUM and GLR) as a fourth."""
 controllers = Registry("controller", "ftc_mj.controllers", "ftc_mj.control.factory", "controller.kind")
 """``factory(settings: ControllerConfig, context: RunContext, reference: Reference) -> Controller``;
 meta ``reusable=True``: the controller has ``reset()`` and is cached per process and structure (MPC solvers);

@@ -77,7 +77,7 @@ def test_ukf_from_its_own_settings_steps_to_the_estimates_of_a_run() -> None:
     """Stepped on the run's measured wheel rates and sensor readings, a UKF built from the
     ``[estimator]``/``[sensors]`` sections and the model geometry alone reproduces every estimate
     and σ of the run exactly (the same maths on the same numbers: no tolerance)."""
-    est = {"q_rate": [5.0, 5.0, 0.1, 1.0, 1.0], "p0_sigma": [0.5, 0.5, 0.02, 0.3, 0.3]}
+    est = {"q_diffusion": [0.25, 0.25, 1e-4, 0.01, 0.01], "p0_sigma": [0.5, 0.5, 0.02, 0.3, 0.3]}
     run = ftc_mj.run("scenario2", overrides={**SHORT, **{f"estimator.{k}": v for k, v in est.items()}})
     tr = run.trace
     ukf = UKF.from_settings(est, {"yaw_rate_sigma": 0.01}, wheel_radius=2.0, half_track=1.0)
@@ -88,8 +88,10 @@ def test_ukf_from_its_own_settings_steps_to_the_estimates_of_a_run() -> None:
     # and the settings are used: the paper's Q and P0, or no gyro, give other estimates
     for other in (UKF.from_settings(None, {"yaw_rate_sigma": 0.01}), UKF.from_settings(est, None)):
         assert not np.array_equal(_step_on(other, tr)[0][:, 4], tr["R_L_hat"].to_numpy())
-    with pytest.raises(BadInput, match=r"^estimator.q_rate: "):
-        UKF.from_settings({"q_rate": [1.0]})
+    with pytest.raises(BadInput, match=r"^estimator.q_diffusion: "):
+        UKF.from_settings({"q_diffusion": [1.0]})
+    with pytest.raises(BadInput, match=r"q_rate: replaced by q_diffusion"):
+        UKF.from_settings({"q_rate": [5.0, 5.0, 0.1, 2.0, 2.0]})
     with pytest.raises(BadInput, match=r"^sensors.speed_sigma: "):
         UKF.from_settings(None, {"speed_sigma": 0.0})
 

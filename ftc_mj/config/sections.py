@@ -293,6 +293,11 @@ class DecisionConfig(StrictModel):
     glr_window: PosFloat = 0.5
     """GLR: onsets considered (s back from the current step); the filter absorbs a radius jump well within
     it, after which a jump leaves no trace in the innovations."""
+    change_holdoff: NonNegFloat = 2.0
+    """``cusum``/``glr``: time (s) after a declared change during which further threshold crossings only
+    re-anchor the residual generator and add no wheel: on the physical plant a puncture is followed by a
+    transient the constant-radius model cannot explain (the tyre settling, wheel slip, the controller's
+    reaction), which the detectors would otherwise read as further changes."""
     isolation_llr: PosFloat = 4.6
     """``cusum``/``glr``: a wheel is isolated when its hypothesis leads the runner-up by this log-likelihood
     ratio (nats; 4.6 ≈ 99:1 odds); otherwise the declared wheel is ``'unknown'``."""
@@ -343,8 +348,11 @@ class EstimatorConfig(StrictModel):
     """Julier sigma-point parameter."""
     p0_sigma: tuple[PosFloat, PosFloat, PosFloat, PosFloat, PosFloat] = (0.5, 0.5, math.radians(1.0), 0.5, 0.5)
     """Initial standard deviations of [x, y, psi, R_R, R_L] (m, m, rad, m, m)."""
-    q_rate: tuple[NonNegFloat, NonNegFloat, NonNegFloat, NonNegFloat, NonNegFloat] = (5.0, 5.0, 0.1, 2.0, 2.0)
-    """Process noise: Q = diag((q_rate * dt)^2) (the paper's Q)."""
+    q_diffusion: tuple[NonNegFloat, NonNegFloat, NonNegFloat, NonNegFloat, NonNegFloat] = (0.25, 0.25, 1e-4, 0.04, 0.04)
+    """Process noise as a diffusion per second of [x, y, psi, R_R, R_L] (m²/s, m²/s, rad²/s, m²/s, m²/s):
+    ``Q = diag(q_diffusion · dt)`` per filter step, so the filter's model does not change with
+    ``rate``. The default is the paper's ``Q = diag((q · dt)²)``, ``q = (5, 5, 0.1, 2, 2)``, at its
+    100 Hz (``q² / 100``), bit for bit."""
     initial_radii: tuple[PosFloat, PosFloat] | None = None
     """Initial radius estimates (m); ``None`` = the model's nominal radius."""
     p_stay_4: Fraction = 0.97
@@ -368,6 +376,16 @@ class EstimatorConfig(StrictModel):
     """Settings of a plug-in estimator (its registered settings model); built-in estimators take none."""
 
     _options = options_of("estimators", "kind")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_q_rate(cls, data: Any) -> Any:
+        """``q_rate`` (``Q = diag((q_rate · dt)²)``, which retuned the filter with its rate) was replaced
+        by the rate-invariant ``q_diffusion``: say how to convert instead of "unknown key"."""
+        if isinstance(data, dict) and "q_rate" in data:
+            raise ValueError("q_rate: replaced by q_diffusion (per second, rate-invariant): "
+                             "q_diffusion = q_rate² / rate, e.g. (0.25, 0.25, 1e-4, 0.04, 0.04) at 100 Hz")
+        return data
 
     @model_validator(mode="after")
     def _bank(self) -> EstimatorConfig:

@@ -1,18 +1,23 @@
 """Thresholds of the change detectors (:mod:`.change`) for a target mean time between false alarms.
 
-Thresholds from a target mean time between false alarms ``decision.arl0`` (s),
-:func:`arl0_threshold` (called by the decision factory): a Monte Carlo of the detector on its null
-model, the filter at its nominal operating point (the reference's speed and yaw rate at nominal
-radii; ``P`` after 20 s of the filter's own Riccati recursion from ``P0``; speed and yaw-rate
-channels, position fixes ignored) when nothing changes: :class:`NullInnovations` simulates its
-estimation error with the radii *constant*, the no-fault truth. Those innovations are not
-``N(0, I)``: the filters' random-walk ``Q`` makes ``S`` overstate the radius uncertainty and the
-mismatched gain colours them (docs/fdi.md). The threshold is the one whose censored first-alarm rate
-(alarms / exposure up to each chain's first alarm) is ``1/arl0``. With the filters' own model as the
-truth the innovations are ``N(0, I)`` and the calibration of a single CUSUM reproduces Siegmund's
-approximation ``ARL0 ≈ (e^{b} - b - 1)/(δ²/2)``, ``b = h + 1.166 δ`` (tested). Targets beyond 200 s are
-calibrated at 200 s and extended by ``h += log(arl0/200 s)`` (the LLR scale: ``ARL0 ∝ e^h``
-asymptotically, Lorden 1971), which errs on the long side for a GLR.
+The detectors run on the innovations of the residual generator matched to the no-fault hypothesis
+(:mod:`.residual`), whose whitened innovations are i.i.d. ``N(0, I)`` when nothing changes (kinematic
+plant, any estimator): that is the one null model, and :func:`arl0_threshold` (called by the decision
+factory) calibrates each detector on it for the target ``decision.arl0`` (s).
+
+``cusum``: each hypothesis' CUSUM sees ``u_iᵀ e ~ N(0, 1)`` i.i.d., for which Siegmund's approximation
+``ARL0 ≈ (e^{b} - b - 1)/(δ²/2)``, ``b = h + 1.166 δ``, is accurate to a few per cent (tested); the rule
+alarms on the largest of three correlated CUSUMs, which has no closed form. ``glr``: the maximum over
+onsets and hypotheses of ``D²/2C`` has none either. So both thresholds come from a Monte Carlo of the
+detector on ``N(0, I)`` innovations with the residual generator's signatures at its nominal operating
+point (the reference's speed and yaw rate at nominal radii; ``P`` after 20 s of its Riccati recursion
+from ``P0``; speed and yaw-rate channels, position fixes ignored): the threshold whose censored
+first-alarm rate (alarms / exposure up to each chain's first alarm) is ``1/arl0``. The run's own
+operating point differs (the generator's gain shrinks as it learns the radii; the controller moves the
+wheel rates): the false-alarm rates of the full closed loop are measured on development seeds and
+validated on held-out ones (docs/fdi.md). Targets beyond 200 s are calibrated at 200 s and extended by
+``h += log(arl0/200 s)`` (the LLR scale: ``ARL0 ∝ e^h`` asymptotically, Lorden 1971), which errs on the
+long side for a GLR.
 """
 
 from __future__ import annotations
@@ -33,13 +38,12 @@ CALIBRATION_HORIZON_S = 200.0
 """Longest null run simulated (s); longer targets are extrapolated on the LLR scale."""
 NOMINAL_SETTLE_S = 20.0
 """Riccati recursion (s) from ``P0`` that sets the nominal covariance."""
-NULL_BURN_IN = 500
-"""Steps of the null error recursion before its first innovation."""
 
 
 @dataclass(frozen=True)
 class NominalPoint:
-    """The filter at its nominal operating point (see the module docstring), as hashable numbers."""
+    """A filter (the residual generator) at its nominal operating point (module docstring), as hashable
+    numbers."""
 
     H: tuple[float, ...]
     """(m, 5) measurement Jacobian."""
@@ -49,14 +53,11 @@ class NominalPoint:
     """(5, m) filter gain ``P Hᵀ R⁻¹``."""
     F: tuple[float, ...]
     """(5, 5) prediction Jacobian."""
-    r_sd: tuple[float, ...]
-    """(m,) measurement-noise σ."""
-    q_sd: tuple[float, ...]
-    """(5,) the filters' process-noise σ per step (diagonal ``Q``)."""
 
     @property
     def m(self) -> int:
-        return len(self.r_sd)
+        """Channels."""
+        return len(self.H) // 5
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(W, F, A)``: ``W = L⁻¹ H``, ``F``, ``A = I - K H`` as the detectors take them."""
@@ -82,63 +83,27 @@ def nominal_point(setup: FilterSetup, speed: float, yaw_rate: float) -> NominalP
     Pm = F @ P @ F.T + setup.Q
     L = np.linalg.cholesky(H @ Pm @ H.T + np.diag(var))
     K = P @ H.T / var
-    return NominalPoint(tuple(H.ravel()), tuple(L.ravel()), tuple(K.ravel()), tuple(F.ravel()),
-                        tuple(np.sqrt(var)), tuple(np.sqrt(np.diag(setup.Q))))
-
-
-class NullInnovations:
-    """Whitened innovations of the nominal filter when nothing changes, for a batch of ``chains``.
-
-    The estimation error of the linearised filter follows ``y = H ε⁻ + v``, ``ε⁺ = ε⁻ - K y``,
-    ``ε⁻ ← F ε⁺ + w``, with ``v ~ N(0, R)`` and the *true* process noise ``w``: the filters' ``Q`` except
-    for the radii, whose σ per step is ``q_radius`` (0: the radii are constant — the no-fault truth).
-    With ``q_radius`` = the filters' own value the innovations ``e = L⁻¹ y`` are i.i.d. ``N(0, I)``;
-    with constant radii they are smaller (the random-walk model overstates the radius uncertainty the
-    innovation covariance ``S`` includes) and correlated. :data:`NULL_BURN_IN` steps reach the stationary
-    error before the first innovation is returned.
-    """
-
-    def __init__(self, point: NominalPoint, chains: int, rng: np.random.Generator, q_radius: float = 0.0) -> None:
-        m = point.m
-        self.H = np.array(point.H).reshape(m, 5)
-        self.Linv = np.linalg.inv(np.array(point.L).reshape(m, m))
-        self.K = np.array(point.K).reshape(5, m)
-        self.F = np.array(point.F).reshape(5, 5)
-        self.r_sd = np.array(point.r_sd)
-        q = np.array(point.q_sd)
-        q[3:5] = q_radius
-        self.q_sd = q
-        self.rng = rng
-        self.eps = np.zeros((chains, 5))
-        for _ in range(NULL_BURN_IN):
-            self.next()
-
-    def next(self) -> np.ndarray:
-        """Whitened innovations (chains, m) of the next step."""
-        n = self.eps.shape[0]
-        y = self.eps @ self.H.T + self.rng.standard_normal((n, self.r_sd.size)) * self.r_sd
-        self.eps = (self.eps - y @ self.K.T) @ self.F.T + self.rng.standard_normal((n, 5)) * self.q_sd
-        return y @ self.Linv.T
+    return NominalPoint(tuple(H.ravel()), tuple(L.ravel()), tuple(K.ravel()), tuple(F.ravel()))
 
 
 def null_running_max(kind: str, point: NominalPoint, *, shift: float, window: int, steps: int, chains: int,
-                     q_radius: float = 0.0, seed: int = 0) -> np.ndarray:
-    """Running maximum (chains, steps) of a detector's statistic on :class:`NullInnovations` at the nominal
-    point: the null distribution of its first-alarm time for every threshold at once."""
+                     seed: int = 0) -> np.ndarray:
+    """Running maximum (chains, steps) of a detector's statistic on i.i.d. ``N(0, I)`` innovations with the
+    signatures of the nominal ``point``: the null distribution of its first-alarm time for every
+    threshold at once."""
     W, F, A = point.arrays()
     rng = np.random.default_rng([seed, 17, point.m])
-    null = NullInnovations(point, chains, rng, q_radius)
     out = np.empty((chains, steps))
     run = np.zeros(chains)
     if kind == "cusum":
         det_c = InnovationCUSUM(shift, chains)
         for k in range(steps):
-            run = np.maximum(run, det_c.step(null.next(), W).max(axis=1))
+            run = np.maximum(run, det_c.step(rng.standard_normal((chains, point.m)), W).max(axis=1))
             out[:, k] = run
     elif kind == "glr":
         det_g = JumpGLR(informative_lags(point, window), chains)
         for k in range(steps):
-            run = np.maximum(run, det_g.step(null.next(), W, F, A))
+            run = np.maximum(run, det_g.step(rng.standard_normal((chains, point.m)), W, F, A))
             out[:, k] = run
     else:
         raise ValueError(f"unknown change detector {kind!r}")
@@ -171,12 +136,11 @@ def first_alarm_rate(running_max: np.ndarray, h: float) -> float:
 
 
 @functools.lru_cache(maxsize=32)
-def null_threshold(kind: str, point: NominalPoint, shift: float, window: int, arl0_steps: int,
-                   q_radius: float = 0.0) -> float:
-    """Threshold whose censored first-alarm rate on :class:`NullInnovations` (radius noise ``q_radius``) is
-    ``1/arl0_steps`` (bisection on 160 chains of ``arl0_steps`` steps; cached)."""
+def null_threshold(kind: str, point: NominalPoint, shift: float, window: int, arl0_steps: int) -> float:
+    """Threshold whose censored first-alarm rate on i.i.d. ``N(0, I)`` innovations is ``1/arl0_steps``
+    (bisection on 160 chains of ``arl0_steps`` steps; cached)."""
     chains = 160  # ≈ 100 first alarms at the target: the rate to ±10 %, the threshold to ±0.1 nats
-    M = null_running_max(kind, point, shift=shift, window=window, steps=arl0_steps, chains=chains, q_radius=q_radius)
+    M = null_running_max(kind, point, shift=shift, window=window, steps=arl0_steps, chains=chains)
     lo, hi = 0.0, float(M.max()) + 1.0
     target = 1.0 / arl0_steps
     for _ in range(50):

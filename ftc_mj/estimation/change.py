@@ -185,6 +185,12 @@ class JumpGLR:
         self._A_prev = np.asarray(A, float)
         return self.best
 
+    def jump(self, index: int = 0) -> tuple[np.ndarray, float]:
+        """Leading (onset, hypothesis) of batch member ``index``: the estimation error it leaves per metre of
+        drop after the latest update (5,), and its information ``C`` (1/m²; ``ν̂`` has variance ``1/C``)."""
+        slot, hyp = divmod(int(self.best_index[index]), len(HYPOTHESES))
+        return self._A_prev @ self.phi[slot, hyp], float(self.C[slot, hyp])
+
     def estimate(self, index: int = 0) -> tuple[str, float, int]:
         """Leading hypothesis of batch member ``index``: its name, the drop ``ν̂ = D/C`` (m along its unit
         direction) and the lag (steps) of its onset."""

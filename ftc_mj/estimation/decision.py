@@ -27,12 +27,16 @@ Rules (``estimator.decision.rule``):
 ``auto``
     ``mode`` when the output declares hypotheses, else ``sigma``.
 ``cusum`` / ``glr``
-    A CUSUM / Willsky–Jones GLR for a radius drop on the filter's whitened innovations
-    (:mod:`.change`) reaches its threshold, set from the target mean time between false alarms
-    ``arl0``; declared at once (the threshold is the evidence; no dwell), with the wheel its leading
-    hypothesis isolates (``'unknown'`` while no hypothesis leads by ``isolation_llr``). The declaration
-    is latched: once the filter has absorbed the change its innovations are white again and the
-    statistic falls back, which is no evidence that the tyre re-inflated.
+    A CUSUM / Willsky–Jones GLR for a radius drop (:mod:`.change`) on the whitened innovations of the
+    residual generator matched to the no-fault hypothesis (:mod:`.residual`: an EKF with constant
+    radii, the same for every estimator, whose innovations are i.i.d. ``N(0, I)`` when nothing
+    changes on the kinematic plant) reaches its threshold, set from the target mean time between false
+    alarms ``arl0`` for that null model; declared at once (the threshold is the evidence; no dwell),
+    with the wheel its leading hypothesis isolates (``'unknown'`` while no hypothesis leads by
+    ``isolation_llr``). Each declaration re-anchors the generator on the GLR's estimated jump and
+    restarts the detectors, so a later puncture is declared too: the declared wheel is the union of the
+    wheels isolated so far (left, then right: ``both``). A declaration is never withdrawn: a tyre does
+    not re-inflate.
 
 Rules are registered by name (:data:`ftc_mj.registry.decision_rules`): a rule's factory takes the
 run config and returns an object with a ``dwell`` (s) and ``candidate(step)`` giving the wheel it
@@ -62,14 +66,13 @@ from typing import Literal, Protocol
 
 import numpy as np
 
-from .base import FilterOutput
-from .change import WHEEL_CODES
+from .base import FilterOutput, Measurement
 from .observability import RadiusDirections, radius_directions
+from .residual import ChangeDetectors
 from .rule_statistics import DecisionSettings, RuleStatistics, mode_score
 
 Wheel = Literal["right", "left", "both", "unknown"]
 CHANGE_RULES = ("cusum", "glr")
-_CODE_WHEEL = {code: wheel for wheel, code in WHEEL_CODES.items()}
 
 
 @dataclass
@@ -119,6 +122,8 @@ class DecisionStep:
     statistics: dict[str, float] = field(default_factory=dict)
     """Every rule's statistic this step (:mod:`.rule_statistics`); empty unless ``decision.statistics``
     is on or the rule sets ``needs_statistics``."""
+    z: Measurement | None = None
+    """The measurement the estimator was updated with this step (``None`` if not given)."""
 
 
 class DecisionRule(Protocol):
@@ -201,27 +206,84 @@ class AutoRule:
 
 
 class ChangeRule:
-    """``cusum`` / ``glr``: the change detector's statistic at its ``arl0`` threshold; declared at once,
-    latched (module docstring)."""
+    """``cusum`` / ``glr``: the change detector's statistic on the no-fault residual generator at its
+    ``arl0`` threshold (module docstring).
 
-    needs_statistics = True
+    A crossing declares at once, with the wheel the detector isolates. The jump is then estimated over a
+    settling time of half the GLR window (a puncture on the physical plant takes a few steps to reach
+    its full size, and the first steps' estimate is a fraction of it): at its end the GLR's most likely
+    jump — hypothesis and size — re-anchors the residual generator and both detectors restart, and the
+    drop is added to its wheel(s) when the rule isolated one. The declared wheel is the set of wheels
+    whose accumulated estimated drop reaches ``min_drop`` (``both`` for two), and before any does, the
+    first crossing's isolation (``'unknown'`` where the sensing cannot separate the wheels). Crossings
+    during the settling time are counted as one; changes that settle within ``holdoff`` seconds of the
+    first crossing of a declared change re-anchor the generator but add no drop (the physical plant's
+    transient after a puncture, ``decision.change_holdoff``).
+    """
+
     declare_dwell = 0.0
 
-    def __init__(self, name: str, dwell: float, threshold: float) -> None:
+    def __init__(self, name: str, dwell: float, threshold: float, detectors: ChangeDetectors | None = None,
+                 min_drop: float = 0.1, holdoff: float = 0.0) -> None:
         """``name``: ``cusum`` or ``glr``; ``dwell`` (s); ``threshold``: calibrated by the factory for the
-        target mean time between false alarms (:func:`.change.arl0_threshold`)."""
+        target mean time between false alarms (:func:`.calibration.arl0_threshold`); ``detectors``: the
+        run's residual generator and detectors (the factory builds them for the run's filter; ``None``:
+        the rule cannot run and says so at its first step); ``min_drop``: accumulated drop (m) that
+        declares a wheel; ``holdoff`` (s): see the class docstring."""
         self.name, self.dwell = name, dwell
         self.threshold = threshold
         """Threshold (log-likelihood-ratio units) for a mean time ``decision.arl0`` between false alarms."""
-        self._latched: Wheel | None = None
+        self.detectors = detectors
+        self.min_drop = min_drop
+        self.holdoff = holdoff
+        self.alarms: list[tuple[float, str | None, float, float]] = []
+        """Each settled change: time (s), isolated wheel, the GLR's drop (m per wheel) and onset (s)."""
+        self.drops = {"right": 0.0, "left": 0.0}
+        """Accumulated estimated drop (m) of each wheel over the isolated changes."""
+        self._first: str | None = None
+        self._settle_until: float | None = None
+        self._change_start = -math.inf
+        self._new_change = False
 
     def candidate(self, step: DecisionStep) -> Wheel | None:
-        stats = step.statistics
-        if stats[f"{self.name}_stat"] >= self.threshold:
-            wheel = _CODE_WHEEL[int(stats[f"{self.name}_wheel"])]
-            if wheel is not None:
-                self._latched = wheel
-        return self._latched
+        det = self.detectors
+        if det is None:
+            raise ValueError(f"decision rule {self.name!r} needs its change detectors (built by the decision factory)")
+        if step.z is None or step.omega is None:
+            raise ValueError(f"decision rule {self.name!r} needs the step's measurement and wheel rates")
+        det.step(step.t, step.omega, step.z)
+        if self._settle_until is None:
+            if (det.cusum_stat if self.name == "cusum" else det.glr_stat) >= self.threshold:
+                if self._first is None:
+                    self._first = det.wheel(self.name) or "unknown"
+                self._new_change = step.t >= self._change_start + self.holdoff
+                if self._new_change:
+                    self._change_start = step.t
+                self._settle_until = step.t + det.settle_time
+        elif step.t >= self._settle_until - 1e-9:
+            self._settle(step.t)
+        return self._declared()
+
+    def _settle(self, t: float) -> None:
+        """The end of a change's settling time: book its estimated drop, re-anchor, restart."""
+        det = self.detectors
+        assert det is not None
+        wheel = det.wheel(self.name)
+        self.alarms.append((t, wheel, det.glr_drop, det.glr_onset))
+        if self._new_change and wheel in ("right", "left", "both") and det.glr_drop > 0.0:
+            for w in (("right", "left") if wheel == "both" else (wheel,)):
+                self.drops[w] += det.glr_drop
+        det.correct()
+        self._settle_until = None
+
+    def _declared(self) -> Wheel | None:
+        """Wheels whose accumulated drop reaches ``min_drop``, else the first crossing's isolation."""
+        big = [w for w, d in self.drops.items() if d >= self.min_drop]
+        if len(big) == 2:
+            return "both"
+        if big:
+            return big[0]  # type: ignore[return-value]
+        return self._first  # type: ignore[return-value]
 
 
 class FaultDecision:
@@ -257,14 +319,16 @@ class FaultDecision:
         self._change_since = 0.0
 
     # ---------------------------------------------------------------- update
-    def update(self, t: float, out: FilterOutput, omega: np.ndarray | None = None) -> DecisionState:
-        """Feed the estimator output of time ``t`` (s) and the wheel rates ``omega`` (rad/s) it was
-        predicted with (they set which radius combination is observable); returns the decision."""
+    def update(self, t: float, out: FilterOutput, omega: np.ndarray | None = None,
+               z: Measurement | None = None) -> DecisionState:
+        """Feed the estimator output of time ``t`` (s), the wheel rates ``omega`` (rad/s) it was predicted
+        with (they set which radius combination is observable) and the measurement ``z`` it was updated
+        with (the change detectors' residual generator needs it); returns the decision."""
         dirs = radius_directions(out.P, omega)
         u = np.asarray(omega, float) if omega is not None else np.zeros(2)
-        stats = self.statistics.update(t, out, u, dirs) if self.statistics is not None else {}
+        stats = self.statistics.update(t, out, u, dirs, z) if self.statistics is not None else {}
         above = departures(out, self.R0, self.k_sigma, self.min_drop)[1]
-        cand = self.rule_impl.candidate(DecisionStep(t, out, omega, dirs, stats))
+        cand = self.rule_impl.candidate(DecisionStep(t, out, omega, dirs, stats, z))
         eps = 1e-9
         if cand is not None:
             self._clear_since = None

@@ -42,9 +42,11 @@ from .observability import radius_directions
 from .setup import FilterSetup
 
 STATE_COLUMNS = ("x", "y", "psi", "R_R", "R_L")
-PCRB_COLUMNS = ("R_R_pcrb_std", "R_L_pcrb_std", "radius_split_pcrb_std")
-"""Trace columns of the bound: σ (m) of each radius and of the radius split along the direction the
-speed cannot observe (:func:`~ftc_mj.estimation.observability.radius_directions`)."""
+PCRB_COLUMNS = ("R_R_pcrb_std", "R_L_pcrb_std", "radius_split_pcrb_std", "R_R_pcrb_const_std", "R_L_pcrb_const_std")
+"""Trace columns of the bounds: σ (m) of each radius and of the radius split along the direction the
+speed cannot observe (:func:`~ftc_mj.estimation.observability.radius_directions`) for the filters' own
+random-walk model, and σ (m) of each radius for the model that made the data (``*_pcrb_const_std``:
+radii constant between the truth's changes, each change a jump of known time, :func:`data_model_bound`)."""
 
 
 def information_bound(
@@ -180,16 +182,50 @@ def trace_pcrb(
     return information_bound(lin.F[start:], lin.H[start:], lin.R[start:], Q, setup.P0)
 
 
+def data_model_bound(setup: FilterSetup, trace: dict[str, np.ndarray],
+                     lin: TraceLinearisation | None = None) -> np.ndarray:
+    """The bound (n, 5, 5) for the model that made the data: the radii constant except at the rows where
+    the trace's true radii ``R_R``/``R_L`` change, where the changed wheel's radius jumps by an unknown
+    amount at that known time (its information restarts from the prior ``P0``, uncorrelated with the
+    rest). Between changes this is the bound with radius process noise 0 (:func:`trace_pcrb` with
+    ``q_radius = 0``); the pose keeps the filters' process noise (it does not enter the speed and
+    yaw-rate channels). A ramp changes the radius at every row and makes this the (loose) bound of a
+    jump at every step."""
+    lin = lin if lin is not None else linearise_trace(setup, trace)
+    radii = np.column_stack([np.asarray(trace["R_R"], float), np.asarray(trace["R_L"], float)])
+    jumped = np.zeros_like(radii, dtype=bool)
+    jumped[1:] = np.abs(np.diff(radii, axis=0)) > 1e-9
+    Q = setup.Q.copy()
+    Q[3, 3] = Q[4, 4] = 0.0
+    n = radii.shape[0]
+    out = np.empty((n, 5, 5))
+    prior, start = setup.P0, 0
+    for s in [*np.flatnonzero(jumped.any(axis=1)), n]:
+        if s > start:
+            out[start:s] = information_bound(lin.F[start:s], lin.H[start:s], lin.R[start:s], Q, prior)
+        if s < n:
+            prior = out[s - 1].copy()
+            for i in np.flatnonzero(jumped[s]) + 3:
+                prior[i, :] = prior[:, i] = 0.0
+                prior[i, i] = setup.P0[i, i]
+            start = s
+    return out
+
+
 def pcrb_columns(setup: FilterSetup, trace: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """:data:`PCRB_COLUMNS` of a trace: the bound with the filters' own model (``Q``, ``P0``, sensor σ).
+    """:data:`PCRB_COLUMNS` of a trace: the bound with the filters' own model (``Q``, ``P0``, sensor σ),
+    and the radius σ of the data's model (:func:`data_model_bound`).
 
     The split σ is taken along the direction set by the true wheel rates of each row.
     """
     lin = linearise_trace(setup, trace)
     B = trace_pcrb(setup, trace, lin=lin)
+    C = data_model_bound(setup, trace, lin)
     split = np.array([radius_directions(B[k], lin.omega[k]).split_std for k in range(B.shape[0])])
     return {
         "R_R_pcrb_std": np.sqrt(np.maximum(B[:, 3, 3], 0.0)),
         "R_L_pcrb_std": np.sqrt(np.maximum(B[:, 4, 4], 0.0)),
         "radius_split_pcrb_std": split,
+        "R_R_pcrb_const_std": np.sqrt(np.maximum(C[:, 3, 3], 0.0)),
+        "R_L_pcrb_const_std": np.sqrt(np.maximum(C[:, 4, 4], 0.0)),
     }

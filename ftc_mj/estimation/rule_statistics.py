@@ -15,13 +15,16 @@ threshold (the trace columns ``<rule>_stat``):
     ``z_k`` = the probability of the most probable fault class if its wheel(s) dropped by more than
     ``min_drop``, else 0; ``g_k`` its minimum over ``dwell``; the isolated wheel is that class.
 ``cusum``, ``glr`` (thresholds in log-likelihood-ratio units, :mod:`.change`)
-    the detector's statistic; the isolated wheel is the leading hypothesis if it leads by
-    ``isolation_llr``, else ``'unknown'``. The GLR also logs its estimates of the drop (``glr_drop``,
-    m per affected wheel) and of the onset (``glr_onset``, s).
+    the detector's statistic on the innovations of the no-fault residual generator
+    (:class:`.residual.ChangeDetectors`, the same for every estimator), never re-anchored here: its
+    first crossing of ``h`` is the first alarm at ``h`` (the live rule re-anchors its own after each
+    declaration, so after the first alarm its statistic differs from the logged one). The isolated
+    wheel is the leading hypothesis if it leads by ``isolation_llr``, else ``'unknown'``. The GLR also
+    logs its estimates of the drop (``glr_drop``, m per affected wheel) and of the onset (``glr_onset``, s).
 
 ``<rule>_wheel`` holds the isolation code of the step (:data:`.change.WHEEL_CODES`; for ``sigma`` the
 code at the threshold ``k_sigma``), ``white_innovation_1``/``_2`` the first two components of the
-whitened innovation (speed; yaw rate when present) that the detectors use.
+residual generator's whitened innovation (speed; yaw rate when present) that the detectors use.
 """
 
 from __future__ import annotations
@@ -33,17 +36,10 @@ from typing import Protocol
 
 import numpy as np
 
-from ..model.kinematics import numpy_step_jacobian
-from .base import FilterOutput, Hypothesis
-from .change import (
-    HYPOTHESES,
-    WHEEL_CODES,
-    InnovationCUSUM,
-    JumpGLR,
-    isolate,
-    linearise_step,
-)
+from .base import FilterOutput, Hypothesis, Measurement
+from .change import WHEEL_CODES
 from .observability import RadiusDirections
+from .residual import ChangeDetectors
 from .setup import FilterSetup
 
 STAT_COLUMNS: tuple[str, ...] = (
@@ -52,7 +48,6 @@ STAT_COLUMNS: tuple[str, ...] = (
     "white_innovation_1", "white_innovation_2",
 )
 """Trace columns written by :class:`RuleStatistics` (NaN where a rule does not apply)."""
-_EYE5 = np.eye(5)
 
 
 class DecisionSettings(Protocol):
@@ -140,16 +135,12 @@ class RuleStatistics:
         n_dwell = int(round(d.dwell * rate)) + 1
         self._sigma_win = SlidingMin(n_dwell)
         self._mode_win = SlidingMin(n_dwell)
-        self.cusum = InnovationCUSUM(d.cusum_shift)
-        self.glr = JumpGLR(glr_window)
-        self._x_prev: np.ndarray | None = None
-        self._cusum_g = self._glr_g = 0.0
-        self._cusum_h = np.zeros(len(HYPOTHESES))
-        self._glr_h = np.zeros(len(HYPOTHESES))
-        self._glr_best: tuple[float, float] = (math.nan, math.nan)
+        self.detectors = ChangeDetectors(setup, d.cusum_shift, d.isolation_llr, glr_window)
 
-    def update(self, t: float, out: FilterOutput, u: np.ndarray, dirs: RadiusDirections) -> dict[str, float]:
-        """Statistics after the filter step of time ``t`` (s) predicted with wheel rates ``u`` (rad/s)."""
+    def update(self, t: float, out: FilterOutput, u: np.ndarray, dirs: RadiusDirections,
+               z: Measurement | None = None) -> dict[str, float]:
+        """Statistics after the filter step of time ``t`` (s) predicted with wheel rates ``u`` (rad/s) and
+        updated with the measurement ``z`` (the change detectors hold when it is not given)."""
         s: dict[str, float] = dict.fromkeys(STAT_COLUMNS, math.nan)
         zR, zL, zw = drop_scores(out, dirs, self.R0, self.d.min_drop)
         s["sigma_z_R"], s["sigma_z_L"] = zR, zL
@@ -159,7 +150,7 @@ class RuleStatistics:
         s["sigma_wheel"] = float(code)
         if out.mode_probs is not None:
             self._mode(out, s)
-        self._change(t, out, u, s)
+        self._change(t, u, z, s)
         return s
 
     def _mode(self, out: FilterOutput, s: dict[str, float]) -> None:
@@ -170,35 +161,17 @@ class RuleStatistics:
         s["mode_stat"] = self._mode_win.push(p if ok else 0.0)
         s["mode_wheel"] = float(WHEEL_CODES[best] if ok else 0)
 
-    def _change(self, t: float, out: FilterOutput, u: np.ndarray, s: dict[str, float]) -> None:
-        """CUSUM and GLR: advanced on steps with a usable innovation, held otherwise."""
-        x = np.asarray(out.x, float)
-        lin = None if out.rejected or out.reset else linearise_step(
-            self.setup, x, np.asarray(out.P, float), np.asarray(out.innovation, float), np.asarray(out.S, float), u)
-        if lin is not None:
-            e = lin.e[None, :]
-            s["white_innovation_1"] = float(lin.e[0])
-            if lin.e.size > 1 and self.setup.yaw_rate_sigma is not None:
-                s["white_innovation_2"] = float(lin.e[1])
-            self._cusum_h = self.cusum.step(e, lin.W)[0].copy()
-            self._cusum_g = float(self._cusum_h.max())
-            if self.setup.position_sigma is None:
-                F = _EYE5  # no channel sees the pose: its rows of F do not reach any signature
-            else:
-                x_lin = self._x_prev if self._x_prev is not None else x
-                F = numpy_step_jacobian(self.setup.model, x_lin, np.asarray(u, float), self.dt)
-            self._glr_g = float(self.glr.step(e, lin.W, F, lin.A)[0])
-            self._glr_h = self.glr.per_hypothesis[0].copy()
-            if self._glr_g > 0.0:
-                hyp, nu, lag = self.glr.estimate()
-                per_wheel = nu * (math.sqrt(0.5) if hyp == "both" else 1.0)
-                self._glr_best = (per_wheel, t - lag * self.dt)
-            else:
-                self._glr_best = (math.nan, math.nan)
-        self._x_prev = x
-        margin = self.d.isolation_llr
-        s["cusum_stat"] = self._cusum_g
-        s["cusum_wheel"] = float(WHEEL_CODES[isolate(self._cusum_h, margin)])
-        s["glr_stat"] = self._glr_g
-        s["glr_wheel"] = float(WHEEL_CODES[isolate(self._glr_h, margin)])
-        s["glr_drop"], s["glr_onset"] = self._glr_best
+    def _change(self, t: float, u: np.ndarray, z: Measurement | None, s: dict[str, float]) -> None:
+        """CUSUM and GLR of the residual generator (advanced when a measurement is given)."""
+        det = self.detectors
+        if z is not None:
+            det.step(t, u, z)
+        if det.white is not None:
+            s["white_innovation_1"] = float(det.white[0])
+            if det.white.size > 1 and self.setup.yaw_rate_sigma is not None:
+                s["white_innovation_2"] = float(det.white[1])
+        s["cusum_stat"] = det.cusum_stat
+        s["cusum_wheel"] = float(WHEEL_CODES[det.wheel("cusum")])
+        s["glr_stat"] = det.glr_stat
+        s["glr_wheel"] = float(WHEEL_CODES[det.wheel("glr")])
+        s["glr_drop"], s["glr_onset"] = det.glr_drop, det.glr_onset

@@ -22,7 +22,7 @@ class EstimatorSettings(Protocol):
     rate: float
     initial_radii: tuple[float, float] | None
     p0_sigma: Sequence[float]
-    q_rate: Sequence[float]
+    q_diffusion: Sequence[float]
     kappa: float
     nis_gate: float
     divergence_nis: float
@@ -51,7 +51,8 @@ class FilterSetup:
     P0: np.ndarray
     """Initial 5x5 covariance (units of the state, squared)."""
     Q: np.ndarray
-    """Process noise per step, 5x5 (units of the state, squared)."""
+    """Process noise per step, 5x5 (units of the state, squared): :func:`process_noise` of the
+    settings' diffusion per second."""
     nominal_radius: float
     """Model's nominal wheel radius R0 (m)."""
     speed_sigma: float
@@ -87,12 +88,19 @@ class FilterSetup:
             dt=dt,
             x0=x0,
             P0=np.diag(np.square(np.asarray(est.p0_sigma, float))),
-            Q=np.diag(np.square(np.asarray(est.q_rate, float) * dt)),
+            Q=process_noise(est.q_diffusion, dt),
             nominal_radius=R0,
             divergence_steps=max(1, int(round(est.divergence_dwell * est.rate))),
             **{name: getattr(sen, name) for name in _SENSOR_FIELDS},
             **{name: getattr(est, name) for name in _ESTIMATOR_FIELDS},
         )
+
+
+def process_noise(diffusion: Sequence[float], dt: float) -> np.ndarray:
+    """Per-step process-noise covariance ``diag(diffusion · dt)`` of a diffusion per second (units²/s)
+    over a step ``dt`` (s). Computed as ``(√(diffusion/dt) · dt)²`` — the same number — so that the
+    default diffusion at 100 Hz reproduces the former ``diag((q · dt)²)`` bit for bit."""
+    return np.diag(np.square(np.sqrt(np.asarray(diffusion, float) / dt) * dt))
 
 
 _SENSOR_FIELDS = ("speed_sigma", "yaw_rate_sigma", "position_sigma")

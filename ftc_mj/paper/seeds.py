@@ -5,7 +5,8 @@ Every single-seed look at the matrix before the seeded verdicts, and the studies
 used seeds 0–9 (the config default is seed 0; those studies use ``seeds = n`` with n ≤ 10, i.e.
 0 … n − 1), and the data-tuned parameters (:mod:`.tuning`) are chosen on them: they are the
 development seeds. The held-out seeds start at 1000; no tuning study (``tuning = true`` in its file) may
-use them — planning one refuses them — so nothing is chosen on them.
+use them — planning one refuses them — and no study file chooses anything on them (the FDI studies
+``fdi``, ``fdi_arl0`` and ``fdi_isolation`` judge on them what was set on development seeds).
 """
 
 from __future__ import annotations

@@ -234,6 +234,7 @@ class ClosedLoop:
         self.events += fault_events(cfg)
         self.u_prev: np.ndarray | None = None
         self.out: FilterOutput | None = None
+        self.z: Measurement | None = None  # the measurement of the latest estimator step
         self.cmd = ControlOutput(omega=np.zeros(2))
         self.applied: np.ndarray | None = None  # the command in force on the plant (after any dither)
         self.model_radii = np.full(2, cfg.model_wheel_radius)
@@ -303,13 +304,14 @@ class ClosedLoop:
         else:
             z = Measurement(speed=rd.speed, yaw_rate=rd.yaw_rate, position=rd.position)
         u_pred = self.u_prev if self.u_prev is not None else u_meas
+        self.z = z
         self.out = self.parts.estimator.step(u_pred, z)
         return self.out, u_pred
 
     def decide(self, t: float, out: FilterOutput, u_pred: np.ndarray) -> DecisionState:
         """The fault decision on the filter's output at ``t`` (s); the policy observes the output."""
         assert self.parts.decision is not None
-        ds = self.parts.decision.update(t, out, u_pred)
+        ds = self.parts.decision.update(t, out, u_pred, self.z)
         self.parts.policy.observe(out)
         self.last_ds = ds
         self.suspected = ds.suspected

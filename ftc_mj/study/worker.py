@@ -31,7 +31,8 @@ RunFn = Callable[[RunConfig, "Path | None", bool], Any]
 """``run_fn(cfg, out_root, rrd) -> RunOutcome``-like (``.metrics``, ``.result.trace``, ``.run_dir``)."""
 
 TS_COLUMNS = ("R_R", "R_L", "R_R_hat", "R_L_hat", "R_R_std", "R_L_std", "fault_detected", "declared_wheel",
-              "cross_track_error", "R_R_pcrb_std", "R_L_pcrb_std", "radius_split_pcrb_std", "omega_R", "omega_L")
+              "cross_track_error", "R_R_pcrb_std", "R_L_pcrb_std", "radius_split_pcrb_std",
+              "R_R_pcrb_const_std", "R_L_pcrb_const_std", "omega_R", "omega_L")
 """Trace columns kept (down-sampled) per run for over-time figures."""
 
 _STATE: dict[str, Any] = {"runs": 0}

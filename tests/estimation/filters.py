@@ -36,9 +36,10 @@ def decision_cfg(rule: str, gyro: float | None, **decision: float) -> RunConfig:
                                      "estimator": {"decision": {"rule": rule, "statistics": True, **decision}}})
 
 
-def excited_data(n: int, seed: int = 0, yaw_sigma: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def excited_data(n: int, seed: int = 0, yaw_sigma: float | None = None,
+                 fault: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Wheel rates (n, 2), noisy speed (n,), noisy yaw rate (n,) from the kinematic model; R_L 2→1 m
-    linearly over steps 100..200."""
+    linearly over steps 100..200 (``fault``; else the radii stay at 2 m)."""
     rng = np.random.default_rng(seed)
     m = KinematicModel(b=1.0, dt=0.01)
     t = np.arange(n) * 0.01
@@ -48,7 +49,7 @@ def excited_data(n: int, seed: int = 0, yaw_sigma: float | None = None) -> tuple
     zy = np.empty(n)
     for k in range(n):
         x = m.step(x, u[k])
-        x[4] = float(np.interp(k, [100, 200], [2.0, 1.0]))
+        x[4] = float(np.interp(k, [100, 200], [2.0, 1.0])) if fault else 2.0
         zs[k] = float(m.speed(x, u[k])) + 0.5 * rng.normal()
         zy[k] = float(m.yaw_rate(x, u[k])) + (yaw_sigma or 0.0) * rng.normal()
     return u, zs, zy

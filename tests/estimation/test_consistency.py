@@ -181,7 +181,7 @@ R_SCALE = {"R x1.5": 1.5, "R x0.67": 0.67}
 MISTUNED = {
     **{name: {"sensors": {"speed_sigma": 0.5 * np.sqrt(s), "yaw_rate_sigma": YAW_SIGMA * np.sqrt(s)}}
        for name, s in R_SCALE.items()},
-    "Q x0.25": {"estimator": {"q_rate": (2.5, 2.5, 0.05, 1.0, 1.0)}},  # every process-noise σ halved
+    "Q x0.25": {"estimator": {"q_diffusion": (0.0625, 0.0625, 2.5e-5, 0.01, 0.01)}},  # every process-noise σ halved
 }
 
 

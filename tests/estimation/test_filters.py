@@ -233,3 +233,20 @@ def test_builtin_factories_take_settings_and_context() -> None:
         for o in outs[1:]:
             np.testing.assert_array_equal(o.x, outs[0].x)
             np.testing.assert_array_equal(o.mode_probs, outs[0].mode_probs)
+
+
+def test_process_noise_is_a_diffusion_per_second() -> None:
+    """``Q = diag(q_diffusion · dt)``: the variance the filter adds per second is the same at 50, 100 and
+    400 Hz (to round-off, 1e-12 relative), and the default at 100 Hz is the paper's
+    ``diag((q · dt)²)``, ``q = (5, 5, 0.1, 2, 2)``, bit for bit (today's runs unchanged)."""
+    from ftc_mj.estimation.factory import setup_from_settings
+
+    per_second = []
+    for rate in (50.0, 100.0, 400.0):
+        setup = setup_from_settings({"rate": rate})[1]
+        per_second.append(np.diag(setup.Q) / setup.dt)
+        if rate == 100.0:
+            paper = np.diag(np.square(np.array([5.0, 5.0, 0.1, 2.0, 2.0]) * 0.01))
+            assert np.array_equal(setup.Q, paper)
+    np.testing.assert_allclose(per_second[0], per_second[1], rtol=1e-12)
+    np.testing.assert_allclose(per_second[2], per_second[1], rtol=1e-12)

@@ -4,8 +4,8 @@
     ftc-mj study fdi --report      # from runs/out/studies/fdi
 
 1. Every rule at its design threshold: ARL0 with its Garwood 95 % interval and number of alarms, the
-   conditional delay per severity (mean ± the half-width of its Student-t 95 % interval, (n) the runs
-   that alarmed at or after the onset), and as counts per severity (20 · 50 · 80 %) the runs detected
+   conditional delay per severity (mean and its percentile-bootstrap 95 % interval, never below zero,
+   (n) the runs that alarmed at or after the onset), and as counts per severity (20 · 50 · 80 %) the runs detected
    within 2 s, the detections isolating the true wheel and those isolating ``unknown``.
 2. Per severity, each rule's shortest delay over the swept thresholds whose ARL0 reaches 100 s with
    95 % confidence on all seeds and that detect at least half of the runs within 2 s (the
@@ -47,12 +47,12 @@ def arl(p: Point) -> str:
 
 
 def delay(e: Estimate) -> str:
-    """Mean delay (s) ± the half-width of its Student-t 95 % interval (runs)."""
+    """Mean delay (s) and its percentile-bootstrap 95 % interval (runs)."""
     if e.n == 0:
         return "— (0)"
     if e.n == 1 or not math.isfinite(e.lo):
         return f"{g(e.mean)} (1)"
-    return f"{g(e.mean)} ± {g((e.hi - e.lo) / 2, 2)} ({e.n})"
+    return f"{g(e.mean)} [{g(e.lo, 2)}, {g(e.hi, 2)}] ({e.n})"
 
 
 def count(e: Estimate) -> str:

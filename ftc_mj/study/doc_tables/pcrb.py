@@ -22,7 +22,9 @@ import numpy as np
 import polars as pl
 
 from ...config import RunConfig
-from ...estimation.decision_factory import nominal_point_of
+from ...estimation.calibration import nominal_point
+from ...estimation.decision_factory import reference_rates
+from ...estimation.factory import setup_from_config
 from ..extras import ISOLATED_SPLIT_M, PCRB_MODELS, PCRB_TIMES, time_tag
 from .results import read_results
 
@@ -53,10 +55,14 @@ def split_table(df: pl.DataFrame) -> list[str]:
 def _steady_sigmas(gyro: float | None) -> tuple[dict[str, dict[str, float]], list[str]]:
     """Per recursion (``own``, ``constant``) the steady-state σ (m) along each direction, and the directions
     (with speed only the split is a random walk nothing observes: only ``w`` is shown)."""
-    p = nominal_point_of(RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro}}))
+    cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro}})
+    setup = setup_from_config(cfg)
+    p = nominal_point(setup, *reference_rates(cfg))  # the filters' own gains (not the residual generator's)
     m = p.m
     H, K = np.array(p.H).reshape(m, 5), np.array(p.K).reshape(5, m)
-    F, R = np.array(p.F).reshape(5, 5), np.diag(np.square(p.r_sd))
+    F = np.array(p.F).reshape(5, 5)
+    R = np.diag([setup.speed_sigma ** 2, *([setup.yaw_rate_sigma ** 2] if gyro is not None else [])])
+    q_sd = np.sqrt(np.diag(setup.Q))
     A = np.eye(5) - K @ H
     w = H[0, 3:5] / np.linalg.norm(H[0, 3:5])  # the speed row: ∝ [ω_R, ω_L]
     dirs = {"R_R": np.array([1.0, 0.0]), "R_L": np.array([0.0, 1.0]), "observed w": w,
@@ -64,7 +70,7 @@ def _steady_sigmas(gyro: float | None) -> tuple[dict[str, dict[str, float]], lis
     if gyro is None:
         dirs = {"observed w": w}
     sig = {}
-    for name, q in (("own", np.square(p.q_sd)), ("constant", np.square([*p.q_sd[:3], 0.0, 0.0]))):
+    for name, q in (("own", np.square(q_sd)), ("constant", np.square([*q_sd[:3], 0.0, 0.0]))):
         S = np.zeros((5, 5))
         for _ in range(LYAPUNOV_STEPS):
             S = A @ (F @ S @ F.T + np.diag(q)) @ A.T + K @ R @ K.T

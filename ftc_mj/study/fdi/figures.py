@@ -87,14 +87,36 @@ def _log(ax: Any, x: bool = True, y: bool = True) -> None:
 
 
 def _legend(fig: Any, rows: dict[Any, list[RuleCurves]], lorden: bool = False) -> None:
-    """One legend for the figure: every rule drawn in it (and Lorden's bound)."""
+    """One legend for the figure, below the panels (where it covers neither a panel nor the title): every
+    rule drawn in it (and Lorden's bound), in as many columns as fit the figure's width."""
     from matplotlib.lines import Line2D
 
     rules = [r for r in COLOURS if any(rc.rule == r for rcs in rows.values() for rc in rcs)]
     handles = [Line2D([], [], color=COLOURS[r], lw=1.5, label=r) for r in rules]
     if lorden:
         handles.append(Line2D([], [], color="k", ls="--", lw=1, label="Lorden bound"))
-    fig.legend(handles=handles, loc="upper right", fontsize=7, ncol=len(handles))
+    ncol = max(1, min(len(handles), int(fig.get_figwidth() / 1.1)))
+    fig.legend(handles=handles, loc="lower center", fontsize=7, ncol=ncol, frameon=False)
+
+
+def _finish(fig: Any, text: str, legend_rows: int) -> None:
+    """Title ``text`` wrapped to the figure's width (about 16 characters per inch at 8 pt), above the
+    panels, and the layout fitted between it and the legend's ``legend_rows`` rows below."""
+    import textwrap
+
+    width = max(30, int(16 * fig.get_figwidth()))
+    lines = [ln for part in text.split("\n") for ln in textwrap.wrap(part, width)]
+    fig.suptitle("\n".join(lines), fontsize=8, x=0.02, ha="left")
+    title_in, legend_in = 0.13 * len(lines) + 0.05, 0.2 * legend_rows + 0.05
+    h = fig.get_figheight() + title_in + legend_in  # the panels keep their height
+    fig.set_figheight(h)
+    fig.tight_layout(rect=(0, legend_in / h, 1, 1.0 - title_in / h))
+
+
+def _legend_rows(fig: Any, rows: dict[Any, list[RuleCurves]], lorden: bool = False) -> int:
+    """Rows the legend of :func:`_legend` takes."""
+    n = sum(1 for r in COLOURS if any(rc.rule == r for rcs in rows.values() for rc in rcs)) + int(lorden)
+    return math.ceil(n / max(1, min(n, int(fig.get_figwidth() / 1.1))))
 
 
 def _grid(rows: dict[Any, list[RuleCurves]], plt: Any) -> tuple[Any, Any, list[Any]]:
@@ -147,9 +169,8 @@ def fig_delay(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> None
         _panel(ax, f"{rv}, severity {sev}", last_row, first_col,
                "ARL0: mean time between false alarms (s)", "detection delay (s)")
     _legend(fig, rows, lorden=True)
-    fig.suptitle(f"{title}: delay against mean time between false alarms\n(filled dots: design thresholds; open: no "
-                 "false alarm in the fault-free seconds observed, drawn there)", fontsize=8, x=0.02, ha="left")
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    _finish(fig, f"{title}: delay against mean time between false alarms\n(filled dots: design thresholds; open: "
+                 "no false alarm in the fault-free seconds observed, drawn there)", _legend_rows(fig, rows, True))
     save_figure(fig, path)
 
 
@@ -169,8 +190,7 @@ def fig_roc(rows: dict[Any, list[RuleCurves]], title: str, horizon: float, path:
         _panel(ax, f"{rv}, severity {sev}", last_row, first_col,
                f"P(false alarm within {horizon:g} s)", f"P(detection within {horizon:g} s)", which="major")
     _legend(fig, rows)
-    fig.suptitle(f"{title}: ROC (runs without an earlier alarm)", fontsize=9, x=0.02, ha="left")
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    _finish(fig, f"{title}: ROC (runs without an earlier alarm)", _legend_rows(fig, rows))
     save_figure(fig, path)
 
 
@@ -187,8 +207,7 @@ def fig_isolation(rows: dict[Any, list[RuleCurves]], title: str, path: Path) -> 
         ax.set_ylim(-0.02, 1.02)
         _panel(ax, f"{rv}, severity {sev}", last_row, first_col, "ARL0 (s)", "isolated the true wheel")
     _legend(fig, rows)
-    fig.suptitle(f"{title}: isolation accuracy of the detections", fontsize=9, x=0.02, ha="left")
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    _finish(fig, f"{title}: isolation accuracy of the detections", _legend_rows(fig, rows))
     save_figure(fig, path)
 
 
@@ -214,17 +233,20 @@ def fig_rmse(df: pl.DataFrame, keys: list[str], severity_of: dict[str, Any], pat
                 line = ax.plot(t, rmse, lw=1, label=str(lv[0]))
                 b = ts_mean(stack_series(part, "ts_R_L_pcrb_std"))
                 ax.plot(t, b, "--", lw=0.8, color=line[0].get_color())
+                c = ts_mean(stack_series(part, "ts_R_L_pcrb_const_std"))
+                if c.size:
+                    ax.plot(t[: c.size], c, ":", lw=1.0, color=line[0].get_color())
             _log(ax, x=False)
             ax.set_title(f"{', '.join(map(str, pk))}; severity {sev}", fontsize=8)
             ax.tick_params(labelsize=7)
             ax.grid(alpha=0.3, which="both")
             if j == 0:
-                ax.set_ylabel("R_L RMSE (—) and PCRB σ (--) (m)", fontsize=7)
+                ax.set_ylabel("R_L RMSE (—) and bounds' σ (m)", fontsize=7)
             if i == len(sevs) - 1:
                 ax.set_xlabel("t (s)", fontsize=7)
     axs[0, 0].legend(fontsize=6)
-    fig.suptitle("left-radius RMSE over seeds against the posterior Cramér–Rao bound", fontsize=9)
-    fig.tight_layout()
+    _finish(fig, "left-radius RMSE over seeds against the posterior Cramér–Rao bounds of the filters' random-walk "
+                 "model (--) and of the model that made the data, radii constant between changes (··)", 0)
     save_figure(fig, path)
 
 

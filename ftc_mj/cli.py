@@ -693,8 +693,7 @@ def bench(
         docs = _folder(publish, "--publish")
         if docs is not None and not docs.is_dir():
             raise BadInput(f"--publish: {docs} is not an existing folder")
-        bp = plan_bench(load_methods(methods), split.value, draws, version=version, start=start, healthy=healthy,
-                        out=out_dir)
+        bp = plan_bench(load_methods(methods), split.value, draws, version=version, start=start, healthy=healthy)
         report, path = run_bench(bp, out_dir, workers=workers, address=address, compare=compare,
                                  progress=not quiet and sys.stderr.isatty(),
                                  echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True))

@@ -52,7 +52,7 @@ the gate for *every* member is rejected; a member whose covariance is not positi
 eigen-floored; divergence (non-finite numbers, or the mixture NIS above ``divergence_nis`` for
 ``divergence_dwell`` s) resets all members to their last finite estimates with ``reset_inflation·P0``.
 
-A step is one call of the compiled kernel :func:`.kernels.imm.imm_step`.
+A step is one call of the compiled kernel of the members' kind (:mod:`.kernels.imm`).
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ import numpy as np
 
 from .base import FilterOutput, Hypothesis, Measurement
 from .buffers import BufferView, FilterBuffers, HealthCounters
-from .kernels.imm import imm_combine, imm_step, impose_hypotheses
+from .kernels.imm import imm_combine, imm_step_ekf, imm_step_ukf, impose_hypotheses
 from .kernels.layout import C_HYP, P_RAMP_STEP
 from .measurements import kernel_inputs
 from .setup import FilterSetup
@@ -136,6 +136,7 @@ class IMM(HealthCounters):
         self.Pi = np.asarray(transition if transition is not None else configured_transition(settings, n), float)
         self.variant = variant if variant is not None else settings.imm_variant
         self._st = FilterBuffers(self.setup, n, member)
+        self._step = imm_step_ekf if member == "ekf" else imm_step_ukf  # compiled per member kind
         self._init_constants(settings)
         self._init_state()
 
@@ -201,7 +202,7 @@ class IMM(HealthCounters):
     def step(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         """One IMM cycle with wheel rates ``u`` = [omega_R, omega_L] (rad/s) and measurement ``z``."""
         st = self._st
-        nis, sp_innov, sp_std, m, rejected, reset = imm_step(st.buf, st.cnt, *kernel_inputs(self.setup, u, z))
+        nis, sp_innov, sp_std, m, rejected, reset = self._step(st.buf, st.cnt, *kernel_inputs(self.setup, u, z))
         return FilterOutput(
             x=st.x.copy(), P=st.Pc.copy(), innovation=st.y_of[m].copy(), S=st.S_of[m].copy(),
             nis=nis, speed_innovation=sp_innov, speed_innovation_std=sp_std,

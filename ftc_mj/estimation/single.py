@@ -12,7 +12,7 @@ import numpy as np
 from .base import FilterOutput, Measurement
 from .buffers import Counter, FilterBuffers, HealthCounters
 from .kernels.layout import C_STEPS
-from .kernels.single import single_step
+from .kernels.single import single_step_ekf, single_step_ukf
 from .measurements import kernel_inputs
 from .setup import FilterSetup
 
@@ -31,6 +31,7 @@ class SingleFilter(HealthCounters):
         self._P = self._st.P[0]
         self._x[:] = self.setup.x0
         self._P[:] = self.setup.P0
+        self._step = single_step_ekf if self.member == "ekf" else single_step_ukf  # compiled per kind
 
     # ---------------------------------------------------------------- state access
     @property
@@ -62,7 +63,7 @@ class SingleFilter(HealthCounters):
     def step(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         """Predict with wheel rates ``u`` = [omega_R, omega_L] (rad/s), update with ``z``."""
         st = self._st
-        nis, sp_innov, sp_std, m, rejected, reset = single_step(st.buf, st.cnt, *kernel_inputs(self.setup, u, z))
+        nis, sp_innov, sp_std, m, rejected, reset = self._step(st.buf, st.cnt, *kernel_inputs(self.setup, u, z))
         return FilterOutput(
             x=self._x.copy(), P=self._P.copy(), innovation=st.y_of[m].copy(), S=st.S_of[m].copy(), nis=nis,
             speed_innovation=sp_innov, speed_innovation_std=sp_std, rejected=rejected, reset=reset,

@@ -1,4 +1,6 @@
-"""The truth plant: MuJoCo robot (or the ideal kinematic model), tyre-fault schedules and noisy sensors.
+"""The truth plant: MuJoCo robot (or the ideal kinematic model), tyre-fault schedules, servo faults
+(:mod:`.actuator_faults`), noisy sensors and their faults (:mod:`.sensor_faults`); every configured fault as
+a record: :func:`.faults.fault_list`.
 
 Public API::
 

@@ -55,9 +55,12 @@ def _reuse(store: dict[str, Any], key: str, kind: str, build: Callable[[], Any])
     return part
 
 
-def plant_for(cfg: RunConfig) -> Any:
-    """A plant for ``cfg``, reset to t = 0 (built on first use for this plant/robot/fault setup)."""
-    return _reuse(_plants, _key(cfg, ("plant", "robot", "faults")), "plant", lambda: build_plant(cfg))
+def plant_for(cfg: RunConfig, store: dict[str, Any] | None = None) -> Any:
+    """A plant for ``cfg``, reset to t = 0 (built on first use for this plant/robot/fault setup), from the
+    per-process cache or from the caller's own ``store``: an owner that steps its plant while other runs
+    of the process step theirs (two Gymnasium environments) keeps its plants apart."""
+    return _reuse(_plants if store is None else store, _key(cfg, ("plant", "robot", "faults")), "plant",
+                  lambda: build_plant(cfg))
 
 
 def robot_limits(cfg: RunConfig) -> RobotLimits:

@@ -76,6 +76,18 @@ class SimResult:
     geometry: RobotGeometry | None = None
 
 
+@dataclass(frozen=True)
+class Sample:
+    """What estimator step ``k`` knows before its command (:meth:`ClosedLoop.measure`)."""
+
+    t: float
+    """Time (s) of the step."""
+    truth: Truth
+    reading: SensorReading
+    radii: np.ndarray | None
+    """The radii [R_R, R_L] (m) the policy gives the controller on a controller sample; ``None`` between samples."""
+
+
 STRICT_ENV = "FTC_MJ_STRICT"
 """Environment variable: ``1`` makes :func:`simulate` re-raise a component's exception instead of
 recording it (the test suite sets it)."""
@@ -134,6 +146,7 @@ class Components:
     sensors: Sensors
     reference: Any
     controller: Any
+    """``None``: an agent commands the wheels (:class:`ftc_mj.envs.DiffDriveEnv`)."""
     estimator: Any
     """``None``: the run has no filter (and then no fault decision)."""
     decision: FaultDecision | None
@@ -143,17 +156,19 @@ class Components:
     """A robust NMPC's scenario weights from the filter (``None``: as configured)."""
 
 
-def wire(cfg: RunConfig) -> Components:
+def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any] | None = None) -> Components:
     """Build (or take from the per-process :mod:`.cache`, reset) every component of the run ``cfg``; with
-    ``plant.start_moving`` the plant starts at the reference's speed (m/s) and yaw rate (rad/s) at t = 0."""
-    plant = plant_for(cfg)
+    ``plant.start_moving`` the plant starts at the reference's speed (m/s) and yaw rate (rad/s) at t = 0.
+    ``with_controller=False``: no controller (and no scenario weighting for one): an agent commands;
+    ``plants``: the caller's own plant store instead of the per-process cache (:func:`.cache.plant_for`)."""
+    plant = plant_for(cfg, plants)
     sensors = Sensors(cfg.sensors, cfg.seed, cfg.faults.sensor)
     reference = build_reference(cfg)
-    controller = controller_for(cfg, reference)
+    controller = controller_for(cfg, reference) if with_controller else None
     estimator = build_estimator(cfg)
     decision = build_fault_decision(cfg) if estimator is not None else None
     policy = build_policy(cfg, with_estimator=estimator is not None)
-    weighting = build_scenario_weighting(cfg)
+    weighting = build_scenario_weighting(cfg) if with_controller else None
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
@@ -194,11 +209,15 @@ class ClosedLoop:
     :meth:`step` is one estimator step ``k``, a fixed sequence of named steps: :meth:`sense` (truth and
     sensors), :meth:`estimate`, :meth:`decide`, :meth:`record_estimate`, and on a controller sample
     :meth:`reconfigure`, :meth:`control`, :meth:`apply`; then :meth:`record` and the plant's advance.
+    :meth:`measure` is the part before the command, :meth:`finish` the part after it: an agent that
+    commands the wheels itself (:class:`ftc_mj.envs.DiffDriveEnv`) runs them with its own :meth:`apply`
+    between, instead of :meth:`control`.
     """
 
-    def __init__(self, cfg: RunConfig) -> None:
+    def __init__(self, cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any] | None = None
+                 ) -> None:
         self.cfg = cfg
-        self.parts = wire(cfg)
+        self.parts = wire(cfg, with_controller=with_controller, plants=plants)
         self.n = cfg.n_estimator_steps
         self.dt = 1.0 / cfg.estimator.rate
         self.phys_per_est = cfg.physics_per_estimator
@@ -231,6 +250,16 @@ class ClosedLoop:
 
     def step(self, k: int) -> None:
         """Estimator step ``k`` (time ``k * dt``, s), then the plant's advance to the next one."""
+        s = self.measure(k)
+        if s.radii is not None:
+            self.apply(k, s.t, self.control(k, s.t, s.reading, s.radii))
+        self.finish(k)
+
+    def measure(self, k: int) -> Sample:
+        """The part of step ``k`` before its command: :meth:`sense`, and with a filter :meth:`estimate`,
+        :meth:`decide`, :meth:`record_estimate`; on a controller sample :meth:`reconfigure`. A caller that
+        commands the plant itself (:mod:`ftc_mj.envs`) calls this, then :meth:`apply` on a controller sample
+        and :meth:`finish`, instead of :meth:`step`."""
         t = k * self.dt
         truth, reading, u_meas = self.sense(k, t)
         if self.parts.estimator is not None:
@@ -238,10 +267,11 @@ class ClosedLoop:
             ds = self.decide(t, out, u_pred)
             self.record_estimate(k, t, out, ds)
         self.u_prev = u_meas
-        if k % self.est_per_ctl == 0:
-            radii = self.reconfigure(t, u_meas, truth)
-            cmd = self.control(k, t, reading, radii)
-            self.apply(k, t, cmd)
+        radii = self.reconfigure(t, u_meas, truth) if k % self.est_per_ctl == 0 else None
+        return Sample(t, truth, reading, radii)
+
+    def finish(self, k: int) -> None:
+        """The end of step ``k``: :meth:`record` its row, advance the plant to the next step."""
         self.record(k)
         self.parts.plant.advance(self.phys_per_est)
 
@@ -352,12 +382,22 @@ class ClosedLoop:
         self.events.append(Event(self.rows * self.dt, "error", f"run failed: {self.error} ({self.error_where})"))
 
     def columns(self) -> dict[str, np.ndarray]:
-        """The trace (cut at the failure of a failed run) with the posterior Cramér–Rao bound columns of a
-        run with a filter."""
-        cols = self.trace.first_rows(self.rows) if self.error is not None else self.trace.columns
+        """The trace (cut after the last complete row of a run that ended early) with the posterior
+        Cramér–Rao bound columns of a run with a filter."""
+        cols = self.trace.first_rows(self.rows) if self.rows < self.n else self.trace.columns
         if self.parts.estimator is not None and self.rows:
             cols.update(pcrb_columns(setup_from_config(self.cfg), cols))
         return cols
+
+    def result(self, wall0: float) -> SimResult:
+        """The run so far as a :class:`SimResult` (its events in time order, the policy's included);
+        ``wall0`` is the :func:`time.perf_counter` (s) at its start."""
+        events = sorted(self.events + list(self.parts.policy.events), key=lambda e: e.t)
+        return SimResult(trace=self.columns(), solves=self.solves, events=events, counters=self.counters(),
+                         decision=self.last_ds, n_modes=self.n_modes,
+                         reference_path=self.parts.reference.path_points(720),
+                         wall_time=time.perf_counter() - wall0, error=self.error, error_where=self.error_where,
+                         geometry=robot_geometry(self.parts.plant, self.cfg))
 
     def counters(self) -> dict[str, float]:
         """Filter resets and rejections, solver failures, the plant's flags seen, exceptions."""
@@ -395,13 +435,7 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
         if strict:
             raise
         loop.fail(exc)
-    cols = loop.columns()
+    res = loop.result(wall0)
     if progress is not None:
         progress(1.0)
-    counters = loop.counters()
-    ref_path = loop.parts.reference.path_points(720)
-    events = loop.events + list(loop.parts.policy.events)
-    return SimResult(trace=cols, solves=loop.solves, events=sorted(events, key=lambda e: e.t), counters=counters,
-                     decision=loop.last_ds, n_modes=loop.n_modes, reference_path=ref_path,
-                     wall_time=time.perf_counter() - wall0, error=loop.error, error_where=loop.error_where,
-                     geometry=robot_geometry(loop.parts.plant, cfg))
+    return res

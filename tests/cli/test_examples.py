@@ -39,10 +39,20 @@ def test_custom_estimator_against_the_ukf(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_custom_policy_study_on_a_local_cluster(tmp_path: Path) -> None:
-    out = _run("custom_policy_study.py", ["--duration", "3", "--seeds", "1", "--out", "study"], tmp_path)
+    args = ["--duration", "3", "--seeds", "1", "--workers", "1", "--out", "study"]
+    out = _run("custom_policy_study.py", args, tmp_path)
     for policy in ("none", "safe", "late-handover"):
         assert f"│ {policy} " in out, out
     assert (tmp_path / "study" / "results.parquet").is_file()
+
+
+@pytest.mark.slow
+def test_gym_random_policy_against_a_tracking_law(tmp_path: Path) -> None:
+    """3 s before the puncture: the hand-written law stays within 0.2 m (RMS) of the circle, random wheel rates
+    stray by more than 1 m."""
+    lines = _run("gym_random_policy.py", ["--duration", "3"], tmp_path).splitlines()[1:]
+    rms = {ln.split()[0]: float(ln.split()[2]) for ln in lines}
+    assert set(rms) == {"random", "tracking"} and rms["tracking"] < 0.2 < 1.0 < rms["random"]
 
 
 def test_readme_python_section_fits_in_15_lines() -> None:

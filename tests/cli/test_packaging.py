@@ -88,7 +88,8 @@ def test_a_relative_model_path_is_stored_absolute(tmp_path: Path, monkeypatch: p
 
 def test_the_simulation_and_reading_a_run_do_not_import_rerun(tmp_path: Path, policy_runs: list[Path]) -> None:
     """Importing the loop, a whole run without a recording, and reading back a run directory that has a
-    recording (:func:`ftc_mj.load_run`) leave rerun-sdk and ``ftc_mj.rerun`` unimported. One fresh
+    recording (:func:`ftc_mj.load_run`) leave rerun-sdk and ``ftc_mj.rerun`` unimported (and a run leaves
+    Gymnasium unimported: only ``ftc_mj.envs`` needs it). One fresh
     interpreter for the three checks (the suite itself has imported rerun long before; a module once
     imported stays in ``sys.modules``, so each check sees what the steps before it imported)."""
     code = ("import sys, ftc_mj.sim.loop; assert 'rerun' not in sys.modules, 'loop'\n"
@@ -96,6 +97,7 @@ def test_the_simulation_and_reading_a_run_do_not_import_rerun(tmp_path: Path, po
             "ov = {'duration': 0.3, 'plant.kind': 'kinematic'}\n"
             "r = ftc_mj.run('scenario1', sys.argv[1], overrides=ov, rrd=False)\n"
             "assert r.status == 'ok' and 'rerun' not in sys.modules, 'run'\n"
+            "assert 'gymnasium' not in sys.modules, 'a run imports gymnasium'\n"
             "ftc_mj.load_run(sys.argv[2])\n"
             "assert 'rerun' not in sys.modules and 'ftc_mj.rerun' not in sys.modules, 'load_run'\n")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}

@@ -1,5 +1,11 @@
-"""What the single-filter and the IMM steps share: predict/update of a bank by member kind, and the
-divergence bookkeeping (NIS dwell, radius clipping on a reset)."""
+"""What the single-filter and the IMM steps share: the outputs of a bank's update and the divergence
+bookkeeping (NIS dwell, radius clipping on a reset).
+
+The steps call the EKF or UKF predict/update of :mod:`.kalman` directly, each step compiled once per
+member kind (the kind is a closure constant and numba prunes the other kind's branches): a run then
+compiles only its filter's code, and no wrapper level re-optimises the linked callees (numba optimises
+every function's module with its callees linked in, so each level of calls adds compile time).
+"""
 
 from __future__ import annotations
 
@@ -8,44 +14,29 @@ import math
 import numpy as np
 from numba import njit
 
-from .kalman import ekf_predict, ekf_update, ukf_predict, ukf_update
-from .layout import C_BAD_NIS, C_DIV_STEPS, P_MIN_RADIUS, P_R0
+from .layout import C_BAD_NIS, C_DIV_STEPS, C_REJECTIONS, C_STEPS, P_MIN_RADIUS, P_R0
 
 MODEL_DIGEST = "d5385545ce3b5bff"
 """Digest of :mod:`.generated` this module's compiled code includes (see :mod:`ftc_mj.estimation.codegen`)."""
 
 
 @njit(cache=True, error_model="numpy")
-def predict_bank(ekf: bool, X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, c: float,
-                 W: np.ndarray, Q: np.ndarray, Xp: np.ndarray, Pp: np.ndarray) -> None:
-    """EKF or UKF prediction of every member into ``Xp`` (n, 5), ``Pp`` (n, 5, 5); wheel rates ``u`` (rad/s)."""
-    if ekf:
-        ekf_predict(X, P, u, prm, Q, Xp, Pp)
-    else:
-        ukf_predict(X, P, u, prm, c, W, Q, Xp, Pp)
+def update_outputs(n: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                             np.ndarray]:
+    """Empty outputs of the measurement update of ``n`` members with ``m`` channels (the last arguments
+    of :func:`.kalman.ekf_update` and :func:`.kalman.ukf_update`): posterior ``Xn`` (n, 5), ``Pn``
+    (n, 5, 5), predicted measurements ``Zp`` and innovations ``Y`` (n, m), their covariances ``S``
+    (n, m, m), NIS and log-likelihoods (n,)."""
+    return (np.empty((n, 5)), np.empty((n, 5, 5)), np.empty((n, m)), np.empty((n, m)), np.empty((n, m, m)),
+            np.empty(n), np.empty(n))
 
 
 @njit(cache=True, error_model="numpy")
-def update_bank(ekf: bool, Xp: np.ndarray, Pp: np.ndarray, u: np.ndarray, prm: np.ndarray, c: float,
-                W: np.ndarray, kinds: np.ndarray, z: np.ndarray, rvar: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """EKF or UKF update of every member with the ``m`` channels ``kinds``/``z`` (SI units): posterior
-    ``Xn`` (n, 5), ``Pn`` (n, 5, 5), predicted measurements ``Zp`` and innovations ``Y`` (n, m), their
-    covariances ``S`` (n, m, m), NIS and log-likelihoods (n,)."""
-    n = Xp.shape[0]
-    m = kinds.shape[0]
-    Xn = np.empty((n, 5))
-    Pn = np.empty((n, 5, 5))
-    Zp = np.empty((n, m))
-    Y = np.empty((n, m))
-    S = np.empty((n, m, m))
-    nisv = np.empty(n)
-    llv = np.empty(n)
-    if ekf:
-        ekf_update(Xp, Pp, u, prm, kinds, z, rvar, Xn, Pn, Zp, Y, S, nisv, llv)
-    else:
-        ukf_update(Xp, Pp, u, prm, c, W, kinds, z, rvar, Xn, Pn, Zp, Y, S, nisv, llv)
-    return Xn, Pn, Zp, Y, S, nisv, llv
+def count_step(cnt: np.ndarray, rejected: bool) -> None:
+    """Count the step, and its rejection."""
+    if rejected:
+        cnt[C_REJECTIONS] += 1
+    cnt[C_STEPS] += 1
 
 
 @njit(cache=True, error_model="numpy")

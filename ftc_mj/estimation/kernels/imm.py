@@ -14,16 +14,13 @@ import math
 import numpy as np
 from numba import njit
 
-from .bank import clip_radii, nis_dwell, predict_bank, speed_std, update_bank
-from .kalman import channels, unscented_moments, weights
+from .bank import clip_radii, count_step, nis_dwell, speed_std, update_outputs
+from .kalman import channels, ekf_predict, ekf_update, ukf_predict, ukf_update, unscented_moments, weights
 from .layout import (
     C_BAD_NIS,
-    C_EKF,
     C_HYP,
     C_N,
-    C_REJECTIONS,
     C_RESETS,
-    C_STEPS,
     MU_FLOOR,
     N_PRM,
     P_DIV_NIS,
@@ -230,57 +227,74 @@ def _floor_normalise(mu_new: np.ndarray, mu: np.ndarray) -> None:
         mu[j] = mu_new[j] / total
 
 
-@njit(cache=True, error_model="numpy")
-def imm_step(buf: np.ndarray, cnt: np.ndarray, u0: float, u1: float, z0: float, z1: float, z2: float, z3: float,
+def _imm_step(ekf: bool):
+    """The compiled IMM cycle of a bank of EKF (``ekf``) or UKF members: one function per kind, so that a
+    run compiles only its members' (``ekf`` is a closure constant; numba prunes the other kind's
+    branches)."""
+
+    @njit(cache=True, error_model="numpy")
+    def step(buf: np.ndarray, cnt: np.ndarray, u0: float, u1: float, z0: float, z1: float, z2: float, z3: float,
              mask: int, dropped: bool) -> tuple[float, float, float, int, bool, bool]:
-    """One IMM cycle on the bank's buffers, in place; arguments and result as
-    :func:`.single.single_step` (``y``, ``S`` and NIS are those of the mixture predictive density)."""
-    n = cnt[C_N]
-    lay = layout(n)
-    X = buf[lay.X:lay.X + 5 * n].reshape((n, 5))
-    P = buf[lay.P:lay.P + 25 * n].reshape((n, 5, 5))
-    mu = buf[lay.mu:lay.mu + n]
-    ulast = buf[lay.ulast:lay.ulast + 2]
-    prm = buf[lay.prm:lay.prm + N_PRM]
-    if math.isfinite(u0) and math.isfinite(u1):
-        ulast[0] = u0
-        ulast[1] = u1
-    u = ulast
-    X_prev = X.copy()
-    c, W = weights(prm[P_KAPPA])
-    cbar = mixing_probabilities(mu, buf[lay.Pi:lay.Pi + n * n].reshape((n, n)))
-    X0, P0 = mix(X, P, mu, buf[lay.Pi:lay.Pi + n * n].reshape((n, n)), cbar)
-    hyp = cnt[C_HYP] != 0
-    if hyp:
-        impose_hypotheses(buf, n, X0, P0)
-    Xp = np.empty((n, 5))
-    Pp = np.empty((n, 5, 5))
-    ekf = cnt[C_EKF] != 0
-    predict_bank(ekf, X0, P0, u, prm, c, W, buf[lay.Q:lay.Q + 25].reshape((5, 5)), Xp, Pp)  # step 3
-    if hyp:
-        _ramp(buf[lay.ramp:lay.ramp + n], Xp, prm)
-    kinds, z = channels(mask, z0, z1, z2, z3)
-    m = kinds.shape[0]
-    rejected = dropped
-    Xs, Ps = Xp, Pp
-    mu_new = cbar.copy()
-    nis = sp_innov = sp_std = np.nan
-    if m > 0:
-        Xn, Pn, Zp, _, S, nisv, llv = update_bank(ekf, Xp, Pp, u, prm, c, W, kinds, z, buf[lay.rvar:lay.rvar + 4])
-        nis, sp_innov, sp_std = _mixture_innovation(buf, lay, kinds, z, cbar, Zp, S)
-        if _mode_probabilities(buf[lay.loglik:lay.loglik + n], cbar, nisv, llv, prm[P_GATE], mu_new):
-            Xs, Ps = Xn, Pn
+        """One IMM cycle on the bank's buffers, in place; arguments and result as the single filter's
+        step (:mod:`.single`; ``y``, ``S`` and NIS are those of the mixture predictive density)."""
+        n = cnt[C_N]
+        lay = layout(n)
+        X = buf[lay.X:lay.X + 5 * n].reshape((n, 5))
+        P = buf[lay.P:lay.P + 25 * n].reshape((n, 5, 5))
+        mu = buf[lay.mu:lay.mu + n]
+        ulast = buf[lay.ulast:lay.ulast + 2]
+        prm = buf[lay.prm:lay.prm + N_PRM]
+        if math.isfinite(u0) and math.isfinite(u1):
+            ulast[0] = u0
+            ulast[1] = u1
+        u = ulast
+        X_prev = X.copy()
+        c, W = weights(prm[P_KAPPA])
+        cbar = mixing_probabilities(mu, buf[lay.Pi:lay.Pi + n * n].reshape((n, n)))
+        X0, P0 = mix(X, P, mu, buf[lay.Pi:lay.Pi + n * n].reshape((n, n)), cbar)
+        hyp = cnt[C_HYP] != 0
+        if hyp:
+            impose_hypotheses(buf, n, X0, P0)
+        Xp = np.empty((n, 5))
+        Pp = np.empty((n, 5, 5))
+        Q = buf[lay.Q:lay.Q + 25].reshape((5, 5))
+        if ekf:  # step 3
+            ekf_predict(X0, P0, u, prm, Q, Xp, Pp)
         else:
-            rejected = True
-    symmetrise(Ps)
-    reset = True if not math.isfinite(Xs.sum() + Ps.sum()) else nis_dwell(cnt, nis, prm[P_DIV_NIS])
-    if reset:
-        _reset(buf, lay, cnt, X, P, X_prev, prm)
-    else:
-        _keep(X, P, Xs, Ps)
-    _floor_normalise(mu_new, mu)
-    combine(X, P, mu, buf[lay.x:lay.x + 5], buf[lay.Pc:lay.Pc + 25].reshape((5, 5)))
-    if rejected:
-        cnt[C_REJECTIONS] += 1
-    cnt[C_STEPS] += 1
-    return nis, sp_innov, sp_std, m, rejected, reset
+            ukf_predict(X0, P0, u, prm, c, W, Q, Xp, Pp)
+        if hyp:
+            _ramp(buf[lay.ramp:lay.ramp + n], Xp, prm)
+        kinds, z = channels(mask, z0, z1, z2, z3)
+        m = kinds.shape[0]
+        rejected = dropped
+        Xs, Ps = Xp, Pp
+        mu_new = cbar.copy()
+        nis = sp_innov = sp_std = np.nan
+        if m > 0:
+            rvar = buf[lay.rvar:lay.rvar + 4]
+            Xn, Pn, Zp, Y, S, nisv, llv = update_outputs(Xp.shape[0], m)
+            if ekf:
+                ekf_update(Xp, Pp, u, prm, kinds, z, rvar, Xn, Pn, Zp, Y, S, nisv, llv)
+            else:
+                ukf_update(Xp, Pp, u, prm, c, W, kinds, z, rvar, Xn, Pn, Zp, Y, S, nisv, llv)
+            nis, sp_innov, sp_std = _mixture_innovation(buf, lay, kinds, z, cbar, Zp, S)
+            if _mode_probabilities(buf[lay.loglik:lay.loglik + n], cbar, nisv, llv, prm[P_GATE], mu_new):
+                Xs, Ps = Xn, Pn
+            else:
+                rejected = True
+        symmetrise(Ps)
+        reset = True if not math.isfinite(Xs.sum() + Ps.sum()) else nis_dwell(cnt, nis, prm[P_DIV_NIS])
+        if reset:
+            _reset(buf, lay, cnt, X, P, X_prev, prm)
+        else:
+            _keep(X, P, Xs, Ps)
+        _floor_normalise(mu_new, mu)
+        combine(X, P, mu, buf[lay.x:lay.x + 5], buf[lay.Pc:lay.Pc + 25].reshape((5, 5)))
+        count_step(cnt, rejected)
+        return nis, sp_innov, sp_std, m, rejected, reset
+
+    return step
+
+
+imm_step_ekf = _imm_step(True)
+imm_step_ukf = _imm_step(False)

@@ -15,14 +15,11 @@ import math
 import numpy as np
 from numba import njit
 
-from .bank import clip_radii, nis_dwell, predict_bank, speed_std, update_bank
-from .kalman import channels, weights
+from .bank import clip_radii, count_step, nis_dwell, speed_std, update_outputs
+from .kalman import channels, ekf_predict, ekf_update, ukf_predict, ukf_update, weights
 from .layout import (
     C_BAD_NIS,
-    C_EKF,
-    C_REJECTIONS,
     C_RESETS,
-    C_STEPS,
     N_PRM,
     P_DIV_NIS,
     P_GATE,
@@ -39,14 +36,12 @@ MODEL_DIGEST = "d5385545ce3b5bff"
 
 
 @njit(cache=True, error_model="numpy")
-def _update(buf: np.ndarray, lay: Layout, ekf: bool, Xp: np.ndarray, Pp: np.ndarray, u: np.ndarray,
-            prm: np.ndarray, c: float, W: np.ndarray, kinds: np.ndarray, z: np.ndarray
-            ) -> tuple[np.ndarray, np.ndarray, float, float, float, bool]:
-    """The measurement update: writes ``y[:m]``, ``S[:m, :m]`` into ``buf`` and returns the posterior,
-    NIS, the speed innovation and its std (m/s; NaN without a speed channel) and whether the update
-    passes the gate."""
+def _posterior(buf: np.ndarray, lay: Layout, Y: np.ndarray, S: np.ndarray, nisv: np.ndarray, kinds: np.ndarray,
+               prm: np.ndarray) -> tuple[float, float, float, bool]:
+    """After the measurement update: writes ``y[:m]``, ``S[:m, :m]`` into ``buf`` and returns the NIS, the
+    speed innovation and its std (m/s; NaN without a speed channel) and whether the update passes the
+    gate."""
     m = kinds.shape[0]
-    Xn, Pn, _, Y, S, nisv, _ = update_bank(ekf, Xp, Pp, u, prm, c, W, kinds, z, buf[lay.rvar:lay.rvar + 4])
     nis = nisv[0]
     y_out = buf[lay.y:lay.y + 4]
     S_out = buf[lay.S:lay.S + 16].reshape((4, 4))
@@ -58,7 +53,7 @@ def _update(buf: np.ndarray, lay: Layout, ekf: bool, Xp: np.ndarray, Pp: np.ndar
     if kinds[0] == SPEED:
         sp_innov = Y[0, 0]
         sp_std = speed_std(S[0, 0, 0])
-    return Xn, Pn, nis, sp_innov, sp_std, nis <= prm[P_GATE]  # False for NaN
+    return nis, sp_innov, sp_std, nis <= prm[P_GATE]  # False for NaN
 
 
 @njit(cache=True, error_model="numpy")
@@ -90,63 +85,86 @@ def _reset(buf: np.ndarray, lay: Layout, cnt: np.ndarray, x: np.ndarray, P: np.n
 
 
 @njit(cache=True, error_model="numpy")
-def _keep(ekf: bool, x: np.ndarray, P: np.ndarray, xs: np.ndarray, Pm: np.ndarray) -> None:
-    """Store the step's estimate; the EKF's covariance eigen-floored if it is not positive definite."""
-    if ekf:  # the UKF's next Cholesky repairs a non-PD covariance itself; the EKF checks every step
-        L = np.empty((5, 5))
-        chol(Pm, 1.0, L)
-        if math.isnan(L[4, 4]):
-            eig_floor(Pm, Pm)
+def _repair(Pm: np.ndarray) -> None:
+    """The EKF's covariance eigen-floored if it is not positive definite (the UKF's next Cholesky
+    repairs a non-PD covariance itself)."""
+    L = np.empty((5, 5))
+    chol(Pm, 1.0, L)
+    if math.isnan(L[4, 4]):
+        eig_floor(Pm, Pm)
+
+
+@njit(cache=True, error_model="numpy")
+def _store(x: np.ndarray, P: np.ndarray, xs: np.ndarray, Pm: np.ndarray) -> None:
+    """Store the step's estimate."""
     for a in range(5):
         x[a] = xs[a]
         for b in range(5):
             P[a, b] = Pm[a, b]
 
 
-@njit(cache=True, error_model="numpy")
-def single_step(buf: np.ndarray, cnt: np.ndarray, u0: float, u1: float, z0: float, z1: float, z2: float,
-                z3: float, mask: int, dropped: bool) -> tuple[float, float, float, int, bool, bool]:
-    """One step of a single EKF/UKF on its buffers, in place.
+def _single_step(ekf: bool):
+    """The compiled step of a single EKF (``ekf``) or UKF: one function per kind, so that a run compiles
+    only its filter's (``ekf`` is a closure constant; numba prunes the other kind's branches)."""
 
-    ``u0, u1`` wheel rates (rad/s), ``z0..z3`` the values of the channels in ``mask`` (bit k = channel code
-    k; the first ``m`` used, SI units); ``dropped`` a channel was non-finite. Returns ``(NIS, speed
-    innovation (m/s), its std (m/s), m, rejected, reset)``; the state, the innovation ``y[:m]`` and its
-    covariance ``S[:m, :m]`` are in ``buf``.
-    """
-    lay = layout(1)
-    x = buf[lay.X:lay.X + 5]
-    P = buf[lay.P:lay.P + 25].reshape((5, 5))
-    ulast = buf[lay.ulast:lay.ulast + 2]
-    prm = buf[lay.prm:lay.prm + N_PRM]
-    if math.isfinite(u0 + u1):
-        ulast[0] = u0
-        ulast[1] = u1
-    u = ulast
-    x_prev = x.copy()
-    ekf = cnt[C_EKF] != 0
-    c, W = weights(prm[P_KAPPA])
-    Xp = np.empty((1, 5))
-    Pp = np.empty((1, 5, 5))
-    predict_bank(ekf, x.reshape((1, 5)), P.reshape((1, 5, 5)), u, prm, c, W,
-                 buf[lay.Q:lay.Q + 25].reshape((5, 5)), Xp, Pp)
-    kinds, z = channels(mask, z0, z1, z2, z3)
-    m = kinds.shape[0]
-    rejected = dropped
-    nis = sp_innov = sp_std = np.nan
-    Xs, Ps = Xp, Pp
-    if m > 0:
-        Xn, Pn, nis, sp_innov, sp_std, accept = _update(buf, lay, ekf, Xp, Pp, u, prm, c, W, kinds, z)
-        if accept:
-            Xs, Ps = Xn, Pn
+    @njit(cache=True, error_model="numpy")
+    def step(buf: np.ndarray, cnt: np.ndarray, u0: float, u1: float, z0: float, z1: float, z2: float,
+             z3: float, mask: int, dropped: bool) -> tuple[float, float, float, int, bool, bool]:
+        """One step of the single filter on its buffers, in place.
+
+        ``u0, u1`` wheel rates (rad/s), ``z0..z3`` the values of the channels in ``mask`` (bit k = channel
+        code k; the first ``m`` used, SI units); ``dropped`` a channel was non-finite. Returns ``(NIS,
+        speed innovation (m/s), its std (m/s), m, rejected, reset)``; the state, the innovation ``y[:m]``
+        and its covariance ``S[:m, :m]`` are in ``buf``.
+        """
+        lay = layout(1)
+        x = buf[lay.X:lay.X + 5]
+        P = buf[lay.P:lay.P + 25].reshape((5, 5))
+        ulast = buf[lay.ulast:lay.ulast + 2]
+        prm = buf[lay.prm:lay.prm + N_PRM]
+        if math.isfinite(u0 + u1):
+            ulast[0] = u0
+            ulast[1] = u1
+        u = ulast
+        x_prev = x.copy()
+        c, W = weights(prm[P_KAPPA])
+        Xp = np.empty((1, 5))
+        Pp = np.empty((1, 5, 5))
+        Q = buf[lay.Q:lay.Q + 25].reshape((5, 5))
+        if ekf:
+            ekf_predict(x.reshape((1, 5)), P.reshape((1, 5, 5)), u, prm, Q, Xp, Pp)
         else:
-            rejected = True
-    symmetrise(Ps)
-    reset = _diverged(cnt, Xs[0], Ps[0], nis, prm)
-    if reset:
-        _reset(buf, lay, cnt, x, P, x_prev, prm)
-    else:
-        _keep(ekf, x, P, Xs[0], Ps[0])
-    if rejected:
-        cnt[C_REJECTIONS] += 1
-    cnt[C_STEPS] += 1
-    return nis, sp_innov, sp_std, m, rejected, reset
+            ukf_predict(x.reshape((1, 5)), P.reshape((1, 5, 5)), u, prm, c, W, Q, Xp, Pp)
+        kinds, z = channels(mask, z0, z1, z2, z3)
+        m = kinds.shape[0]
+        rejected = dropped
+        nis = sp_innov = sp_std = np.nan
+        Xs, Ps = Xp, Pp
+        if m > 0:
+            rvar = buf[lay.rvar:lay.rvar + 4]
+            Xn, Pn, Zp, Y, S, nisv, llv = update_outputs(Xp.shape[0], m)
+            if ekf:
+                ekf_update(Xp, Pp, u, prm, kinds, z, rvar, Xn, Pn, Zp, Y, S, nisv, llv)
+            else:
+                ukf_update(Xp, Pp, u, prm, c, W, kinds, z, rvar, Xn, Pn, Zp, Y, S, nisv, llv)
+            nis, sp_innov, sp_std, accept = _posterior(buf, lay, Y, S, nisv, kinds, prm)
+            if accept:
+                Xs, Ps = Xn, Pn
+            else:
+                rejected = True
+        symmetrise(Ps)
+        reset = _diverged(cnt, Xs[0], Ps[0], nis, prm)
+        if reset:
+            _reset(buf, lay, cnt, x, P, x_prev, prm)
+        else:
+            if ekf:
+                _repair(Ps[0])
+            _store(x, P, Xs[0], Ps[0])
+        count_step(cnt, rejected)
+        return nis, sp_innov, sp_std, m, rejected, reset
+
+    return step
+
+
+single_step_ekf = _single_step(True)
+single_step_ukf = _single_step(False)

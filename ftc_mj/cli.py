@@ -661,7 +661,8 @@ def bench(
                                               )] = BenchSplit.dev,
     draws: Annotated[int, typer.Option(help="Number of draws (from --start).")] = 8,
     start: Annotated[int, typer.Option(help="Index of the first draw (replay one draw: --start I --draws 1).")] = 0,
-    out: Annotated[str | None, typer.Option(help="Output folder (default runs/out/bench/<version>-<split>).")] = None,
+    out: Annotated[str | None, typer.Option(help="Output folder (default runs/out/bench/<version>-<split>-<first>-"
+                                              "<last draw>[-healthy]).")] = None,
     workers: Annotated[int, typer.Option(help="Local Dask worker processes.")] = 2,
     address: Annotated[str | None, typer.Option(help="Scheduler of a running Dask cluster, tcp://HOST:PORT.")] = None,
     version: Annotated[str, typer.Option("--benchmark", help="Benchmark definition version.")] = "ftc-v1",
@@ -689,12 +690,12 @@ def bench(
             raise BadInput("--compare: must be >= 0")
         if address is not None:
             validate_address(address)
-        out_dir = _folder(out) or Path("runs/out/bench") / f"{version}-{split.value}{'-healthy' if healthy else ''}"
+        out_dir = _folder(out) or Path("runs/out/bench") / (f"{version}-{split.value}-{start}-{start + draws - 1}"
+                                                           + ("-healthy" if healthy else ""))
         docs = _folder(publish, "--publish")
         if docs is not None and not docs.is_dir():
             raise BadInput(f"--publish: {docs} is not an existing folder")
-        bp = plan_bench(load_methods(methods), split.value, draws, version=version, start=start, healthy=healthy,
-                        out=out_dir)
+        bp = plan_bench(load_methods(methods), split.value, draws, version=version, start=start, healthy=healthy)
         report, path = run_bench(bp, out_dir, workers=workers, address=address, compare=compare,
                                  progress=not quiet and sys.stderr.isatty(),
                                  echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True))

@@ -203,7 +203,7 @@ def draw_figures(rows: list[dict[str, Any]], methods: list[str], folder: Path) -
     ax.set_xticks(np.arange(len(classes)), classes, rotation=30, ha="right", fontsize=8)
     ax.set_ylabel("success rate")
     ax.set_ylim(0, 1.05)
-    ax.legend(fontsize=7, ncol=min(3, len(methods)))
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     fig.tight_layout()
     paths = [_save(fig, folder / "success_by_class.png", plt)]
     asked = pairs_asked(methods)

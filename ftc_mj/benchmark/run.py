@@ -69,7 +69,7 @@ def check_request(split: str, n_draws: int, start: int) -> None:
 
 
 def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str = "ftc-v1", start: int = 0,
-               healthy: bool = False, out: Path | None = None) -> BenchPlan:
+               healthy: bool = False) -> BenchPlan:
     """Every (method, draw) run of draws ``start … start + n_draws - 1`` (validated; :class:`BadInput`)."""
     from .. import __version__
 
@@ -97,8 +97,7 @@ def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str 
     name = f"bench-{version}-{split}" + ("-healthy" if healthy else "")
     spec = StudySpec(name=name, description=f"ftc-mj bench {version} {split}", scenario="scenario1",
                      analysis=AnalysisSpec(figures=False))
-    path = (Path(out) if out is not None else Path(".")) / "bench.json"
-    plan = StudyPlan(spec, path, canonical_hash(identity), runs, ["method", "draw", "fault_class"], {},
+    plan = StudyPlan(spec, Path("bench.json"), canonical_hash(identity), runs, ["method", "draw", "fault_class"], {},
                      json.loads(json.dumps(identity, default=str)))
     return BenchPlan(plan, draws, methods, split, version, healthy, meta)
 
@@ -111,6 +110,7 @@ def prepare_output(bp: BenchPlan, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "bench.json") as tmp:
         tmp.write_text(json.dumps(bp.meta, indent=2, sort_keys=True, default=str) + "\n")
+    bp.plan.path = out / "bench.json"  # the study store keeps a copy of the plan's file (study.toml)
 
 
 def run_bench(bp: BenchPlan, out: Path, *, workers: int = 2, address: str | None = None, progress: bool = False,

@@ -32,7 +32,8 @@ Bounds
     within :data:`~ftc_mj.metrics.fdi.KL_PROFILE_S` (a dropout or an actuator fault the wheel-rate inputs explain).
     ``radius_pcrb_R/L`` (m): the posterior Cramér–Rao bound at the end of the run on each radius for the
     model that generated the data since the last radius change (radii constant: no process noise,
-    :func:`~ftc_mj.estimation.pcrb.trace_pcrb`), beside the filter's final error ``radius_error_R/L`` (m).
+    :func:`~ftc_mj.estimation.pcrb.trace_pcrb` from that change; the trace's ``R_*_pcrb_const_std`` when the
+    run recorded that bound), beside the filter's final error ``radius_error_R/L`` (m).
 """
 
 from __future__ import annotations
@@ -139,11 +140,15 @@ def radius_bound(cfg: RunConfig, trace: dict[str, np.ndarray], since: float) -> 
     keys = ("radius_pcrb_R", "radius_pcrb_L", "radius_error_R", "radius_error_L")
     if cfg.estimator.kind == "none" or not np.any(np.isfinite(trace.get("R_R_hat", np.array([np.nan])))):
         return dict.fromkeys(keys)
+    errors = {"radius_error_R": float(abs(trace["R_R_hat"][-1] - trace["R_R"][-1])),
+              "radius_error_L": float(abs(trace["R_L_hat"][-1] - trace["R_L"][-1]))}
+    if "R_R_pcrb_const_std" in trace:  # the run recorded the data model's bound (ftc_mj.estimation.pcrb)
+        return {"radius_pcrb_R": float(trace["R_R_pcrb_const_std"][-1]),
+                "radius_pcrb_L": float(trace["R_L_pcrb_const_std"][-1]), **errors}
     k0 = min(int(np.searchsorted(t, since - 1e-9)), t.size - 1)
     B = trace_pcrb(setup_from_config(cfg), trace, q_radius=0.0, start=k0)[-1]
     return {"radius_pcrb_R": float(np.sqrt(max(B[3, 3], 0.0))), "radius_pcrb_L": float(np.sqrt(max(B[4, 4], 0.0))),
-            "radius_error_R": float(abs(trace["R_R_hat"][-1] - trace["R_R"][-1])),
-            "radius_error_L": float(abs(trace["R_L_hat"][-1] - trace["R_L"][-1]))}
+            **errors}
 
 
 def _text(e: Any) -> str:

@@ -107,6 +107,16 @@ class PlantConfig(StrictModel):
     tipped_limit_deg: AngleDeg = 60.0
     """Roll or pitch (deg) above which the plant raises the ``TIPPED`` flag."""
 
+    @model_serializer(mode="wrap")
+    def _omit_no_payload(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """The fields, without ``payload_mass``/``payload_offset`` when there is no payload: a run without one
+        keeps the identity (run id, study key) it had before the payload existed."""
+        data = handler(self)
+        if not data.get("payload_mass"):
+            data.pop("payload_mass", None)
+            data.pop("payload_offset", None)
+        return data
+
     @field_validator("model_file")
     @classmethod
     def _model_exists(cls, v: str) -> str:

@@ -32,6 +32,11 @@ def test_scores_of_a_puncture_run_agree_with_its_metrics(shared_runs):
     assert 0.0 < s["lorden_delay_bound"] <= 5.0
     # the bound for constant radii after the puncture is below the filter's prior σ (0.5 m): information adds up
     assert 0.0 < s["radius_pcrb_L"] < cfg.estimator.p0_sigma[4]
+    # a run that recorded the data model's bound: the scorer reads it instead of computing its own
+    trace = {**run.result.trace, "R_R_pcrb_const_std": np.full(len(run.result.trace["t"]), 0.123),
+             "R_L_pcrb_const_std": np.full(len(run.result.trace["t"]), 0.456)}
+    s2 = score_run(cfg, trace, run.result.events)
+    assert (s2["radius_pcrb_R"], s2["radius_pcrb_L"]) == (0.123, 0.456)
 
 
 def test_fault_truth_of_a_double_puncture():

@@ -59,3 +59,15 @@ def test_payload_weight_is_carried_as_statics_says():
         assert l1[w] - l0[w] == pytest.approx(0.5 * W * (1.0 - X / x_caster), rel=0.02)
     lim0, lim1 = lateral_accel_limits(m0), lateral_accel_limits(m1)
     assert lim1.wheel_load - lim0.wheel_load == pytest.approx(0.5 * W * (1.0 - X / x_caster), rel=1e-9)
+
+
+def test_payload_keys_only_in_a_resolved_config_with_a_payload():
+    """Without a payload the resolved config (and so every run id and study key) is what it was before the
+    payload existed; with one it round-trips."""
+    from ftc_mj.config import validate_config
+
+    plain = load_config("scenario1").model_dump(mode="json")["plant"]
+    assert "payload_mass" not in plain and "payload_offset" not in plain
+    cfg = load_config("scenario1", {"plant.payload_mass": MASS, "plant.payload_offset": [X, 0.0, -0.8]})
+    dumped = cfg.model_dump(mode="json")
+    assert dumped["plant"]["payload_mass"] == MASS and validate_config(dumped) == cfg

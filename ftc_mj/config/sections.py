@@ -301,9 +301,11 @@ class EstimatorConfig(StrictModel):
 
 class PathFollowingConfig(StrictModel):
     """Settings of the path-following NMPC (``controller.kind = "pf-nmpc"``,
-    :mod:`ftc_mj.control.pathfollow`). It shares ``nodes``, ``horizon``, ``rate_penalty``,
-    ``omega_rate_max``, ``solver``, ``max_iter`` and the budgets with the NMPC; its desired speed is
-    ``reference.speed``. Cost weights are per second of horizon (Gauss–Lobatto quadrature)."""
+    :mod:`ftc_mj.control.pathfollow`). It shares ``nodes``, ``horizon``, ``omega_rate_max``, ``solver``,
+    ``max_iter`` and the budgets with the NMPC, but carries every cost term it needs as its own setting (the
+    actuation-rate weight included: ``controller.rate_penalty`` is the tracking NMPC's and is not read here);
+    its desired speed is ``reference.speed``. Cost weights are per second of horizon (Gauss–Lobatto
+    quadrature)."""
 
     q_contour: NonNegFloat = 30.0
     """Weight (1/(m² s)) on the squared contouring error (distance from the path, normal to it)."""
@@ -313,8 +315,18 @@ class PathFollowingConfig(StrictModel):
     """Weight (1/(rad² s)) on the squared heading error to the path tangent."""
     q_progress: NonNegFloat = 1.0
     """Weight (s/m²) on the squared deviation of the progress speed from ``reference.speed``."""
+    rate_penalty: NonNegFloat = 1.0
+    """Weight (s³, per (rad/s²)²) on the squared wheel accelerations ``‖d omega/dt‖²`` (the actuation-rate term).
+    Without it the controller is not usable on the MuJoCo robot: the wheel-rate plans chatter between their
+    bounds, the servos cannot follow and the robot leaves the path (27.6 m off and 361 solver failures on
+    scenario 2 in one run with 0; docs/findings.md)."""
     progress_rate_penalty: NonNegFloat = 0.1
     """Weight (s³/m²) on the squared rate of the progress speed."""
+    max_lag: ranged(0.0, 100.0, unit="m") = 0.0
+    """Progress feedback: the progress is carried from plan to plan (the previous plan's prediction for now) and
+    only pulled back to within this distance (m) of the path point nearest the robot, so the lag error at ``t0``
+    is the progress the robot failed (or exceeded) to make and the lag cost feeds it back; 0 = the progress is
+    re-projected onto the nearest path point at every sample (no feedback of the progress made)."""
     max_progress_speed: PosFloat | None = None
     """Upper bound (m/s) of the progress speed; ``None`` = twice ``reference.speed``."""
     lateral_accel_margin: ranged(0.0, 1.0, lo_open=True) = 0.9

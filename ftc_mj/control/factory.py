@@ -95,7 +95,8 @@ def robust_nmpc(settings: Any, context: RunContext, reference: object) -> Robust
 
 def path_following_spec(settings: Any, context: RunContext, desired_speed: float,
                         limits: RobotLimits | None = None) -> PathFollowingSpec:
-    """The path-following problem of the ``[controller]`` settings at ``desired_speed`` (m/s, the reference's):
+    """The path-following problem of the ``[controller]`` settings at ``desired_speed`` (m/s, the reference's),
+    with the cost terms of ``path_following`` (its own actuation-rate weight, not ``controller.rate_penalty``):
     the bound on the robot's lateral acceleration is ``path_following.max_lateral_accel`` if set, else
     ``lateral_accel_margin`` × the robot's lift-off limit in ``limits`` (which the sim layer derives from the
     plant model); the yaw compliance and the braking trade-off of ``limits`` are used when switched on.
@@ -110,14 +111,14 @@ def path_following_spec(settings: Any, context: RunContext, desired_speed: float
     lim = limits or RobotLimits(liftoff_accel=bound)
     V = desired_speed
     problem = dataclasses.replace(tracking_problem(settings, context), max_lateral_accel=bound,
-                                  max_longitudinal_accel=pf.max_longitudinal_accel)
+                                  max_longitudinal_accel=pf.max_longitudinal_accel, rate_penalty=pf.rate_penalty)
     return PathFollowingSpec(
         problem=problem, desired_speed=V, q_contour=pf.q_contour, q_lag=pf.q_lag, q_heading=pf.q_heading,
         q_progress=pf.q_progress, progress_rate_penalty=pf.progress_rate_penalty,
         max_progress_speed=pf.max_progress_speed or 2.0 * V,
         yaw_compliance=lim.yaw_compliance if pf.compensate_yaw_compliance else 0.0,
         braking_trade=lim.braking_trade if pf.braking_trade else 0.0,
-        sample_time=context.controller_dt, slack_penalty=pf.slack_penalty,
+        sample_time=context.controller_dt, slack_penalty=pf.slack_penalty, max_lag=pf.max_lag,
     )
 
 

@@ -112,13 +112,20 @@ class PathFollowingNMPC(MPCLifecycle):
         if self.qp is not None:
             self.qp.reset()
 
-    def initial_state(self, pose: np.ndarray, s_pred: float) -> np.ndarray:
-        """``[x, y, psi, s0]``: the measured pose with its progress ``s0`` (the nearest path point, searched
-        around ``s_pred``, the progress the previous plan predicted) and the heading moved by a multiple
-        of 2π to the branch nearest the path tangent θ(s0)."""
+    def initial_state(self, pose: np.ndarray, s_pred: float | None) -> np.ndarray:
+        """``[x, y, psi, s0]``: the measured pose with its progress ``s0`` and the heading moved by a multiple
+        of 2π to the branch nearest the path tangent θ(s0).
+
+        ``s_pred`` (m) is the progress the previous plan predicted for now (``None`` before the first plan).
+        The progress is carried from plan to plan (progress feedback, module docstring): ``s0 = s_pred``
+        clipped to ``s_proj ± max_lag``, ``s_proj`` the nearest path point (searched around ``s_pred``);
+        ``max_lag = 0`` or no previous plan: ``s0 = s_proj``."""
         sp = self.spec
         window = max(0.5 * sp.desired_speed * sp.problem.horizon, 10.0)
-        s0 = project(self.path, float(pose[0]), float(pose[1]), s_pred, window)
+        guess = 0.0 if s_pred is None else s_pred
+        s0 = project(self.path, float(pose[0]), float(pose[1]), guess, window)
+        if s_pred is not None and sp.max_lag > 0.0:
+            s0 = float(np.clip(s_pred, s0 - sp.max_lag, s0 + sp.max_lag))
         th = float(self.path.geometry(np.array([s0])).heading[0])
         psi = float(pose[2]) + TWO_PI * np.round((th - float(pose[2])) / TWO_PI)
         return np.array([pose[0], pose[1], psi, s0])
@@ -137,7 +144,7 @@ class PathFollowingNMPC(MPCLifecycle):
         if ua is not None and not np.all(np.isfinite(ua)):
             ua = None
         shifted = self._shift(t, r) if self._plan is not None else None
-        s_pred = float(shifted[0][0, 3]) if shifted is not None else 0.0
+        s_pred = float(shifted[0][0, 3]) if shifted is not None else None
         x0 = self.initial_state(p, s_pred)
         self._offset = compliance_offset(self.spec, ua, r, self.nominal_radii)
         bounds = wheel_bounds(self.spec, self.col.N, ua, self._offset)
@@ -163,18 +170,18 @@ class PathFollowingNMPC(MPCLifecycle):
         om = self.spec.problem.omega_max
         return np.clip(np.nan_to_num(U[:, :2] - self._offset[None, :]), -om, om)
 
-    def _telemetry(self, x0: np.ndarray, s_pred: float, X: np.ndarray, U: np.ndarray, radii: np.ndarray,
+    def _telemetry(self, x0: np.ndarray, s_pred: float | None, X: np.ndarray, U: np.ndarray, radii: np.ndarray,
                    slack: float) -> dict[str, float]:
         sp, b = self.spec, self.spec.problem.half_track
         bias = (radii[0] * self._offset[0] - radii[1] * self._offset[1]) / (2.0 * b)
         ec, _ = path_errors(self.path, x0[:1], x0[1:2], x0[3:4])
-        _, el = path_errors(self.path, x0[:1], x0[1:2], np.array([s_pred]))
+        _, el = path_errors(self.path, x0[:1], x0[1:2], np.array([0.0 if s_pred is None else s_pred]))
         V = 0.5 * (radii[0] * U[0, 0] + radii[1] * U[0, 1])
         a = V * (radii[0] * U[0, 0] - radii[1] * U[0, 1]) / (2.0 * b)
         bound = sp.problem.max_lateral_accel
         return {
             "pf_progress": float(x0[3]), "pf_contouring_error": float(ec[0]),
-            "pf_lag_error": float(el[0]) if self.solves > 1 else float("nan"),
+            "pf_lag_error": float(el[0]) if s_pred is not None else float("nan"),
             "pf_speed_desired": sp.desired_speed, "pf_speed_planned": float(V),
             "pf_progress_speed": float(U[0, 2]), "pf_lateral_accel": float(a),
             "pf_lateral_bound": float("nan") if bound is None else float(bound), "pf_slack": float(slack),

@@ -52,6 +52,7 @@ class PathFollowingSpec:
     braking_trade: float = 0.0  # lateral bound lost per m/s² of longitudinal acceleration
     sample_time: float = 0.1  # s
     slack_penalty: float = 1.0e4  # per m/s² of slack
+    max_lag: float = 0.0  # m, largest |lag| of the carried progress at t0 (0: re-projected at every sample)
 
 
 

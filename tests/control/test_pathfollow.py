@@ -181,7 +181,7 @@ def test_factory_and_sim_hand_over_the_robot_limits() -> None:
     settings below, that run reuses this build instead of making its own."""
     from ftc_mj.sim.cache import controller_for, robot_limits
 
-    cfg = load_config("scenario1", {"controller.kind": "pf-nmpc", "controller.rate_penalty": 1.0})
+    cfg = load_config("scenario1", {"controller.kind": "pf-nmpc"})
     with pytest.raises(ValueError, match="lift-off"):
         build_controller(cfg, CIRCLE)
     lim = robot_limits(cfg)
@@ -191,12 +191,17 @@ def test_factory_and_sim_hand_over_the_robot_limits() -> None:
     assert ctl.spec.problem.max_lateral_accel == pytest.approx(cfg.controller.path_following.lateral_accel_margin
                                                                * lim.liftoff_accel)
     assert ctl.spec.braking_trade == pytest.approx(lim.braking_trade) and ctl.spec.desired_speed == 10.0
+    # its own actuation-rate weight (default 1), not the tracking NMPC's controller.rate_penalty (default 0)
+    assert cfg.controller.rate_penalty == 0.0 and ctl.spec.problem.rate_penalty == 1.0
     cfg.plant.kind = "kinematic"
     assert robot_limits(cfg).yaw_compliance == 0.0
     cfg.controller.path_following.max_lateral_accel = 2.5
     cfg.controller.path_following.braking_trade = False
+    cfg.controller.path_following.rate_penalty = 0.25
+    cfg.controller.rate_penalty = 3.0
     ctl = build_controller(cfg, CIRCLE)
     assert ctl.spec.problem.max_lateral_accel == 2.5 and ctl.spec.braking_trade == 0.0
+    assert ctl.spec.problem.rate_penalty == 0.25
     assert RobotLimits(3.0).yaw_compliance == 0.0
 
 
@@ -206,7 +211,7 @@ def test_mujoco_run_writes_the_telemetry_and_rerun_entities(tmp_path) -> None:
     from ftc_mj.rerun.read import read_scalar_series
     from ftc_mj.sim.run import execute
 
-    cfg = load_config("scenario1", {"controller.kind": "pf-nmpc", "duration": 2.0, "controller.rate_penalty": 1.0})
+    cfg = load_config("scenario1", {"controller.kind": "pf-nmpc", "duration": 2.0})
     out = execute(cfg, tmp_path)
     tr = out.result.trace
     rows = np.isfinite(tr["solve_time_ms"])

@@ -495,6 +495,30 @@ class ExcitationConfig(StrictModel):
     """Dither period (s)."""
 
 
+class DegradedConfig(StrictModel):
+    """The degraded robust mode and the no-slip test of the identification
+    (:mod:`~ftc_mj.reconfiguration.degraded`): from the first alarm until the fault is isolated and identified,
+    a controller that takes radius intervals (``pf-nmpc``) bounds the robot's lateral acceleration at every
+    radius of ``[min_radius, estimate]`` of each suspect wheel, and radii whose estimate moves faster than a
+    tyre can (a skid) are not handed over."""
+
+    mode: Literal["auto", "on", "off"] = "off"
+    """``auto``: on with the ``safe`` policy and a controller registered to take radius intervals (``pf-nmpc``),
+    else off; ``on``: with any policy but ``none`` and ``truth`` (and such a controller); ``off`` (default):
+    never. Off by default because on the development seeds it made the pf-nmpc's lift-off and contouring
+    worse, not better (docs/findings.md)."""
+    min_radius: PosFloat = 0.05
+    """Smallest radius (m) a fault can leave: the lower end of a suspect wheel's interval (the tyre down to its
+    rim; scenario 4 deflates to 0.1 m)."""
+    skid_window: ranged(0.02, 10.0, unit="s") = 0.5
+    """Window (s) of the no-slip test: the mean estimate of its second half is compared with that of its first."""
+    max_radius_rate: NonNegFloat = 0.2
+    """Fastest change (m/s) of a rolling tyre's radius the no-slip test accepts (a deflation; scenario 4's is
+    0.1 m/s). A skid moved the estimate at 0.4–1.2 m/s in the measured case (docs/findings.md)."""
+    skid_k_sigma: NonNegFloat = 2.0
+    """Allowance of the no-slip test for the estimate's own scatter, in standard deviations of the radius."""
+
+
 class ReconfigurationConfig(StrictModel):
     """How the estimated radii reach the controller's model (:mod:`ftc_mj.reconfiguration.policies`)."""
 
@@ -539,6 +563,7 @@ class ReconfigurationConfig(StrictModel):
     """On a revert, the last trusted radii are those handed over at least this long (s) before the
     filter reported trouble (its estimate may already have been drifting)."""
     excitation: ExcitationConfig = Field(default_factory=ExcitationConfig)
+    degraded: DegradedConfig = Field(default_factory=DegradedConfig)
     options: Options = Field(default_factory=dict, validate_default=True)
     """Settings of a plug-in policy (its registered settings model); built-in policies take none."""
 

@@ -8,8 +8,9 @@ and the simulation keeps one built solver per process and structure) and ``rate_
 input stays within ``omega_rate_max / rate`` of the command in force, so the loop clips an excitation
 dither to that bound); ``robot_limits``: the factory also takes the robot's
 :class:`~ftc_mj.control.pathfollow_spec.RobotLimits` (derived from the plant model by the sim layer) as
-``limits``. Reference factories take ``(settings, context)``: the ``[reference]`` section and the context
-(the path starts at its ``initial_pose``).
+``limits``; ``radius_intervals``: the controller has ``set_radius_interval`` (the degraded mode,
+:mod:`ftc_mj.reconfiguration.degraded`). Reference factories take ``(settings, context)``: the
+``[reference]`` section and the context (the path starts at its ``initial_pose``).
 
 :func:`build_controller` and :func:`build_reference` are the only readers of the application config in
 :mod:`ftc_mj.control`.
@@ -122,7 +123,8 @@ def path_following_spec(settings: Any, context: RunContext, desired_speed: float
     )
 
 
-@controllers.register("pf-nmpc", origin=BUILTIN, reusable=True, rate_bounded=True, robot_limits=True)
+@controllers.register("pf-nmpc", origin=BUILTIN, reusable=True, rate_bounded=True, robot_limits=True,
+                      radius_intervals=True)
 def path_following_nmpc(settings: Any, context: RunContext, reference: Reference,
                         limits: RobotLimits | None = None) -> PathFollowingNMPC:
     """The path-following NMPC on :func:`path_following_spec` at the reference's speed (solver ``solver``)."""

@@ -45,7 +45,8 @@ from ..estimation.factory import build_estimator, setup_from_config
 from ..estimation.pcrb import pcrb_columns
 from ..metrics.onsets import fault_onsets
 from ..plant import SensorReading, Sensors, Truth
-from ..reconfiguration.factory import build_policy, build_scenario_weighting
+from ..reconfiguration.degraded import DegradedMode
+from ..reconfiguration.factory import build_degraded_mode, build_policy, build_scenario_weighting
 from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
@@ -138,6 +139,8 @@ class Components:
     """The reconfiguration policy: which radii the controller is given."""
     weighting: ScenarioWeighting | None
     """A robust NMPC's scenario weights from the filter (``None``: as configured)."""
+    degraded: DegradedMode | None = None
+    """The degraded robust mode between the policy and a controller that takes radius intervals (``None``: off)."""
 
 
 def wire(cfg: RunConfig) -> Components:
@@ -151,10 +154,11 @@ def wire(cfg: RunConfig) -> Components:
     decision = build_fault_decision(cfg) if estimator is not None else None
     policy = build_policy(cfg, with_estimator=estimator is not None)
     weighting = build_scenario_weighting(cfg)
+    degraded = build_degraded_mode(cfg) if estimator is not None else None
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
-    return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting)
+    return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting, degraded)
 
 
 class ClosedLoop:
@@ -240,6 +244,8 @@ class ClosedLoop:
         assert self.parts.decision is not None
         ds = self.parts.decision.update(t, out, u_pred)
         self.parts.policy.observe(out)
+        if self.parts.degraded is not None:
+            self.parts.degraded.observe(out)
         self.last_ds = ds
         self.suspected = ds.suspected
         return ds
@@ -265,10 +271,15 @@ class ClosedLoop:
 
     def reconfigure(self, t: float, u_meas: np.ndarray, tr: Truth) -> np.ndarray:
         """The radii (m) the policy gives the controller at ``t`` (s); a robust NMPC weighted by the filter
-        gets its scenario weights."""
+        gets its scenario weights; with the degraded mode, the radii pass its no-slip hand-over and the
+        controller gets the radius interval (or ``None``)."""
         self.model_radii = self.parts.policy.radii(t, self.out, self.last_ds, self.reset_since_solve, u_meas,
                                                    (tr.R_R, tr.R_L))
         self.reset_since_solve = False
+        if self.parts.degraded is not None:
+            self.model_radii, interval = self.parts.degraded.hand_over(t, self.model_radii, self.out, self.last_ds,
+                                                                       int(self.parts.policy.state))
+            self.parts.controller.set_radius_interval(interval)
         if self.parts.weighting is not None:
             self.parts.controller.set_scenario_weights(self.parts.weighting.weights(self.out, self.model_radii))
         return self.model_radii
@@ -360,6 +371,8 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
     counters = loop.counters()
     ref_path = loop.parts.reference.path_points(720)
     events = loop.events + list(loop.parts.policy.events)
+    if loop.parts.degraded is not None:
+        events += loop.parts.degraded.events
     return SimResult(trace=cols, solves=loop.solves, events=sorted(events, key=lambda e: e.t), counters=counters,
                      decision=loop.last_ds, n_modes=loop.n_modes, reference_path=ref_path,
                      wall_time=time.perf_counter() - wall0, error=loop.error, error_where=loop.error_where,

@@ -112,7 +112,7 @@ def test_report_draws_the_scripts_panels(study_out: Path, monkeypatch: pytest.Mo
     assert tuple(fig.get_size_inches()) == (9, 9)
     ax = fig.axes
     assert [a.get_title() for a in ax] == [
-        "scenario 4 (left tyre 2 → 0.1 m, 10–29 s), seed 3, UKF, safe, speed + yaw rate", "",
+        "scenario 4 (left tyre 2 → 0.1 m, 10–29 s), seed 1000, UKF, safe, speed + yaw rate", "",
         "scenario 3 (left then right tyre 2 → 1 m at 5 s and 10 s)"]
     assert [a.get_ylabel() for a in ax] == ["speed (m/s)", "cross-track error (m)", "v · yaw rate (m/s²)"]
     assert [[(ln.get_label(), ln.get_color()) for ln in a.get_lines()] for a in ax] == [
@@ -128,7 +128,7 @@ def test_cli_report_and_its_refusals(study_out: Path, tmp_path: Path) -> None:
     assert res.exit_code == 0, res.output
     assert res.output.startswith(f"figure: {study_out / 'figures' / 'pathfollow.png'} (seed 1000)\n")
     df = pl.read_parquet(study_out / "results.parquet")
-    for name, rows, message in (("partial", df.head(3), "no run of scenario4, pf-nmpc, seed 3"),
+    for name, rows, message in (("partial", df.head(3), "no run of scenario4, pf-nmpc, seed 1000"),
                                 ("short", df.drop("ts_plant_flags"), "the results keep no ts_plant_flags")):
         (tmp_path / name).mkdir()
         rows.write_parquet(tmp_path / name / "results.parquet")

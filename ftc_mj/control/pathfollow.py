@@ -23,9 +23,11 @@ nearest path point (a bound that keeps the lag, and so the linearisation of ``e_
 point, small; Liniger's MPCC re-projects at every sample, which the clipping does whenever the lag exceeds
 it). The lag error at ``t0`` is then the progress the robot failed (or exceeded) to make, and the lag cost
 ``q_lag e_l²`` closes the loop on it: a model that overstates the robot's speed (a tyre smaller than its model
-radius) leaves the robot behind its progress point, and the plan speeds the model up until the robot keeps
-pace — integral action on the progress, which a penalty on a measured progress rate would give only with a
-speed estimate the filter does not make. This was chosen over that penalty for that reason.
+radius) leaves the robot behind its progress point, and the plan speeds the model up. The action is partial:
+the plan may also slow its progress point, which the progress term prices weakly (with both tyres at half the
+model radius the robot runs at 6.1 m/s instead of 5 m/s of the desired 10, ``max_lag`` 2 m, kinematic plant,
+``tests/control/test_pathfollow.py``). A penalty on the measured progress rate would need a speed estimate the
+filter does not make; the carried state was chosen for that reason. Off by default (docs/findings.md).
 
 Cost, ``Σ_j W_j (…)_j`` with the Gauss–Lobatto weights ``W_j`` (s) and the path at the node's own
 progress ``s_j``::

@@ -75,12 +75,21 @@ def test_seed_sets() -> None:
             seed_set(*bad)
 
 
+HELD_OUT_STUDIES = ("pathfollow.toml", "pathfollow_conditioned.toml", "pathfollow_figure.toml")
+"""The path-following acceptance studies: judged on the held-out seeds by their issue, run once after their settings
+were fixed on development seeds (docs/findings.md). They use held-out seeds only; no other study uses any."""
+
+
 def test_no_study_file_uses_the_held_out_seeds() -> None:
     from ftc_mj.resources import resource_path
     from ftc_mj.study.plan import plan_study
 
     for f in sorted(resource_path("studies").glob("*.toml")):
-        assert max(r.seed for r in plan_study(f).runs) < HELD_OUT_START, f.name
+        seeds = [r.seed for r in plan_study(f).runs]
+        if f.name in HELD_OUT_STUDIES:
+            assert min(seeds) >= HELD_OUT_START, f.name
+        else:
+            assert max(seeds) < HELD_OUT_START, f.name
 
 
 def test_matrix_study_configs_equal_the_matrix_entries(tmp_path: Path) -> None:

@@ -120,3 +120,27 @@ def test_the_mode_needs_a_policy_that_uses_the_filter_and_an_interval_controller
     assert build_degraded_mode(load_config("scenario2", {**on, "controller.kind": "pf-nmpc",
                                                           "reconfiguration.policy": "none"})) is None
     assert build_degraded_mode(load_config("scenario2", {**on, "controller.kind": "pf-nmpc"})) is not None
+
+
+def test_in_the_loop_the_interval_bounds_the_skidding_tyre_from_above() -> None:
+    """MuJoCo, scenario 3's left puncture at 5 s (7 s run), UKF with a gyro, safe policy, pf-nmpc with the mode on:
+    the mode enters at the first alarm (before the declaration) and its entry is an event; while it is on and the
+    left tyre skids (slip below −0.5 m/s), the interval's upper end — the filter's estimate — is above the true
+    radius (a tyre dragged slower than it rolls shows an effective radius above its own), which is why the
+    interval's upper end may be the estimate and its σ band may not; the lower end is min_radius."""
+    import ftc_mj
+
+    cfg = ftc_mj.load_config("scenario3", {"controller.kind": "pf-nmpc", "duration": 7.0, "output.rrd": False,
+                                           "sensors.yaw_rate_sigma": 0.01, "reconfiguration.degraded.mode": "auto"})
+    run = ftc_mj.run(cfg)
+    tr = run.trace
+    on = tr["pf_degraded"].to_numpy() == 1.0
+    skid = on & (tr["slip_L"].to_numpy() < -0.5)
+    hi, truth = tr["pf_R_L_hi"].to_numpy()[skid], tr["R_L"].to_numpy()[skid]
+    print(f"\n[pf] in the loop: {skid.sum()} degraded skid samples, R_L_hi - R_L >= {np.min(hi - truth):.3f} m")
+    assert skid.sum() >= 5 and np.all(hi > truth)
+    assert np.all(tr["pf_R_L_lo"].to_numpy()[skid] == cfg.reconfiguration.degraded.min_radius)
+    texts = [(e.t, e.text) for e in run.events]
+    entry = min(t for t, x in texts if x.startswith("degraded mode from the first alarm"))
+    declared = min(t for t, x in texts if x.startswith("fault declared"))
+    assert 5.0 <= entry < declared

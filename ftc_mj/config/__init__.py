@@ -30,6 +30,7 @@ from .schema import RunConfig, run_context
 from .sections import (
     ControllerConfig,
     DecisionConfig,
+    DegradedConfig,
     EstimatorConfig,
     ExcitationConfig,
     FaultConfig,
@@ -61,7 +62,8 @@ from .types import (
 
 __all__ = [
     "BUILTIN_SCENARIOS", "DEFAULT_MODEL_FILE", "FLOAT_BOUND", "MAX_TOML_BYTES", "NAME_RE", "OMEGA_MAX",
-    "ControllerConfig", "DecisionConfig", "EstimatorConfig", "ExcitationConfig", "FaultConfig", "FiniteFloat",
+    "ControllerConfig", "DecisionConfig", "DegradedConfig", "EstimatorConfig", "ExcitationConfig", "FaultConfig",
+    "FiniteFloat",
     "Flag", "Fraction", "HypothesisConfig", "ModelConfig", "NonNegFloat", "OutputConfig", "PathFollowingConfig",
     "PlantConfig", "PosFloat", "ReconfigurationConfig", "ReferenceConfig", "RobotConfig", "RobustConfig",
     "RunConfig", "SafeName", "SensorConfig", "config_to_toml_dict", "existing_file", "from_sections",

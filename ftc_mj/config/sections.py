@@ -416,9 +416,11 @@ class EstimatorConfig(StrictModel):
 
 class PathFollowingConfig(StrictModel):
     """Settings of the path-following NMPC (``controller.kind = "pf-nmpc"``,
-    :mod:`ftc_mj.control.pathfollow`). It shares ``nodes``, ``horizon``, ``rate_penalty``,
-    ``omega_rate_max``, ``solver``, ``max_iter`` and the budgets with the NMPC; its desired speed is
-    ``reference.speed``. Cost weights are per second of horizon (Gauss–Lobatto quadrature)."""
+    :mod:`ftc_mj.control.pathfollow`). It shares ``nodes``, ``horizon``, ``omega_rate_max``, ``solver``,
+    ``max_iter`` and the budgets with the NMPC, but carries every cost term it needs as its own setting (the
+    actuation-rate weight included: ``controller.rate_penalty`` is the tracking NMPC's and is not read here);
+    its desired speed is ``reference.speed``. Cost weights are per second of horizon (Gauss–Lobatto
+    quadrature)."""
 
     q_contour: NonNegFloat = 30.0
     """Weight (1/(m² s)) on the squared contouring error (distance from the path, normal to it)."""
@@ -428,8 +430,18 @@ class PathFollowingConfig(StrictModel):
     """Weight (1/(rad² s)) on the squared heading error to the path tangent."""
     q_progress: NonNegFloat = 1.0
     """Weight (s/m²) on the squared deviation of the progress speed from ``reference.speed``."""
+    rate_penalty: NonNegFloat = 1.0
+    """Weight (s³, per (rad/s²)²) on the squared wheel accelerations ``‖d omega/dt‖²`` (the actuation-rate term).
+    Without it the controller is not usable on the MuJoCo robot: the wheel-rate plans chatter between their
+    bounds, the servos cannot follow and the robot leaves the path (27.6 m off and 361 solver failures on
+    scenario 2 in one run with 0; docs/findings.md)."""
     progress_rate_penalty: NonNegFloat = 0.1
     """Weight (s³/m²) on the squared rate of the progress speed."""
+    max_lag: ranged(0.0, 100.0, unit="m") = 0.0
+    """Progress feedback: the progress is carried from plan to plan (the previous plan's prediction for now) and
+    only pulled back to within this distance (m) of the path point nearest the robot, so the lag error at ``t0``
+    is the progress the robot failed (or exceeded) to make and the lag cost feeds it back; 0 = the progress is
+    re-projected onto the nearest path point at every sample (no feedback of the progress made)."""
     max_progress_speed: PosFloat | None = None
     """Upper bound (m/s) of the progress speed; ``None`` = twice ``reference.speed``."""
     lateral_accel_margin: ranged(0.0, 1.0, lo_open=True) = 0.9
@@ -598,6 +610,30 @@ class ExcitationConfig(StrictModel):
     """Dither period (s)."""
 
 
+class DegradedConfig(StrictModel):
+    """The degraded robust mode and the no-slip test of the identification
+    (:mod:`~ftc_mj.reconfiguration.degraded`): from the first alarm until the fault is isolated and identified,
+    a controller that takes radius intervals (``pf-nmpc``) bounds the robot's lateral acceleration at every
+    radius of ``[min_radius, estimate]`` of each suspect wheel, and radii whose estimate moves faster than a
+    tyre can (a skid) are not handed over."""
+
+    mode: Literal["auto", "on", "off"] = "off"
+    """``auto``: on with the ``safe`` policy and a controller registered to take radius intervals (``pf-nmpc``),
+    else off; ``on``: with any policy but ``none`` and ``truth`` (and such a controller); ``off`` (default):
+    never. Off by default because on the development seeds it made the pf-nmpc's lift-off and contouring
+    worse, not better (docs/findings.md)."""
+    min_radius: PosFloat = 0.05
+    """Smallest radius (m) a fault can leave: the lower end of a suspect wheel's interval (the tyre down to its
+    rim; scenario 4 deflates to 0.1 m)."""
+    skid_window: ranged(0.02, 10.0, unit="s") = 0.5
+    """Window (s) of the no-slip test: the mean estimate of its second half is compared with that of its first."""
+    max_radius_rate: NonNegFloat = 0.2
+    """Fastest change (m/s) of a rolling tyre's radius the no-slip test accepts (a deflation; scenario 4's is
+    0.1 m/s). A skid moved the estimate at 0.4–1.2 m/s in the measured case (docs/findings.md)."""
+    skid_k_sigma: NonNegFloat = 2.0
+    """Allowance of the no-slip test for the estimate's own scatter, in standard deviations of the radius."""
+
+
 class ReconfigurationConfig(StrictModel):
     """How the estimated radii reach the controller's model (:mod:`ftc_mj.reconfiguration.policies`)."""
 
@@ -642,6 +678,7 @@ class ReconfigurationConfig(StrictModel):
     """On a revert, the last trusted radii are those handed over at least this long (s) before the
     filter reported trouble (its estimate may already have been drifting)."""
     excitation: ExcitationConfig = Field(default_factory=ExcitationConfig)
+    degraded: DegradedConfig = Field(default_factory=DegradedConfig)
     options: Options = Field(default_factory=dict, validate_default=True)
     """Settings of a plug-in policy (its registered settings model); built-in policies take none."""
 

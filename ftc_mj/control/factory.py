@@ -8,8 +8,9 @@ and the simulation keeps one built solver per process and structure) and ``rate_
 input stays within ``omega_rate_max / rate`` of the command in force, so the loop clips an excitation
 dither to that bound); ``robot_limits``: the factory also takes the robot's
 :class:`~ftc_mj.control.pathfollow_spec.RobotLimits` (derived from the plant model by the sim layer) as
-``limits``. Reference factories take ``(settings, context)``: the ``[reference]`` section and the context
-(the path starts at its ``initial_pose``).
+``limits``; ``radius_intervals``: the controller has ``set_radius_interval`` (the degraded mode,
+:mod:`ftc_mj.reconfiguration.degraded`). Reference factories take ``(settings, context)``: the
+``[reference]`` section and the context (the path starts at its ``initial_pose``).
 
 :func:`build_controller` and :func:`build_reference` are the only readers of the application config in
 :mod:`ftc_mj.control`.
@@ -95,7 +96,8 @@ def robust_nmpc(settings: Any, context: RunContext, reference: object) -> Robust
 
 def path_following_spec(settings: Any, context: RunContext, desired_speed: float,
                         limits: RobotLimits | None = None) -> PathFollowingSpec:
-    """The path-following problem of the ``[controller]`` settings at ``desired_speed`` (m/s, the reference's):
+    """The path-following problem of the ``[controller]`` settings at ``desired_speed`` (m/s, the reference's),
+    with the cost terms of ``path_following`` (its own actuation-rate weight, not ``controller.rate_penalty``):
     the bound on the robot's lateral acceleration is ``path_following.max_lateral_accel`` if set, else
     ``lateral_accel_margin`` × the robot's lift-off limit in ``limits`` (which the sim layer derives from the
     plant model); the yaw compliance and the braking trade-off of ``limits`` are used when switched on.
@@ -110,18 +112,19 @@ def path_following_spec(settings: Any, context: RunContext, desired_speed: float
     lim = limits or RobotLimits(liftoff_accel=bound)
     V = desired_speed
     problem = dataclasses.replace(tracking_problem(settings, context), max_lateral_accel=bound,
-                                  max_longitudinal_accel=pf.max_longitudinal_accel)
+                                  max_longitudinal_accel=pf.max_longitudinal_accel, rate_penalty=pf.rate_penalty)
     return PathFollowingSpec(
         problem=problem, desired_speed=V, q_contour=pf.q_contour, q_lag=pf.q_lag, q_heading=pf.q_heading,
         q_progress=pf.q_progress, progress_rate_penalty=pf.progress_rate_penalty,
         max_progress_speed=pf.max_progress_speed or 2.0 * V,
         yaw_compliance=lim.yaw_compliance if pf.compensate_yaw_compliance else 0.0,
         braking_trade=lim.braking_trade if pf.braking_trade else 0.0,
-        sample_time=context.controller_dt, slack_penalty=pf.slack_penalty,
+        sample_time=context.controller_dt, slack_penalty=pf.slack_penalty, max_lag=pf.max_lag,
     )
 
 
-@controllers.register("pf-nmpc", origin=BUILTIN, reusable=True, rate_bounded=True, robot_limits=True)
+@controllers.register("pf-nmpc", origin=BUILTIN, reusable=True, rate_bounded=True, robot_limits=True,
+                      radius_intervals=True)
 def path_following_nmpc(settings: Any, context: RunContext, reference: Reference,
                         limits: RobotLimits | None = None) -> PathFollowingNMPC:
     """The path-following NMPC on :func:`path_following_spec` at the reference's speed (solver ``solver``)."""

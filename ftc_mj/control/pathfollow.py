@@ -10,9 +10,24 @@ Grid and stacking: the NMPC's ``N`` LGL nodes over ``[t0, t0 + T]`` (:class:`Col
 nodes and one slack ``σ ≥ 0`` (m/s²). QP variables ``u = [omega_R(N), omega_L(N), v(N), σ]``.
 
 Dynamics (collocation at every node): the kinematics ``(2/T) D [x, y, psi] = f(X, U; R_R, R_L, b)``
-and ``(2/T) D s = v``; ``X(t0) = [pose, s0]`` where ``s0`` is the arc length of the path point nearest
-the measured pose (:func:`~ftc_mj.control.reference.project`), re-measured at every sample like the
-pose itself.
+and ``(2/T) D s = v``; ``X(t0) = [pose, s0]``.
+
+Progress feedback (``max_lag``, m). With ``max_lag = 0`` ``s0`` is the arc length of the path point nearest
+the measured pose (:func:`~ftc_mj.control.reference.project`), re-measured at every sample like the pose: the
+lag error at ``t0`` is then always zero and nothing feeds back the progress the robot actually made — a robot
+slower than its model is never behind anything. With ``max_lag > 0`` the progress is a state carried from plan
+to plan, as in model-predictive contouring control with a virtual path parameter (Lam, Manzie & Good 2010;
+the path parameter of model-predictive path following, Faulwasser & Findeisen 2016, is the controller's own
+state): ``s0`` is the previous plan's predicted progress for ``t0``, clipped to within ``max_lag`` of the
+nearest path point (a bound that keeps the lag, and so the linearisation of ``e_c``, ``e_l`` about the path
+point, small; Liniger's MPCC re-projects at every sample, which the clipping does whenever the lag exceeds
+it). The lag error at ``t0`` is then the progress the robot failed (or exceeded) to make, and the lag cost
+``q_lag e_l²`` closes the loop on it: a model that overstates the robot's speed (a tyre smaller than its model
+radius) leaves the robot behind its progress point, and the plan speeds the model up. The action is partial:
+the plan may also slow its progress point, which the progress term prices weakly (with both tyres at half the
+model radius the robot runs at 6.1 m/s instead of 5 m/s of the desired 10, ``max_lag`` 2 m, kinematic plant,
+``tests/control/test_pathfollow.py``). A penalty on the measured progress rate would need a speed estimate the
+filter does not make; the carried state was chosen for that reason. Off by default (docs/findings.md).
 
 Cost, ``Σ_j W_j (…)_j`` with the Gauss–Lobatto weights ``W_j`` (s) and the path at the node's own
 progress ``s_j``::
@@ -41,6 +56,13 @@ violates the bound under the model's radii (a hand-over of new radii changes the
 estimated radii the feasible speed follows from the wheel-rate bound: on a circle of radius ``R_p``
 the inner wheel of radius ``r`` carries at most ``V = r omega_max / (1 − b/R_p)``.
 
+Degraded mode (:meth:`PathFollowingNMPC.set_radius_interval`, :mod:`ftc_mj.reconfiguration.degraded`): while
+a radius interval is in force the traction bound also holds at every radius of it — the robot's
+``V psidot`` is monotone in each radius, so two rows per node at the interval's corners suffice
+(:class:`~ftc_mj.control.pathfollow_spec.RadiusInterval`), each with its own slack ``τ_j`` (an L1 exact penalty):
+the speed reduction follows from those rows, not from a rule. The mode's NLP and QP are separate instances
+(built on the first degraded sample).
+
 Solvers: ``ipopt`` (the full NLP, the path symbolic through ``geometry(s, casadi)``) and
 ``rti-<qp>`` — one Gauss–Newton SQP step per sample about the shifted previous plan: the residuals
 ``e_c, e_l, psi − θ`` are linearised in ``(x, y, psi, s)`` through ``de_c/ds = −κ e_l``,
@@ -66,17 +88,20 @@ from .lgl import interpolation_matrix
 from .mpc import SOLVERS, MPCLifecycle, sanitize_pose, sanitize_radii
 from .pathfollow_nlp import PathNLP
 from .pathfollow_qp import PathQP
-from .pathfollow_spec import PathFollowingSpec, compliance_offset, wheel_bounds
+from .pathfollow_spec import PathFollowingSpec, RadiusInterval, compliance_offset, wheel_bounds
 from .reference import Path, path_errors, project
 
 TWO_PI = 2.0 * np.pi
 
 TELEMETRY = ("pf_progress", "pf_contouring_error", "pf_lag_error", "pf_speed_desired", "pf_speed_planned",
-             "pf_progress_speed", "pf_lateral_accel", "pf_lateral_bound", "pf_slack", "pf_yaw_offset")
+             "pf_progress_speed", "pf_lateral_accel", "pf_lateral_bound", "pf_slack", "pf_yaw_offset",
+             "pf_degraded", "pf_corner_slack", "pf_R_R_lo", "pf_R_R_hi", "pf_R_L_lo", "pf_R_L_hi", "pf_skid")
 """Trace columns of the path-following NMPC (on controller samples): progress ``s0`` (m), contouring and
 lag error (m) of the measured pose, desired and planned speed at ``t0`` (m/s), planned progress speed
 (m/s), the robot's planned lateral acceleration ``V psidot`` at ``t0`` and its bound (m/s²), the slack ``σ``
-(m/s²), the yaw-rate offset of the servo compliance (rad/s)."""
+(m/s²), the yaw-rate offset of the servo compliance (rad/s); the degraded mode: 1 while a radius interval
+is in force (else 0), the largest slack ``τ_j`` of its rows (m/s²), the interval ``[lo, hi]`` of each radius
+(m; the model radius when not degraded) and the wheels whose no-slip test fails (1 right + 2 left)."""
 
 
 class PathFollowingNMPC(MPCLifecycle):
@@ -102,23 +127,48 @@ class PathFollowingNMPC(MPCLifecycle):
         super().__init__(spec.problem, nominal_radii, time_budget, cold_time_budget)
         self.qp = PathQP(self.col, spec, path, solver.split("-", 1)[1], qp_options) if solver != "ipopt" else None
         self._nlp = PathNLP(self.col, spec, path, self.max_iter, cold_time_budget, time_budget)
+        self._qp_args = (qp_options, cold_time_budget, time_budget)
+        self._robust: tuple[PathNLP, PathQP | None] | None = None  # the degraded mode's solvers, built on first use
+
+    def set_radius_interval(self, interval: RadiusInterval | None) -> None:
+        """The radius interval of the degraded mode for the next solves (``None``: the mode is off). While it is
+        in force the lateral-acceleration bound holds at every radius of the interval (:class:`PathQP`)."""
+        self._interval = interval
+
+    @property
+    def degraded_solvers(self) -> tuple[PathNLP, PathQP | None]:
+        """The NLP and QP with the interval rows (built on the first degraded sample, then kept)."""
+        if self._robust is None:
+            qp_options, cold, warm = self._qp_args
+            qp = (PathQP(self.col, self.spec, self.path, self.solver_name.split("-", 1)[1], qp_options, robust=True)
+                  if self.qp is not None else None)
+            self._robust = (PathNLP(self.col, self.spec, self.path, self.max_iter, cold, warm, robust=True), qp)
+        return self._robust
 
     def _clear(self) -> None:
         super()._clear()  # plans are (t0, X (N,4), U (N,3))
         self._offset = np.zeros(2)
+        self._interval: RadiusInterval | None = None
 
     def _reset_solvers(self) -> None:
-        self._nlp.reset()
-        if self.qp is not None:
-            self.qp.reset()
+        for solver in (self._nlp, self.qp, *(self._robust or ())):
+            if solver is not None:
+                solver.reset()
 
-    def initial_state(self, pose: np.ndarray, s_pred: float) -> np.ndarray:
-        """``[x, y, psi, s0]``: the measured pose with its progress ``s0`` (the nearest path point, searched
-        around ``s_pred``, the progress the previous plan predicted) and the heading moved by a multiple
-        of 2π to the branch nearest the path tangent θ(s0)."""
+    def initial_state(self, pose: np.ndarray, s_pred: float | None) -> np.ndarray:
+        """``[x, y, psi, s0]``: the measured pose with its progress ``s0`` and the heading moved by a multiple
+        of 2π to the branch nearest the path tangent θ(s0).
+
+        ``s_pred`` (m) is the progress the previous plan predicted for now (``None`` before the first plan).
+        The progress is carried from plan to plan (progress feedback, module docstring): ``s0 = s_pred``
+        clipped to ``s_proj ± max_lag``, ``s_proj`` the nearest path point (searched around ``s_pred``);
+        ``max_lag = 0`` or no previous plan: ``s0 = s_proj``."""
         sp = self.spec
         window = max(0.5 * sp.desired_speed * sp.problem.horizon, 10.0)
-        s0 = project(self.path, float(pose[0]), float(pose[1]), s_pred, window)
+        guess = 0.0 if s_pred is None else s_pred
+        s0 = project(self.path, float(pose[0]), float(pose[1]), guess, window)
+        if s_pred is not None and sp.max_lag > 0.0:
+            s0 = float(np.clip(s_pred, s0 - sp.max_lag, s0 + sp.max_lag))
         th = float(self.path.geometry(np.array([s0])).heading[0])
         psi = float(pose[2]) + TWO_PI * np.round((th - float(pose[2])) / TWO_PI)
         return np.array([pose[0], pose[1], psi, s0])
@@ -137,7 +187,7 @@ class PathFollowingNMPC(MPCLifecycle):
         if ua is not None and not np.all(np.isfinite(ua)):
             ua = None
         shifted = self._shift(t, r) if self._plan is not None else None
-        s_pred = float(shifted[0][0, 3]) if shifted is not None else 0.0
+        s_pred = float(shifted[0][0, 3]) if shifted is not None else None
         x0 = self.initial_state(p, s_pred)
         self._offset = compliance_offset(self.spec, ua, r, self.nominal_radii)
         bounds = wheel_bounds(self.spec, self.col.N, ua, self._offset)
@@ -145,9 +195,11 @@ class PathFollowingNMPC(MPCLifecycle):
         Xg, Ug = self._guess(t, x0, r, shifted)
         if self.max_iter == 0:
             return self._fallback(t, "max_iter=0", t_start, r)
+        iv = self._interval
+        nlp, qp = (self._nlp, self.qp) if iv is None else self.degraded_solvers
         ok, status, it, plan, budget = self._iterate(
-            lambda: self._nlp.solve(x0, r, bounds, V_app, Xg, Ug),
-            None if self.qp is None else (lambda: self.qp.solve(Xg, Ug, r, x0, bounds, V_app)))
+            lambda: nlp.solve(x0, r, bounds, V_app, Xg, Ug, iv),
+            None if qp is None else (lambda: qp.solve(Xg, Ug, r, x0, bounds, V_app, iv)))
         over = self._over_budget(t_start, budget, status) if ok else None
         if over is not None:
             ok, status = False, over
@@ -155,31 +207,40 @@ class PathFollowingNMPC(MPCLifecycle):
             return self._fallback(t, status, t_start, r, it)
         X, U, sig = plan
         self._keep(t, X, U, r)
-        return self._planned(t, status, it, t_start, X[:, :3], self._command(U),
-                             self._telemetry(x0, s_pred, X, U, r, sig))
+        tel = self._telemetry(x0, s_pred, X, U, r, sig)
+        tel["pf_corner_slack"] = 0.0 if iv is None else (qp if "rti" in status and qp is not None else nlp).corner_slack
+        return self._planned(t, status, it, t_start, X[:, :3], self._command(U), tel)
 
     def _command(self, U: np.ndarray) -> np.ndarray:
         """Wheel-rate commands (N, 2) (rad/s) of the model's planned rates: minus the input offset, clipped."""
         om = self.spec.problem.omega_max
         return np.clip(np.nan_to_num(U[:, :2] - self._offset[None, :]), -om, om)
 
-    def _telemetry(self, x0: np.ndarray, s_pred: float, X: np.ndarray, U: np.ndarray, radii: np.ndarray,
+    def _telemetry(self, x0: np.ndarray, s_pred: float | None, X: np.ndarray, U: np.ndarray, radii: np.ndarray,
                    slack: float) -> dict[str, float]:
         sp, b = self.spec, self.spec.problem.half_track
         bias = (radii[0] * self._offset[0] - radii[1] * self._offset[1]) / (2.0 * b)
         ec, _ = path_errors(self.path, x0[:1], x0[1:2], x0[3:4])
-        _, el = path_errors(self.path, x0[:1], x0[1:2], np.array([s_pred]))
+        _, el = path_errors(self.path, x0[:1], x0[1:2], np.array([0.0 if s_pred is None else s_pred]))
         V = 0.5 * (radii[0] * U[0, 0] + radii[1] * U[0, 1])
         a = V * (radii[0] * U[0, 0] - radii[1] * U[0, 1]) / (2.0 * b)
         bound = sp.problem.max_lateral_accel
         return {
             "pf_progress": float(x0[3]), "pf_contouring_error": float(ec[0]),
-            "pf_lag_error": float(el[0]) if self.solves > 1 else float("nan"),
+            "pf_lag_error": float(el[0]) if s_pred is not None else float("nan"),
             "pf_speed_desired": sp.desired_speed, "pf_speed_planned": float(V),
             "pf_progress_speed": float(U[0, 2]), "pf_lateral_accel": float(a),
             "pf_lateral_bound": float("nan") if bound is None else float(bound), "pf_slack": float(slack),
-            "pf_yaw_offset": float(bias),
+            "pf_yaw_offset": float(bias), **self._interval_telemetry(radii),
         }
+
+    def _interval_telemetry(self, radii: np.ndarray) -> dict[str, float]:
+        """The degraded mode's columns (module constant :data:`TELEMETRY`) but the slack."""
+        iv = self._interval
+        lo, hi = (radii, radii) if iv is None else (iv.lo, iv.hi)
+        skid = (0, 0) if iv is None else iv.skid
+        return {"pf_degraded": float(iv is not None), "pf_R_R_lo": float(lo[0]), "pf_R_R_hi": float(hi[0]),
+                "pf_R_L_lo": float(lo[1]), "pf_R_L_hi": float(hi[1]), "pf_skid": float(skid[0]) + 2.0 * skid[1]}
 
     def _feed_forward(self, t: float, x0: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The path ahead of ``x0`` traversed at the desired speed: states (N, 4) and inputs (N, 3)."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .pathfollow_spec import SLACK_MAX, PathFollowingSpec, lateral_sides
+from .pathfollow_spec import SLACK_MAX, PathFollowingSpec, RadiusInterval, lateral_sides
 from .reference import Path
 from .solver_cache import ipopt_solver
 from .solvers import ipopt_options, warm_started_solve
@@ -19,14 +19,19 @@ class PathNLP:
     parameters ``p = [x0, y0, psi0, s0, R_R, R_L, V_applied]``. Constraint rows as :class:`PathQP`'s, exact
     instead of linearised: collocation (4N), initial state (4), wheel-rate rates (2N), traction (4N + 4, or
     2N), longitudinal acceleration (N) and the speed at ``t0`` relative to ``V_applied`` (1).
+
+    ``robust`` (the degraded mode): N more variables ``τ`` after ``σ``, 4 more parameters (the interval's
+    corners ``[hi_R, lo_L, lo_R, hi_L]``, m) and the 2N interval rows of :class:`PathQP` (exact), placed
+    after the traction rows.
     """
 
     def __init__(self, col: Collocation, spec: PathFollowingSpec, path: Path, max_iter: int,
-                 cold_time_budget: float | None, time_budget: float | None) -> None:
-        self.col, self.spec = col, spec
+                 cold_time_budget: float | None, time_budget: float | None, robust: bool = False) -> None:
+        self.col, self.spec, self.robust = col, spec, bool(robust)
         N, h, pr = col.N, col.h, spec.problem
-        w = ca.SX.sym("w", 7 * N + 1)
-        p = ca.SX.sym("p", 7)
+        n_tau = N if robust else 0
+        w = ca.SX.sym("w", 7 * N + 1 + n_tau)
+        p = ca.SX.sym("p", 7 + (4 if robust else 0))
         X = ca.reshape(w[: 4 * N], N, 4).T  # 4 x N
         U = ca.reshape(w[4 * N: 7 * N], N, 3).T  # 3 x N
         sig = w[7 * N]
@@ -66,6 +71,8 @@ class PathNLP:
                 g.append(sl * a[0] + so * spec.braking_trade * (Vp[0, 0] - p[6]) / spec.sample_time - sig)
                 lbg.append([-np.inf])
                 ubg.append([pr.max_lateral_accel])
+            if robust:
+                J += self._interval_rows(g, lbg, ubg, w[7 * N + 1:], p[7:], U[:2, :], rates)
         if pr.max_longitudinal_accel is not None:
             g.append(dU[0, :].T * 0.5 * radii[0] + dU[1, :].T * 0.5 * radii[1])
             g.append(Vp[0, 0])  # speed at t0, within a_max T_s of the applied command's (bounds per solve)
@@ -74,26 +81,48 @@ class PathNLP:
         self._lbg, self._ubg = np.concatenate(lbg), np.concatenate(ubg)
         if pr.max_lateral_accel is None:
             self._lat0 = (0, 0)
-        self._lbx = np.concatenate([-np.inf * np.ones(6 * N), np.zeros(N), [0.0]])
-        self._ubx = np.concatenate([np.inf * np.ones(6 * N), spec.max_progress_speed * np.ones(N), [SLACK_MAX]])
+        self._lbx = np.concatenate([-np.inf * np.ones(6 * N), np.zeros(N + 1 + n_tau)])
+        self._ubx = np.concatenate([np.inf * np.ones(6 * N), spec.max_progress_speed * np.ones(N),
+                                    SLACK_MAX * np.ones(1 + n_tau)])
         opts = ipopt_options(max_iter, cold_time_budget, time_budget)
-        self._solver = ipopt_solver("pf_nmpc", {"x": w, "p": p, "f": J, "g": ca.vertcat(*g)}, opts)
+        name = "pf_nmpc_robust" if robust else "pf_nmpc"
+        self._solver = ipopt_solver(name, {"x": w, "p": p, "f": J, "g": ca.vertcat(*g)}, opts)
+        self.corner_slack = 0.0
+        """Largest τ_j (m/s²) of the last robust solve (0 without the interval rows)."""
         self.size = (w.numel(), self._lbg.size)
         self.reset()
+
+    def _interval_rows(self, g: list, lbg: list, ubg: list, tau: ca.SX, corners: ca.SX, Uw: ca.SX,
+                       rates: ca.Function) -> ca.SX:
+        """Append the interval rows ``±a(corner)_j − τ_j ≤ A`` (upper corner ``corners[0:2]``, lower
+        ``corners[2:4]``) to ``g, lbg, ubg``; returns their slack cost ``Σ_j W_j (slack_penalty τ_j + τ_j²)``."""
+        N, A = self.col.N, self.spec.problem.max_lateral_accel
+        for k, sign in ((0, 1.0), (2, -1.0)):
+            Vp = rates(ca.vertcat(ca.DM.zeros(3, N), ca.repmat(corners[k:k + 2], 1, N)), Uw)
+            g.append(sign * (Vp[0, :] * Vp[1, :]).T - tau)
+            lbg.append(-np.inf * np.ones(N))
+            ubg.append(A * np.ones(N))
+        return ca.mtimes(ca.DM(self.col.W).T, self.spec.slack_penalty * tau + tau**2)
 
     def reset(self) -> None:
         """Forget the dual warm start."""
         self._lam: tuple[np.ndarray, np.ndarray] | None = None
 
     def solve(self, x0: np.ndarray, radii: np.ndarray, bounds: tuple[np.ndarray, np.ndarray],
-              V_applied: float | None, Xg: np.ndarray, Ug: np.ndarray
+              V_applied: float | None, Xg: np.ndarray, Ug: np.ndarray, interval: RadiusInterval | None = None
               ) -> tuple[bool, str, int, np.ndarray | None, np.ndarray | None, float]:
         """``(ok, status, iterations, X (N,4), U (N,3), σ)`` from the guess ``(Xg, Ug)``; ``bounds`` are the
-        model's wheel-rate bounds (:func:`wheel_bounds`), ``V_applied`` (m/s) the speed of the applied command."""
+        model's wheel-rate bounds (:func:`wheel_bounds`), ``V_applied`` (m/s) the speed of the applied command,
+        ``interval`` the degraded mode's radius interval (required by, and only used by, a robust NLP)."""
         N = self.col.N
         lbx, ubx = self._lbx.copy(), self._ubx.copy()
         lbx[4 * N:6 * N], ubx[4 * N:6 * N] = bounds
-        wg = np.clip(np.concatenate([Xg.T.ravel(), Ug.T.ravel(), [0.0]]), lbx, ubx)
+        wg = np.clip(np.concatenate([Xg.T.ravel(), Ug.T.ravel(), np.zeros(lbx.size - 6 * N - N)]), lbx, ubx)
+        p = np.concatenate([x0, radii, [V_applied or 0.0]])
+        if self.robust:
+            if interval is None:
+                raise ValueError("a robust path-following NLP needs the radius interval")
+            p = np.concatenate([p, *interval.corners()])
         lbg, ubg = self._lbg.copy(), self._ubg.copy()
         amax = self.spec.problem.max_longitudinal_accel
         if amax is not None and V_applied is not None:
@@ -101,11 +130,11 @@ class PathNLP:
         if V_applied is None:  # no applied command yet: the t0 rows of the braking trade-off are open
             i0, n0 = self._lat0
             ubg[i0:i0 + n0] = np.inf
-        args = {"x0": wg, "p": np.concatenate([x0, radii, [V_applied or 0.0]]), "lbx": lbx, "ubx": ubx,
-                "lbg": lbg, "ubg": ubg}
+        args = {"x0": wg, "p": p, "lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
         ok, status, it, wv, self._lam = warm_started_solve(self._solver, args, self._lam)
         if not ok:
             return False, status, it, None, None, float("nan")
+        self.corner_slack = float(wv[7 * N + 1:].max()) if self.robust else 0.0
         return (True, status, it, wv[: 4 * N].reshape(4, N).T, wv[4 * N: 7 * N].reshape(3, N).T,
                 float(wv[7 * N]))
 

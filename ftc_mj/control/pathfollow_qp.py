@@ -7,7 +7,7 @@ import numpy as np
 
 from .certified_qp import CertifiedQP
 from .elimination import StateElimination, lateral_accel_linearisation
-from .pathfollow_spec import SLACK_MAX, PathFollowingSpec, lateral_sides
+from .pathfollow_spec import SLACK_MAX, PathFollowingSpec, RadiusInterval, lateral_sides
 from .reference import Path, path_errors
 from .solvers import BufferedFunction, default_qp_options
 from .transcription import Collocation
@@ -27,13 +27,26 @@ class PathQP:
     max_longitudinal_accel T_s``. Bounds: the model's wheel rates (:func:`wheel_bounds`), progress speed,
     slack. ``path_counts`` counts how each QP was
     decided (``guess``/``ipm``/``farkas`` by the certified path, ``plugin``).
+
+    ``robust`` (the degraded mode, :class:`~ftc_mj.control.pathfollow_spec.RadiusInterval`): N more variables,
+    the per-node slacks ``τ_j ≥ 0`` (m/s²) of the interval's rows, and 2N more rows at the end,
+    ``a(hi_R, lo_L)_j − τ_j ≤ A`` and ``−a(lo_R, hi_L)_j − τ_j ≤ A`` (the robot's ``V psidot`` at the
+    interval's two extreme corners, linearised like the model's rows), with the cost
+    ``Σ_j W_j (slack_penalty τ_j + τ_j²)``. Per-node slacks (an exact L1 penalty) instead of the single σ:
+    where the command in force violates the interval's bound, σ would be set by ``t0`` and leave the rest
+    of the plan free up to that violation, whereas each ``τ_j`` is paid for, so the plan slows down as
+    fast as the other rows allow until the bound holds at every radius of the interval.
     """
 
     def __init__(self, col: Collocation, spec: PathFollowingSpec, path: Path, qpsol: str = "daqp",
-                 qp_options: dict | None = None, certified: bool | None = None) -> None:
+                 qp_options: dict | None = None, certified: bool | None = None, robust: bool = False) -> None:
         self.col, self.spec, self.path = col, spec, path
         N, h, pr = col.N, col.h, spec.problem
-        self.n = n = 3 * N + 1
+        if robust and pr.max_lateral_accel is None:
+            raise ValueError("the degraded mode's interval rows need a lateral-acceleration bound")
+        self.robust = bool(robust)
+        self.i_sig = 3 * N  # index of σ; the robust slacks τ follow it
+        self.n = n = 3 * N + 1 + (N if robust else 0)
         self.elim = StateElimination(col)
         self._J = BufferedFunction(col.rates_jac)
         self._J_cache: tuple[tuple[float, float], np.ndarray] | None = None
@@ -46,19 +59,26 @@ class PathQP:
         H0[N:2 * N, N:2 * N] += R
         H0[2 * N:3 * N, 2 * N:3 * N] += 2.0 * spec.progress_rate_penalty * (Dh.T * W) @ Dh
         H0[2 * N:3 * N, 2 * N:3 * N] += np.diag(2.0 * spec.q_progress * W)
-        H0[-1, -1] = 2.0
+        H0[self.i_sig, self.i_sig] = 2.0
         g0 = np.zeros(n)
         g0[2 * N:3 * N] = -2.0 * spec.q_progress * W * spec.desired_speed
-        g0[-1] = spec.slack_penalty
+        g0[self.i_sig] = spec.slack_penalty
+        if robust:
+            H0[3 * N + 1:, 3 * N + 1:] = np.diag(2.0 * W)
+            g0[3 * N + 1:] = spec.slack_penalty * W
         self.H0, self.g0 = H0, g0
         self._sqW = np.sqrt(np.concatenate([spec.q_contour * W, spec.q_lag * W, spec.q_heading * W]))
         self.rate_lim = pr.omega_rate_max * h
-        self.lbx = np.concatenate([np.zeros(3 * N), [0.0]])  # wheel-rate parts set per QP (wheel_bounds)
-        self.ubx = np.concatenate([np.zeros(2 * N), spec.max_progress_speed * np.ones(N), [SLACK_MAX]])
+        self.lbx = np.zeros(n)  # wheel-rate parts set per QP (wheel_bounds)
+        self.ubx = np.concatenate([np.zeros(2 * N), spec.max_progress_speed * np.ones(N),
+                                   SLACK_MAX * np.ones(n - 3 * N)])
         self.n_lat = (len(lateral_sides(spec)) * N + len(lateral_sides(spec, True))
                       if pr.max_lateral_accel is not None else 0)
         self.n_lon = N + 1 if pr.max_longitudinal_accel is not None else 0
-        self.m = 4 + 2 * N + self.n_lat + self.n_lon
+        self.n_rob = 2 * N if robust else 0
+        self.m = 4 + 2 * N + self.n_lat + self.n_lon + self.n_rob
+        self.corner_slack = 0.0
+        """Largest τ_j (m/s²) of the last robust QP solved (0 without the interval rows)."""
         self.certified = (qpsol == "daqp") if certified is None else bool(certified)
         self._cqp = CertifiedQP()
         opts = default_qp_options(qpsol)
@@ -68,14 +88,16 @@ class PathQP:
                                                             ("ubx", n), ("x0", n)))
         conic = ca.conic("pf_qp", qpsol, {"h": ca.Sparsity.dense(n, n), "a": ca.Sparsity.dense(self.m, n)}, opts)
         r = conic(h=Hs, g=gs, a=As, lba=bl, uba=bu, lbx=xl, ubx=xu, x0=u0)
-        self._plugin = BufferedFunction(ca.Function("pf_rti_qp", [Hs, gs, As, bl, bu, xl, xu, u0],
-                                                    [r["x"], r["cost"]]))
+        outs = [r["x"], r["cost"]] + ([r["lam_a"]] if robust else [])
+        self._plugin = BufferedFunction(ca.Function("pf_rti_qp", [Hs, gs, As, bl, bu, xl, xu, u0], outs))
         self.path_counts: dict[str, int] = {}
         self.reset()
 
     def reset(self) -> None:
-        """Forget the active-set guess (a reused solver then behaves like a new one)."""
+        """Forget the active-set guess and the interval rows' multipliers (a reused solver then behaves like a
+        new one)."""
         self._ws: np.ndarray | None = None
+        self._lam_rob: np.ndarray | None = None  # multipliers (2N,) of the interval rows of the last QP
 
     def jacobian(self, radii: np.ndarray) -> np.ndarray:
         """``d[V, psidot]/d[omega_R, omega_L]`` (2, 2) for the radii (cached per radii)."""
@@ -85,11 +107,13 @@ class PathQP:
         return self._J_cache[1]
 
     def build(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray,
-              bounds: tuple[np.ndarray, np.ndarray], V_applied: float | None) -> tuple[np.ndarray, ...]:
+              bounds: tuple[np.ndarray, np.ndarray], V_applied: float | None,
+              interval: RadiusInterval | None = None) -> tuple[np.ndarray, ...]:
         """QP data about the guess ``(Xg (N,4), Ug (N,3))``: ``(H, g, A, lba, uba, lbx, ubx, G, hc)`` with
         the cost ``½ uᵀHu + gᵀu``, rows ``lba ≤ A u ≤ uba``, bounds ``lbx ≤ u ≤ ubx`` and the states
         ``X = G u + hc`` (4N: x, y, psi, s stacked). ``bounds``: the model's wheel-rate bounds
-        (:func:`wheel_bounds`); ``V_applied`` (m/s): the speed of the applied command (None: none yet)."""
+        (:func:`wheel_bounds`); ``V_applied`` (m/s): the speed of the applied command (None: none yet);
+        ``interval``: the radius interval of the degraded mode (required by, and only used by, a robust QP)."""
         col, sp, N, n = self.col, self.spec, self.col.N, self.n
         pr = sp.problem
         Gp, hp, E, e = self.elim.pose(Xg[:, :3], Ug[:, :2], radii, x0[:3])
@@ -137,28 +161,75 @@ class PathQP:
                 A[rows, :2 * N] = (so * sp.braking_trade) * Lo
                 A[rows, j] += sl * gR
                 A[rows, N + j] += sl * gL
-                A[rows, -1] = -1.0
+                A[rows, self.i_sig] = -1.0
                 lba[rows], uba[rows] = -np.inf, pr.max_lateral_accel - sl * lin0
             for q, (sl, so) in enumerate(lateral_sides(sp, True)):  # at t0, dV/dt from the applied command
                 row = i + len(sides) * N + q
                 c = so * sp.braking_trade / sp.sample_time
                 A[row, [0, N]] = sl * np.array([gR[0], gL[0]]) + c * J[0]
-                A[row, -1] = -1.0
+                A[row, self.i_sig] = -1.0
                 lba[row] = -np.inf
                 uba[row] = np.inf if V_applied is None else pr.max_lateral_accel - sl * lin0[0] + c * V_applied
             i += self.n_lat
         if self.n_lon:
-            amax = pr.max_longitudinal_accel
-            A[i:i + N, :2 * N] = Lo
-            lba[i:i + N], uba[i:i + N] = -amax, amax
-            # speed at t0 within a_max T_s of the speed of the applied command (open without one)
-            A[i + N, 0], A[i + N, N] = J[0, 0], J[0, 1]
-            V_app = 0.0 if V_applied is None else V_applied
-            dv = np.inf if V_applied is None else amax * sp.sample_time
-            lba[i + N], uba[i + N] = V_app - dv, V_app + dv
+            self._longitudinal_rows(A, lba, uba, i, Lo, J, V_applied)
+            i += self.n_lon
+        if self.robust:
+            if interval is None:
+                raise ValueError("a robust path-following QP needs the radius interval")
+            self._interval_rows(A, lba, uba, i, Ug, interval)
+            self._interval_curvature(H, g, Ug, interval)
         lbx, ubx = self.lbx.copy(), self.ubx.copy()
         lbx[:2 * N], ubx[:2 * N] = bounds
         return H, g, A, lba, uba, lbx, ubx, G, hc
+
+    def _longitudinal_rows(self, A: np.ndarray, lba: np.ndarray, uba: np.ndarray, i: int, Lo: np.ndarray,
+                           J: np.ndarray, V_applied: float | None) -> None:
+        """Rows ``i … i + N`` (in place): ``|dV/dt| ≤ max_longitudinal_accel`` at the nodes (``Lo`` (N, 2N) maps the
+        wheel rates to dV/dt) and the speed at t0 within ``max_longitudinal_accel T_s`` of the applied command's
+        (open without one); ``J`` is ``d[V, psidot]/d[omega_R, omega_L]``."""
+        N, amax = self.col.N, self.spec.problem.max_longitudinal_accel
+        A[i:i + N, :2 * N] = Lo
+        lba[i:i + N], uba[i:i + N] = -amax, amax
+        A[i + N, 0], A[i + N, N] = J[0, 0], J[0, 1]
+        V_app = 0.0 if V_applied is None else V_applied
+        dv = np.inf if V_applied is None else amax * self.spec.sample_time
+        lba[i + N], uba[i + N] = V_app - dv, V_app + dv
+
+    def _interval_rows(self, A: np.ndarray, lba: np.ndarray, uba: np.ndarray, i: int, Ug: np.ndarray,
+                       interval: RadiusInterval) -> None:
+        """Rows ``i … i + 2N`` (in place): the robot's lateral acceleration at the interval's corner of largest
+        ``a`` bounded above and at its corner of smallest ``a`` bounded below, each with its node's slack
+        ``τ_j``, linearised about the guess's wheel rates ``Ug`` (N, 2) (rad/s)."""
+        N, A_max = self.col.N, self.spec.problem.max_lateral_accel
+        j = np.arange(N)
+        for q, (corner, sign) in enumerate(zip(interval.corners(), (1.0, -1.0), strict=True)):
+            gR, gL, lin0 = lateral_accel_linearisation(Ug[:, :2], self.jacobian(corner))
+            rows = i + q * N + j
+            A[rows, j] = sign * gR
+            A[rows, N + j] = sign * gL
+            A[rows, 3 * N + 1 + j] = -1.0
+            lba[rows], uba[rows] = -np.inf, A_max - sign * lin0
+
+    def _interval_curvature(self, H: np.ndarray, g: np.ndarray, Ug: np.ndarray, interval: RadiusInterval) -> None:
+        """Add (in place) the convex part of the interval rows' curvature, weighted by their multipliers of the
+        previous QP, about the guess's wheel rates ``Ug`` (N, 2): ``λ_j ∂²(±a)/∂omega²`` has the diagonal
+        ``(R_R², −R_L²)/(2b)`` (upper corner) or ``(−R_R², R_L²)/(2b)`` (lower), and its positive entry
+        becomes the term ``½ c (omega − omega_g)²`` of the QP. Gauss–Newton alone leaves out this curvature;
+        with multipliers of the order of the slack penalty its RTI iterates then cycle from one side of the
+        row to the other instead of converging (measured on the test's braking plan)."""
+        if self._lam_rob is None:
+            return
+        N, b = self.col.N, self.spec.problem.half_track
+        up, lo = interval.corners()
+        lam = np.maximum(self._lam_rob, 0.0)
+        cR = lam[:N] * up[0] ** 2 / (2.0 * b)  # upper corner: + R_R² on omega_R
+        cL = lam[N:] * lo[1] ** 2 / (2.0 * b)  # lower corner (row −a): + R_L² on omega_L
+        j = np.arange(N)
+        H[j, j] += cR
+        H[N + j, N + j] += cL
+        g[:N] -= cR * Ug[:, 0]
+        g[N:2 * N] -= cL * Ug[:, 1]
 
     def solve_qp(self, H: np.ndarray, g: np.ndarray, A: np.ndarray, lba: np.ndarray, uba: np.ndarray,
                  lbx: np.ndarray, ubx: np.ndarray, u0: np.ndarray) -> tuple[bool, str, np.ndarray | None]:
@@ -171,6 +242,7 @@ class PathQP:
             if res.status == "optimal":
                 self.path_counts[res.path] = self.path_counts.get(res.path, 0) + 1
                 self._ws = res.working_set
+                self._lam_a = res.lam_a
                 return True, "optimal (certified active set)", res.u
             if res.status == "infeasible":
                 self.path_counts["farkas"] = self.path_counts.get("farkas", 0) + 1
@@ -178,19 +250,22 @@ class PathQP:
                 return False, "infeasible (Farkas certificate)", None
         self._ws = None
         self.path_counts["plugin"] = self.path_counts.get("plugin", 0) + 1
-        u = self._plugin(H, g, A, lba, uba, lbx, ubx, np.clip(u0, lbx, ubx))[0].copy()
+        out = self._plugin(H, g, A, lba, uba, lbx, ubx, np.clip(u0, lbx, ubx))
+        u = out[0].copy()
+        self._lam_a = out[2].ravel().copy() if self.robust else None
         st = self._plugin.stats()
         ok = self._plugin.ret == 0 and bool(st.get("success", True)) and bool(np.all(np.isfinite(u)))
         return ok, str(st.get("return_status", "ok" if ok else "qp failed")), u if ok else None
 
     def solve(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray,
-              bounds: tuple[np.ndarray, np.ndarray], V_applied: float | None
+              bounds: tuple[np.ndarray, np.ndarray], V_applied: float | None,
+              interval: RadiusInterval | None = None
               ) -> tuple[bool, str, np.ndarray | None, np.ndarray | None, float]:
         """Build (:meth:`build`) and solve the QP. Returns ``(ok, status, X (N,4), U (N,3), σ)``; the solution
         is checked independently against the rows and bounds (solvers differ in what they call success)."""
         N = self.col.N
-        H, g, A, lba, uba, lbx, ubx, G, hc = self.build(Xg, Ug, radii, x0, bounds, V_applied)
-        u0 = np.concatenate([Ug.T.ravel(), [0.0]])
+        H, g, A, lba, uba, lbx, ubx, G, hc = self.build(Xg, Ug, radii, x0, bounds, V_applied, interval)
+        u0 = np.concatenate([Ug.T.ravel(), np.zeros(self.n - 3 * N)])
         ok, status, u = self.solve_qp(H, g, A, lba, uba, lbx, ubx, u0)
         if ok:
             assert u is not None
@@ -204,8 +279,12 @@ class PathQP:
                 status = f"{status}; solution violates its constraints"
         if not ok:
             self._ws = None
+            self._lam_rob = None
             return False, status, None, None, float("nan")
         assert u is not None
+        if self.robust and self._lam_a is not None:
+            self._lam_rob = np.asarray(self._lam_a, float).ravel()[self.m - self.n_rob:].copy()
         u = np.clip(u, lbx, ubx)
         X = (G @ u + hc).reshape(4, N).T
-        return True, status, X, u[:3 * N].reshape(3, N).T, float(u[-1])
+        self.corner_slack = float(u[3 * N + 1:].max()) if self.robust else 0.0
+        return True, status, X, u[:3 * N].reshape(3, N).T, float(u[self.i_sig])

@@ -32,6 +32,25 @@ class RobotLimits:
 
 
 @dataclass(frozen=True)
+class RadiusInterval:
+    """The radii [R_R, R_L] (m) the robot's wheels may have, per wheel ``lo ≤ R ≤ hi``: what the degraded
+    mode hands the path-following NMPC from the first alarm until the interval collapses
+    (:mod:`ftc_mj.reconfiguration.degraded`). ``skid`` flags (right, left) the wheels whose no-slip test
+    fails (for the telemetry)."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    skid: tuple[bool, bool] = (False, False)
+
+    def corners(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(upper, lower)``: the radii of largest and of smallest lateral acceleration over the interval.
+        The robot's ``a = V psidot = (R_R² omega_R² − R_L² omega_L²)/(4 b)`` grows with ``R_R`` and falls with
+        ``R_L`` whatever the signs of the wheel rates, so its largest value over the box is at
+        ``(hi_R, lo_L)`` and its smallest at ``(lo_R, hi_L)``: two rows per node bound it at every radius."""
+        return np.array([self.hi[0], self.lo[1]]), np.array([self.lo[0], self.hi[1]])
+
+
+@dataclass(frozen=True)
 class PathFollowingSpec:
     """Numbers of the path-following problem (units in the field comments).
 
@@ -52,6 +71,7 @@ class PathFollowingSpec:
     braking_trade: float = 0.0  # lateral bound lost per m/s² of longitudinal acceleration
     sample_time: float = 0.1  # s
     slack_penalty: float = 1.0e4  # per m/s² of slack
+    max_lag: float = 0.0  # m, largest |lag| of the carried progress at t0 (0: re-projected at every sample)
 
 
 

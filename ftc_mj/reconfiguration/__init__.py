@@ -6,11 +6,13 @@ Public API::
     policy = build_policy(cfg, with_estimator=True)     # the registered policy cfg.reconfiguration.policy names
     policy = SafePolicy(cfg.reconfiguration, run_context(cfg))   # a policy from its settings and the run context
     weighting = build_scenario_weighting(cfg)           # None unless a robust NMPC is re-weighted by the filter
+    degraded = build_degraded_mode(cfg)                 # None unless pf-nmpc with the safe policy (the default)
 """
 
 from __future__ import annotations
 
-from .factory import build_policy, build_scenario_weighting
+from .degraded import DegradedMode, NoSlipCheck
+from .factory import build_degraded_mode, build_policy, build_scenario_weighting
 from .policies import (
     DirectPolicy,
     NominalPolicy,
@@ -22,13 +24,16 @@ from .policies import (
 from .scenario_weights import ScenarioWeighting, posterior_weights
 
 __all__ = [
+    "DegradedMode",
     "DirectPolicy",
+    "NoSlipCheck",
     "NominalPolicy",
     "ReconfigState",
     "ReconfigurationPolicy",
     "SafePolicy",
     "ScenarioWeighting",
     "TruthPolicy",
+    "build_degraded_mode",
     "build_policy",
     "build_scenario_weighting",
     "posterior_weights",

@@ -4,7 +4,8 @@
 from __future__ import annotations
 
 from ..config import RunConfig, run_context
-from ..registry import policies
+from ..registry import controllers, policies
+from .degraded import DegradedMode
 from .policies import ReconfigurationPolicy
 from .scenario_weights import ScenarioWeighting
 
@@ -27,3 +28,17 @@ def build_scenario_weighting(cfg: RunConfig) -> ScenarioWeighting | None:
     if c.kind != "robust-nmpc" or c.robust.weighting == "fixed" or cfg.estimator.kind == "none":
         return None
     return ScenarioWeighting(c.robust)
+
+
+def build_degraded_mode(cfg: RunConfig) -> DegradedMode | None:
+    """The degraded robust mode (``reconfiguration.degraded``) or ``None``: it needs a filter and a controller
+    registered with ``radius_intervals``; ``auto`` runs it with the ``safe`` policy, ``on`` with any policy but
+    ``none`` and ``truth``. The first alarm is the decision's ``k_sigma``/``min_drop`` departure."""
+    rc = cfg.reconfiguration
+    d = rc.degraded
+    takes = controllers.get(cfg.controller.kind).meta.get("radius_intervals", False)
+    wanted = rc.policy == "safe" if d.mode == "auto" else (d.mode == "on" and rc.policy not in ("none", "truth"))
+    if not takes or not wanted or cfg.estimator.kind == "none":
+        return None
+    return DegradedMode(d, run_context(cfg), cfg.estimator.decision.k_sigma, cfg.estimator.decision.min_drop,
+                        rc.max_rate)

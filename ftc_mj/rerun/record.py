@@ -111,6 +111,13 @@ PF_SERIES: tuple[tuple[str, str, list[int], str], ...] = (
     ("pf_lateral_accel", "/path_following/lateral_accel/planned", [40, 140, 240], "planned lateral acceleration"),
     ("pf_lateral_bound", "/path_following/lateral_accel/bound", [220, 40, 40], "bound"),
     ("pf_slack", "/path_following/slack", [150, 150, 150], "slack of the bound"),
+    ("pf_degraded", "/path_following/degraded/mode", [220, 40, 40], "degraded mode (1 = radius interval)"),
+    ("pf_corner_slack", "/path_following/degraded/slack", [150, 150, 150], "slack of the interval's bound"),
+    ("pf_skid", "/path_following/degraded/skid", [240, 110, 40], "no-slip test fails (1 right + 2 left)"),
+    ("pf_R_R_lo", "/path_following/degraded/R_R/lo", [40, 140, 240], "R_R interval low"),
+    ("pf_R_R_hi", "/path_following/degraded/R_R/hi", [40, 140, 240], "R_R interval high"),
+    ("pf_R_L_lo", "/path_following/degraded/R_L/lo", [240, 110, 40], "R_L interval low"),
+    ("pf_R_L_hi", "/path_following/degraded/R_L/hi", [240, 110, 40], "R_L interval high"),
 )
 """(trace column, entity, colour, name) of the path-following NMPC's series (logged at solve rows only)."""
 _MODE_COLORS = [[31, 119, 180], [255, 127, 14], [44, 160, 44], [214, 39, 40], [148, 103, 189],

@@ -48,7 +48,8 @@ from ..plant import SensorReading, Sensors, Truth
 from ..plant.actuator_faults import ACTUATOR_COLUMNS
 from ..plant.faults import fault_list
 from ..plant.sensor_faults import SENSOR_COLUMNS
-from ..reconfiguration.factory import build_policy, build_scenario_weighting
+from ..reconfiguration.degraded import DegradedMode
+from ..reconfiguration.factory import build_degraded_mode, build_policy, build_scenario_weighting
 from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
@@ -154,6 +155,8 @@ class Components:
     """The reconfiguration policy: which radii the controller is given."""
     weighting: ScenarioWeighting | None
     """A robust NMPC's scenario weights from the filter (``None``: as configured)."""
+    degraded: DegradedMode | None = None
+    """The degraded robust mode between the policy and a controller that takes radius intervals (``None``: off)."""
 
 
 def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any] | None = None) -> Components:
@@ -169,10 +172,11 @@ def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any]
     decision = build_fault_decision(cfg) if estimator is not None else None
     policy = build_policy(cfg, with_estimator=estimator is not None)
     weighting = build_scenario_weighting(cfg) if with_controller else None
+    degraded = build_degraded_mode(cfg) if estimator is not None else None
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
-    return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting)
+    return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting, degraded)
 
 
 def present(value: float | None) -> float | None:
@@ -313,6 +317,8 @@ class ClosedLoop:
         assert self.parts.decision is not None
         ds = self.parts.decision.update(t, out, u_pred, self.z)
         self.parts.policy.observe(out)
+        if self.parts.degraded is not None:
+            self.parts.degraded.observe(out)
         self.last_ds = ds
         self.suspected = ds.suspected
         return ds
@@ -338,10 +344,16 @@ class ClosedLoop:
 
     def reconfigure(self, t: float, u_meas: np.ndarray, tr: Truth) -> np.ndarray:
         """The radii (m) the policy gives the controller at ``t`` (s); a robust NMPC weighted by the filter
-        gets its scenario weights."""
+        gets its scenario weights; with the degraded mode, the radii pass its no-slip hand-over and the
+        controller gets the radius interval (or ``None``)."""
         self.model_radii = self.parts.policy.radii(t, self.out, self.last_ds, self.reset_since_solve, u_meas,
                                                    (tr.R_R, tr.R_L))
         self.reset_since_solve = False
+        if self.parts.degraded is not None:
+            self.model_radii, interval = self.parts.degraded.hand_over(t, self.model_radii, self.out, self.last_ds,
+                                                                       int(self.parts.policy.state))
+            if self.parts.controller is not None:
+                self.parts.controller.set_radius_interval(interval)
         if self.parts.weighting is not None:
             self.parts.controller.set_scenario_weights(self.parts.weighting.weights(self.out, self.model_radii))
         return self.model_radii
@@ -392,9 +404,13 @@ class ClosedLoop:
         return cols
 
     def result(self, wall0: float) -> SimResult:
-        """The run so far as a :class:`SimResult` (its events in time order, the policy's included);
+        """The run so far as a :class:`SimResult` (its events in time order, the policy's and the degraded
+        mode's included);
         ``wall0`` is the :func:`time.perf_counter` (s) at its start."""
-        events = sorted(self.events + list(self.parts.policy.events), key=lambda e: e.t)
+        events = self.events + list(self.parts.policy.events)
+        if self.parts.degraded is not None:
+            events += self.parts.degraded.events
+        events = sorted(events, key=lambda e: e.t)
         return SimResult(trace=self.columns(), solves=self.solves, events=events, counters=self.counters(),
                          decision=self.last_ds, n_modes=self.n_modes,
                          reference_path=self.parts.reference.path_points(720),

@@ -11,7 +11,13 @@ import pytest
 from ftc_mj.config import RunConfig, load_config
 from ftc_mj.control import build_controller, build_reference
 from ftc_mj.control.pathfollow import PathFollowingNMPC
-from ftc_mj.control.pathfollow_spec import PathFollowingSpec, RobotLimits, compliance_offset, wheel_bounds
+from ftc_mj.control.pathfollow_spec import (
+    PathFollowingSpec,
+    RadiusInterval,
+    RobotLimits,
+    compliance_offset,
+    wheel_bounds,
+)
 from ftc_mj.control.reference import FigureEightReference, LineReference
 from ftc_mj.control.spec import ProblemSpec
 from tests.support.kinsim import simulate
@@ -181,7 +187,7 @@ def test_factory_and_sim_hand_over_the_robot_limits() -> None:
     settings below, that run reuses this build instead of making its own."""
     from ftc_mj.sim.cache import controller_for, robot_limits
 
-    cfg = load_config("scenario1", {"controller.kind": "pf-nmpc", "controller.rate_penalty": 1.0})
+    cfg = load_config("scenario1", {"controller.kind": "pf-nmpc"})
     with pytest.raises(ValueError, match="lift-off"):
         build_controller(cfg, CIRCLE)
     lim = robot_limits(cfg)
@@ -191,12 +197,17 @@ def test_factory_and_sim_hand_over_the_robot_limits() -> None:
     assert ctl.spec.problem.max_lateral_accel == pytest.approx(cfg.controller.path_following.lateral_accel_margin
                                                                * lim.liftoff_accel)
     assert ctl.spec.braking_trade == pytest.approx(lim.braking_trade) and ctl.spec.desired_speed == 10.0
+    # its own actuation-rate weight (default 1), not the tracking NMPC's controller.rate_penalty (default 0)
+    assert cfg.controller.rate_penalty == 0.0 and ctl.spec.problem.rate_penalty == 1.0
     cfg.plant.kind = "kinematic"
     assert robot_limits(cfg).yaw_compliance == 0.0
     cfg.controller.path_following.max_lateral_accel = 2.5
     cfg.controller.path_following.braking_trade = False
+    cfg.controller.path_following.rate_penalty = 0.25
+    cfg.controller.rate_penalty = 3.0
     ctl = build_controller(cfg, CIRCLE)
     assert ctl.spec.problem.max_lateral_accel == 2.5 and ctl.spec.braking_trade == 0.0
+    assert ctl.spec.problem.rate_penalty == 0.25
     assert RobotLimits(3.0).yaw_compliance == 0.0
 
 
@@ -206,7 +217,7 @@ def test_mujoco_run_writes_the_telemetry_and_rerun_entities(tmp_path) -> None:
     from ftc_mj.rerun.read import read_scalar_series
     from ftc_mj.sim.run import execute
 
-    cfg = load_config("scenario1", {"controller.kind": "pf-nmpc", "duration": 2.0, "controller.rate_penalty": 1.0})
+    cfg = load_config("scenario1", {"controller.kind": "pf-nmpc", "duration": 2.0})
     out = execute(cfg, tmp_path)
     tr = out.result.trace
     rows = np.isfinite(tr["solve_time_ms"])
@@ -238,3 +249,97 @@ def test_first_command_stays_within_one_step_of_the_applied_command(solver: str,
         assert np.abs(o.omega).max() == pytest.approx(2.0, abs=1e-6)  # as far as the row allows
     else:
         assert 0.5 * R @ o.omega == pytest.approx(0.3, abs=1e-6)
+
+
+def _corner_accels(omega: np.ndarray, interval: RadiusInterval) -> tuple[np.ndarray, np.ndarray]:
+    """The robot's V psidot (m/s²) at the interval's upper and lower corners for wheel rates (N, 2)."""
+    up, lo = interval.corners()
+    return tuple(np.prod(_rates(omega, c), axis=0) for c in (up, lo))
+
+
+def test_interval_rows_hold_at_every_radius_of_the_interval() -> None:
+    """The corners bound V psidot over the whole box: on a grid of radii inside the interval and random wheel
+    rates (both signs), a(R_R, R_L) lies between its values at the lower and the upper corner (to round-off)."""
+    iv = RadiusInterval(np.array([1.2, 0.3]), np.array([2.0, 1.7]))
+    rng = np.random.default_rng(3)
+    om = rng.uniform(-8.0, 8.0, size=(200, 2))
+    a_up, a_lo = _corner_accels(om, iv)
+    for rr in np.linspace(1.2, 2.0, 5):
+        for rl in np.linspace(0.3, 1.7, 5):
+            a = np.prod(_rates(om, (rr, rl)), axis=0)
+            assert np.all(a <= a_up + 1e-12) and np.all(a >= a_lo - 1e-12)
+
+
+def test_ipopt_and_rti_iterates_honour_the_interval_rows(built) -> None:
+    """The left tyre anywhere in [0.5, 2] m, the right at 2 m, the robot on the circle at 10 m/s (the command in
+    force): the robot's V psidot at the corner (2, 0.5) is ≈ 20 m/s² at t0, far above the 3 m/s² bound.
+
+    IPOPT: the robust plan brakes (below 0.8 × its start speed at the horizon's end), its corner acceleration is
+    within the bound at the end (1e-6) and the slack τ pays for the start. RTI in closed loop (kinematic plant,
+    interval from t = 1 s): the speed follows from the rows alone — on the circle the corner's
+    ``a = V² [(1 + b/R_p)² − (0.5/2)² (1 − b/R_p)²] / (4 b) = 3`` at V = 3.4986 m/s, the speed the robot
+    approaches from above (below 4.5 m/s at 7 s, never below it by more than 0.5 %), and after the braking
+    (t ≥ 5 s) every applied command keeps the corner acceleration within 1e-3 m/s² of the bound (the rows are
+    linearised about the shifted plan) with τ = 0."""
+    spec = _spec(beta=0.0)
+    iv = RadiusInterval(np.array([2.0, 0.5]), np.array([2.0, 2.0]))
+    ip = built(PathFollowingNMPC, spec, CIRCLE, solver="ipopt", max_iter=300, tag="robust")
+    R = np.array([2.0, 2.0])
+    u_circle = np.array([10.2, 9.8]) / 2.0  # V = 10 m/s, psidot = 0.2 rad/s with 2 m tyres
+    ip.set_radius_interval(iv)
+    o = ip.solve(0.0, np.array([0.0, 0.0, 0.0]), R, u_circle)
+    assert o.success and not o.fallback
+    nlp = ip.degraded_solvers[0]
+    a_up, _ = _corner_accels(o.predicted_omega, iv)
+    V, _ = _rates(o.predicted_omega, R)
+    assert V[-1] < 0.8 * V[0] and a_up[-1] <= 3.0 + 1e-6 and nlp.corner_slack > 10.0
+
+    class FromOneSecond:  # hands the interval over from t = 1 s
+        telemetry_columns = PathFollowingNMPC.telemetry_columns
+
+        def __init__(self, ctl: PathFollowingNMPC) -> None:
+            self.ctl = ctl
+
+        def solve(self, t, pose, radii, u):
+            self.ctl.set_radius_interval(iv if t >= 1.0 else None)
+            return self.ctl.solve(t, pose, radii, u)
+
+    rti = built(PathFollowingNMPC, spec, CIRCLE, solver="rti-daqp", tag="robust")
+    res = simulate(FromOneSecond(rti), CIRCLE, 7.0, (0.0, 0.0, 0.0))
+    cmd = np.array([o.omega for o in res.outputs])  # one command per control sample (0.1 s)
+    a_cl, _ = _corner_accels(cmd, iv)
+    Vc, _ = _rates(cmd, R)
+    late = np.arange(len(cmd)) * 0.1 >= 5.0 - 1e-9
+    tau = [o.telemetry["pf_corner_slack"] for o, k in zip(res.outputs, late, strict=True) if k]
+    expect = math.sqrt(3.0 * 4.0 / ((1.02) ** 2 - (0.25 * 0.98) ** 2))
+    print(f"\n[pf] robust IPOPT: corner a {a_up[0]:.2f} -> {a_up[-1]:.3f} m/s², speed {V[0]:.2f} -> {V[-1]:.2f} m/s, "
+          f"largest slack {nlp.corner_slack:.2f}; RTI loop: speed {Vc[-10:].mean():.4f} (expected {expect:.4f}), "
+          f"corner a after 5 s ≤ {a_cl[late].max():.4f}, failures {rti.failures}")
+    assert rti.failures == 0 and expect * (1 - 5e-3) <= Vc[-1] <= 4.5
+    assert a_cl[late].max() <= 3.0 + 1e-3 and max(tau) < 1e-6
+
+
+@pytest.mark.parametrize("max_lag", [0.0, 2.0])
+def test_progress_feedback_closes_the_loop_on_the_progress_made(max_lag: float) -> None:
+    """Both tyres at 1 m, the model's at 2 m: the model's speed is twice the robot's, its curvature the robot's.
+    Re-projected progress (``max_lag = 0``) never sees the robot fall behind, so the robot settles at half the
+    desired 10 m/s (5 m/s within 1 %). Carried progress (``max_lag = 2`` m) turns the shortfall into a lag error
+    at t0 that the lag cost feeds back, and the plan speeds the model up: the robot runs faster than half the
+    desired speed (by more than 10 %; measured 6.10 m/s) but not at it — the plan may also slow its progress
+    point, which the weak progress term (1 s/m² against the lag's 10 /(m² s)) lets it do, and the lag is clipped
+    at 2 m (measured 6.85 m/s with 10 m). On the path within 5 cm; no lateral bound (the model's V psidot at
+    twice the speed would cap it)."""
+    spec = PathFollowingSpec(ProblemSpec(rate_penalty=1.0, max_lateral_accel=None, max_longitudinal_accel=3.0),
+                             max_lag=max_lag)
+    ctl = PathFollowingNMPC(spec, CIRCLE)
+    res = simulate(ctl, CIRCLE, 15.0, (0.0, 0.0, 0.0), true_radii=lambda t: (1.0, 1.0),
+                   model_radii=lambda t: (2.0, 2.0))
+    V, _ = _rates(res.omega, (1.0, 1.0))
+    late = res.t > 12.0
+    print(f"\n[pf] max_lag {max_lag}: robot speed {V[late].mean():.3f} m/s, max|e| after 12 s "
+          f"{res.max_abs_error(12.0):.3f} m")
+    assert ctl.failures == 0 and res.max_abs_error(12.0) < 0.05
+    if max_lag == 0.0:
+        assert V[late].mean() == pytest.approx(5.0, rel=0.01)
+    else:
+        assert 5.5 < V[late].mean() < 10.0

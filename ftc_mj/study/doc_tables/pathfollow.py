@@ -109,9 +109,19 @@ def acceptance(df: pl.DataFrame, ctl: str) -> list[str]:
     return out
 
 
+def with_cell_columns(df: pl.DataFrame) -> pl.DataFrame:
+    """``df`` with the columns ``sensors``, ``policy`` and ``controller`` taken from a ``cell`` label
+    ``"<sensing>/<policy>/<controller>"`` (the study zips them into one axis), if it has one."""
+    if "cell" not in df.columns:
+        return df
+    part = pl.col("cell").str.split("/")
+    return df.with_columns(part.list.get(0).alias("sensors"), part.list.get(1).alias("policy"),
+                           part.list.get(2).alias("controller"))
+
+
 def report(out: Path) -> str:
     """The comparison table and each controller's acceptance verdicts from the study's output folder."""
-    df = read_results(out)
+    df = with_cell_columns(read_results(out))
     ok = df.filter(pl.col("status") == "ok")
     lines = [f"{df.height} runs ({df.height - ok.height} failed), seeds {sorted(set(df['seed'].to_list()))}\n",
              comparison_table(df)]

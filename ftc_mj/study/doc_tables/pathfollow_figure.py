@@ -1,6 +1,6 @@
 """The figure of docs/findings.md, "A path-following NMPC that degrades gracefully" (docs/figures/pathfollow.png),
 from the built-in study ``pathfollow_figure`` (``ftc_mj/data/studies/pathfollow_figure.toml``: scenarios 3 and 4
-× nmpc / pf-nmpc, UKF, safe policy, speed + yaw rate, seed 3, every trace row kept).
+× nmpc / pf-nmpc, UKF, safe policy, speed + yaw rate, seed 1000, every trace row kept).
 
     ftc-mj study pathfollow_figure --workers 2
     ftc-mj study pathfollow_figure --report     # writes OUT/figures/pathfollow.png

@@ -35,7 +35,7 @@ def test_the_study_is_the_four_runs_of_the_script() -> None:
     got = {(r.labels["scenario"], r.labels["controller"]): r for r in plan.runs}
     assert sorted(got) == [(s, c) for s in ("scenario3", "scenario4") for c in ("nmpc", "pf-nmpc")]
     for (scenario, ctl), run in got.items():
-        cfg = load_config(scenario, {**SETTINGS, "seed": 3, "controller.kind": ctl})
+        cfg = load_config(scenario, {**SETTINGS, "seed": 1000, "controller.kind": ctl})
         assert run.config == cfg.model_dump(mode="json")  # the same run (name and description included)
         assert plan.spec.analysis.timeseries_rate == cfg.estimator.rate  # every trace row is kept
     assert set(plan.spec.analysis.timeseries_columns) | {"t", "R_R", "R_L", "cross_track_error"} >= set(pf.SERIES)
@@ -70,7 +70,7 @@ def study_out(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _script_arrays(scenario: str, ctl: str) -> dict[str, np.ndarray]:
     """What the script computed from a run's full trace (its figure's cfg: scenario 4 with the --set)."""
-    cfg = load_config(scenario, {**SETTINGS, **EXTRA, "seed": 3, "controller.kind": ctl})
+    cfg = load_config(scenario, {**SETTINGS, **EXTRA, "seed": 1000, "controller.kind": ctl})
     tr = _trace(cfg)
     c4 = load_config("scenario4", EXTRA)
     lift = (np.nan_to_num(tr["plant_flags"]).astype(np.int64) & LIFTOFF) != 0
@@ -81,7 +81,7 @@ def _script_arrays(scenario: str, ctl: str) -> dict[str, np.ndarray]:
 
 def test_figure_arrays_from_the_rows_equal_the_scripts(study_out: Path) -> None:
     seed, traces, status = pf.run_traces(pl.read_parquet(study_out / "results.parquet"))
-    assert seed == 3 and set(status.values()) == {"ok"}
+    assert seed == 1000 and set(status.values()) == {"ok"}
     arrays = pf.figure_arrays(traces, load_config("scenario4", pf._set_overrides(study_out)))
     for ctl in pf.CONTROLLERS:
         s4, s3, d = _script_arrays("scenario4", ctl), _script_arrays("scenario3", ctl), arrays[ctl]
@@ -104,7 +104,7 @@ def test_report_draws_the_scripts_panels(study_out: Path, monkeypatch: pytest.Mo
     monkeypatch.setattr(pf, "save_figure", lambda fig, path: (drawn.append(fig), real(fig, path)))
     text = pf.report(study_out)
     png = study_out / "figures" / "pathfollow.png"
-    assert text.splitlines()[0] == f"figure: {png} (seed 3)" and png.read_bytes()[:4] == b"\x89PNG"
+    assert text.splitlines()[0] == f"figure: {png} (seed 1000)" and png.read_bytes()[:4] == b"\x89PNG"
     # cte 0.2 t² and v 10 - 2 t at the last row (2.99 s); 42 lift-off rows of 10 ms (the NaN rows not counted)
     assert "| scenario4 | pf-nmpc | ok | 300 | 1.79 at 3.0 s | 4.02 | 0.42 |" in text
     assert "| scenario3 | nmpc | ok | 300 | 0.89 at 3.0 s | 7.01 | 0.42 |" in text
@@ -112,7 +112,7 @@ def test_report_draws_the_scripts_panels(study_out: Path, monkeypatch: pytest.Mo
     assert tuple(fig.get_size_inches()) == (9, 9)
     ax = fig.axes
     assert [a.get_title() for a in ax] == [
-        "scenario 4 (left tyre 2 → 0.1 m, 10–29 s), seed 3, UKF, safe, speed + yaw rate", "",
+        "scenario 4 (left tyre 2 → 0.1 m, 10–29 s), seed 1000, UKF, safe, speed + yaw rate", "",
         "scenario 3 (left then right tyre 2 → 1 m at 5 s and 10 s)"]
     assert [a.get_ylabel() for a in ax] == ["speed (m/s)", "cross-track error (m)", "v · yaw rate (m/s²)"]
     assert [[(ln.get_label(), ln.get_color()) for ln in a.get_lines()] for a in ax] == [
@@ -126,9 +126,9 @@ def test_report_draws_the_scripts_panels(study_out: Path, monkeypatch: pytest.Mo
 def test_cli_report_and_its_refusals(study_out: Path, tmp_path: Path) -> None:
     res = runner.invoke(app, ["study", "pathfollow_figure", "--report", "--out", str(study_out)])
     assert res.exit_code == 0, res.output
-    assert res.output.startswith(f"figure: {study_out / 'figures' / 'pathfollow.png'} (seed 3)\n")
+    assert res.output.startswith(f"figure: {study_out / 'figures' / 'pathfollow.png'} (seed 1000)\n")
     df = pl.read_parquet(study_out / "results.parquet")
-    for name, rows, message in (("partial", df.head(3), "no run of scenario4, pf-nmpc, seed 3"),
+    for name, rows, message in (("partial", df.head(3), "no run of scenario4, pf-nmpc, seed 1000"),
                                 ("short", df.drop("ts_plant_flags"), "the results keep no ts_plant_flags")):
         (tmp_path / name).mkdir()
         rows.write_parquet(tmp_path / name / "results.parquet")

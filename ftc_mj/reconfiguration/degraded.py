@@ -1,0 +1,189 @@
+"""The degraded robust mode of the path-following NMPC and the no-slip test of the identification.
+
+From the first alarm until the fault is isolated and identified, the controller is handed, for each wheel
+that may be faulty, a radius *interval* instead of a point (:class:`~ftc_mj.control.pathfollow_spec.RadiusInterval`),
+and bounds the robot's lateral acceleration at every radius of it; the speed reduction follows from those
+constraints. The interval of a suspect wheel is ``[min_radius, estimate]``: the smallest radius a fault can
+leave, and the filter's estimate, which a skidding tyre pushes *above* its true radius (a tyre dragged slower
+than it rolls shows the effective radius ``(V ∓ b psidot)/omega``, larger than its own) — never
+``estimate ± kσ``: during a skid the covariance is many σ off while the innovations stay consistent.
+
+**The no-slip test** (:class:`NoSlipCheck`). The kinematic model the filter uses assumes the tyres roll. A
+dragged tyre breaks it without the innovations showing anything: with speed and yaw rate measured, the two
+radii are two unknowns that any pair of contact speeds fits, so the filter follows the skidding tyre's
+*effective* radius with a consistent NIS (a field review measured 1.8–2.0 m against a true 1.0 m at NIS/dim
+≈ 1). Yaw rate against the wheel kinematics cannot tell either, for the same reason: the estimated radii are
+the ones that make them agree. What a skid cannot fake is *constancy*: a rolling tyre's radius is a property
+of the tyre, constant after a puncture (or shrinking slowly while it deflates), whereas the effective radius
+of a dragged tyre is the ratio of a ground speed the chassis dynamics set and a wheel rate the servo sets, and
+it moves whenever either changes — in the measured skid the estimate fell 1.9 → 1.0 m in 1.2 s. The test
+flags a wheel whose estimate, averaged over the latest ``window/2`` s, differs from its average over the
+``window/2`` s before by more than ``max_radius_rate · window/2 + k_sigma σ`` (σ the filter's standard
+deviation of that radius: the allowance for the estimate's own scatter). A flagged wheel's radius is not
+handed over (the radii in use are held for it; released afterwards at the policy's ``max_rate``), and the
+wheel stays in the interval. The same test holds a hand-over while a converging estimate still moves, which
+costs delay only: the interval protects meanwhile.
+
+**The mode.** A wheel is suspect from the first alarm: its estimate below nominal by the decision's
+``k_sigma`` σ and ``min_drop`` (the sigma rule's candidate, before any dwell), the decision suspecting a
+fault it has not isolated (both wheels) or declaring one (the isolated wheels), or a failing no-slip test.
+A suspect wheel's interval collapses to the radius in use once the policy hands it over (state ``HANDED``,
+the wheel isolated) and its no-slip test passes; the mode ends when no wheel's interval is open. Entry and
+exit are events; the interval, the mode and the flagged wheels are trace columns of the controller
+(``pf_degraded``, ``pf_R_*_lo/hi``, ``pf_skid``) and series of the Rerun recording.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Protocol
+
+import numpy as np
+
+from ..context import RunContext
+from ..control.pathfollow_spec import RadiusInterval
+from ..estimation.base import FilterOutput
+from ..estimation.decision import DecisionState, departures
+from ..telemetry import Event
+from .policies import ReconfigState
+
+_WHEELS = {"right": (True, False), "left": (False, True), "both": (True, True), "unknown": (True, True)}
+
+
+class DegradedSettings(Protocol):
+    """What the degraded mode reads of its settings (``[reconfiguration.degraded]``)."""
+
+    min_radius: float
+    """Smallest radius (m) a fault can leave: the lower end of a suspect wheel's interval."""
+    skid_window: float
+    """Window (s) of the no-slip test (two halves compared)."""
+    max_radius_rate: float
+    """Fastest change (m/s) of a rolling tyre's radius (a deflation) the no-slip test accepts."""
+    skid_k_sigma: float
+    """Allowance of the no-slip test for the estimate's scatter, in σ of the radius."""
+
+
+class NoSlipCheck:
+    """Per wheel, whether the filter's radius estimate moves faster than a rolling tyre's radius can (module
+    docstring). ``observe`` at every estimator step; ``slipping`` (right, left) after it."""
+
+    def __init__(self, window: float, max_radius_rate: float, k_sigma: float, estimator_rate: float) -> None:
+        self.half = max(1, round(0.5 * window * estimator_rate))
+        self.allow = max_radius_rate * self.half / estimator_rate
+        self.k_sigma = float(k_sigma)
+        self._r: deque[np.ndarray] = deque(maxlen=2 * self.half)
+        self.sigma = np.zeros(2)
+        self.slipping: tuple[bool, bool] = (False, False)
+        self.moved = np.zeros(2)
+        """Difference (m) of the two half-window means of each radius at the last step."""
+
+    def observe(self, out: FilterOutput) -> None:
+        """Record this step's radius estimates (m) and update the flags."""
+        r = np.asarray(out.x[3:5], dtype=float)
+        if not np.all(np.isfinite(r)):
+            return
+        self._r.append(r.copy())
+        self.sigma = np.sqrt(np.clip(np.diag(out.P)[3:5], 0.0, None))
+        if len(self._r) < 2 * self.half:
+            return
+        arr = np.asarray(self._r)
+        self.moved = arr[self.half:].mean(axis=0) - arr[: self.half].mean(axis=0)
+        flag = np.abs(self.moved) > self.allow + self.k_sigma * self.sigma
+        self.slipping = (bool(flag[0]), bool(flag[1]))
+
+    def reset(self) -> None:
+        """Forget the history."""
+        self._r.clear()
+        self.slipping = (False, False)
+        self.moved = np.zeros(2)
+
+
+class DegradedMode:
+    """The radius interval from the first alarm and the skid-proof hand-over (module docstring).
+
+    ``observe(out)`` at every estimator step; ``hand_over(t, radii, out, decision, policy_state)`` at every
+    controller sample turns the policy's radii into the radii the controller uses and the interval it is
+    handed (``None`` outside the mode); ``events`` are the mode's entries, exits and skid holds.
+    """
+
+    def __init__(self, settings: DegradedSettings, context: RunContext, k_sigma: float, min_drop: float,
+                 max_rate: float) -> None:
+        self.settings = settings
+        self.nominal = np.array(context.nominal_radii, dtype=float)
+        self.min_radius = float(settings.min_radius)
+        self.k_sigma, self.min_drop = float(k_sigma), float(min_drop)
+        rate = context.estimator_rate or 1.0 / context.estimator_dt
+        self.skid = NoSlipCheck(settings.skid_window, settings.max_radius_rate, settings.skid_k_sigma, rate)
+        self.max_step = max_rate * context.controller_dt
+        self.dt = context.controller_dt
+        self.events: list[Event] = []
+        self.active = False
+        self._radii = self.nominal.copy()
+        self._held = (False, False)
+        self._open = np.zeros(2, dtype=bool)  # the wheels whose interval is open (latched from the alarm)
+        self._identified = np.zeros(2, dtype=bool)  # the wheels whose interval collapsed (reopened by a skid)
+        self._quiet = np.zeros(2)  # time (s) each open wheel has been without an alarm
+
+    def observe(self, out: FilterOutput) -> None:
+        """This estimator step's output (fed to the no-slip test)."""
+        self.skid.observe(out)
+
+    def suspects(self, out: FilterOutput, decision: DecisionState | None) -> np.ndarray:
+        """Per wheel (right, left): may be faulty — first alarm, suspected or declared fault, failing no-slip test."""
+        below = np.array(departures(out, float(self.nominal[0]), self.k_sigma, self.min_drop)[0])
+        s = below | np.array(self.skid.slipping)
+        if decision is not None:
+            if decision.suspected:
+                s |= True
+            if decision.detected:
+                s |= np.array(_WHEELS.get(decision.wheel or "", (False, False)))
+        return s
+
+    def hand_over(self, t: float, radii: np.ndarray, out: FilterOutput | None, decision: DecisionState | None,
+                  policy_state: int) -> tuple[np.ndarray, RadiusInterval | None]:
+        """The radii (m) for the controller's model and the interval (or ``None``) at ``t`` (s) from the policy's
+        ``radii`` (m) and state, the filter output and the decision."""
+        if out is None:
+            return np.asarray(radii, float).copy(), None
+        skid = np.array(self.skid.slipping)
+        proposed = np.asarray(radii, dtype=float)
+        step = np.clip(proposed - self._radii, -self.max_step, self.max_step)
+        self._radii = np.where(skid, self._radii, self._radii + step)
+        self._skid_events(t, skid, proposed)
+        isolated = np.array(_WHEELS.get(decision.wheel or "", (False, False))) if (
+            decision is not None and decision.detected and decision.wheel != "unknown") else np.zeros(2, bool)
+        collapsed = isolated & (policy_state == ReconfigState.HANDED) & ~skid
+        # an alarm opens the wheel's interval (an identified wheel's only by a failing no-slip test); it closes
+        # when the wheel is identified (collapsed), or when the alarm has been quiet for a whole no-slip window
+        # (a false alarm), not at the first quiet sample
+        alarm = np.where(self._identified, skid, self.suspects(out, decision))
+        self._quiet = np.where(alarm, 0.0, self._quiet + self.dt)
+        self._identified = (self._identified | (collapsed & self._open)) & ~skid
+        self._open = (self._open | alarm) & ~collapsed & (self._quiet < self.settings.skid_window)
+        open_ = self._open
+        est = np.asarray(out.x[3:5], dtype=float)
+        hi = np.where(open_, np.clip(np.nan_to_num(est, nan=self.nominal[0]), self.min_radius, self.nominal),
+                      self._radii)
+        lo = np.where(open_, self.min_radius, self._radii)
+        interval = RadiusInterval(lo, np.maximum(hi, lo), (bool(skid[0]), bool(skid[1]))) if open_.any() else None
+        self._mode_events(t, interval)
+        return self._radii.copy(), interval
+
+    def _skid_events(self, t: float, skid: np.ndarray, proposed: np.ndarray) -> None:
+        held = tuple(bool(s and p != r) for s, p, r in zip(skid, proposed, self._radii, strict=True))
+        for i, name in enumerate(("right", "left")):
+            if held[i] and not self._held[i]:
+                self.events.append(Event(t, "warn", f"no-slip test fails ({name} radius estimate moved "
+                                                    f"{self.skid.moved[i]:+.2f} m in {self.skid.half * 2} steps): "
+                                                    f"hand-over of its radius held"))
+        self._held = held
+
+    def _mode_events(self, t: float, interval: RadiusInterval | None) -> None:
+        if interval is not None and not self.active:
+            self.events.append(Event(t, "warn", f"degraded mode from the first alarm: R_R in [{interval.lo[0]:.2f}, "
+                                                f"{interval.hi[0]:.2f}] m, R_L in [{interval.lo[1]:.2f}, "
+                                                f"{interval.hi[1]:.2f}] m"))
+        elif interval is None and self.active:
+            self.events.append(Event(t, "info", f"degraded mode ends: interval collapsed to R_R "
+                                                f"{self._radii[0]:.2f} m, R_L {self._radii[1]:.2f} m"))
+        self.active = interval is not None

@@ -3,11 +3,13 @@ the servo faults it applies at their onset steps."""
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 from .actuator_faults import NEVER, ActuatorFaults, actuator_truth
 from .truth import describe_flags
 
 
-class PlantClock:
+class PlantClock(ABC):
     """Base of the truth plants: ``dt`` (s), the step count ``_k`` and the radii ``_radius`` (m) that a
     subclass keeps, read through :attr:`time`, :attr:`steps` and :attr:`radii`."""
 
@@ -43,13 +45,13 @@ class PlantClock:
             self._apply_servo(*self._servo)
         self._fault_next = self.actuator_faults.next_step(-1)
 
+    @abstractmethod
     def _advance(self, n: int) -> None:
         """Advance ``n`` physics steps (none for ``n <= 0``) with the servo state in force."""
-        raise NotImplementedError
 
+    @abstractmethod
     def _apply_servo(self, eff: tuple[float, float], lock: tuple[bool, bool]) -> None:
         """Put each wheel's servo effectiveness (fraction) and lock in force."""
-        raise NotImplementedError
 
     def fault_truth(self) -> dict[str, float]:
         """The servo state that acted in the last physics step, as trace values

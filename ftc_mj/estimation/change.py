@@ -275,12 +275,15 @@ def measurement_jacobian(setup: FilterSetup, x: np.ndarray, u: np.ndarray, kinds
 
 
 def linearise_step(setup: FilterSetup, x: np.ndarray, P: np.ndarray, y: np.ndarray, S: np.ndarray,
-                   u: np.ndarray) -> Linearisation | None:
+                   u: np.ndarray, used: tuple[int, ...] | None = None) -> Linearisation | None:
     """The detectors' view of a filter step with posterior ``(x, P)``, innovation ``y`` and its covariance
-    ``S`` over the channels the step used, predicted with wheel rates ``u`` (rad/s); ``None`` if the
-    step carries no usable innovation (a channel dropped, ``S`` not positive definite, non-finite)."""
+    ``S`` over the channels the step used (``used``: their codes, when the caller knows them), predicted
+    with wheel rates ``u`` (rad/s); ``None`` if the step carries no usable innovation (not a complete
+    channel set — a channel dropped —, ``S`` not positive definite, non-finite). ``used`` keeps a step
+    whose channel count matches a complete set by chance from being read as that set (a position fix
+    while speed and gyro drop out has two channels, as speed + gyro has)."""
     kinds = channel_kinds(setup, int(y.size))
-    if kinds is None:
+    if kinds is None or (used is not None and tuple(used) != kinds):
         return None
     H = measurement_jacobian(setup, x, u, kinds)
     m = len(kinds)

@@ -33,6 +33,7 @@ from ..model.kinematics import numpy_step_jacobian
 from .base import Measurement
 from .change import HYPOTHESES, InnovationCUSUM, JumpGLR, isolate, linearise_step
 from .ekf import EKF
+from .measurements import channels
 from .setup import FilterSetup
 
 _EYE5 = np.eye(5)
@@ -99,7 +100,8 @@ class ChangeDetectors:
         out = self.residual.step(u, z)
         x = np.asarray(out.x, float)
         lin = None if out.rejected else linearise_step(self.setup, x, np.asarray(out.P, float),
-                                                        np.asarray(out.innovation, float), np.asarray(out.S, float), u)
+                                                        np.asarray(out.innovation, float), np.asarray(out.S, float), u,
+                                                        channels(self.setup, z)[2])
         if lin is not None:
             self.white = lin.e
             e = lin.e[None, :]

@@ -158,3 +158,20 @@ def test_glr_declares_two_punctures_with_their_wheels() -> None:
     rule = dec.rule_impl
     for (_, wheel, drop, _), truth in zip(rule.alarms, ("left", "right"), strict=True):
         assert wheel == truth and abs(drop - DROP) < 0.1
+
+
+def test_a_position_fix_without_speed_and_gyro_is_not_read_as_speed_and_gyro() -> None:
+    """With speed, gyro and position fixes configured, a step whose speed and gyro dropped out carries
+    two channels (x, y), as a step with speed and gyro does: the detectors skip it rather than whiten it
+    with the speed/gyro Jacobian and noise. The same innovation with its channels named speed and gyro
+    is used."""
+    from ftc_mj.estimation.change import linearise_step
+    from ftc_mj.estimation.factory import setup_from_config
+    from ftc_mj.estimation.kernels.layout import POS_X, POS_Y, SPEED, YAW
+
+    setup = setup_from_config(RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01, "position_sigma": 1.0}}))
+    x, u = np.array([0.0, 0.0, 0.0, 2.0, 2.0]), np.array([5.0, 5.0])
+    y, S = np.array([0.1, -0.2]), np.diag([1.0, 2.0])
+    assert linearise_step(setup, x, setup.P0, y, S, u, (POS_X, POS_Y)) is None
+    assert linearise_step(setup, x, setup.P0, y, S, u, (SPEED, YAW)) is not None
+    assert linearise_step(setup, x, setup.P0, y, S, u) is not None  # callers that do not know the channels

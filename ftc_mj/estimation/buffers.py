@@ -10,7 +10,6 @@ import numpy as np
 from .kernels.layout import (
     C_BAD_NIS,
     C_DIV_STEPS,
-    C_EKF,
     C_N,
     C_REJECTIONS,
     C_RESETS,
@@ -43,7 +42,7 @@ class FilterBuffers:
     (n, n), ``pin_value``/``pin`` (n, 2), ``keep``/``reset_var`` (n, 5, 5), ``ramp`` (n,) and ``prm``.
     """
 
-    def __init__(self, setup: FilterSetup, n: int, member: str) -> None:
+    def __init__(self, setup: FilterSetup, n: int) -> None:
         lay = layout(n)
         self.n = n
         self.buf = np.zeros(lay.size)
@@ -74,7 +73,6 @@ class FilterBuffers:
         prm[P_GATE], prm[P_DIV_NIS] = setup.nis_gate, setup.divergence_nis
         prm[P_INFLATION], prm[P_MIN_RADIUS], prm[P_R0] = setup.reset_inflation, setup.min_radius, setup.nominal_radius
         self.cnt[C_DIV_STEPS] = setup.divergence_steps
-        self.cnt[C_EKF] = member == "ekf"
         self.cnt[C_N] = n
 
 

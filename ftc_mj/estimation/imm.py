@@ -135,7 +135,7 @@ class IMM(HealthCounters):
         n = len(self.hypotheses)
         self.Pi = np.asarray(transition if transition is not None else configured_transition(settings, n), float)
         self.variant = variant if variant is not None else settings.imm_variant
-        self._st = FilterBuffers(self.setup, n, member)
+        self._st = FilterBuffers(self.setup, n)
         self._step = imm_step_ekf if member == "ekf" else imm_step_ukf  # compiled per member kind
         self._init_constants(settings)
         self._init_state()

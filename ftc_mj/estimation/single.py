@@ -26,7 +26,7 @@ class SingleFilter(HealthCounters):
 
     def __init__(self, setup: FilterSetup) -> None:
         self.setup = setup
-        self._st = FilterBuffers(self.setup, 1, self.member)
+        self._st = FilterBuffers(self.setup, 1)
         self._x = self._st.X[0]  # views: the state lives in the buffers the compiled step works on
         self._P = self._st.P[0]
         self._x[:] = self.setup.x0

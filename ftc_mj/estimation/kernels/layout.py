@@ -22,8 +22,10 @@ MU_FLOOR = 1e-300
 N_SIGMA = 11
 """Julier sigma points of the 5-state filter: 2n + 1."""
 
-# int64 buffer: counters, then constants
-C_RESETS, C_REJECTIONS, C_BAD_NIS, C_STEPS, C_DIV_STEPS, C_EKF, C_HYP, C_N = range(8)
+# int64 buffer: counters, then constants. Slot 5 held the member kind (EKF or UKF); the kind now selects
+# the compiled step itself (:mod:`.single`, :mod:`.imm`), so the slot is unused. The indices stay: the
+# kernels' cached machine code has them built in, and their source files do not change with this one.
+C_RESETS, C_REJECTIONS, C_BAD_NIS, C_STEPS, C_DIV_STEPS, _C_UNUSED, C_HYP, C_N = range(8)
 N_COUNTERS = 8
 
 # float scalars at ``layout(n).prm``

@@ -24,13 +24,20 @@ the kinematic scenario 2 loop of the robust NMPC's acceptance test (start on the
 on the same loop (``benchmarks/dompc_multistage.py``: run here when ``do_mpc`` imports, else its
 number measured on this machine is printed with its date).
 
+``--degraded``: the path-following NMPC's degraded mode (:mod:`ftc_mj.reconfiguration.degraded`) on the
+loop above: from the fault at 10 s the controller is handed the left wheel's interval
+``[min_radius, 2 m]`` (the default ``reconfiguration.degraded.min_radius`` 0.05 m, the right wheel at its
+point 2 m), so its lateral-acceleration rows hold at the interval's corners; RTI and IPOPT, solve-time
+median/p95 before and after 10 s (the first sample after 10 s apart: it builds the interval
+solvers), beside the same loop without the interval (nominal), in one process.
+
 ``--rate-bound R``: the same three 40 s MuJoCo runs plus scenario 2 without feedback, with the
 first-step bound and with the first input free, alternated R times in one process; medians of wall
 time and of the runs' solve-time median/p95, with the largest command step, solver failures and
 cross-track maximum of each formulation.
 
 Usage: ``.venv/bin/python benchmarks/bench_mpc.py [--duration 30] [--skip-opti] [--skip-table] [--qp]
-[--runs 3] [--rate-bound 3] [--robust]``
+[--runs 3] [--rate-bound 3] [--robust] [--degraded]``
 """
 
 from __future__ import annotations
@@ -337,6 +344,52 @@ def pathfollow_rows(cfg: RunConfig, ref, duration: float) -> list[str]:
     return out
 
 
+class FromOnset:
+    """Hands a path-following NMPC the radius interval ``interval`` from ``onset`` (s) on, as the degraded mode
+    does from the first alarm."""
+
+    def __init__(self, ctl, interval, onset: float) -> None:
+        self.ctl, self.interval, self.onset = ctl, interval, onset
+        self.telemetry_columns = ctl.telemetry_columns
+
+    def solve(self, t, pose, radii, u):
+        self.ctl.set_radius_interval(self.interval if t >= self.onset - 1e-9 else None)
+        return self.ctl.solve(t, pose, radii, u)
+
+
+def degraded_table(duration: float) -> None:
+    """Solve times of the path-following NMPC with the degraded mode's interval rows against without them."""
+    from ftc_mj.control import build_controller
+    from ftc_mj.control.pathfollow_spec import RadiusInterval
+    from ftc_mj.sim.cache import robot_limits
+
+    cfg = RunConfig()
+    cfg.controller.kind, cfg.plant.kind, cfg.controller.time_budget = "pf-nmpc", "kinematic", 10.0
+    ref = build_reference(cfg)
+    r_min = cfg.reconfiguration.degraded.min_radius
+    interval = RadiusInterval(np.array([2.0, r_min]), np.array([2.0, 2.0]))
+    print(f"\nPath-following NMPC, degraded mode: {duration:.0f} s kinematic loop, R_L 2→1 m at 10 s (true radii), "
+          f"interval R_L ∈ [{r_min}, 2] m from 10 s; solve times in ms; load avg {os.getloadavg()[0]:.2f}.\n")
+    print("| solver | mode | median t<10 s | p95 t<10 s | first t≥10 s (s) | median t>10 s | p95 t>10 s "
+          "| max t>10 s | failures | speed at the end (m/s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for solver in ("rti-daqp", "ipopt"):
+        cfg.controller.solver = solver
+        for degraded in (False, True):
+            ctl = build_controller(cfg, ref, robot_limits(cfg))
+            loop = FromOnset(ctl, interval, 10.0) if degraded else ctl
+            res = simulate(loop, ref, duration, (0.0, -5.0, 0.0), true_radii=left_step)
+            st = res.solve_times * 1e3
+            k = np.arange(len(st)) / cfg.controller.rate
+            pre, first, post = st[1:][k[1:] < 10.0], st[k >= 10.0][0], st[k >= 10.0][1:]
+            w = res.outputs[-1].omega
+            speed = (w[0] * 2.0 + w[1] * 1.0) / 2.0
+            print(f"| {solver} | {'degraded' if degraded else 'nominal'} | {np.median(pre):.2f} | "
+                  f"{np.percentile(pre, 95):.2f} | {first / 1e3:.2f} | **{np.median(post):.2f}** | "
+                  f"{np.percentile(post, 95):.2f} | "
+                  f"{post.max():.1f} | {ctl.failures} | {speed:.2f} |")
+
+
 def controller_table(duration: float, skip_opti: bool) -> None:
     """The kinematic tracking loop for every MPC, with the first-step bound and with the first input free
     (alternated), and the plain Opti build (printed)."""
@@ -384,7 +437,11 @@ def main() -> None:
     ap.add_argument("--rate-bound", type=int, default=0,
                     help="whole MuJoCo runs, first-step bound vs free first input, this many times each")
     ap.add_argument("--robust", action="store_true", help="robust multi-stage NMPC vs nominal NMPC and do-mpc")
+    ap.add_argument("--degraded", action="store_true",
+                    help="path-following NMPC's degraded-mode solve time beside the nominal")
     args = ap.parse_args()
+    if args.degraded:
+        degraded_table(args.duration)
     if args.robust:
         robust_table(min(args.duration, 25.0))
     cfg = RunConfig()

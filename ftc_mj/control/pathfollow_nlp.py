@@ -86,7 +86,8 @@ class PathNLP:
                                     SLACK_MAX * np.ones(1 + n_tau)])
         opts = ipopt_options(max_iter, cold_time_budget, time_budget)
         name = "pf_nmpc_robust" if robust else "pf_nmpc"
-        self._solver = ipopt_solver(name, {"x": w, "p": p, "f": J, "g": ca.vertcat(*g)}, opts)
+        self._problem = (name, {"x": w, "p": p, "f": J, "g": ca.vertcat(*g)}, opts)
+        self._nlpsol: ca.Function | None = None
         self.corner_slack = 0.0
         """Largest τ_j (m/s²) of the last robust solve (0 without the interval rows)."""
         self.size = (w.numel(), self._lbg.size)
@@ -103,6 +104,14 @@ class PathNLP:
             lbg.append(-np.inf * np.ones(N))
             ubg.append(A * np.ones(N))
         return ca.mtimes(ca.DM(self.col.W).T, self.spec.slack_penalty * tau + tau**2)
+
+    @property
+    def solver(self) -> ca.Function:
+        """The IPOPT ``nlpsol``, built (or loaded from the solver cache) on the first solve: an RTI controller
+        needs it only to seed and re-seed, and the degraded mode's NLP often never."""
+        if self._nlpsol is None:
+            self._nlpsol = ipopt_solver(*self._problem)
+        return self._nlpsol
 
     def reset(self) -> None:
         """Forget the dual warm start."""
@@ -131,7 +140,7 @@ class PathNLP:
             i0, n0 = self._lat0
             ubg[i0:i0 + n0] = np.inf
         args = {"x0": wg, "p": p, "lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
-        ok, status, it, wv, self._lam = warm_started_solve(self._solver, args, self._lam)
+        ok, status, it, wv, self._lam = warm_started_solve(self.solver, args, self._lam)
         if not ok:
             return False, status, it, None, None, float("nan")
         self.corner_slack = float(wv[7 * N + 1:].max()) if self.robust else 0.0

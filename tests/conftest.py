@@ -81,12 +81,36 @@ def dask_client() -> Iterator[Any]:
         yield client
 
 
+DURATIONS_KEY = "ftc-mj/durations"
+"""pytest-cache key of every test's last duration (s, setup + call + teardown), by node id."""
+_DURATIONS: dict[str, float] = {}
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Tests on the session's Dask cluster share one xdist worker, so a parallel run (``-n 2``) still
     starts one cluster; they are collected first, so that their worker takes the group (about 40 s) at the
-    start and the other tests balance the two workers at the end."""
+    start. The others follow longest first, by their durations in the last session (pytest's cache; a test
+    never timed counts as 1 s), so that the two workers' last tests are short ones and they finish together
+    (greedy longest-processing-time scheduling). Every worker reads the same cache, so the order is the
+    same in each, as pytest-xdist requires."""
     on_cluster = {id(item) for item in items if "dask_client" in getattr(item, "fixturenames", ())}
     for item in items:
         if id(item) in on_cluster:
             item.add_marker(pytest.mark.xdist_group("dask"))
-    items.sort(key=lambda item: id(item) not in on_cluster)  # stable: the order within each part is kept
+    cache = getattr(config, "cache", None)
+    last = cache.get(DURATIONS_KEY, {}) if cache is not None else {}
+    items.sort(key=lambda item: (id(item) not in on_cluster, -float(last.get(item.nodeid, 1.0))))  # stable
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    """Note each test's duration (in the main process, where xdist's workers report)."""
+    _DURATIONS[report.nodeid] = _DURATIONS.get(report.nodeid, 0.0) + report.duration
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """Store this session's durations over the last ones (the main process only)."""
+    cache = getattr(session.config, "cache", None)
+    if cache is None or hasattr(session.config, "workerinput") or not _DURATIONS:
+        return
+    merged = {**cache.get(DURATIONS_KEY, {}), **{k: round(v, 3) for k, v in _DURATIONS.items()}}
+    cache.set(DURATIONS_KEY, merged)

@@ -55,3 +55,23 @@ def run_id(cfg: RunConfig) -> str:
         if cfg.estimator.imm_variant == "paper":
             est += "p"
     return f"{cfg.name}_{est}_{cfg.controller.kind}_{cfg.reconfiguration.policy}_s{cfg.seed}_{run_digest(cfg, 8)}"
+
+
+def source_revision() -> str | None:
+    """The git commit of the ftc_mj sources (short hash, ``+modified`` when the checkout has uncommitted
+    changes), or ``None`` for an install outside a git checkout. Recorded in a study's log, beside the
+    numbers it produced, so that a published table names the code that computed it."""
+    import subprocess
+    from pathlib import Path
+
+    here = str(Path(__file__).resolve().parent)
+    try:
+        head = subprocess.run(["git", "-C", here, "rev-parse", "--short", "HEAD"], capture_output=True,
+                              text=True, timeout=10)
+        if head.returncode != 0:
+            return None
+        dirty = subprocess.run(["git", "-C", here, "status", "--porcelain", "--untracked-files=no", "--", here],
+                               capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head.stdout.strip() + ("+modified" if dirty.stdout.strip() else "")

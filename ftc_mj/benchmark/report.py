@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import time
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +17,7 @@ import polars as pl
 from ..io import atomic_path
 from ..metrics.outcome import OFF_PATH_M
 from ..study.stats import Estimate
+from ..study.store import StudyStore
 from .definition import FAULT_CLASSES
 from .stats import CONTINUOUS, RATES, Paired, aggregate, paired
 
@@ -43,7 +45,7 @@ def write_outputs(bp: Any, results: pl.DataFrame, out: Path, *, compare: int = 1
     rows = scores.to_dicts()
     figures = draw_figures(rows, [m.name for m in bp.methods], out / "figures")
     compared = write_comparisons(bp, rows, out / "compare", compare) if compare > 0 else []
-    text = render(bp, rows, figures, compared)
+    text = render(bp, rows, figures, compared, computed_line(out))
     path = out / report_name(bp.split, bp.healthy)
     with atomic_path(path) as tmp:
         tmp.write_text(text)
@@ -152,8 +154,19 @@ def failures(rows: list[dict[str, Any]], bp: Any, limit: int = 30) -> list[str]:
     return lines
 
 
-def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: list[Path]) -> str:
-    """The report's Markdown."""
+def computed_line(out: Path) -> str:
+    """Which invocations computed the runs, from ``OUT/log.jsonl``: runs, wall time, date (UTC) and the
+    sources' commit where it was recorded."""
+    ends = [e for e in StudyStore(out).read_log() if e.get("event") == "end" and e.get("computed")]
+    parts = [f"{e['computed']} runs in {e['wall_time_s']:.0f} s on "
+             f"{time.strftime('%Y-%m-%d', time.gmtime(e['time']))}"
+             f"{' at commit ' + e['source'] if e.get('source') else ''}" for e in ends]
+    return ("Computed by " + "; ".join(parts) + " (`log.jsonl` of the output folder)." if parts
+            else "No run was computed in this output folder's log.")
+
+
+def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: list[Path], computed: str = "") -> str:
+    """The report's Markdown; ``computed`` says which invocations computed the runs (:func:`computed_line`)."""
     methods = [m.name for m in bp.methods]
     lo, hi = bp.meta["draws"]
     kind = {"healthy-check.md": "Healthy-path check (every draw without its faults)",
@@ -162,7 +175,8 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
            f"Draws {lo}–{hi - 1} of the {bp.split} split ({hi - lo} draws), {len(rows)} runs; ftc-mj "
            f"{bp.meta['package_version']}. Success: the run completed, did not tip over and its largest |contouring "
            f"error| from 5 s after the last fault onset is ≤ {OFF_PATH_M:g} m. Rates: % [Wilson 95 %] (n runs); "
-           "continuous scores: mean ± half the percentile-bootstrap 95 % interval (n runs with a value).", "",
+           "continuous scores: mean ± half the percentile-bootstrap 95 % interval (n runs with a value).",
+           *([] if not computed else ["", computed]), "",
            "| method | settings digest | description |", "|---|---|---|"]
     out += [f"| {m.name} | `{m.digest}` | {m.description} |" for m in bp.methods]
     out += ["", "## Overall", "", *overall_table(rows, methods), "", "## Success by fault class", "",

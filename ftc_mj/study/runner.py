@@ -22,6 +22,7 @@ from typing import Any, Literal
 import polars as pl
 
 from ..errors import BadInput
+from ..identity import source_revision
 from .cluster import open_client, validate_address
 from .plan import PlannedRun, StudyPlan
 from .rows import failed_result, make_row
@@ -242,7 +243,7 @@ def _finish(plan: StudyPlan, store: StudyStore, report: StudyReport, rrd: str, a
     with contextlib.suppress(OSError):  # the (empty) staging folder of --rrd failures
         (store.runs_dir / ".staging").rmdir()
     store.log("end", invocation=report.invocation, computed=len(report.computed), failed=len(report.failed),
-              wall_time_s=report.wall_time_s)
+              wall_time_s=report.wall_time_s, source=source_revision() if report.computed else None)
     report.results = store.collect(plan)
     if rrd == "compare" and report.results.height:
         cmp = write_study_comparison(plan, report.results, report.out / "compare.rrd")

@@ -45,3 +45,29 @@ def test_outputs_of_a_bench(tmp_path, split):
     page = publish(docs, path, tmp_path, ["bench", "safe", "feedback-off", "--split", split], "ftc-v1").read_text()
     assert "| tyre friction | uniform 0.7–1.2 |" in page and ("Not generated yet" in page) == (split == "dev")
     assert (docs / "figures" / "benchmark" / "success_by_class.png").is_file()
+
+
+def test_the_report_says_which_invocations_computed_the_runs(tmp_path) -> None:
+    """Only invocations that computed runs are named, each with its runs, wall time, date and commit (when
+    recorded); an invocation that computed nothing (a resumed, finished bench) is left out."""
+    from ftc_mj.benchmark.report import computed_line
+    from ftc_mj.study.store import StudyStore
+
+    assert computed_line(tmp_path) == "No run was computed in this output folder's log."
+    store = StudyStore(tmp_path)
+    store.log("end", invocation="a", computed=12, failed=0, wall_time_s=30.4)
+    store.log("end", invocation="b", computed=0, failed=0, wall_time_s=2.0, source=None)
+    store.log("end", invocation="c", computed=3, failed=0, wall_time_s=9.6, source="abc1234")
+    line = computed_line(tmp_path)
+    assert line.startswith("Computed by 12 runs in 30 s on ") and "; 3 runs in 10 s on " in line
+    assert line.count(" runs in ") == 2 and line.count("at commit") == 1 and "at commit abc1234" in line
+
+
+def test_the_source_revision_names_a_commit_or_nothing() -> None:
+    """A short hash (optionally ``+modified``) in a git checkout, ``None`` elsewhere; never an exception."""
+    import re
+
+    from ftc_mj.identity import source_revision
+
+    rev = source_revision()
+    assert rev is None or re.fullmatch(r"[0-9a-f]{7,40}(\+modified)?", rev)

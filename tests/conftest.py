@@ -89,17 +89,22 @@ _DURATIONS: dict[str, float] = {}
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Tests on the session's Dask cluster share one xdist worker, so a parallel run (``-n 2``) still
     starts one cluster; they are collected first, so that their worker takes the group (about 40 s) at the
-    start. The others follow longest first, by their durations in the last session (pytest's cache; a test
-    never timed counts as 1 s), so that the two workers' last tests are short ones and they finish together
-    (greedy longest-processing-time scheduling). Every worker reads the same cache, so the order is the
-    same in each, as pytest-xdist requires."""
+    start. The other modules follow longest first, by their tests' durations in the last session (pytest's
+    cache; a test never timed counts as 1 s), so that the two workers' last tests are short ones and they
+    finish together (greedy longest-processing-time scheduling); a module's tests stay together and in their
+    order, so its module-scoped fixtures are built as before. Every worker reads the same cache, so the order
+    is the same in each, as pytest-xdist requires."""
     on_cluster = {id(item) for item in items if "dask_client" in getattr(item, "fixturenames", ())}
     for item in items:
         if id(item) in on_cluster:
             item.add_marker(pytest.mark.xdist_group("dask"))
     cache = getattr(config, "cache", None)
     last = cache.get(DURATIONS_KEY, {}) if cache is not None else {}
-    items.sort(key=lambda item: (id(item) not in on_cluster, -float(last.get(item.nodeid, 1.0))))  # stable
+    module_time: dict[str, float] = {}
+    for item in items:
+        module = item.nodeid.split("::", 1)[0]
+        module_time[module] = module_time.get(module, 0.0) + float(last.get(item.nodeid, 1.0))
+    items.sort(key=lambda item: (id(item) not in on_cluster, -module_time[item.nodeid.split("::", 1)[0]]))  # stable
 
 
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:

@@ -104,6 +104,15 @@ is in force (else 0), the largest slack ``τ_j`` of its rows (m/s²), the interv
 (m; the model radius when not degraded) and the wheels whose no-slip test fails (1 right + 2 left)."""
 
 
+DEGRADED_MIN_ITER = 300
+"""Smallest IPOPT iteration limit of the degraded mode's NLP. Its first solve starts from a nominal plan that
+breaks the interval rows by up to the full corner excess (≈ 20 m/s² against a 3 m/s² bound when a suspect
+tyre's interval reaches down to 0.05 m) and needed 144 iterations on the kinematic scenario-2 loop of
+``benchmarks/bench_mpc.py --degraded`` (13–18 once warm). Within the NMPC's default 30 it fails, its
+failure leaves no multipliers to warm-start from, and every later solve fails too: IPOPT would never honour
+the interval. The wall-time budgets still bound each solve."""
+
+
 class PathFollowingNMPC(MPCLifecycle):
     """Path-following NMPC. ``solve(t, pose, radii, u_applied)`` is called at the control rate.
 
@@ -142,7 +151,8 @@ class PathFollowingNMPC(MPCLifecycle):
             qp_options, cold, warm = self._qp_args
             qp = (PathQP(self.col, self.spec, self.path, self.solver_name.split("-", 1)[1], qp_options, robust=True)
                   if self.qp is not None else None)
-            self._robust = (PathNLP(self.col, self.spec, self.path, self.max_iter, cold, warm, robust=True), qp)
+            max_iter = max(self.max_iter, DEGRADED_MIN_ITER)
+            self._robust = (PathNLP(self.col, self.spec, self.path, max_iter, cold, warm, robust=True), qp)
         return self._robust
 
     def _clear(self) -> None:

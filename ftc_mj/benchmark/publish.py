@@ -15,11 +15,11 @@ from .definition import BenchmarkDefinition, Range, load_definition
 from .methods import BUILTIN
 
 FULL_RUN = ("ftc-mj bench paper safe pathfollow hybrid passive feedback-off --split test --draws 200 --workers 2 "
-            "--out runs/out/bench/ftc-v1-test --publish docs")
-"""The command that writes the leaderboard of the built-in methods into docs/benchmark.md: 1200 runs of 30 s; a run
-of the path-following or the robust NMPC takes 3–4 times one of the nominal NMPC (56–58 s against 13–18 s at a
-load of 10 on 2 cores, 2026-12-03), so about 2–3 h of 2 idle cores. Resumable: a killed run loses only the runs
-in flight."""
+            "--publish docs")
+"""The command that writes the leaderboard of the built-in methods into docs/benchmark.md: 1200 runs of 30 s, 3768 s
+on 2 Dask workers of this project's 2-core machine (2026-12-03, the machine otherwise nearly idle); a run of the
+path-following or the robust NMPC takes 3–4 times one of the nominal NMPC. Resumable: a killed run loses only the
+runs in flight."""
 HEALTHY_CHECK = (
     "**Healthy-path check.** The ranges were chosen so that the healthy robot follows every drawn path: "
     "`ftc-mj bench feedback-off --healthy --draws 40 --workers 1` (the nominal NMPC with the actuation-rate "

@@ -24,6 +24,7 @@ from .stats import CONTINUOUS, RATES, Paired, aggregate, paired
 QUESTIONS = (("paper", "safe", "does the paper's loop generalise (against the safe loop)"),
              ("safe", "feedback-off", "does the safe policy beat feedback off"),
              ("pathfollow", "safe", "does the path-following NMPC beat the time-parametrised one"),
+             ("pathfollow", "paper", "does the path-following NMPC beat the paper's loop"),
              ("hybrid", "safe", "does the hybrid beat active FTC"),
              ("hybrid", "passive", "does the hybrid beat passive FTC"))
 """The project's questions as (method a, method b, question), asked when both methods were run."""
@@ -121,6 +122,34 @@ def paired_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
     return lines
 
 
+def verdict(p: Paired, larger_is_better: bool) -> str:
+    """``yes`` when the paired-bootstrap 95 % interval of ``a − b`` lies wholly on ``a``'s better side, ``no``
+    when wholly on ``b``'s, ``not shown`` when it contains 0 (or there is no interval)."""
+    d = p.diff
+    if d.n < 2 or not (math.isfinite(d.lo) and math.isfinite(d.hi)):
+        return "not shown"
+    better, worse = (d.lo > 0, d.hi < 0) if larger_is_better else (d.hi < 0, d.lo > 0)
+    return "yes" if better else "no" if worse else "not shown"
+
+
+def answers(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
+    """One line per asked question: the verdict on success and on the largest contouring error, by the rule of
+    :func:`verdict`."""
+    if not any(q[0] in methods and q[1] in methods for q in QUESTIONS):
+        return []
+    lines = ["Rule: **yes** when the paired-bootstrap 95 % interval of the difference lies wholly on the first "
+             "method's better side (success higher, largest contouring error lower), **no** when wholly on the "
+             "other's, **not shown** when it contains 0. Success is the primary score; the contouring error says how "
+             "far off the runs end, failed ones included.", ""]
+    for a, b, q in pairs_asked(methods):
+        ps, pc = paired(rows, "success", a, b), paired(rows, "contouring_max", a, b)
+        lines.append(f"- **{q[0].upper() + q[1:]}?** Success: **{verdict(ps, True)}** ({a} − {b} "
+                     f"{ps.diff.mean:+.3g} [{ps.diff.lo:+.3g}, {ps.diff.hi:+.3g}], {ps.a_larger} draws won / "
+                     f"{ps.b_larger} lost of {ps.diff.n}); largest contouring error: **{verdict(pc, False)}** "
+                     f"({pc.diff.mean:+.3g} [{pc.diff.lo:+.3g}, {pc.diff.hi:+.3g}] m).")
+    return [*lines, ""]
+
+
 def bounds_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
     """Per method: detection delay against Lorden's bound on the detected draws that have one, and the final
     radius errors against the PCRB (medians of the ratio)."""
@@ -182,6 +211,8 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
     out += ["", "## Overall", "", *overall_table(rows, methods), "", "## Success by fault class", "",
             *class_table(rows, methods), ""]
     if len(methods) > 1:
+        ans = answers(rows, methods)
+        out += ["## The project's questions", "", *ans] if ans else []
         out += ["## Paired comparisons", "", "Differences a − b on the same draws (booleans as 0/1); Wilcoxon "
                 "signed-rank test (zero differences dropped) and the matched-pairs rank-biserial correlation.", "",
                 *paired_table(rows, methods)]
@@ -206,7 +237,7 @@ def draw_figures(rows: list[dict[str, Any]], methods: list[str], folder: Path) -
 
     folder.mkdir(parents=True, exist_ok=True)
     classes = [c for c in FAULT_CLASSES if any(r["fault_class"] == c for r in rows)]
-    fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(classes) * max(1, len(methods)) ** 0.5), 3.6))
+    fig, ax = plt.subplots(figsize=(min(13.0, max(6.0, 0.9 * len(classes) * max(1, len(methods)) ** 0.5)), 4.2))
     w = 0.8 / max(1, len(methods))
     for j, m in enumerate(methods):
         est = [aggregate([r for r in rows if r["method"] == m and r["fault_class"] == c])["success"] for c in classes]

@@ -71,3 +71,31 @@ def test_the_source_revision_names_a_commit_or_nothing() -> None:
 
     rev = source_revision()
     assert rev is None or re.fullmatch(r"[0-9a-f]{7,40}(\+modified)?", rev)
+
+
+def test_a_question_is_answered_only_by_an_interval_that_excludes_zero() -> None:
+    """The verdict rule on constructed pairs: ``a`` succeeds on 30 more of 60 draws (interval above 0) → yes;
+    the reverse → no; one draw of difference in 60 (interval contains 0) → not shown; for the contouring error
+    (lower is better) the sides swap."""
+    from ftc_mj.benchmark.report import answers
+    from ftc_mj.benchmark.stats import paired
+
+    def rows(a_success: list[bool], b_success: list[bool], a_err: float, b_err: float) -> list[dict]:
+        out = []
+        for i, (sa, sb) in enumerate(zip(a_success, b_success, strict=True)):
+            out += [{"draw": i, "method": "safe", "success": sa, "contouring_max": a_err + 0.01 * i},
+                    {"draw": i, "method": "feedback-off", "success": sb, "contouring_max": b_err + 0.01 * i}]
+        return out
+
+    from ftc_mj.benchmark.report import verdict
+
+    better = rows([True] * 60, [False] * 30 + [True] * 30, 0.1, 2.0)
+    assert verdict(paired(better, "success", "safe", "feedback-off"), True) == "yes"
+    assert verdict(paired(better, "contouring_max", "safe", "feedback-off"), False) == "yes"
+    assert verdict(paired(better, "success", "feedback-off", "safe"), True) == "no"
+    assert verdict(paired(better, "contouring_max", "feedback-off", "safe"), False) == "no"
+    tie = rows([True] * 59 + [False], [True] * 60, 1.0, 1.0)
+    assert verdict(paired(tie, "success", "safe", "feedback-off"), True) == "not shown"
+    text = "\n".join(answers(better, ["safe", "feedback-off"]))
+    assert "Success: **yes** (safe − feedback-off +0.5" in text and "30 draws won / 0 lost of 60" in text
+    assert answers(better, ["safe", "paper-like"]) == []

@@ -1,10 +1,13 @@
-"""What the single-filter and the IMM steps share: the outputs of a bank's update and the divergence
-bookkeeping (NIS dwell, radius clipping on a reset).
+"""What the single-filter and the IMM steps share: a bank's measurement update (EKF or UKF members) and its
+outputs, and the divergence bookkeeping (NIS dwell, radius clipping on a reset).
 
-The steps call the EKF or UKF predict/update of :mod:`.kalman` directly, each step compiled once per
-member kind (the kind is a closure constant and numba prunes the other kind's branches): a run then
-compiles only its filter's code, and no wrapper level re-optimises the linked callees (numba optimises
-every function's module with its callees linked in, so each level of calls adds compile time).
+Each step is compiled once per member kind (the kind is a closure constant and numba prunes the other
+kind's branches), so a run compiles only its filter's code. The update is one function per kind
+(:func:`ekf_bank_update`, :func:`ukf_bank_update`), called by both steps: one call level between a step and
+:mod:`.kalman` (numba optimises every function's module with its callees linked in, so each level adds
+compile time; measured with ``benchmarks/bench_first_run.py``, this one is within the run-to-run noise).
+Module-level functions, not closures: a closure captured by a cached step would make numba's cache miss
+in every new process.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .kalman import ekf_update, ukf_update
 from .layout import C_BAD_NIS, C_DIV_STEPS, C_REJECTIONS, C_STEPS, P_MIN_RADIUS, P_R0
 
 MODEL_DIGEST = "d5385545ce3b5bff"
@@ -29,6 +33,26 @@ def update_outputs(n: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     (n, m, m), NIS and log-likelihoods (n,)."""
     return (np.empty((n, 5)), np.empty((n, 5, 5)), np.empty((n, m)), np.empty((n, m)), np.empty((n, m, m)),
             np.empty(n), np.empty(n))
+
+
+@njit(cache=True, error_model="numpy")
+def ekf_bank_update(buf: np.ndarray, rvar_at: int, Xp: np.ndarray, Pp: np.ndarray, u: np.ndarray, prm: np.ndarray,
+                    kinds: np.ndarray, z: np.ndarray):
+    """The EKF measurement update of the predicted members ``Xp`` (n, 5), ``Pp`` (n, 5, 5) with the channels
+    ``kinds`` and values ``z`` (SI units), the channel variances at ``buf[rvar_at:rvar_at + 4]``. Returns the
+    outputs of :func:`update_outputs`, filled (shared by the single-filter and the IMM steps)."""
+    Xn, Pn, Zp, Y, S, nisv, llv = update_outputs(Xp.shape[0], kinds.shape[0])
+    ekf_update(Xp, Pp, u, prm, kinds, z, buf[rvar_at:rvar_at + 4], Xn, Pn, Zp, Y, S, nisv, llv)
+    return Xn, Pn, Zp, Y, S, nisv, llv
+
+
+@njit(cache=True, error_model="numpy")
+def ukf_bank_update(buf: np.ndarray, rvar_at: int, Xp: np.ndarray, Pp: np.ndarray, u: np.ndarray, prm: np.ndarray,
+                    c: float, W: np.ndarray, kinds: np.ndarray, z: np.ndarray):
+    """:func:`ekf_bank_update` for UKF members (``c, W``: the unscented scaling and weights)."""
+    Xn, Pn, Zp, Y, S, nisv, llv = update_outputs(Xp.shape[0], kinds.shape[0])
+    ukf_update(Xp, Pp, u, prm, c, W, kinds, z, buf[rvar_at:rvar_at + 4], Xn, Pn, Zp, Y, S, nisv, llv)
+    return Xn, Pn, Zp, Y, S, nisv, llv
 
 
 @njit(cache=True, error_model="numpy")

@@ -14,8 +14,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .bank import clip_radii, count_step, nis_dwell, speed_std, update_outputs
-from .kalman import channels, ekf_predict, ekf_update, ukf_predict, ukf_update, unscented_moments, weights
+from .bank import clip_radii, count_step, ekf_bank_update, nis_dwell, speed_std, ukf_bank_update
+from .kalman import channels, ekf_predict, ukf_predict, unscented_moments, weights
 from .layout import (
     C_BAD_NIS,
     C_HYP,
@@ -271,12 +271,10 @@ def _imm_step(ekf: bool):
         mu_new = cbar.copy()
         nis = sp_innov = sp_std = np.nan
         if m > 0:
-            rvar = buf[lay.rvar:lay.rvar + 4]
-            Xn, Pn, Zp, Y, S, nisv, llv = update_outputs(Xp.shape[0], m)
             if ekf:
-                ekf_update(Xp, Pp, u, prm, kinds, z, rvar, Xn, Pn, Zp, Y, S, nisv, llv)
+                Xn, Pn, Zp, Y, S, nisv, llv = ekf_bank_update(buf, lay.rvar, Xp, Pp, u, prm, kinds, z)
             else:
-                ukf_update(Xp, Pp, u, prm, c, W, kinds, z, rvar, Xn, Pn, Zp, Y, S, nisv, llv)
+                Xn, Pn, Zp, Y, S, nisv, llv = ukf_bank_update(buf, lay.rvar, Xp, Pp, u, prm, c, W, kinds, z)
             nis, sp_innov, sp_std = _mixture_innovation(buf, lay, kinds, z, cbar, Zp, S)
             if _mode_probabilities(buf[lay.loglik:lay.loglik + n], cbar, nisv, llv, prm[P_GATE], mu_new):
                 Xs, Ps = Xn, Pn

@@ -15,8 +15,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .bank import clip_radii, count_step, nis_dwell, speed_std, update_outputs
-from .kalman import channels, ekf_predict, ekf_update, ukf_predict, ukf_update, weights
+from .bank import clip_radii, count_step, ekf_bank_update, nis_dwell, speed_std, ukf_bank_update
+from .kalman import channels, ekf_predict, ukf_predict, weights
 from .layout import (
     C_BAD_NIS,
     C_RESETS,
@@ -141,12 +141,10 @@ def _single_step(ekf: bool):
         nis = sp_innov = sp_std = np.nan
         Xs, Ps = Xp, Pp
         if m > 0:
-            rvar = buf[lay.rvar:lay.rvar + 4]
-            Xn, Pn, Zp, Y, S, nisv, llv = update_outputs(Xp.shape[0], m)
             if ekf:
-                ekf_update(Xp, Pp, u, prm, kinds, z, rvar, Xn, Pn, Zp, Y, S, nisv, llv)
+                Xn, Pn, Zp, Y, S, nisv, llv = ekf_bank_update(buf, lay.rvar, Xp, Pp, u, prm, kinds, z)
             else:
-                ukf_update(Xp, Pp, u, prm, c, W, kinds, z, rvar, Xn, Pn, Zp, Y, S, nisv, llv)
+                Xn, Pn, Zp, Y, S, nisv, llv = ukf_bank_update(buf, lay.rvar, Xp, Pp, u, prm, c, W, kinds, z)
             nis, sp_innov, sp_std, accept = _posterior(buf, lay, Y, S, nisv, kinds, prm)
             if accept:
                 Xs, Ps = Xn, Pn

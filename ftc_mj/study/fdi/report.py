@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -149,46 +150,45 @@ def rmse_over_pcrb(e: np.ndarray, b: np.ndarray, late: np.ndarray,
     return ratio(np.arange(n)), float(np.percentile(boots, 2.5)), float(np.percentile(boots, 97.5))
 
 
-def rmse_table(df: pl.DataFrame, keys: list[str], settle: float) -> list[str]:
+def _ratio_table(df: pl.DataFrame, keys: list[str], settle: float, needed: str, columns: list[str],
+                 pairs: Callable[[pl.DataFrame], list[tuple[np.ndarray, np.ndarray]]]) -> list[str]:
+    """A table of ``RMSE / RMS bound [95 %] (RMS bound)`` per cell of the no-fault runs (samples from ``settle``
+    s on, bootstrap over runs): one column per ``(error, bound)`` pair that ``pairs(part)`` gives, titled by
+    ``columns``; cells without the column ``needed`` are left out."""
     nof = df.filter(pl.col("fault_onset_time").is_null() & (pl.col("status") == "ok"))
-    dirs = ("R_R", "R_L", "observed", "split")
-    head = [*keys, "runs", *[f"{d}: RMSE / PCRB [95 %] (PCRB σ m)" for d in dirs]]
+    head = [*keys, "runs", *columns]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     rng = np.random.default_rng(0)
     for ck, part in nof.group_by(keys, maintain_order=True):
-        if "ts_omega_R" not in part.columns:
+        if needed not in part.columns:
             continue
         late = stack_series(part, "ts_t") >= settle
         vals = []
-        for e, b in direction_errors(part).values():
+        for e, b in pairs(part):
             r, lo, hi = rmse_over_pcrb(e, b, late, rng)
             rms_b = math.sqrt(np.nanmean(np.where(late, b * b, np.nan)))
             vals.append(f"{r:.3g} [{lo:.3g}, {hi:.3g}] ({rms_b:.3g})")
         lines.append("| " + " | ".join([*map(str, ck), str(part.height), *vals]) + " |")
     return lines
+
+
+def rmse_table(df: pl.DataFrame, keys: list[str], settle: float) -> list[str]:
+    """The filters' own PCRB (random-walk radii): RMSE over it per wheel, along the observed direction and
+    across it (the split), no-fault runs."""
+    dirs = ("R_R", "R_L", "observed", "split")
+    return _ratio_table(df, keys, settle, "ts_omega_R", [f"{d}: RMSE / PCRB [95 %] (PCRB σ m)" for d in dirs],
+                        lambda part: list(direction_errors(part).values()))
 
 
 def rmse_const_table(df: pl.DataFrame, keys: list[str], settle: float) -> list[str]:
     """Each wheel's RMSE over the RMS of the bound of the model that made the data (radii constant between
     the truth's changes, ``*_pcrb_const_std``), no-fault runs, with its 95 % bootstrap interval over runs:
     no estimator is below 1 in expectation over that model's prior."""
-    nof = df.filter(pl.col("fault_onset_time").is_null() & (pl.col("status") == "ok"))
-    head = [*keys, "runs", *[f"{w}: RMSE / bound [95 %] (bound σ m)" for w in ("R_R", "R_L")]]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    rng = np.random.default_rng(0)
-    for ck, part in nof.group_by(keys, maintain_order=True):
-        if "ts_R_R_pcrb_const_std" not in part.columns:
-            continue
-        late = stack_series(part, "ts_t") >= settle
-        vals = []
-        for w in ("R_R", "R_L"):
-            e = stack_series(part, f"ts_{w}_hat") - stack_series(part, f"ts_{w}")
-            b = stack_series(part, f"ts_{w}_pcrb_const_std")
-            r, lo, hi = rmse_over_pcrb(e, b, late, rng)
-            rms_b = math.sqrt(np.nanmean(np.where(late, b * b, np.nan)))
-            vals.append(f"{r:.3g} [{lo:.3g}, {hi:.3g}] ({rms_b:.3g})")
-        lines.append("| " + " | ".join([*map(str, ck), str(part.height), *vals]) + " |")
-    return lines
+    wheels = ("R_R", "R_L")
+    return _ratio_table(
+        df, keys, settle, "ts_R_R_pcrb_const_std", [f"{w}: RMSE / bound [95 %] (bound σ m)" for w in wheels],
+        lambda part: [(stack_series(part, f"ts_{w}_hat") - stack_series(part, f"ts_{w}"),
+                       stack_series(part, f"ts_{w}_pcrb_const_std")) for w in wheels])
 
 
 # ---------------------------------------------------------------------------- output

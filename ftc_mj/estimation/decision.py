@@ -31,11 +31,13 @@ Rules (``estimator.decision.rule``):
     residual generator matched to the no-fault hypothesis (:mod:`.residual`: an EKF with constant
     radii, the same for every estimator, whose innovations are i.i.d. ``N(0, I)`` when nothing
     changes on the kinematic plant) reaches its threshold, set from the target mean time between false
-    alarms ``arl0`` for that null model; declared at once (the threshold is the evidence; no dwell),
-    with the wheel its leading hypothesis isolates (``'unknown'`` while no hypothesis leads by
-    ``isolation_llr``). Each declaration re-anchors the generator on the GLR's estimated jump and
-    restarts the detectors, so a later puncture is declared too: the declared wheel is the union of the
-    wheels isolated so far (left, then right: ``both``). A declaration is never withdrawn: a tyre does
+    alarms ``arl0`` for that null model: an alarm. Half a GLR window later the GLR's estimated jump
+    (wheel, size) re-anchors the generator and restarts the detectors, so a later puncture is detected
+    too; a wheel is declared when its alarms' estimated drops within one GLR window reach ``min_drop``
+    (no dwell: the threshold and the size are the evidence), ``'unknown'`` when no hypothesis leads by
+    ``isolation_llr``. The declared wheel is the union of the wheels declared so far (left, then right:
+    ``both``); hold-offs after the launch and after a declaration are in :class:`ChangeRule`. A
+    declaration is never withdrawn: a tyre does
     not re-inflate.
 
 Rules are registered by name (:data:`ftc_mj.registry.decision_rules`): a rule's factory takes the
@@ -207,43 +209,55 @@ class AutoRule:
 
 class ChangeRule:
     """``cusum`` / ``glr``: the change detector's statistic on the no-fault residual generator at its
-    ``arl0`` threshold (module docstring).
+    ``arl0`` threshold, confirmed by the size of the change (module docstring).
 
-    A crossing declares at once, with the wheel the detector isolates. The jump is then estimated over a
-    settling time of half the GLR window (a puncture on the physical plant takes a few steps to reach
-    its full size, and the first steps' estimate is a fraction of it): at its end the GLR's most likely
-    jump — hypothesis and size — re-anchors the residual generator and both detectors restart, and the
-    drop is added to its wheel(s) when the rule isolated one. The declared wheel is the set of wheels
-    whose accumulated estimated drop reaches ``min_drop`` (``both`` for two), and before any does, the
-    first crossing's isolation (``'unknown'`` where the sensing cannot separate the wheels). Crossings
-    during the settling time are counted as one; changes that settle within ``holdoff`` seconds of the
-    first crossing of a declared change re-anchor the generator but add no drop (the physical plant's
-    transient after a puncture, ``decision.change_holdoff``).
+    A crossing of the threshold is an *alarm* (what the operating characteristics of docs/fdi.md
+    measure). The alarm is watched for a settling time of half the GLR window (a puncture on the
+    physical plant takes a few steps to reach its full size); at its end the GLR's most likely jump —
+    hypothesis and size — re-anchors the residual generator and both detectors restart.
+
+    A wheel is declared when the drops of its settled alarms within one GLR window (``window`` s, alarm
+    times) add up to ``min_drop`` (m, the sigma rule's guard; a ``both`` jump counts for each wheel):
+    a puncture is an abrupt change, and on the physical plant its first alarms each size only part of it
+    (the punctured tyre skids while its wheel is held at its rate). Alarms whose drops stay below that —
+    millimetres on the physical plant, where the constant-radius null model is only approximate (slip,
+    the controller's reaction) — and slower drifts only re-anchor. The declared wheel is the set added so
+    far (``both`` for two); ``'unknown'`` when the drops of alarms that isolated no wheel reach
+    ``min_drop`` (the sensing cannot separate them) and no wheel has been added.
+
+    Alarms within ``holdoff`` seconds of the last addition, and of the start (the launch from rest is a
+    transient the null model does not describe either), book nothing: the transient after a puncture,
+    when the generator was re-anchored on a jump estimated while the tyre was still settling
+    (``decision.change_holdoff``). Only additions start a hold-off, so a transient's small alarms cannot
+    mask a later puncture. A puncture within ``holdoff`` of the start is not declared by this rule.
     """
 
     declare_dwell = 0.0
 
     def __init__(self, name: str, dwell: float, threshold: float, detectors: ChangeDetectors | None = None,
-                 min_drop: float = 0.1, holdoff: float = 0.0) -> None:
+                 min_drop: float = 0.1, holdoff: float = 0.0, window: float = 0.5) -> None:
         """``name``: ``cusum`` or ``glr``; ``dwell`` (s); ``threshold``: calibrated by the factory for the
         target mean time between false alarms (:func:`.calibration.arl0_threshold`); ``detectors``: the
         run's residual generator and detectors (the factory builds them for the run's filter; ``None``:
-        the rule cannot run and says so at its first step); ``min_drop``: accumulated drop (m) that
-        declares a wheel; ``holdoff`` (s): see the class docstring."""
+        the rule cannot run and says so at its first step); ``min_drop``: summed estimated drop (m) that
+        declares a wheel; ``holdoff`` (s), ``window`` (s, the GLR window): see the class docstring."""
         self.name, self.dwell = name, dwell
         self.threshold = threshold
         """Threshold (log-likelihood-ratio units) for a mean time ``decision.arl0`` between false alarms."""
         self.detectors = detectors
         self.min_drop = min_drop
         self.holdoff = holdoff
+        self.window = window
         self.alarms: list[tuple[float, str | None, float, float]] = []
-        """Each settled change: time (s), isolated wheel, the GLR's drop (m per wheel) and onset (s)."""
+        """Each settled alarm: its crossing time (s), isolated wheel, the GLR's drop (m per wheel) and onset (s)."""
         self.drops = {"right": 0.0, "left": 0.0}
-        """Accumulated estimated drop (m) of each wheel over the isolated changes."""
-        self._first: str | None = None
+        """Estimated drop (m) of each wheel over the alarms that added it."""
+        self._wheels: set[str] = set()
+        self._unknown = False
+        self._recent: list[tuple[float, str, float]] = []
+        self._alarm_time = 0.0
         self._settle_until: float | None = None
-        self._change_start = -math.inf
-        self._new_change = False
+        self._last_added = -math.inf
 
     def candidate(self, step: DecisionStep) -> Wheel | None:
         det = self.detectors
@@ -254,36 +268,52 @@ class ChangeRule:
         det.step(step.t, step.omega, step.z)
         if self._settle_until is None:
             if (det.cusum_stat if self.name == "cusum" else det.glr_stat) >= self.threshold:
-                if self._first is None:
-                    self._first = det.wheel(self.name) or "unknown"
-                self._new_change = step.t >= self._change_start + self.holdoff
-                if self._new_change:
-                    self._change_start = step.t
+                self._alarm_time = step.t
                 self._settle_until = step.t + det.settle_time
         elif step.t >= self._settle_until - 1e-9:
             self._settle(step.t)
         return self._declared()
 
     def _settle(self, t: float) -> None:
-        """The end of a change's settling time: book its estimated drop, re-anchor, restart."""
+        """The end of an alarm's settling time: confirm or not, book, re-anchor, restart."""
         det = self.detectors
         assert det is not None
-        wheel = det.wheel(self.name)
-        self.alarms.append((t, wheel, det.glr_drop, det.glr_onset))
-        if self._new_change and wheel in ("right", "left", "both") and det.glr_drop > 0.0:
-            for w in (("right", "left") if wheel == "both" else (wheel,)):
-                self.drops[w] += det.glr_drop
+        wheel, drop = det.wheel(self.name), det.glr_drop
+        self.alarms.append((self._alarm_time, wheel, drop, det.glr_onset))
+        quiet = self._alarm_time < max(self._last_added, 0.0) + self.holdoff
+        if not quiet and wheel is not None and drop > 0.0:
+            self._recent.append((self._alarm_time, wheel, drop))
+        recent = self._recent_drops()
+        if recent["unknown"] >= self.min_drop:
+            self._unknown = True
+        big = {w for w in ("right", "left") if recent[w] >= self.min_drop} - self._wheels
+        if big:
+            self._wheels |= big
+            self._last_added = self._alarm_time
+            for w in big:
+                self.drops[w] += recent[w]
+            self._recent.clear()
         det.correct()
         self._settle_until = None
 
+    def _recent_drops(self) -> dict[str, float]:
+        """Drop (m) per wheel (and of alarms that isolated none, ``unknown``) summed over the booked alarms
+        within ``window`` seconds of the last alarm; older ones are forgotten."""
+        self._recent = [r for r in self._recent if r[0] > self._alarm_time - self.window - 1e-9]
+        sums = {"right": 0.0, "left": 0.0, "unknown": 0.0}
+        for _, wheel, drop in self._recent:
+            for w in (("right", "left") if wheel == "both" else (wheel,)):
+                sums[w] += drop
+        return sums
+
     def _declared(self) -> Wheel | None:
-        """Wheels whose accumulated drop reaches ``min_drop``, else the first crossing's isolation."""
-        big = [w for w, d in self.drops.items() if d >= self.min_drop]
-        if len(big) == 2:
+        """The wheels added so far (``both`` for two), else ``'unknown'`` once the drops of alarms that
+        isolated none reached ``min_drop``, else ``None``."""
+        if len(self._wheels) == 2:
             return "both"
-        if big:
-            return big[0]  # type: ignore[return-value]
-        return self._first  # type: ignore[return-value]
+        if self._wheels:
+            return next(iter(self._wheels))  # type: ignore[return-value]
+        return "unknown" if self._unknown else None
 
 
 class FaultDecision:

@@ -38,7 +38,8 @@ def _auto(settings: DecisionConfig, context: RunContext) -> AutoRule:
 def _change(name: str):  # noqa: ANN202 - a factory of the registry contract
     def factory(settings: DecisionConfig, context: RunContext, threshold: float,
                 detectors: ChangeDetectors) -> ChangeRule:
-        return ChangeRule(name, settings.dwell, threshold, detectors, settings.min_drop, settings.change_holdoff)
+        return ChangeRule(name, settings.dwell, threshold, detectors, settings.min_drop, settings.change_holdoff,
+                          settings.glr_window)
     factory.__name__ = f"_{name}"
     return factory
 

@@ -21,8 +21,10 @@ radius feedback and the NMPC — they leave the path and saturate the wheels —
 ``--robust``: the robust multi-stage NMPC (:mod:`ftc_mj.control.robust`) against the nominal NMPC on
 the kinematic scenario 2 loop of the robust NMPC's acceptance test (start on the path, R_L 2 → 1 m at
 10 s, every controller told the nominal radii, the paper's cost), and against do-mpc's multi-stage MPC
-on the same loop (``benchmarks/dompc_multistage.py``: run here when ``do_mpc`` imports, else its
-number measured on this machine is printed with its date).
+and nominal MPC on the same loop (``benchmarks/dompc_multistage.py``: run here when ``do_mpc`` imports, or
+in the same session by ``--dompc-python PYTHON``, a Python that has do-mpc; else the multi-stage number
+measured on this machine is printed with its date), with the nominal RTI NMPC's per-solve ratio to do-mpc's
+nominal MPC.
 
 ``--degraded``: the path-following NMPC's degraded mode (:mod:`ftc_mj.reconfiguration.degraded`) on the
 loop above: from the fault at 10 s the controller is handed the left wheel's interval
@@ -37,7 +39,7 @@ time and of the runs' solve-time median/p95, with the largest command step, solv
 cross-track maximum of each formulation.
 
 Usage: ``.venv/bin/python benchmarks/bench_mpc.py [--duration 30] [--skip-opti] [--skip-table] [--qp]
-[--runs 3] [--rate-bound 3] [--robust] [--degraded]``
+[--runs 3] [--rate-bound 3] [--robust [--dompc-python PYTHON]] [--degraded]``
 """
 
 from __future__ import annotations
@@ -54,6 +56,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the test oracles
 
 import argparse  # noqa: E402
 import contextlib  # noqa: E402
+import json  # noqa: E402
+import subprocess  # noqa: E402
 import time  # noqa: E402
 from collections import Counter  # noqa: E402
 from collections.abc import Iterator  # noqa: E402
@@ -247,10 +251,32 @@ def run_table(repeats: int) -> None:
               f"{np.median(a[:, 5]):.1f} |")
 
 
-def robust_table(duration: float) -> None:
-    """Solve times and tracking of the robust NMPC next to the nominal NMPC and do-mpc (printed)."""
+def _dompc_rows(dompc_python: str | None) -> list[tuple[str, dict]]:
+    """do-mpc's multi-stage and nominal MPC on the same loop: in this process when ``do_mpc`` imports, else
+    with ``dompc_python`` (a Python that has do-mpc) running ``dompc_multistage.py`` in the same session, else
+    the numbers recorded in it (:data:`dompc_multistage.MEASURED`, multi-stage only)."""
     import dompc_multistage as dm
 
+    try:
+        import do_mpc  # noqa: F401
+    except ImportError:
+        if dompc_python is None:
+            m = dm.MEASURED
+            name = f"do-mpc multi-stage, R_L in {{2, 1}} (not installed here: measured {m['date']}, load {m['load']})"
+            return [(name, {**m, "solve_ms_p95": float("nan")})]
+        script = str(Path(__file__).with_name("dompc_multistage.py"))
+        runs = []
+        for flag, name in (([], "do-mpc multi-stage, R_L in {2, 1}"), (["--nominal"], "do-mpc nominal (R_L 2 m)")):
+            out = subprocess.run([dompc_python, "-W", "ignore", script, *flag], capture_output=True, text=True,
+                                 check=True).stdout
+            runs.append((name, json.loads(out.strip().splitlines()[-1])))
+        return runs
+    return [("do-mpc multi-stage, R_L in {2, 1}", dm.run()), ("do-mpc nominal (R_L 2 m)", dm.run(robust=False))]
+
+
+def robust_table(duration: float, dompc_python: str | None = None) -> None:
+    """Solve times and tracking of the robust NMPC next to the nominal NMPC and do-mpc (printed), and the
+    nominal RTI NMPC's per-solve lead over do-mpc's nominal MPC on the same problem."""
     cfg = RunConfig()
     ref, spec = build_reference(cfg), problem_spec(cfg)
     four = [(1.0, 1.0), (0.5, 1.0), (1.0, 0.5), (0.5, 0.5)]
@@ -262,6 +288,7 @@ def robust_table(duration: float) -> None:
              ("robust rti-daqp, {nominal, left 50 %}", lambda: RobustNMPC(spec, ref, left, **free), duration),
              ("robust ipopt, {nominal, left 50 %}", lambda: RobustNMPC(spec, ref, left, solver="ipopt", **free),
               duration)]
+    rti_median: dict[str, float] = {}
     print(f"\nRobust NMPC: kinematic scenario 2 (R_L 2 -> 1 m at 10 s, nominal radii told), paper's cost; "
           f"load avg {os.getloadavg()[0]:.2f}.\n")
     print("| controller | build s | variables | warm solve median ms | p95 ms | pre-fault offset m | "
@@ -273,22 +300,21 @@ def robust_table(duration: float) -> None:
         build = time.perf_counter() - t0
         res = simulate(ctl, ref, dur, (0.0, 0.0, 0.0), true_radii=left_step, model_radii=lambda t: (2.0, 2.0))
         st = res.solve_times[1:] * 1e3
+        rti_median[name] = float(np.median(st))
         pre = (res.t >= 5.0) & (res.t < 10.0)
         after = f"{res.max_abs_error(10.0):.2f}" if dur > 10.0 else "—"
         print(f"| {name} | {build:.1f} | {ctl.nlp_size[0]} | **{np.median(st):.1f}** | {np.percentile(st, 95):.1f} | "
               f"{np.mean(res.cross_track[pre]):+.2f} | {after} | {ctl.failures} | {dur:.0f} |")
-    try:
-        import do_mpc  # noqa: F401
-    except ImportError:
-        m = dm.MEASURED
-        print(f"| do-mpc multi-stage, R_L in {{2, 1}} (not installed here: measured {m['date']}, load {m['load']}) "
-              f"| — | — | **{m['solve_ms_median']:.0f}** | — | {m['pre_fault_offset_m']:+.2f} | "
-              f"{m['max_error_after_fault_m']:.2f} | — | 25 |")
-    else:
-        r = dm.run()
-        print(f"| do-mpc multi-stage, R_L in {{2, 1}} | — | — | **{r['solve_ms_median']:.0f}** | "
-              f"{r['solve_ms_p95']:.0f} | {r['pre_fault_offset_m']:+.2f} | {r['max_error_after_fault_m']:.2f} | — "
-              "| 25 |")
+    medians = {}
+    for name, r in _dompc_rows(dompc_python):
+        medians[name] = r["solve_ms_median"]
+        print(f"| {name} | — | — | **{r['solve_ms_median']:.1f}** | {r['solve_ms_p95']:.1f} | "
+              f"{r['pre_fault_offset_m']:+.2f} | {r['max_error_after_fault_m']:.2f} | — | 25 |")
+    nominal = medians.get("do-mpc nominal (R_L 2 m)")
+    if nominal is not None:
+        ours = rti_median["NMPC rti-daqp (nominal radii)"]
+        print(f"\nPer warm solve, the nominal RTI NMPC against do-mpc's nominal MPC, same session: {ours:.2f} ms "
+              f"against {nominal:.1f} ms, **{nominal / ours:.1f}×** (the start-up issue's target: ≥ 30×).")
 
 
 def rate_bound_table(repeats: int) -> None:
@@ -437,13 +463,15 @@ def main() -> None:
     ap.add_argument("--rate-bound", type=int, default=0,
                     help="whole MuJoCo runs, first-step bound vs free first input, this many times each")
     ap.add_argument("--robust", action="store_true", help="robust multi-stage NMPC vs nominal NMPC and do-mpc")
+    ap.add_argument("--dompc-python", default=None,
+                    help="with --robust: a Python that has do-mpc (not a dependency), to run do-mpc in this session")
     ap.add_argument("--degraded", action="store_true",
                     help="path-following NMPC's degraded-mode solve time beside the nominal")
     args = ap.parse_args()
     if args.degraded:
         degraded_table(args.duration)
     if args.robust:
-        robust_table(min(args.duration, 25.0))
+        robust_table(min(args.duration, 25.0), args.dompc_python)
     cfg = RunConfig()
     if args.qp:
         qp_table(problem_spec(cfg), build_reference(cfg), min(args.duration, 20.0))

@@ -1,17 +1,19 @@
-"""do-mpc's robust multi-stage MPC on the kinematic robot, scenario 2: the reference point for the
-robust NMPC's row of ``bench_mpc.py``.
+"""do-mpc's robust multi-stage MPC and its nominal MPC on the kinematic robot, scenario 2: the reference
+points for the robust and the nominal NMPC's rows of ``bench_mpc.py --robust``.
 
 Standalone (numpy, casadi, do-mpc only; do-mpc is not a dependency of ftc-mj): run it in a venv that
 has do-mpc, e.g. ``python -m venv /tmp/dompc && /tmp/dompc/bin/pip install do-mpc`` and
-``/tmp/dompc/bin/python benchmarks/dompc_multistage.py``. ``bench_mpc.py --robust`` calls
-:func:`run` when ``do_mpc`` imports, and otherwise prints :data:`MEASURED`.
+``/tmp/dompc/bin/python benchmarks/dompc_multistage.py [--nominal]`` (prints one JSON line).
+``bench_mpc.py --robust`` calls :func:`run` when ``do_mpc`` imports, runs this script with
+``--dompc-python PYTHON`` in the same session when given, and otherwise prints :data:`MEASURED`.
 
 Problem: the kinematic differential drive (half track 1 m, R_R = 2 m) tracking the default circle
 (50 m, 10 m/s, counter-clockwise) with the NMPC's weights (pose 10, speed 1, yaw rate 1; do-mpc
 requires an ``rterm``: 1e-3 on the per-step input change), inputs within ±1000 deg/s; horizon 5 s as 50
 steps of 0.1 s (do-mpc's default orthogonal collocation, degree 2); the uncertain left radius
 R_L ∈ {2, 1} m with robust horizon 1 (``n_robust = 1``). Closed loop: exact plant (RK4, 10 substeps),
-R_L steps 2 → 1 m at t = 10 s, 25 s; the controller's scenario set contains the true radii.
+R_L steps 2 → 1 m at t = 10 s, 25 s; the controller's scenario set contains the true radii. ``--nominal``:
+the same MPC told the nominal R_L = 2 m only (one scenario, ``n_robust = 0``), as the nominal NMPC row is.
 """
 
 from __future__ import annotations
@@ -47,8 +49,9 @@ def _rates(x: np.ndarray, u: np.ndarray, r_l: float) -> np.ndarray:
     return np.array([V * math.cos(x[2]), V * math.sin(x[2]), (RR * u[0] - r_l * u[1]) / (2 * B)])
 
 
-def build(n_horizon: int = 50, t_step: float = 0.1):
-    """The do-mpc multi-stage MPC (robust horizon 1, R_L ∈ {2, 1} m)."""
+def build(n_horizon: int = 50, t_step: float = 0.1, robust: bool = True):
+    """The do-mpc multi-stage MPC (robust horizon 1, R_L ∈ {2, 1} m), or (``robust=False``) the nominal MPC
+    (R_L = 2 m)."""
     import casadi as ca
     import do_mpc
 
@@ -70,7 +73,7 @@ def build(n_horizon: int = 50, t_step: float = 0.1):
     mpc = do_mpc.controller.MPC(model)
     mpc.settings.n_horizon = n_horizon
     mpc.settings.t_step = t_step
-    mpc.settings.n_robust = 1
+    mpc.settings.n_robust = 1 if robust else 0
     mpc.settings.store_full_solution = False
     mpc.settings.nlpsol_opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes"}
     mx, mu, mp, mt = model.x, model.u, model.p, model.tvp  # the symbols as rebuilt by model.setup()
@@ -83,7 +86,7 @@ def build(n_horizon: int = 50, t_step: float = 0.1):
     for name in ("omega_R", "omega_L"):
         mpc.bounds["lower", "_u", name] = -OMEGA_MAX
         mpc.bounds["upper", "_u", name] = OMEGA_MAX
-    mpc.set_uncertainty_values(R_L=np.array([2.0, 1.0]))
+    mpc.set_uncertainty_values(R_L=np.array([2.0, 1.0] if robust else [2.0]))
     tvp = mpc.get_tvp_template()
 
     def tvp_fun(t_now):
@@ -99,9 +102,9 @@ def build(n_horizon: int = 50, t_step: float = 0.1):
     return mpc
 
 
-def run(duration: float = 25.0) -> dict:
+def run(duration: float = 25.0, robust: bool = True) -> dict:
     """Closed loop of scenario 2 (module docstring). Returns the solve times and the tracking numbers."""
-    mpc = build()
+    mpc = build(robust=robust)
     x = np.zeros(3)
     mpc.x0 = x
     mpc.u0 = np.array([5.1, 4.9])
@@ -131,7 +134,9 @@ def run(duration: float = 25.0) -> dict:
 
 
 if __name__ == "__main__":
+    import json
     import os
+    import sys
 
-    res = run()
-    print({**res, "load": f"{os.getloadavg()[0]:.2f}"})
+    res = run(robust="--nominal" not in sys.argv[1:])
+    print(json.dumps({**res, "load": f"{os.getloadavg()[0]:.2f}"}))

@@ -24,15 +24,16 @@ import time
 import numpy as np
 
 MEASURED = {
-    "date": "2026-12-02",
-    "solve_ms_median": 42.6,
-    "solve_ms_p95": 71.5,
+    "date": "2026-12-03",
+    "solve_ms_median": 38.2,
+    "solve_ms_p95": 44.0,
     "pre_fault_offset_m": -0.44,
     "max_error_after_fault_m": 1.75,
-    "load": "3.1",
+    "load": "0.67",
 }
-"""Numbers of :func:`run` measured on this project's 2-core machine (do-mpc 5.1.2, CasADi 3.8.2), copied
-from its output; the machine was shared (load average 21 on 2 cores), so the time is ~10x an idle one."""
+"""Numbers of :func:`run` (multi-stage) measured on this project's 2-core machine (do-mpc 5.1.2, CasADi 3.8.2),
+copied from ``bench_mpc.py --robust --dompc-python`` on an idle machine; the nominal MPC measured 28.9 ms
+(p95 36.2 ms) in the same session."""
 
 B, RR, V_REF, RADIUS = 1.0, 2.0, 10.0, 50.0
 OMEGA_MAX = math.radians(1000.0)

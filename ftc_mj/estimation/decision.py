@@ -37,8 +37,7 @@ Rules (``estimator.decision.rule``):
     (no dwell: the threshold and the size are the evidence), ``'unknown'`` when no hypothesis leads by
     ``isolation_llr``. The declared wheel is the union of the wheels declared so far (left, then right:
     ``both``); hold-offs after the launch and after a declaration are in :class:`ChangeRule`. A
-    declaration is never withdrawn: a tyre does
-    not re-inflate.
+    declaration is never withdrawn: a tyre does not re-inflate.
 
 Rules are registered by name (:data:`ftc_mj.registry.decision_rules`): a rule's factory takes the
 run config and returns an object with a ``dwell`` (s) and ``candidate(step)`` giving the wheel it

@@ -44,9 +44,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from ..model.kinematics import numpy_rates_jacobian
+from .kernels.jit import njit
 from .kernels.layout import POS_X, POS_Y, SPEED, YAW
 from .measurements import measure_jacobian
 from .setup import FilterSetup

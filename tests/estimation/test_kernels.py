@@ -188,3 +188,19 @@ def test_generated_kinematics_is_the_model() -> None:
         np.testing.assert_allclose(r2, body_rates(x[3], x[4], u[0], u[1], 1.3), rtol=1e-15, atol=1e-15)
         generated.kin_H(x, u, 1.3, H)
         np.testing.assert_allclose(H, numpy_rates_jacobian(m, x, u), rtol=1e-15, atol=1e-15)
+
+
+@pytest.mark.parametrize(("preset", "expected"), [(None, 2), ("3", 3)])
+def test_kernels_compile_at_level_2_unless_the_user_sets_one(preset: str | None, expected: int) -> None:
+    """Importing the kernels sets numba's ``NUMBA_OPT`` to 2 (it changes compile time, never results), and
+    leaves a level the user set alone. numba reads the variable once, so this runs in a fresh process."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_OPT"}
+    if preset is not None:
+        env["NUMBA_OPT"] = preset
+    code = "import ftc_mj.estimation.kernels.single, numba; print(int(numba.config.OPT))"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert int(out.stdout.strip()) == expected

@@ -4,6 +4,7 @@ information built from finite differences of the model."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from filterpy.kalman import KalmanFilter
 
 from ftc_mj.config import RunConfig
@@ -189,3 +190,12 @@ def test_no_filter_beats_the_bound_of_the_model_that_made_its_data() -> None:
         r = np.array(ratios)
         per_seed = r[:, 0] / r[:, 1].mean()
         assert per_seed.mean() + 3 * per_seed.std(ddof=1) / np.sqrt(seeds) >= 1.0, kind
+
+
+def test_a_singular_innovation_covariance_is_an_error_not_a_bound() -> None:
+    """No prior uncertainty, no process and no measurement noise: ``S = H P Hᵀ + R = 0`` has no inverse, and
+    the recursion says so instead of returning a bound of NaNs."""
+    zero = np.zeros((5, 5))
+    H = [np.eye(5)[:1]] * 3
+    with pytest.raises(np.linalg.LinAlgError, match="singular"):
+        information_bound(np.broadcast_to(np.eye(5), (3, 5, 5)), H, [np.zeros((1, 1))] * 3, zero, zero)

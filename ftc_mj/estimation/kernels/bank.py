@@ -15,8 +15,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from .jit import njit
 from .kalman import ekf_update, ukf_update
 from .layout import C_BAD_NIS, C_DIV_STEPS, C_REJECTIONS, C_STEPS, P_MIN_RADIUS, P_R0
 

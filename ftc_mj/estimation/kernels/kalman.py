@@ -18,9 +18,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from .generated import kin_F, kin_H, kin_rates, kin_step
+from .jit import njit
 from .layout import N_SIGMA, P_B, P_DT, POS_X, SPEED, YAW
 from .linalg import chol, eig_floor, gaussian, mat_mul
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections import namedtuple
 
-from numba import njit
+from .jit import njit
 
 SPEED, YAW, POS_X, POS_Y = 0, 1, 2, 3
 """Measurement channel codes, in the order the channels are stacked (speed, yaw rate, x, y)."""

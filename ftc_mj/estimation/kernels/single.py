@@ -13,9 +13,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from .bank import clip_radii, count_step, ekf_bank_update, nis_dwell, speed_std, ukf_bank_update
+from .jit import njit
 from .kalman import channels, ekf_predict, ukf_predict, weights
 from .layout import (
     C_BAD_NIS,

@@ -3,10 +3,23 @@
 From the first alarm until the fault is isolated and identified, the controller is handed, for each wheel
 that may be faulty, a radius *interval* instead of a point (:class:`~ftc_mj.control.pathfollow_spec.RadiusInterval`),
 and bounds the robot's lateral acceleration at every radius of it; the speed reduction follows from those
-constraints. The interval of a suspect wheel is ``[min_radius, estimate]``: the smallest radius a fault can
-leave, and the filter's estimate, which a skidding tyre pushes *above* its true radius (a tyre dragged slower
-than it rolls shows the effective radius ``(V ∓ b psidot)/omega``, larger than its own) — never
-``estimate ± kσ``: during a skid the covariance is many σ off while the innovations stay consistent.
+constraints. The interval of a suspect wheel is ``[max(min_radius, estimate − depth), estimate]``: the filter's
+estimate is an upper bound of the true radius while the tyre is dragged (a tyre dragged slower than it rolls
+shows the effective radius ``(V ∓ b psidot)/omega``, larger than its own) — never ``estimate ± kσ``: during
+a skid the covariance is many σ off while the innovations stay consistent. ``depth`` (default 0: the interval
+is the point the model uses) sets how far below it the lateral bound must also hold; on the development seeds
+every depth > 0 made the lift-off longer (docs/findings.md): the rows brake the robot, and braking lowers the
+dragged wheel's rate while the chassis keeps its speed, which drags the tyre harder.
+
+**Follow the upper bound.** From the first alarm, the model radius of a suspect wheel follows its estimate
+*downwards* (the smaller of the policy's radius and the estimate, rate-limited by the policy's ``max_rate``)
+as long as the filter has identified the radii (the largest σ of the radius block at most the policy's
+``max_sigma``: a speed-only filter cannot tell the wheels apart, and its estimate of one wheel is not a
+bound of anything). Handing over an upper bound cannot spin the wheel faster than it rolls, so each hand-over
+raises the dragged wheel's rate towards rolling and lowers the next effective radius; the drag ends when
+the effective radius has come down to the true one, which the no-slip test then sees as constant. Waiting
+for the fault decision's dwell and the policy's gates instead left the skid running for 1.2–1.5 s after a
+puncture (docs/findings.md).
 
 **The no-slip test** (:class:`NoSlipCheck`). The kinematic model the filter uses assumes the tyres roll. A
 dragged tyre breaks it without the innovations showing anything: with speed and yaw rate measured, the two
@@ -19,10 +32,9 @@ of a dragged tyre is the ratio of a ground speed the chassis dynamics set and a 
 it moves whenever either changes — in the measured skid the estimate fell 1.9 → 1.0 m in 1.2 s. The test
 flags a wheel whose estimate, averaged over the latest ``window/2`` s, differs from its average over the
 ``window/2`` s before by more than ``max_radius_rate · window/2 + k_sigma σ`` (σ the filter's standard
-deviation of that radius: the allowance for the estimate's own scatter). A flagged wheel's radius is not
-handed over (the radii in use are held for it; released afterwards at the policy's ``max_rate``), and the
-wheel stays in the interval. The same test holds a hand-over while a converging estimate still moves, which
-costs delay only: the interval protects meanwhile.
+deviation of that radius: the allowance for the estimate's own scatter). A flagged wheel is not
+*identified*: its interval stays open (or reopens), so the policy's hand-over does not end the mode while
+the estimate still moves, and the model keeps following the estimate down.
 
 **The mode.** A wheel is suspect from the first alarm: its estimate below nominal by the decision's
 ``k_sigma`` σ and ``min_drop`` (the sigma rule's candidate, before any dwell), the decision suspecting a
@@ -54,7 +66,9 @@ class DegradedSettings(Protocol):
     """What the degraded mode reads of its settings (``[reconfiguration.degraded]``)."""
 
     min_radius: float
-    """Smallest radius (m) a fault can leave: the lower end of a suspect wheel's interval."""
+    """Smallest radius (m) a fault can leave: the floor of a suspect wheel's interval and model radius."""
+    depth: float
+    """How far (m) below the estimate a suspect wheel's interval reaches (0: the point the model uses)."""
     skid_window: float
     """Window (s) of the no-slip test (two halves compared)."""
     max_radius_rate: float
@@ -107,7 +121,7 @@ class DegradedMode:
     """
 
     def __init__(self, settings: DegradedSettings, context: RunContext, k_sigma: float, min_drop: float,
-                 max_rate: float) -> None:
+                 max_rate: float, max_sigma: float) -> None:
         self.settings = settings
         self.nominal = np.array(context.nominal_radii, dtype=float)
         self.min_radius = float(settings.min_radius)
@@ -115,11 +129,12 @@ class DegradedMode:
         rate = context.estimator_rate or 1.0 / context.estimator_dt
         self.skid = NoSlipCheck(settings.skid_window, settings.max_radius_rate, settings.skid_k_sigma, rate)
         self.max_step = max_rate * context.controller_dt
+        self.max_sigma = float(max_sigma)
         self.dt = context.controller_dt
         self.events: list[Event] = []
         self.active = False
         self._radii = self.nominal.copy()
-        self._held = (False, False)
+        self._flagged = (False, False)
         self._open = np.zeros(2, dtype=bool)  # the wheels whose interval is open (latched from the alarm)
         self._identified = np.zeros(2, dtype=bool)  # the wheels whose interval collapsed (reopened by a skid)
         self._quiet = np.zeros(2)  # time (s) each open wheel has been without an alarm
@@ -146,10 +161,7 @@ class DegradedMode:
         if out is None:
             return np.asarray(radii, float).copy(), None
         skid = np.array(self.skid.slipping)
-        proposed = np.asarray(radii, dtype=float)
-        step = np.clip(proposed - self._radii, -self.max_step, self.max_step)
-        self._radii = np.where(skid, self._radii, self._radii + step)
-        self._skid_events(t, skid, proposed)
+        est = np.asarray(out.x[3:5], dtype=float)
         isolated = np.array(_WHEELS.get(decision.wheel or "", (False, False))) if (
             decision is not None and decision.detected and decision.wheel != "unknown") else np.zeros(2, bool)
         collapsed = isolated & (policy_state == ReconfigState.HANDED) & ~skid
@@ -161,22 +173,32 @@ class DegradedMode:
         self._identified = (self._identified | (collapsed & self._open)) & ~skid
         self._open = (self._open | alarm) & ~collapsed & (self._quiet < self.settings.skid_window)
         open_ = self._open
-        est = np.asarray(out.x[3:5], dtype=float)
+        target = np.asarray(radii, dtype=float)
+        if self._identified_block(out):  # follow an open wheel's estimate down: an upper bound while it is dragged
+            target = np.where(open_, np.minimum(target, np.clip(est, self.min_radius, self.nominal)), target)
+        self._radii = self._radii + np.clip(target - self._radii, -self.max_step, self.max_step)
+        self._skid_events(t, skid)
         hi = np.where(open_, np.clip(np.nan_to_num(est, nan=self.nominal[0]), self.min_radius, self.nominal),
                       self._radii)
-        lo = np.where(open_, self.min_radius, self._radii)
+        lo = np.where(open_, np.maximum(self.min_radius, hi - self.settings.depth), self._radii)
         interval = RadiusInterval(lo, np.maximum(hi, lo), (bool(skid[0]), bool(skid[1]))) if open_.any() else None
         self._mode_events(t, interval)
         return self._radii.copy(), interval
 
-    def _skid_events(self, t: float, skid: np.ndarray, proposed: np.ndarray) -> None:
-        held = tuple(bool(s and p != r) for s, p, r in zip(skid, proposed, self._radii, strict=True))
+    def _identified_block(self, out: FilterOutput) -> bool:
+        """The filter tells the two radii apart: the largest σ (m) of its radius block is at most ``max_sigma``."""
+        block = np.asarray(out.P, dtype=float)[3:5, 3:5]
+        if not np.all(np.isfinite(block)):
+            return False
+        return float(np.sqrt(max(float(np.linalg.eigvalsh(block)[-1]), 0.0))) <= self.max_sigma
+
+    def _skid_events(self, t: float, skid: np.ndarray) -> None:
         for i, name in enumerate(("right", "left")):
-            if held[i] and not self._held[i]:
+            if skid[i] and not self._flagged[i]:
                 self.events.append(Event(t, "warn", f"no-slip test fails ({name} radius estimate moved "
                                                     f"{self.skid.moved[i]:+.2f} m in {self.skid.half * 2} steps): "
-                                                    f"hand-over of its radius held"))
-        self._held = held
+                                                    f"not identified, its interval stays open"))
+        self._flagged = (bool(skid[0]), bool(skid[1]))
 
     def _mode_events(self, t: float, interval: RadiusInterval | None) -> None:
         if interval is not None and not self.active:

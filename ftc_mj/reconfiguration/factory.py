@@ -32,13 +32,19 @@ def build_scenario_weighting(cfg: RunConfig) -> ScenarioWeighting | None:
 
 def build_degraded_mode(cfg: RunConfig) -> DegradedMode | None:
     """The degraded robust mode (``reconfiguration.degraded``) or ``None``: it needs a filter and a controller
-    registered with ``radius_intervals``; ``auto`` runs it with the ``safe`` policy, ``on`` with any policy but
-    ``none`` and ``truth``. The first alarm is the decision's ``k_sigma``/``min_drop`` departure."""
+    registered with ``radius_intervals``; ``auto`` runs it with the ``safe`` policy and a sensor that tells the
+    wheels apart (a yaw-rate gyro or position fixes: with speed only one wheel's estimate bounds nothing), ``on``
+    with any policy but ``none`` and ``truth``. The first alarm is the decision's ``k_sigma``/``min_drop``
+    departure."""
     rc = cfg.reconfiguration
     d = rc.degraded
     takes = controllers.get(cfg.controller.kind).meta.get("radius_intervals", False)
-    wanted = rc.policy == "safe" if d.mode == "auto" else (d.mode == "on" and rc.policy not in ("none", "truth"))
+    separates = cfg.sensors.yaw_rate_sigma is not None or cfg.sensors.position_sigma is not None
+    if d.mode == "auto":
+        wanted = rc.policy == "safe" and separates
+    else:
+        wanted = d.mode == "on" and rc.policy not in ("none", "truth")
     if not takes or not wanted or cfg.estimator.kind == "none":
         return None
     return DegradedMode(d, run_context(cfg), cfg.estimator.decision.k_sigma, cfg.estimator.decision.min_drop,
-                        rc.max_rate)
+                        rc.max_rate, rc.max_sigma)

@@ -619,7 +619,9 @@ class DegradedConfig(StrictModel):
 
     mode: Literal["auto", "on", "off"] = "auto"
     """``auto`` (default): on with the ``safe`` policy, a controller registered to take radius intervals
-    (``pf-nmpc``) and a sensor that tells the wheels apart (a yaw-rate gyro or position fixes), else off;
+    (``pf-nmpc``), a sensor that tells the wheels apart (a yaw-rate gyro or position fixes) and a plant whose
+    tyres can slide (MuJoCo; on the kinematic plant the estimate is no upper bound and following it made
+    scenarios 2 and 3 worse, docs/config-defaults.md), else off;
     ``on``: with any policy but ``none`` and ``truth`` (and such a controller); ``off``: never. From the first
     alarm the model radius of a suspect wheel follows its estimate down; with it the pf-nmpc's lift-off after
     a puncture fell from 0.25–1.05 s to 0.03–0.11 s on the development seeds 0–5 (docs/findings.md)."""

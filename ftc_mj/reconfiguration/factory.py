@@ -32,16 +32,17 @@ def build_scenario_weighting(cfg: RunConfig) -> ScenarioWeighting | None:
 
 def build_degraded_mode(cfg: RunConfig) -> DegradedMode | None:
     """The degraded robust mode (``reconfiguration.degraded``) or ``None``: it needs a filter and a controller
-    registered with ``radius_intervals``; ``auto`` runs it with the ``safe`` policy and a sensor that tells the
-    wheels apart (a yaw-rate gyro or position fixes: with speed only one wheel's estimate bounds nothing), ``on``
+    registered with ``radius_intervals``; ``auto`` runs it with the ``safe`` policy, a sensor that tells the
+    wheels apart (a yaw-rate gyro or position fixes: with speed only one wheel's estimate bounds nothing) and a
+    plant whose tyres can slide (not the kinematic plant, where the estimate is no upper bound), ``on``
     with any policy but ``none`` and ``truth``. The first alarm is the decision's ``k_sigma``/``min_drop``
     departure."""
     rc = cfg.reconfiguration
     d = rc.degraded
     takes = controllers.get(cfg.controller.kind).meta.get("radius_intervals", False)
     separates = cfg.sensors.yaw_rate_sigma is not None or cfg.sensors.position_sigma is not None
-    if d.mode == "auto":
-        wanted = rc.policy == "safe" and separates
+    if d.mode == "auto":  # the kinematic plant's tyres never slide: its estimate is no upper bound to follow
+        wanted = rc.policy == "safe" and separates and cfg.plant.kind != "kinematic"
     else:
         wanted = d.mode == "on" and rc.policy not in ("none", "truth")
     if not takes or not wanted or cfg.estimator.kind == "none":

@@ -136,9 +136,10 @@ def test_an_unidentified_radius_block_is_not_followed() -> None:
 
 
 def test_the_mode_needs_a_policy_that_uses_the_filter_an_interval_controller_and_a_sensor_for_the_split() -> None:
-    """``auto`` (the default): on with the safe policy, the pf-nmpc and a gyro or position fixes — not with speed
-    only (the scenario's sensing) and not with ``direct``; ``on`` needs a controller that takes intervals and a
-    policy that uses the filter, whatever the sensors; ``off`` never."""
+    """``auto`` (the default): on with the safe policy, the pf-nmpc, a gyro or position fixes and the MuJoCo plant —
+    not with speed only (the scenario's sensing), not with ``direct``, not on the kinematic plant; ``on`` needs a
+    controller that takes intervals and a policy that uses the filter, whatever the sensors and plant; ``off``
+    never."""
     pf = {"controller.kind": "pf-nmpc"}
     gyro = {**pf, "sensors.yaw_rate_sigma": 0.01}
     assert build_degraded_mode(load_config("scenario2", pf)) is None
@@ -146,6 +147,9 @@ def test_the_mode_needs_a_policy_that_uses_the_filter_an_interval_controller_and
     assert build_degraded_mode(load_config("scenario2", {**pf, "sensors.position_sigma": 0.5})) is not None
     assert build_degraded_mode(load_config("scenario2", {**gyro, "reconfiguration.policy": "direct"})) is None
     assert build_degraded_mode(load_config("scenario2", {**gyro, "reconfiguration.degraded.mode": "off"})) is None
+    assert build_degraded_mode(load_config("scenario2", {**gyro, "plant.kind": "kinematic"})) is None
+    assert build_degraded_mode(load_config("scenario2", {**gyro, "plant.kind": "kinematic",
+                                                          "reconfiguration.degraded.mode": "on"})) is not None
     on = {"reconfiguration.degraded.mode": "on"}
     assert build_degraded_mode(load_config("scenario2", {**on, "controller.kind": "nmpc"})) is None
     assert build_degraded_mode(load_config("scenario2", {**on, "controller.kind": "pf-nmpc",

@@ -175,7 +175,7 @@ class DegradedMode:
         open_ = self._open
         target = np.asarray(radii, dtype=float)
         if self._identified_block(out):  # follow an open wheel's estimate down: an upper bound while it is dragged
-            target = np.where(open_, np.minimum(target, np.clip(est, self.min_radius, self.nominal)), target)
+            target = np.where(open_, np.fmin(target, np.clip(est, self.min_radius, self.nominal)), target)  # NaN: keep
         self._radii = self._radii + np.clip(target - self._radii, -self.max_step, self.max_step)
         self._skid_events(t, skid)
         hi = np.where(open_, np.clip(np.nan_to_num(est, nan=self.nominal[0]), self.min_radius, self.nominal),

@@ -667,13 +667,15 @@ class ReconfigurationConfig(StrictModel):
     from a transient undershoot (0.2 m in 4 s). Reverts (filter trouble, withdrawn decision) are not
     limited by it. Chosen by the rule of the built-in study ``tune_growth`` on the development seeds
     0–9 (docs/studies.md)."""
-    condition_on_healthy: Flag = False
+    condition_on_healthy: Literal["auto"] | Flag = "auto"
     """With one wheel isolated, hand over the filter's estimate of its radius *conditioned on the other wheel's
     radius being nominal* (``R_iso + P_io / P_oo (R_nom − R_other)``, the Gaussian posterior given what the
     decision asserts) instead of the raw estimate. The filter's two radii errors are strongly correlated (ρ ≈
     0.995 with a yaw-rate gyro: a common scale error, while the ratio is well identified); pairing the raw
     estimate of one wheel with the nominal other turns that scale error into a ratio, i.e. yaw-rate, error of
-    the controller's model. ``False``: the raw estimate (the behaviour before this setting)."""
+    the controller's model. ``auto`` (default): on with a controller registered to take radius intervals
+    (``pf-nmpc``), off with the others (the time-parametrised NMPC tipped over with it in scenarios 3 and 4,
+    docs/config-defaults.md); ``true``: on; ``false``: the raw estimate."""
     nis_window: PosFloat = 1.0
     """Window (s) of the innovation-consistency check (mean NIS)."""
     max_nis_ratio: PosFloat = 5.0

@@ -4,7 +4,7 @@ controller's model uses at each solve) and the robust NMPC's scenario weights fr
 Public API::
 
     policy = build_policy(cfg, with_estimator=True)     # the registered policy cfg.reconfiguration.policy names
-    policy = SafePolicy(cfg.reconfiguration, run_context(cfg))   # a policy from its settings and the run context
+    policy = SafePolicy(resolved_reconfiguration(cfg), run_context(cfg))  # from its settings ("auto" resolved)
     weighting = build_scenario_weighting(cfg)           # None unless a robust NMPC is re-weighted by the filter
     degraded = build_degraded_mode(cfg)                 # None unless pf-nmpc with the safe policy (the default)
 """
@@ -12,7 +12,7 @@ Public API::
 from __future__ import annotations
 
 from .degraded import DegradedMode, NoSlipCheck
-from .factory import build_degraded_mode, build_policy, build_scenario_weighting
+from .factory import build_degraded_mode, build_policy, build_scenario_weighting, resolved_reconfiguration
 from .policies import (
     DirectPolicy,
     NominalPolicy,
@@ -37,4 +37,5 @@ __all__ = [
     "build_policy",
     "build_scenario_weighting",
     "posterior_weights",
+    "resolved_reconfiguration",
 ]

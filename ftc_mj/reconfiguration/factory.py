@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from ..config import RunConfig, run_context
+from ..config import ReconfigurationConfig, RunConfig, run_context
 from ..registry import controllers, policies
 from .degraded import DegradedMode
 from .policies import ReconfigurationPolicy
@@ -17,7 +17,17 @@ def build_policy(cfg: RunConfig, with_estimator: bool = True) -> Reconfiguration
     name = cfg.reconfiguration.policy
     if not with_estimator and policies.get(name).meta.get("needs_estimator", True):
         name = "none"
-    return policies.create(name, cfg.reconfiguration, run_context(cfg), run_config=cfg)
+    return policies.create(name, resolved_reconfiguration(cfg), run_context(cfg), run_config=cfg)
+
+
+def resolved_reconfiguration(cfg: RunConfig) -> ReconfigurationConfig:
+    """The ``[reconfiguration]`` section with its ``auto`` settings resolved for this run:
+    ``condition_on_healthy = "auto"`` is on with a controller registered with ``radius_intervals``."""
+    rc = cfg.reconfiguration
+    if rc.condition_on_healthy != "auto":
+        return rc
+    takes = bool(controllers.get(cfg.controller.kind).meta.get("radius_intervals", False))
+    return rc.model_copy(update={"condition_on_healthy": takes})
 
 
 def build_scenario_weighting(cfg: RunConfig) -> ScenarioWeighting | None:

@@ -65,8 +65,9 @@ class SafeSettings(Protocol):
     """Largest change (m/s) of a handed-over radius."""
     max_growth_rate: float
     """Largest increase (m/s) of an isolated wheel's radius."""
-    condition_on_healthy: bool
-    """Hand over the isolated wheel's estimate conditioned on the other radius being nominal."""
+    condition_on_healthy: bool | str
+    """Hand over the isolated wheel's estimate conditioned on the other radius being nominal (``True``); the
+    factory resolves ``"auto"`` for the run's controller, and a policy built directly takes it as off."""
     nis_window: float
     """Window (s) of the mean NIS."""
     max_nis_ratio: float
@@ -175,7 +176,7 @@ class SafePolicy(ReconfigurationPolicy):
         self.max_sigma = rc.max_sigma
         self.max_nis_ratio = rc.max_nis_ratio
         self.trust_lag = rc.trust_lag
-        self.condition_on_healthy = rc.condition_on_healthy
+        self.condition_on_healthy = rc.condition_on_healthy is True
         self.max_step = rc.max_rate / context.controller_rate
         self.max_grow = min(rc.max_growth_rate, rc.max_rate) / context.controller_rate
         self._nis: deque[float] = deque(maxlen=max(1, round(rc.nis_window * context.estimator_rate)))

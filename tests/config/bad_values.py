@@ -16,9 +16,11 @@ from ftc_mj.config import RunConfig
 
 
 def _base(ann: Any) -> Any:
-    """The leaf type of an annotation: Optional and Annotated stripped."""
+    """The leaf type of an annotation: Optional and Annotated stripped (a union of several types keeps its
+    members, each stripped)."""
     if typing.get_origin(ann) in (typing.Union, types.UnionType):
-        ann = next(a for a in typing.get_args(ann) if a is not type(None))
+        members = [_base(a) for a in typing.get_args(ann) if a is not type(None)]
+        return members[0] if len(members) == 1 else typing.Union[tuple(members)]  # noqa: UP007
     if typing.get_origin(ann) is typing.Annotated:
         ann = typing.get_args(ann)[0]
     return ann
@@ -40,6 +42,8 @@ def leaves(model: type[BaseModel] = RunConfig, prefix: str = "") -> list[tuple[s
 def kind_of(t: Any) -> str:
     """The kind of a leaf type, the key of :data:`BAD_VALUES`."""
     origin = typing.get_origin(t)
+    if origin is typing.Union and {typing.get_origin(a) or a for a in typing.get_args(t)} == {Literal, bool}:
+        return "literal_or_bool"  # e.g. "auto" | true | false
     if origin is Literal:
         return "literal"
     if origin is tuple:
@@ -66,6 +70,7 @@ BAD_VALUES: dict[str, list[str]] = {
     "int": ["1.5", "true", '"3"', "1e308"],
     "bool": ['"yes"', "1", "0.0"],
     "literal": ['"bogus"', "3", "true"],
+    "literal_or_bool": ['"bogus"', "3", '"yes"', "0.0"],
     "tuple": ["[1.0]", '"x"', "[inf, inf, inf, inf, inf]", "[true, true, true, true, true]"],
     "list": ["3", "[[1.0]]", '[["a", 1.0]]', "[[inf, 1.0]]"],
     "path": ['""', "true", '"no/such/file.xml"'],

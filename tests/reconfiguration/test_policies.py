@@ -25,6 +25,7 @@ from ftc_mj.reconfiguration import (
     ScenarioWeighting,
     build_policy,
     build_scenario_weighting,
+    resolved_reconfiguration,
 )
 
 OMEGA = np.array([5.0, 5.0])
@@ -194,8 +195,24 @@ def test_safe_conditions_the_isolated_radius_on_the_healthy_one_being_nominal() 
     np.testing.assert_allclose(_step(fb, 0.0, _out(1.9, 0.95, 0.01), "left"), [2.0, 0.95])
     fb = _fb("safe", max_rate=100.0, condition_on_healthy=True)  # both isolated: both raw estimates
     np.testing.assert_allclose(_step(fb, 0.0, _out(1.9, 0.95, 0.01, corr=0.99), "both"), [1.9, 0.95])
-    fb = _fb("safe", max_rate=100.0)  # off (default): the raw estimate
+    fb = _fb("safe", max_rate=100.0)  # auto (default) with the scenario's nmpc: off, the raw estimate
     np.testing.assert_allclose(_step(fb, 0.0, _out(1.9, 0.95, 0.01, corr=0.99), "left"), [2.0, 0.95])
+
+
+@pytest.mark.parametrize(("controller", "setting", "on"), [
+    ("pf-nmpc", "auto", True), ("nmpc", "auto", False), ("robust-nmpc", "auto", False), ("lmpc", "auto", False),
+    ("nmpc", True, True), ("pf-nmpc", False, False)])
+def test_condition_on_healthy_auto_is_on_with_the_path_following_nmpc(controller: str, setting: object,
+                                                                      on: bool) -> None:
+    """``auto`` resolves for the run's controller (on where it takes radius intervals); an explicit flag wins;
+    a policy built straight from the unresolved section takes ``auto`` as off."""
+    cfg = load_config("scenario2", {"controller.kind": controller, "reconfiguration.policy": "safe",
+                                    "reconfiguration.condition_on_healthy": setting})
+    assert resolved_reconfiguration(cfg).condition_on_healthy is on
+    assert build_policy(cfg).condition_on_healthy is on
+    assert SafePolicy(cfg.reconfiguration, run_context(cfg)).condition_on_healthy is (setting is True)
+    with pytest.raises(BadInput, match=r"condition_on_healthy"):
+        load_config("scenario2", {"reconfiguration.condition_on_healthy": "yes"})
 
 
 def _context(**kw: object) -> RunContext:

@@ -37,7 +37,7 @@ def _reports() -> dict[str, list[Callable[[Path], str]]]:
     out.setdefault("reconfiguration", []).insert(0, reconfiguration.report)
     out["physical_plant"].insert(0, physical_plant.report)
     out["rate_bound"] = [rate_bound.report]
-    out["pathfollow"] = out["pathfollow_fresh"] = [pathfollow.report]
+    out["pathfollow"] = out["pathfollow_fresh"] = out["pathfollow_confirm"] = [pathfollow.report]
     out["pathfollow_figure"] = [pathfollow_figure.report]
     out["robust_ftc"] = out["robust_ftc_fixed"] = [robust_ftc.report]
     out["fdi"] = [fdi.report]

@@ -26,8 +26,12 @@ def resolved_reconfiguration(cfg: RunConfig) -> ReconfigurationConfig:
     rc = cfg.reconfiguration
     if rc.condition_on_healthy != "auto":
         return rc
-    takes = bool(controllers.get(cfg.controller.kind).meta.get("radius_intervals", False))
-    return rc.model_copy(update={"condition_on_healthy": takes})
+    return rc.model_copy(update={"condition_on_healthy": _takes_intervals(cfg)})
+
+
+def _takes_intervals(cfg: RunConfig) -> bool:
+    """Whether the run's controller is registered to take radius intervals (``radius_intervals``)."""
+    return bool(controllers.get(cfg.controller.kind).meta.get("radius_intervals", False))
 
 
 def build_scenario_weighting(cfg: RunConfig) -> ScenarioWeighting | None:
@@ -49,7 +53,7 @@ def build_degraded_mode(cfg: RunConfig) -> DegradedMode | None:
     departure."""
     rc = cfg.reconfiguration
     d = rc.degraded
-    takes = controllers.get(cfg.controller.kind).meta.get("radius_intervals", False)
+    takes = _takes_intervals(cfg)
     separates = cfg.sensors.yaw_rate_sigma is not None or cfg.sensors.position_sigma is not None
     if d.mode == "auto":  # the kinematic plant's tyres never slide: its estimate is no upper bound to follow
         wanted = rc.policy == "safe" and separates and cfg.plant.kind != "kinematic"

@@ -12,7 +12,8 @@ solves slower than the control period)::
 
 Exit 0 when every digest equals the reference, 1 otherwise (the differing metrics are printed).
 Bitwise equality holds on one CPU type and one set of dependency versions (the README says why);
-the reference records both, and a comparison on another CPU says so instead of failing silently.
+the reference records both (the CPU model name and its SIMD flags: a VM may report one model name for CPUs
+whose kernels differ), and a comparison on another CPU says so instead of failing silently.
 """
 
 from __future__ import annotations
@@ -78,9 +79,11 @@ def _machine() -> dict:
 
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                          cwd=Path(__file__).parent).stdout.strip()
-    cpu = next((ln.split(":", 1)[1].strip() for ln in Path("/proc/cpuinfo").read_text().splitlines()
-                if ln.startswith("model name")), platform.machine()) if Path("/proc/cpuinfo").is_file() else ""
-    return {"commit": rev, "cpu": cpu or platform.machine(), "python": platform.python_version(),
+    info = Path("/proc/cpuinfo").read_text().splitlines() if Path("/proc/cpuinfo").is_file() else []
+    cpu = next((ln.split(":", 1)[1].strip() for ln in info if ln.startswith("model name")), "")
+    flags = next((ln.split(":", 1)[1].split() for ln in info if ln.startswith("flags")), [])
+    simd = " ".join(sorted(f for f in set(flags) if f.startswith(("avx", "fma", "sse4"))))
+    return {"commit": rev, "cpu": cpu or platform.machine(), "simd": simd, "python": platform.python_version(),
             "mujoco": mujoco.__version__, "casadi": casadi.__version__, "numpy": np.__version__}
 
 
@@ -107,8 +110,11 @@ def main() -> int:
         args.reference.write_text(json.dumps({"machine": _machine(), "runs": runs}, indent=1) + "\n")
         print(f"wrote {args.reference} ({len(got)} runs) at {_machine()['commit']}")
         return 0
-    print(f"reference: commit {ref.get('machine', {}).get('commit')} on {ref.get('machine', {}).get('cpu')}; "
-          f"now: {_machine()}")
+    then, now = ref.get("machine", {}), _machine()
+    print(f"reference: {then}\nnow:       {now}")
+    moved = [k for k in ("cpu", "simd", "python", "mujoco", "casadi", "numpy") if then.get(k) != now[k]]
+    if moved:  # the model name alone can hide a different CPU: a VM may report "AMD EPYC" for several
+        print(f"NOTE: the reference was recorded with another {', '.join(moved)}: digests need not match here")
     bad = 0
     for n, g in got.items():
         r = ref["runs"].get(n)

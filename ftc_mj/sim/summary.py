@@ -133,7 +133,8 @@ WORKING_OPTIONS = ("--set", "sensors.yaw_rate_sigma=0.01", "--set", "controller.
 """The options that keep scenario 2's robot on its path (docs/findings.md, finding 5): a yaw-rate gyro
 (σ 0.01 rad/s) separates the radii, the actuation-rate term in the cost ends the wheel-rate limit
 cycle, and the ``safe`` policy hands the identified radii over. Either alone is not enough: the gyro
-with the paper's cost tips the robot over."""
+with the paper's cost runs the robot far off its path with a wheel in the air (seed 0: 160 m, 23 s of lift-off;
+on some CPUs' round-off it tips over near the end of the run)."""
 
 
 def working_command(scenario: str) -> str:
@@ -155,7 +156,8 @@ def nominal_hold_note(m: dict[str, Any], trace: dict[str, np.ndarray], max_sigma
     why = f"σ of the split {split:.2f} m > {max_sigma:g} m" if split is not None and max_sigma else "no wheel isolated"
     return ("The safe policy kept the nominal radii: a fault was declared, but the speed alone cannot tell which "
             f"tyre shrank ({why}). A yaw-rate gyro tells them apart and the actuation-rate term in the cost lets "
-            "the policy hand the estimates over (the gyro alone, with the paper's cost, tips the robot over); "
+            "the policy hand the estimates over (the gyro alone, with the paper's cost, runs the robot far off "
+            "its path with a wheel in the air); "
             f"try: {working_command(scenario or str(m.get('scenario') or 'SCENARIO'))}")
 
 

@@ -2,7 +2,8 @@
 README's first screen names the configuration that keeps the robot on its path, and it does.
 
 Each run is scenario 2's full 40 s (the properties are about the end of the run: the gyro-only
-run tips over at about 38 s), three runs of about 6 s each."""
+run ends far off its path with a wheel in the air, or tips over near the end: round-off decides
+which), three runs of about 6 s each."""
 
 from __future__ import annotations
 
@@ -49,7 +50,11 @@ def test_the_hint_after_the_default_run_works_as_printed(tmp_path: Path) -> None
 
 
 @pytest.mark.slow
-def test_the_gyro_alone_tips_the_robot_over_as_the_hint_warns(tmp_path: Path) -> None:
+def test_the_gyro_alone_fails_as_the_hint_warns(tmp_path: Path) -> None:
+    """The hint's parenthesis: the gyro with the paper's cost runs the robot far off its path with a wheel in the
+    air (seed 0: 160 m and 23 s of lift-off on one EPYC; tipped over at ~38 s on another — the saturated run
+    amplifies round-off, so the test accepts either, with bounds well inside the measured 160 m and 23 s)."""
     text, m = run(["run", "scenario2", "--set", "sensors.yaw_rate_sigma=0.01"], tmp_path)
-    assert m["status"] == "ok" and m["tipped"] is True and m["outcome"] == "tipped over"
-    assert text.startswith("OUTCOME: TIPPED OVER")
+    assert m["status"] == "ok" and m["outcome"] in ("off the path", "tipped over")
+    assert m["tipped"] or (m["cross_track_max_recovered"] > 10.0 and m["liftoff_time_post_transient_s"] > 10.0)
+    assert text.startswith(f"OUTCOME: {m['outcome'].upper()}")

@@ -255,7 +255,7 @@ def check_options(registry: Registry, name: str, options: Mapping[str, Any]) -> 
     """``options`` validated by the ``settings`` model ``name`` was registered with (as plain data, the
     settings' defaults filled in); ``ValueError`` if the component takes none, pydantic's
     ``ValidationError`` if they do not fit (the config words it in one line,
-    :func:`ftc_mj.config.errors.one_line`)."""
+    :func:`ftc_mj.validation.one_line`)."""
     # empty options of a registry not loaded yet (a default config): nothing to fill in, and the
     # components' modules stay unimported (a given name has loaded the registry when it was checked)
     entry = registry.get(name) if options or registry.loaded else registry.peek(name)

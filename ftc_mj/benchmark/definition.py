@@ -14,8 +14,8 @@ from typing import Annotated
 from pydantic import Field, ValidationError, model_validator
 
 from ..config import one_line, read_toml
-from ..config.types import StrictModel
 from ..errors import BadInput
+from ..fields import StrictModel
 from ..resources import resource_path
 from ..study.spec import HELD_OUT_START
 

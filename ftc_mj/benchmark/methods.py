@@ -24,8 +24,8 @@ from typing import Annotated, Any
 from pydantic import Field, ValidationError
 
 from ..config import RunConfig, SafeName, existing_file, one_line, read_toml, set_dotted, validate_config
-from ..config.types import StrictModel
 from ..errors import BadInput
+from ..fields import StrictModel
 from ..identity import canonical_hash
 from ..study.spec import flatten_dotted, key_error
 

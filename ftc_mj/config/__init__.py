@@ -8,14 +8,29 @@ Loading goes through :func:`load_config`, which accepts a built-in scenario name
 ``scenario4``) or a TOML path, applies ``--set dotted.key=value`` overrides, validates, and raises
 :class:`~ftc_mj.errors.BadInput` with a one-line message naming the offending field.
 
-Modules: :mod:`.types` (value types and the strict base), :mod:`.sections` (one model per
-section), :mod:`.schema` (:class:`RunConfig`, :func:`run_context`), :mod:`.files` (scenario names,
-TOML files), :mod:`.load` (overrides, validation, sections on their own), :mod:`.errors` (the
-one-line text of a validation error). Only the factory modules of the components import this
-package.
+Modules: :mod:`.sections` (one model per section), :mod:`.schema` (:class:`RunConfig`,
+:func:`run_context`), :mod:`.files` (scenario names, TOML files), :mod:`.load` (overrides, validation,
+sections on their own). The value types and the strict base of every settings model live below the
+components, in :mod:`ftc_mj.fields`; the one-line text of a validation error in :mod:`ftc_mj.validation`.
+Only the wiring (:mod:`ftc_mj.wiring`) and the layers above it import this package.
 """
 
-from .errors import one_line, shown_value
+from ..fields import (
+    DEFAULT_MODEL_FILE,
+    FLOAT_BOUND,
+    NAME_RE,
+    OMEGA_MAX,
+    FiniteFloat,
+    Flag,
+    Fraction,
+    NonNegFloat,
+    PosFloat,
+    SafeName,
+    ranged,
+    ranged_int,
+)
+from ..model.sensors import SensorSettings
+from ..validation import one_line, shown_value
 from .files import BUILTIN_SCENARIOS, MAX_TOML_BYTES, existing_file, parse_toml, read_toml, scenario_path
 from .load import (
     config_to_toml_dict,
@@ -43,21 +58,6 @@ from .sections import (
     ReferenceConfig,
     RobotConfig,
     RobustConfig,
-    SensorConfig,
-)
-from .types import (
-    DEFAULT_MODEL_FILE,
-    FLOAT_BOUND,
-    NAME_RE,
-    OMEGA_MAX,
-    FiniteFloat,
-    Flag,
-    Fraction,
-    NonNegFloat,
-    PosFloat,
-    SafeName,
-    ranged,
-    ranged_int,
 )
 
 __all__ = [
@@ -66,7 +66,7 @@ __all__ = [
     "FiniteFloat",
     "Flag", "Fraction", "HypothesisConfig", "ModelConfig", "NonNegFloat", "OutputConfig", "PathFollowingConfig",
     "PlantConfig", "PosFloat", "ReconfigurationConfig", "ReferenceConfig", "RobotConfig", "RobustConfig",
-    "RunConfig", "SafeName", "SensorConfig", "config_to_toml_dict", "existing_file", "from_sections",
+    "RunConfig", "SafeName", "SensorSettings", "config_to_toml_dict", "existing_file", "from_sections",
     "load_config", "one_line", "parse_override", "parse_toml", "ranged", "ranged_int", "read_toml",
     "run_context", "scenario_path", "section", "set_dotted", "shown_value", "validate_config",
 ]

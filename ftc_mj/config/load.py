@@ -14,11 +14,11 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from ..errors import BadInput
+from ..fields import NAME_RE
 from ..suggest import first_leaf, suggest_key
-from .errors import one_line
+from ..validation import one_line
 from .files import read_toml, scenario_path
 from .schema import RunConfig
-from .types import NAME_RE
 
 
 def validate_config(data: dict[str, Any]) -> RunConfig:

@@ -13,6 +13,8 @@ from pydantic import Field, Strict, model_validator
 
 from .. import registry
 from ..context import RunContext
+from ..fields import SafeName, StrictModel, ranged, ranged_int
+from ..model.sensors import SensorSettings
 from .sections import (
     ControllerConfig,
     EstimatorConfig,
@@ -23,9 +25,7 @@ from .sections import (
     ReconfigurationConfig,
     ReferenceConfig,
     RobotConfig,
-    SensorConfig,
 )
-from .types import SafeName, StrictModel, ranged, ranged_int
 
 
 class RunConfig(StrictModel):
@@ -46,7 +46,7 @@ class RunConfig(StrictModel):
     plant: PlantConfig = Field(default_factory=PlantConfig)
     model: ModelConfig = Field(default_factory=ModelConfig)
     faults: FaultConfig = Field(default_factory=FaultConfig)
-    sensors: SensorConfig = Field(default_factory=SensorConfig)
+    sensors: SensorSettings = Field(default_factory=SensorSettings)
     estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
     controller: ControllerConfig = Field(default_factory=ControllerConfig)
     reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)

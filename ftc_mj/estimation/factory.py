@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..config import EstimatorConfig, RunConfig, SensorConfig, run_context, section
+from ..config import EstimatorConfig, RunConfig, SensorSettings, run_context, section
 from ..context import RunContext
 from ..registry import BUILTIN, estimators
 from .base import Estimator
@@ -74,7 +74,7 @@ def build_estimator(cfg: RunConfig) -> Estimator | None:
     return estimators.create(cfg.estimator.kind, cfg.estimator, run_context(cfg), run_config=cfg)
 
 
-def setup_from_settings(estimator: Table = None, sensors: SensorConfig | Mapping[str, Any] | None = None, *,
+def setup_from_settings(estimator: Table = None, sensors: SensorSettings | Mapping[str, Any] | None = None, *,
                         wheel_radius: float = 2.0, half_track: float = 1.0,
                         initial_pose: Sequence[float] = (0.0, 0.0, 0.0)) -> tuple[EstimatorConfig, FilterSetup]:
     """The validated ``[estimator]`` section and the filter's resolved parameters, from the sections
@@ -82,20 +82,20 @@ def setup_from_settings(estimator: Table = None, sensors: SensorConfig | Mapping
     speed σ 0.5 m/s, no gyro, no position fix), the model's nominal wheel radius and half track (m)
     and the initial pose (m, m, rad)."""
     est = section(EstimatorConfig, estimator, "estimator")
-    sen = section(SensorConfig, sensors, "sensors")
+    sen = section(SensorSettings, sensors, "sensors")
     return est, FilterSetup.from_sections(est, sen, wheel_radius=wheel_radius, half_track=half_track,
                                           initial_pose=initial_pose)
 
 
 def _single_from_settings(cls: type[SingleFilter], estimator: Table = None,
-                          sensors: SensorConfig | Mapping[str, Any] | None = None, **geometry: Any) -> SingleFilter:
+                          sensors: SensorSettings | Mapping[str, Any] | None = None, **geometry: Any) -> SingleFilter:
     """The filter built from its own settings, without a run config (see :func:`setup_from_settings`
     for the arguments); it gives the same estimates as the filter of a run with those settings."""
     return cls(setup_from_settings(estimator, sensors, **geometry)[1])
 
 
 def _imm_from_settings(cls: type[IMM], member: str = "ukf", estimator: Table = None,
-                       sensors: SensorConfig | Mapping[str, Any] | None = None, **geometry: Any) -> IMM:
+                       sensors: SensorSettings | Mapping[str, Any] | None = None, **geometry: Any) -> IMM:
     """The IMM built from its own settings, without a run config (the bank, transition matrix and
     variant from ``estimator``; the rest as :func:`setup_from_settings`)."""
     est, setup = setup_from_settings(estimator, sensors, **geometry)

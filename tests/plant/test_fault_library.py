@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from ftc_mj.config import FaultConfig, PlantConfig, RobotConfig, SensorConfig
+from ftc_mj.config import FaultConfig, PlantConfig, RobotConfig, SensorSettings
 from ftc_mj.plant import KinematicPlant, Plant, Sensors, Truth
 from ftc_mj.plant.faults import FAULT_UNITS, FaultSpec, fault_list
 
@@ -126,7 +126,7 @@ def _truth(v: float = 10.0, yaw: float = 0.2) -> Truth:
 
 def _readings(faults: list[dict], n: int, gyro: float = 0.01) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t, speed, yaw rate) of ``n`` readings at 100 Hz of a constant truth (10 m/s, 0.2 rad/s)."""
-    s = Sensors(SensorConfig(yaw_rate_sigma=gyro), 7, FaultConfig(sensor=faults).sensor)
+    s = Sensors(SensorSettings(yaw_rate_sigma=gyro), 7, FaultConfig(sensor=faults).sensor)
     t = np.arange(n) * 0.01
     rd = [s.read(_truth(), ti) for ti in t]
     return t, np.array([r.speed for r in rd]), np.array([r.yaw_rate for r in rd])

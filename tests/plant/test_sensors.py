@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.config import RunConfig, SensorConfig
+from ftc_mj.config import RunConfig, SensorSettings
 from ftc_mj.plant import SensorReading, Sensors, Truth
 from tests.plant.helpers import mujoco_plant
 
@@ -20,7 +20,7 @@ def truth_at(t: float, **kw: float) -> Truth:
 
 
 def test_defaults_speed_only() -> None:
-    s = Sensors(SensorConfig(), seed=1)
+    s = Sensors(SensorSettings(), seed=1)
     z = s.read(truth_at(0.0))
     assert isinstance(z, SensorReading)
     assert z.yaw_rate is None and z.position is None
@@ -29,7 +29,7 @@ def test_defaults_speed_only() -> None:
 
 
 def test_noise_statistics() -> None:
-    cfg = SensorConfig(speed_sigma=0.5, yaw_rate_sigma=0.01, encoder_sigma=0.05, pose_sigma=0.1)
+    cfg = SensorSettings(speed_sigma=0.5, yaw_rate_sigma=0.01, encoder_sigma=0.05, pose_sigma=0.1)
     s = Sensors(cfg, seed=3)
     zs = [s.read(truth_at(0.01 * k)) for k in range(20000)]
     sp = np.array([z.speed for z in zs]) - 3.0
@@ -44,24 +44,24 @@ def test_noise_statistics() -> None:
 
 
 def test_position_fix_rate() -> None:
-    s = Sensors(SensorConfig(position_sigma=0.2, position_rate=2.0), seed=0)
+    s = Sensors(SensorSettings(position_sigma=0.2, position_rate=2.0), seed=0)
     fixes = [k for k in range(300) if s.read(truth_at(0.01 * k)).position is not None]
     assert fixes == list(range(0, 300, 50))  # t = 0, 0.5, 1.0, ... at a 100 Hz read rate
-    z = Sensors(SensorConfig(position_sigma=0.2), seed=0).read(truth_at(0.0))
+    z = Sensors(SensorSettings(position_sigma=0.2), seed=0).read(truth_at(0.0))
     assert z.position is not None and z.position.shape == (2,)
 
 
 def test_same_seed_same_readings_and_independent_streams() -> None:
-    def seq(cfg: SensorConfig, seed: int) -> list[float]:
+    def seq(cfg: SensorSettings, seed: int) -> list[float]:
         s = Sensors(cfg, seed)
         return [s.read(truth_at(0.01 * k)).speed for k in range(100)]
 
-    a = seq(SensorConfig(), 7)
-    assert a == seq(SensorConfig(), 7)
-    assert a != seq(SensorConfig(), 8)
+    a = seq(SensorSettings(), 7)
+    assert a == seq(SensorSettings(), 7)
+    assert a != seq(SensorSettings(), 8)
     # switching on a gyro does not change the speed noise sequence
-    assert a == seq(SensorConfig(yaw_rate_sigma=0.01), 7)
-    s = Sensors(SensorConfig(), 7)
+    assert a == seq(SensorSettings(yaw_rate_sigma=0.01), 7)
+    s = Sensors(SensorSettings(), 7)
     first = s.read(truth_at(0.0)).speed
     s.reset()
     assert s.read(truth_at(0.0)).speed == first

@@ -1,7 +1,7 @@
 """The one-line text of a pydantic validation error: ``<dotted.field>: why[, got <value>]``.
 
 The one home of this formatting: the run config (:mod:`ftc_mj.config.load`), the plug-in
-``options`` tables (:func:`ftc_mj.config.types.options_of`) and the study files
+``options`` tables (:func:`ftc_mj.fields.options_of`) and the study files
 (:mod:`ftc_mj.study.spec`) all use :func:`one_line`, so every bad input reads the same.
 """
 

@@ -23,8 +23,8 @@ from pydantic import (
     field_validator,
 )
 
-from .. import registry, resources
-from .errors import one_line
+from . import registry, resources
+from .validation import one_line
 
 DEFAULT_MODEL_FILE = resources.DEFAULT_MODEL
 """``plant.model_file`` default: the robot shipped in the package (``builtin:diffdrive.xml``)."""

@@ -41,7 +41,7 @@ def test_run_in_memory_and_on_disk_and_load_back(tmp_path: Path) -> None:
     disk = ftc_mj.run(mem.config, tmp_path, rrd=False)
     assert disk.run_id == mem.run_id and disk.path == tmp_path / mem.run_id
     assert sorted(p.name for p in disk.path.iterdir()) == ["config.toml", "events.json", "metrics.json",
-                                                           "metrics.schema.json", "trace.parquet"]
+                                                           "metrics.schema.json", "record.json", "trace.parquet"]
     back = ftc_mj.load_run(disk.path)
     wall = ["solve_time_ms"]  # wall-clock solve times differ between runs
     assert back.trace.drop(wall).equals(mem.trace.drop(wall), null_equal=True)

@@ -39,7 +39,8 @@ def bench_run(cfg: Any, out_root: Path | None, rrd: bool) -> Any:
     from ..sim.run import execute
 
     outcome = execute(cfg, out_root, rrd=rrd)
-    scores = score_run(cfg, outcome.result.trace, outcome.result.events, status=str(outcome.metrics.get("status")))
+    scores = score_run(cfg, outcome.result.trace, outcome.result.events, status=str(outcome.metrics.get("status")),
+                       record=outcome.result.record)
     scores.pop("status", None)
     outcome.metrics = {**{k: outcome.metrics.get(k) for k in KEPT_METRICS}, **scores}
     return outcome

@@ -31,9 +31,12 @@ Bounds
     or, for a sensor bias/drift, the injected offset over the sensor's σ; ``None`` when it is not reached
     within :data:`~ftc_mj.metrics.fdi.KL_PROFILE_S` (a dropout or an actuator fault the wheel-rate inputs explain).
     ``radius_pcrb_R/L`` (m): the posterior Cramér–Rao bound at the end of the run on each radius for the
-    model that generated the data since the last radius change (radii constant: no process noise,
-    :func:`~ftc_mj.estimation.pcrb.trace_pcrb` from that change; the trace's ``R_*_pcrb_const_std`` when the
-    run recorded that bound), beside the filter's final error ``radius_error_R/L`` (m).
+    model that generated the data (radii constant between the truth's changes,
+    :func:`~ftc_mj.estimation.pcrb.data_model_bound`), as the run recorded it once (the trace's
+    ``R_*_pcrb_const_std``, from the run record's filter setup; ``None`` for a trace without it), beside the
+    filter's final error ``radius_error_R/L`` (m).
+The scorer reads the run's resolved record (:class:`~ftc_mj.metrics.record.RunRecord`: filter setup, reference
+path, rates) instead of rebuilding those facts from the config.
 """
 
 from __future__ import annotations
@@ -49,9 +52,11 @@ from ..metrics.detection import WHEEL_OF_CODE, declared_wheel_codes
 from ..metrics.fdi import KL_PROFILE_S, cumulative_kl, lorden_delays
 from ..metrics.outcome import OFF_PATH_M
 from ..metrics.path import path_following_metrics
+from ..metrics.record import RunRecord
 from ..metrics.run import plant_metrics, reconfiguration_metrics
 from ..metrics.series import first_time, starts
 from ..plant.faults import fault_list, wheel_schedules
+from ..sim.record import build_record
 
 SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "liftoff_s", "false_alarm", "detected",
                  "detection_delay", "isolation", "reconfig_delay", "lorden_delay_bound", "radius_pcrb_R",
@@ -114,41 +119,35 @@ def sensor_kl(cfg: RunConfig, trace: dict[str, np.ndarray], fault: dict[str, Any
     return np.cumsum(0.5 * (offset / sigma) ** 2)
 
 
-def bound_scores(cfg: RunConfig, trace: dict[str, np.ndarray], faults: list[dict[str, Any]]) -> dict[str, Any]:
+def bound_scores(cfg: RunConfig, record: RunRecord, trace: dict[str, np.ndarray],
+                 faults: list[dict[str, Any]]) -> dict[str, Any]:
     """Lorden's delay bound (s) for the first change and the radius PCRB at the end (m; module docstring)."""
     out: dict[str, Any] = {"lorden_delay_bound": None}
     dt = 1.0 / cfg.estimator.rate
     if faults:
         f = faults[0]
         K = (sensor_kl(cfg, trace, f) if f["target"] in ("speed", "yaw_rate")
-             else np.asarray(cumulative_kl(cfg, trace, f["onset"]), float))
+             else np.asarray(cumulative_kl(record.setup, trace, f["onset"]), float))
         if K.size:
             d = float(lorden_delays(K, np.array([cfg.estimator.decision.arl0]), dt)[0])
             out["lorden_delay_bound"] = d if math.isfinite(d) else None
-    out.update(radius_bound(cfg, trace, max((f["end"] for f in faults if f["fault_class"] == "puncture"),
-                                            default=0.0)))
+    out.update(radius_bound(record, trace))
     return out
 
 
-def radius_bound(cfg: RunConfig, trace: dict[str, np.ndarray], since: float) -> dict[str, Any]:
-    """The PCRB σ (m) of each radius at the last row for radii constant since ``since`` (s), and the
-    filter's final errors (m); ``None`` without an estimator."""
-    from ..estimation.factory import setup_from_config
-    from ..estimation.pcrb import trace_pcrb
-
-    t = np.asarray(trace["t"], float)
+def radius_bound(record: RunRecord, trace: dict[str, np.ndarray]) -> dict[str, Any]:
+    """The PCRB σ (m) of each radius at the last row for the model that made the data, as the run recorded it
+    (the trace's ``R_*_pcrb_const_std``: the bound is computed once per run, by the loop), and the filter's
+    final errors (m); ``None`` without an estimator, and for the bound of a trace that did not record it."""
     keys = ("radius_pcrb_R", "radius_pcrb_L", "radius_error_R", "radius_error_L")
-    if cfg.estimator.kind == "none" or not np.any(np.isfinite(trace.get("R_R_hat", np.array([np.nan])))):
+    if record.estimator == "none" or not np.any(np.isfinite(trace.get("R_R_hat", np.array([np.nan])))):
         return dict.fromkeys(keys)
     errors = {"radius_error_R": float(abs(trace["R_R_hat"][-1] - trace["R_R"][-1])),
               "radius_error_L": float(abs(trace["R_L_hat"][-1] - trace["R_L"][-1]))}
-    if "R_R_pcrb_const_std" in trace:  # the run recorded the data model's bound (ftc_mj.estimation.pcrb)
-        return {"radius_pcrb_R": float(trace["R_R_pcrb_const_std"][-1]),
-                "radius_pcrb_L": float(trace["R_L_pcrb_const_std"][-1]), **errors}
-    k0 = min(int(np.searchsorted(t, since - 1e-9)), t.size - 1)
-    B = trace_pcrb(setup_from_config(cfg), trace, q_radius=0.0, start=k0)[-1]
-    return {"radius_pcrb_R": float(np.sqrt(max(B[3, 3], 0.0))), "radius_pcrb_L": float(np.sqrt(max(B[4, 4], 0.0))),
-            **errors}
+    if "R_R_pcrb_const_std" not in trace:
+        return {"radius_pcrb_R": None, "radius_pcrb_L": None, **errors}
+    return {"radius_pcrb_R": float(trace["R_R_pcrb_const_std"][-1]),
+            "radius_pcrb_L": float(trace["R_L_pcrb_const_std"][-1]), **errors}
 
 
 def _text(e: Any) -> str:
@@ -156,16 +155,18 @@ def _text(e: Any) -> str:
 
 
 def score_run(config: RunConfig, trace: dict[str, np.ndarray], events: Sequence[Any],
-              status: str = "ok") -> dict[str, float | str | bool | None]:
+              status: str = "ok", record: RunRecord | None = None) -> dict[str, float | str | bool | None]:
     """The scores of one finished run (module docstring; keys :data:`SCORE_COLUMNS`). ``trace``: the columns
     :mod:`ftc_mj.sim` writes; ``events``: the run's events (``Event`` objects or ``{t, level, text}``
-    dicts); ``status``: the run's (``ok``, ``failed``, ``unstable``) — only ``ok`` can succeed."""
+    dicts); ``status``: the run's (``ok``, ``failed``, ``unstable``) — only ``ok`` can succeed; ``record``: the
+    run's resolved record (``SimResult.record``, ``record.json``; built from ``config`` when not given)."""
     cfg = config
+    record = build_record(cfg) if record is None else record
     tr = {k: np.asarray(v) for k, v in trace.items()}
     t = np.asarray(tr["t"], float)
     faults = [f for f in fault_truth(cfg) if t.size and f["onset"] <= t[-1]]
     onsets = {f"f{i}": f["onset"] for i, f in enumerate(faults)}
-    path = path_following_metrics(cfg, tr, onsets)
+    path = path_following_metrics(record, tr, onsets)
     plant = plant_metrics(tr, {}, onsets, 1.0 / cfg.estimator.rate)
     cmax = path.get("contouring_max_recovered", math.nan)
     out: dict[str, Any] = {
@@ -180,5 +181,5 @@ def score_run(config: RunConfig, trace: dict[str, np.ndarray], events: Sequence[
                {"false_alarm": None, "detected": None, "detection_delay": None, "isolation": None})
     rc = reconfiguration_metrics(tr, faults[0]["onset"] if faults else None)
     out["reconfig_delay"] = rc.get("reconfig_handover_delay")
-    out.update(bound_scores(cfg, tr, faults))
+    out.update(bound_scores(cfg, record, tr, faults))
     return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}

@@ -191,7 +191,7 @@ class DiffDriveEnv(gym.Env):
         scores a run); its status is ``unstable`` if the physics blew up, else ``ok``."""
         res = self.episode_result()
         status = "unstable" if unstable_time(res.trace) is not None else "ok"
-        return score_run(self.config, res.trace, res.events, status=status)
+        return score_run(self.config, res.trace, res.events, status=status, record=res.record)
 
     def episode_row(self, method: str) -> dict[str, Any]:
         """The episode as a row of ``ftc-mj bench``'s ``scores.parquet`` for the method named ``method``: the

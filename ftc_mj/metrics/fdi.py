@@ -33,9 +33,9 @@ from typing import Any
 
 import numpy as np
 
-from ..config import RunConfig
-from ..estimation.factory import setup_from_config
+from ..estimation.setup import FilterSetup
 from ..model.kinematics import body_rates
+from .record import RunRecord
 
 RULES: tuple[str, ...] = ("sigma", "mode", "cusum", "glr")
 KL_CAP = 25.0
@@ -67,9 +67,9 @@ def first_alarm_records(trace: dict[str, np.ndarray], rule: str, split_limit: fl
     return [[float(t[k]), float(g[k]), float(code[k])] for k in rows]
 
 
-def cumulative_kl(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float) -> list[float]:
-    """``K_n`` of the module docstring from the onset row on."""
-    setup = setup_from_config(cfg)
+def cumulative_kl(setup: FilterSetup, trace: dict[str, np.ndarray], onset: float) -> list[float]:
+    """``K_n`` of the module docstring from the ``onset`` row (s) on, with the nominal model, the sensors' σ
+    and the step of the run's filter ``setup`` (the run record's)."""
     t = np.asarray(trace["t"], float)
     R0 = setup.nominal_radius
     V0, yr0 = body_rates(R0, R0, np.asarray(trace["omega_R"], float), np.asarray(trace["omega_L"], float),
@@ -97,17 +97,16 @@ def lorden_delays(K: np.ndarray, arl0: np.ndarray, dt: float) -> np.ndarray:
     return np.where(j < K.size, j * dt, np.inf)
 
 
-def fdi_sweep_metrics(cfg: RunConfig, trace: dict[str, np.ndarray], onset: float | None,
-                settle_time: float = 5.0) -> dict[str, Any]:
-    """First-alarm records, the fault's cumulative information (``onset``: the first fault onset, s, or
-    ``None``) and PCRB ratios of a run."""
+def fdi_sweep_metrics(record: RunRecord, trace: dict[str, np.ndarray], settle_time: float = 5.0) -> dict[str, Any]:
+    """First-alarm records, the cumulative information of the fault from the record's first onset, and the
+    ratios to the PCRB the run recorded (the trace's ``*_pcrb*`` columns; nothing without them)."""
     m: dict[str, Any] = {}
     if "R_R_pcrb_std" not in trace or not np.any(np.isfinite(trace["R_R_pcrb_std"])):
         return m
-    d = cfg.estimator.decision
-    m["fdi_records"] = {r: first_alarm_records(trace, r, d.max_split_sigma) for r in RULES}
+    m["fdi_records"] = {r: first_alarm_records(trace, r, record.max_split_sigma) for r in RULES}
+    onset = record.first_onset
     if onset is not None:
-        kl = cumulative_kl(cfg, trace, onset)
+        kl = cumulative_kl(record.setup, trace, onset)
         k0 = int(np.searchsorted(np.asarray(trace["t"], float), onset - 1e-9))
         m["fdi_cumulative_kl"] = kl
         m["fdi_cumulative_kl_t"] = [float(t) for t in np.asarray(trace["t"], float)[k0: k0 + len(kl)]]

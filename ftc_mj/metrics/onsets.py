@@ -1,18 +1,7 @@
-"""The scheduled fault onsets of a run: when each wheel's radius schedule first departs from nominal
-(:func:`~ftc_mj.plant.faults.schedule_onset`, the one home of that rule), and the distinct onset times
-the detection metrics give each their window."""
+"""The distinct fault onset times the detection metrics give each their window, from the scheduled
+onsets per wheel (the run record's ``onsets``, :func:`ftc_mj.sim.record.fault_onsets`)."""
 
 from __future__ import annotations
-
-from ..config import RunConfig
-from ..plant.faults import schedule_onset
-
-
-def fault_onsets(cfg: RunConfig) -> dict[str, float | None]:
-    """First time (s) each wheel's scheduled radius departs from nominal (:func:`schedule_onset`);
-    None = no fault."""
-    R0 = cfg.plant_wheel_radius
-    return {"right": schedule_onset(cfg.faults.right, R0), "left": schedule_onset(cfg.faults.left, R0)}
 
 
 def onset_groups(onsets: dict[str, float | None]) -> list[tuple[float, tuple[bool, bool]]]:

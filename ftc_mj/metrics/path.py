@@ -12,9 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from ..config import RunConfig
-from ..control import build_reference
 from ..model.kinematics import max_path_speed
+from .record import RunRecord
 
 RECOVERED_AFTER_S = 5.0
 """``contouring_*_recovered`` start this long (s) after the *last* fault onset (a fault-free run: after
@@ -25,18 +24,16 @@ BOUND_TOL = 0.01
 """A planned lateral acceleration within this fraction of its bound counts as "at the bound"."""
 
 
-def feasible_speed(cfg: RunConfig, R_R: float, R_L: float) -> float:
+def feasible_speed(record: RunRecord, R_R: float, R_L: float) -> float:
     """The largest speed (m/s) at which the robot with radii ``R_R, R_L`` (m) can follow the whole reference
     path within its wheel-rate limit (:func:`~ftc_mj.model.kinematics.max_path_speed` at the path's curvature,
-    sampled every 0.5 m over one period or 400 m), capped at the desired ``reference.speed``."""
-    ref = build_reference(cfg)
-    length = float(getattr(ref, "length", 400.0))
-    k = ref.geometry(np.linspace(0.0, length, int(length / 0.5) + 1)).curvature
-    V = max_path_speed(np.unique(k), R_R, R_L, cfg.plant_half_track, cfg.robot.omega_max)
-    return float(min(np.min(V), cfg.reference.speed))
+    the record's ``path_curvatures``), capped at the desired speed of the reference."""
+    V = max_path_speed(np.asarray(record.path_curvatures, float), R_R, R_L, record.plant_half_track,
+                       record.context.omega_max)
+    return float(min(np.min(V), record.reference_speed))
 
 
-def path_following_metrics(cfg: RunConfig, trace: dict[str, np.ndarray],
+def path_following_metrics(record: RunRecord, trace: dict[str, np.ndarray],
                            onsets: dict[str, float | None]) -> dict[str, Any]:
     """``contouring_rms_recovered``, ``contouring_max_recovered`` (m, from :data:`RECOVERED_AFTER_S` after the
     last onset), ``speed_mean_after_fault`` (m/s, from the first onset; the whole run without a fault),
@@ -58,14 +55,15 @@ def path_following_metrics(cfg: RunConfig, trace: dict[str, np.ndarray],
     m["speed_mean_after_fault"] = float(np.mean(v[after])) if after.any() else float("nan")
     final = t >= t[-1] - FINAL_WINDOW_S
     m["speed_mean_final"] = float(np.mean(v[final]))
-    m["feasible_speed_final"] = feasible_speed(cfg, float(trace["R_R"][-1]), float(trace["R_L"][-1]))
+    m["feasible_speed_final"] = feasible_speed(record, float(trace["R_R"][-1]), float(trace["R_L"][-1]))
     m["speed_ratio_final"] = m["speed_mean_final"] / m["feasible_speed_final"]
     lat = np.abs(v * trace["yaw_rate"])[after]
     m["lateral_accel_max"] = float(np.nanmax(lat)) if lat.size else float("nan")
     if "pf_lateral_accel" in trace and "pf_lateral_bound" in trace:
         a, bound = np.abs(trace["pf_lateral_accel"]), trace["pf_lateral_bound"]
         ok = np.isfinite(a) & np.isfinite(bound)
-        m["lateral_bound_time_s"] = float(np.sum(a[ok] >= (1.0 - BOUND_TOL) * bound[ok]) / cfg.controller.rate)
+        at_bound = np.sum(a[ok] >= (1.0 - BOUND_TOL) * bound[ok])
+        m["lateral_bound_time_s"] = float(at_bound / record.context.controller_rate)
     else:
         m["lateral_bound_time_s"] = float("nan")
     return m

@@ -74,12 +74,12 @@ from typing import Any
 
 import numpy as np
 
-from ..config import RunConfig
 from ..estimation.consistency import ChiSquareTest, anees, anis, nees
 from ..plant import LIFTOFF, TIPPED
 from ..telemetry.columns import COVARIANCE_COLUMNS, STATE
 from .detection import detection_metrics, onset_entries
 from .path import path_following_metrics
+from .record import RunRecord
 from .series import first_time, nanstat, rms
 
 LIMIT_TOL = 1e-3
@@ -169,13 +169,14 @@ def tracking_metrics(t: np.ndarray, ct: np.ndarray, settle_time: float, t_on: fl
     return m
 
 
-def actuation_metrics(cfg: RunConfig, trace: dict[str, np.ndarray], dt: float) -> dict[str, Any]:
+def actuation_metrics(record: RunRecord, trace: dict[str, np.ndarray], dt: float) -> dict[str, Any]:
     """Time at the wheel-rate limit, the command's total variation (rad/s²), its largest step between
     controller samples (rad/s) and the time in periods that began at the MPC's rate bound (s); ``dt`` is
-    the estimator period (s)."""
+    the estimator period (s); the limits and the controller rate from the run's ``record``."""
     m: dict[str, Any] = {}
     t = trace["t"]
-    wmax = cfg.robot.omega_max
+    wmax = record.context.omega_max
+    rate = record.context.controller_rate
     cmdR, cmdL = trace["omega_R_cmd"], trace["omega_L_cmd"]
     at_lim = (np.abs(cmdR) >= wmax * (1 - LIMIT_TOL)) | (np.abs(cmdL) >= wmax * (1 - LIMIT_TOL))
     m["omega_at_limit_fraction"] = float(np.mean(at_lim)) if at_lim.size else float("nan")
@@ -187,9 +188,9 @@ def actuation_metrics(cfg: RunConfig, trace: dict[str, np.ndarray], dt: float) -
     # controller periods that began with a step at (or, with the first input free, beyond) the MPC's
     # rate bound omega_rate_max / rate
     steps = np.fmax(np.abs(np.diff(cmdR)), np.abs(np.diff(cmdL)))
-    step_lim = cfg.controller.omega_rate_max / cfg.controller.rate
+    step_lim = record.omega_rate_max / rate
     m["command_step_max"] = nanstat(steps, np.max)
-    m["command_at_rate_limit_s"] = float(np.sum(steps >= step_lim * (1 - LIMIT_TOL)) / cfg.controller.rate)
+    m["command_at_rate_limit_s"] = float(np.sum(steps >= step_lim * (1 - LIMIT_TOL)) / rate)
     return m
 
 
@@ -256,22 +257,23 @@ def reconfiguration_metrics(trace: dict[str, np.ndarray], t_on: float | None) ->
 
 
 def compute_metrics(
-    cfg: RunConfig,
+    record: RunRecord,
     trace: dict[str, np.ndarray],
-    onsets: dict[str, float | None],
     counters: dict[str, float],
     *,
     settle_time: float = 5.0,
 ) -> dict[str, Any]:
-    """Metrics of one run (keys in the module docstring). ``onsets`` are the scheduled fault onset times
-    (s) per wheel (None = healthy); ``counters`` the loop's counts (filter resets, solver failures, …).
+    """Metrics of one run (keys in the module docstring) from its resolved ``record`` (the scheduled fault
+    onset times per wheel, s, None = healthy; the rates and limits) and its ``trace``; ``counters`` are the
+    loop's counts (filter resets, solver failures, …).
 
     Tracking statistics ``cross_track_*`` are over the whole run; ``*_settled`` ones exclude the
     first ``settle_time`` seconds (initial transients).
     """
     t = trace["t"]
     m: dict[str, Any] = {}
-    dt = 1.0 / cfg.estimator.rate
+    onsets = record.onsets
+    dt = record.context.estimator_dt
     t_end = float(t[-1] + dt) if t.size else 0.0
     onsets_in_run = {w: (o if o is not None and t.size and o <= t[-1] else None) for w, o in onsets.items()}
     t_on_any = min((o for o in onsets_in_run.values() if o is not None), default=None)
@@ -284,12 +286,12 @@ def compute_metrics(
         m["onsets"] = onset_entries(t, onsets, None)
     m["exceptions"] = int(counters.get("exceptions", 0))
     m.update(tracking_metrics(t, trace["cross_track_error"], settle_time, t_on_any))
-    m.update(actuation_metrics(cfg, trace, dt))
-    m.update(solver_metrics(trace, counters, cfg.controller.rate))
+    m.update(actuation_metrics(record, trace, dt))
+    m.update(solver_metrics(trace, counters, record.context.controller_rate))
     m.update(plant_metrics(trace, counters, onsets_in_run, dt))
     m.update(reconfiguration_metrics(trace, t_on_any))
     m["max_abs_roll_deg"] = float(np.degrees(nanstat(np.abs(trace["roll"]), np.max)))
     m["max_abs_slip"] = nanstat(np.abs(np.concatenate([trace["slip_R"], trace["slip_L"]])), np.max)
     m["sim_time_s"] = t_end
-    m.update(path_following_metrics(cfg, trace, onsets))
+    m.update(path_following_metrics(record, trace, onsets))
     return m

@@ -352,8 +352,8 @@ def reference_feasibility(cfg: RunConfig, trace: Mapping[str, Any], t_from: floa
 def report_metrics(cfg: RunConfig, trace: Mapping[str, Any]) -> dict[str, Any]:
     """Every report metric of one run: :func:`derived_metrics` and, for the window of
     ``cross_track_max_recovered`` (from ``RECOVERY_S`` after the first onset), :func:`reference_feasibility`."""
-    from ..metrics.onsets import fault_onsets
     from ..metrics.run import RECOVERY_S
+    from ..sim.record import fault_onsets
 
     est = cfg.estimator.kind
     n_modes = cfg.estimator.bank_size if est.startswith("imm") else 0

@@ -41,9 +41,9 @@ from ..control.factory import build_reference
 from ..estimation.base import FilterOutput, Measurement
 from ..estimation.decision import DecisionState, FaultDecision
 from ..estimation.decision_factory import build_fault_decision
-from ..estimation.factory import build_estimator, setup_from_config
+from ..estimation.factory import build_estimator
 from ..estimation.pcrb import pcrb_columns
-from ..metrics.onsets import fault_onsets
+from ..metrics.record import RunRecord
 from ..plant import SensorReading, Sensors, Truth
 from ..plant.actuator_faults import ACTUATOR_COLUMNS
 from ..plant.faults import fault_list
@@ -54,6 +54,7 @@ from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
 from .cache import controller_for, plant_for
+from .record import build_record
 from .trace import TraceWriter
 
 
@@ -75,6 +76,8 @@ class SimResult:
     error_where: str | None = None
     """``file:line in function`` where that exception was raised."""
     geometry: RobotGeometry | None = None
+    record: RunRecord | None = None
+    """The run's resolved record (:mod:`.record`), which its metrics and scores read."""
 
 
 @dataclass(frozen=True)
@@ -157,13 +160,16 @@ class Components:
     """A robust NMPC's scenario weights from the filter (``None``: as configured)."""
     degraded: DegradedMode | None = None
     """The degraded robust mode between the policy and a controller that takes radius intervals (``None``: off)."""
+    record: RunRecord | None = None
+    """The run's resolved record (:func:`.record.build_record`), built once here."""
 
 
 def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any] | None = None) -> Components:
     """Build (or take from the per-process :mod:`.cache`, reset) every component of the run ``cfg``; with
     ``plant.start_moving`` the plant starts at the reference's speed (m/s) and yaw rate (rad/s) at t = 0.
     ``with_controller=False``: no controller (and no scenario weighting for one): an agent commands;
-    ``plants``: the caller's own plant store instead of the per-process cache (:func:`.cache.plant_for`)."""
+    ``plants``: the caller's own plant store instead of the per-process cache (:func:`.cache.plant_for`).
+    The run's record (:func:`.record.build_record`) is built here, once, from the reference and the filter."""
     plant = plant_for(cfg, plants)
     sensors = Sensors(cfg.sensors, cfg.seed, cfg.faults.sensor)
     reference = build_reference(cfg)
@@ -176,7 +182,8 @@ def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any]
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
-    return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting, degraded)
+    record = build_record(cfg, reference=reference, estimator=estimator)
+    return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting, degraded, record)
 
 
 def present(value: float | None) -> float | None:
@@ -222,6 +229,8 @@ class ClosedLoop:
                  ) -> None:
         self.cfg = cfg
         self.parts = wire(cfg, with_controller=with_controller, plants=plants)
+        assert self.parts.record is not None
+        self.run_record: RunRecord = self.parts.record
         self.n = cfg.n_estimator_steps
         self.dt = 1.0 / cfg.estimator.rate
         self.phys_per_est = cfg.physics_per_estimator
@@ -234,7 +243,7 @@ class ClosedLoop:
                                  self.n_modes, self.fault_columns)
         self.solves: list[Solve] = []
         self.events: list[Event] = [Event(t_on, "warn", f"fault injected: {wheel} tyre radius schedule starts")
-                                    for wheel, t_on in fault_onsets(cfg).items() if t_on is not None]
+                                    for wheel, t_on in self.run_record.onsets.items() if t_on is not None]
         self.events += fault_events(cfg)
         self.u_prev: np.ndarray | None = None
         self.out: FilterOutput | None = None
@@ -397,10 +406,10 @@ class ClosedLoop:
 
     def columns(self) -> dict[str, np.ndarray]:
         """The trace (cut after the last complete row of a run that ended early) with the posterior
-        Cramér–Rao bound columns of a run with a filter."""
+        Cramér–Rao bound columns of a run with a filter (computed once, from the record's filter setup)."""
         cols = self.trace.first_rows(self.rows) if self.rows < self.n else self.trace.columns
         if self.parts.estimator is not None and self.rows:
-            cols.update(pcrb_columns(setup_from_config(self.cfg), cols))
+            cols.update(pcrb_columns(self.run_record.setup, cols))
         return cols
 
     def result(self, wall0: float) -> SimResult:
@@ -415,7 +424,7 @@ class ClosedLoop:
                          decision=self.last_ds, n_modes=self.n_modes,
                          reference_path=self.parts.reference.path_points(720),
                          wall_time=time.perf_counter() - wall0, error=self.error, error_where=self.error_where,
-                         geometry=robot_geometry(self.parts.plant, self.cfg))
+                         geometry=robot_geometry(self.parts.plant, self.cfg), record=self.run_record)
 
     def counters(self) -> dict[str, float]:
         """Filter resets and rejections, solver failures, the plant's flags seen, exceptions."""

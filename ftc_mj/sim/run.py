@@ -2,9 +2,10 @@
 
 ``DIR/<run-id>/`` receives ``config.toml`` (fully resolved), ``trace.parquet``, ``metrics.json`` (with
 ``metrics.schema.json``: each key's unit and meaning, :mod:`ftc_mj.metrics.schema`),
-``events.json`` (the run's events: ``t`` in s, ``level``, ``text``) and ``run.rrd``. The directory
-is assembled under a temporary name and renamed into place at the end, so a killed run leaves no
-half-written output under its final name; an existing run directory is never overwritten (a
+``events.json`` (the run's events: ``t`` in s, ``level``, ``text``), ``record.json`` (the run's resolved
+record: filter setup, run context, reference rates, fault onsets, :mod:`ftc_mj.sim.record`) and
+``run.rrd``. The directory is assembled under a temporary name and renamed into place at the end, so a
+killed run leaves no half-written output under its final name; an existing run directory is never overwritten (a
 suffix is added). Before simulating, :func:`~ftc_mj.sim.output.check_output_root` makes sure the folder can take the
 run (a usage error otherwise); a write that still fails raises
 :class:`~ftc_mj.errors.OutputError` and leaves nothing behind.
@@ -32,14 +33,15 @@ from ..errors import OutputError
 from ..identity import run_id
 from ..io import atomic_dir, remove_stale_temporaries, unique_dir, write_json, write_parquet, write_toml
 from ..metrics.fdi import fdi_sweep_metrics
-from ..metrics.onsets import fault_onsets
 from ..metrics.outcome import physical_outcome
+from ..metrics.record import RunRecord
 from ..metrics.run import compute_metrics
 from ..metrics.schema import schema as metrics_schema
 from ..plant import NAN, UNSTABLE
 from ..telemetry.columns import INTEGER_COLUMNS, trace_schema_metadata
 from .loop import SimResult, simulate
 from .output import check_output_root, output_bytes
+from .record import build_record, write_record
 
 
 def run_id_for(cfg: RunConfig) -> str:
@@ -53,6 +55,12 @@ class RunOutcome:
     metrics: dict[str, Any]
     result: SimResult
     run_dir: Path | None
+
+
+def record_of(cfg: RunConfig, res: SimResult) -> RunRecord:
+    """The run's record: the one the loop built (a result made elsewhere without one: built from ``cfg``)."""
+    record = getattr(res, "record", None)
+    return record if record is not None else build_record(cfg)
 
 
 def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
@@ -74,9 +82,9 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "error": res.error,
         "error_where": res.error_where,
     }
-    onsets = fault_onsets(cfg)
-    m.update(compute_metrics(cfg, res.trace, onsets, res.counters))
-    m.update(fdi_sweep_metrics(cfg, res.trace, min((o for o in onsets.values() if o is not None), default=None)))
+    record = record_of(cfg, res)
+    m.update(compute_metrics(record, res.trace, res.counters))
+    m.update(fdi_sweep_metrics(record, res.trace))
     # the radii the controller used departed from nominal at some sample (not just: a feeding policy)
     m["feedback"] = bool((m.get("reconfig_handed_fraction") or 0.0) > 0.0)
     t_bad = unstable_time(res.trace)
@@ -173,3 +181,4 @@ def _write_run(final: Path, cfg: RunConfig, res: SimResult, metrics: dict[str, A
         write_json(tmp / "metrics.json", metrics)
         write_json(tmp / "metrics.schema.json", metrics_schema())
         write_json(tmp / "events.json", [{"t": e.t, "level": e.level, "text": e.text} for e in res.events])
+        write_record(tmp, record_of(cfg, res))

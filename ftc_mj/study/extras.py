@@ -1,5 +1,6 @@
 """Per-run computations a study file can ask its workers for (``[analysis] extras = ["NAME"]``), on the
-run's resolved config and full trace; their values join the run's row. One registry entry each:
+run's resolved record (:mod:`ftc_mj.sim.record`) and full trace; their values join the run's row. One
+registry entry each:
 
 - ``pcrb_split``: the posterior Cramér–Rao bound along the radius split (the direction the speed does
   not see at the current wheel rates) from the puncture on (:data:`PCRB_FROM_S`), for the filters' own
@@ -15,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import RunConfig
+from ..metrics.record import RunRecord
 
 PCRB_FROM_S = 10.0
 """Start of the bound (s): the puncture of scenario 2."""
@@ -32,10 +33,12 @@ def time_tag(t: float) -> str:
     return f"{t:g}".replace(".", "_")
 
 
-def pcrb_split(cfg: RunConfig, trace: dict[str, np.ndarray]) -> dict[str, Any]:
+def pcrb_split(record: RunRecord, trace: dict[str, np.ndarray]) -> dict[str, Any]:
     """See the module docstring; columns ``omega_ratio_9_9``, ``omega_ratio_12``, and per bound
-    ``pcrb_split_<tag>_<time>`` (m) and ``pcrb_split_<tag>_isolated_s`` (s, None if never)."""
-    from ..estimation.factory import setup_from_config
+    ``pcrb_split_<tag>_<time>`` (m) and ``pcrb_split_<tag>_isolated_s`` (s, None if never).
+
+    These are bounds from another start than the run's own (which the loop records from t = 0): from the
+    puncture at :data:`PCRB_FROM_S`, so they are computed here, with the run record's filter setup."""
     from ..estimation.observability import radius_directions
     from ..estimation.pcrb import trace_pcrb
 
@@ -47,8 +50,9 @@ def pcrb_split(cfg: RunConfig, trace: dict[str, np.ndarray]) -> dict[str, Any]:
         k = int(np.searchsorted(t, x))
         out[f"omega_ratio_{time_tag(x)}"] = float(omega[k, 1] / omega[k, 0])
     for tag, q in PCRB_MODELS:
-        B = trace_pcrb(setup_from_config(cfg), trace, q_radius=q, start=k0)
-        split = np.array([radius_directions(B[k], omega[k0 + k]).split_std for k in range(B.shape[0])])
+        from_puncture = trace_pcrb(record.setup, trace, q_radius=q, start=k0)
+        split = np.array([radius_directions(from_puncture[k], omega[k0 + k]).split_std
+                          for k in range(from_puncture.shape[0])])
         for x in PCRB_TIMES:
             out[f"pcrb_split_{tag}_{time_tag(x)}"] = float(split[int(np.searchsorted(t[k0:], x))])
         ok = t[k0:][split <= ISOLATED_SPLIT_M]
@@ -56,13 +60,13 @@ def pcrb_split(cfg: RunConfig, trace: dict[str, np.ndarray]) -> dict[str, Any]:
     return out
 
 
-EXTRAS: dict[str, Callable[[RunConfig, dict[str, np.ndarray]], dict[str, Any]]] = {"pcrb_split": pcrb_split}
-"""Name → ``fn(cfg, trace) -> {column: value}``."""
+EXTRAS: dict[str, Callable[[RunRecord, dict[str, np.ndarray]], dict[str, Any]]] = {"pcrb_split": pcrb_split}
+"""Name → ``fn(record, trace) -> {column: value}`` (``record``: the run's resolved record)."""
 
 
-def run_extras(names: list[str], cfg: RunConfig, trace: dict[str, np.ndarray]) -> dict[str, Any]:
-    """The columns of every named extra for one run."""
+def run_extras(names: list[str], record: RunRecord, trace: dict[str, np.ndarray]) -> dict[str, Any]:
+    """The columns of every named extra for one run (its resolved ``record`` and its trace)."""
     out: dict[str, Any] = {}
     for name in names:
-        out.update(EXTRAS[name](cfg, trace))
+        out.update(EXTRAS[name](record, trace))
     return out

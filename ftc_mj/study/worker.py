@@ -139,7 +139,10 @@ def run_one(
             shutil.rmtree(staging, ignore_errors=True)
         metrics = dict(outcome.metrics)
         metrics.update(window_stats(outcome.result.trace, trace_stats or []))
-        metrics.update(run_extras(extras or [], cfg, outcome.result.trace))
+        if extras:
+            from ..sim.run import record_of
+
+            metrics.update(run_extras(extras, record_of(cfg, outcome.result), outcome.result.trace))
         info["run_dir"] = str(outcome.run_dir) if outcome.run_dir is not None else None
         ts = compact_timeseries(outcome.result.trace, cfg.estimator.rate, ts_rate, ts_columns or ())
     except Exception as exc:  # noqa: BLE001 - a failing run becomes a row, never a crashed study

@@ -165,8 +165,8 @@ def test_command_step_metrics() -> None:
     """``command_step_max`` and ``command_at_rate_limit_s`` on a held (100 Hz) command trace: steps of
     2.0 (the bound), 1.0 and 5.0 rad/s at three controller samples -> max 5.0 rad/s, two periods (0.2 s)
     at or beyond the bound."""
-    from ftc_mj.metrics.onsets import fault_onsets
     from ftc_mj.metrics.run import compute_metrics
+    from ftc_mj.sim.record import build_record
     from ftc_mj.telemetry.columns import BASE_COLUMNS
 
     cfg = load_config("scenario1", {"duration": 2.0})
@@ -180,6 +180,6 @@ def test_command_step_metrics() -> None:
     tr["omega_R_cmd"][50:] += 2.0
     tr["omega_L_cmd"][100:] -= 1.0
     tr["omega_R_cmd"][150:] += 5.0
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["command_step_max"] == pytest.approx(5.0)
     assert m["command_at_rate_limit_s"] == pytest.approx(0.2)

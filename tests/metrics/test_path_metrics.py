@@ -7,6 +7,7 @@ import pytest
 
 from ftc_mj.config import RunConfig
 from ftc_mj.metrics.path import feasible_speed, path_following_metrics
+from ftc_mj.sim.record import build_record
 
 
 def _trace() -> dict[str, np.ndarray]:
@@ -25,7 +26,8 @@ def _trace() -> dict[str, np.ndarray]:
 
 def test_path_following_metrics_known_values() -> None:
     cfg = RunConfig()
-    m = path_following_metrics(cfg, _trace(), {"left": 10.0, "right": 15.0})
+    rec = build_record(cfg)
+    m = path_following_metrics(rec, _trace(), {"left": 10.0, "right": 15.0})
     after = np.where(np.arange(4000) / 100.0 < 25.0, 0.3, 0.1)[2000:]  # from 5 s after the last onset (15 s)
     assert m["contouring_max_recovered"] == pytest.approx(0.3)
     assert m["contouring_rms_recovered"] == pytest.approx(np.sqrt(np.mean(after**2)))
@@ -36,19 +38,20 @@ def test_path_following_metrics_known_values() -> None:
     assert m["speed_ratio_final"] == pytest.approx(2.0 / V_f)
     assert m["lateral_accel_max"] == pytest.approx(2.0)
     assert m["lateral_bound_time_s"] == pytest.approx(0.2)
-    no_fault = path_following_metrics(cfg, _trace(), {"left": None, "right": None})
+    no_fault = path_following_metrics(rec, _trace(), {"left": None, "right": None})
     assert no_fault["contouring_max_recovered"] == pytest.approx(1.0)  # from 5 s
     del_tr = {k: v for k, v in _trace().items() if not k.startswith("pf_")}
-    assert math.isnan(path_following_metrics(cfg, del_tr, {"left": 10.0})["lateral_bound_time_s"])
+    assert math.isnan(path_following_metrics(rec, del_tr, {"left": 10.0})["lateral_bound_time_s"])
 
 
 def test_feasible_speed_of_every_path_kind() -> None:
     cfg = RunConfig()
-    assert feasible_speed(cfg, 2.0, 2.0) == pytest.approx(10.0)  # the desired speed caps it
+    rec = build_record(cfg)
+    assert feasible_speed(rec, 2.0, 2.0) == pytest.approx(10.0)  # the desired speed caps it
     om = cfg.robot.omega_max
-    assert feasible_speed(cfg, 2.0, 0.1) == pytest.approx(0.1 * om / (1 - 1 / 50))  # inner (left) tyre punctured
-    assert feasible_speed(cfg, 0.1, 2.0) == pytest.approx(0.1 * om / (1 + 1 / 50))  # outer (right) tyre punctured
+    assert feasible_speed(rec, 2.0, 0.1) == pytest.approx(0.1 * om / (1 - 1 / 50))  # inner (left) tyre punctured
+    assert feasible_speed(rec, 0.1, 2.0) == pytest.approx(0.1 * om / (1 + 1 / 50))  # outer (right) tyre punctured
     cfg.reference.kind = "figure8"  # both turning senses: the punctured left tyre is the outer one in lobe 2
-    assert feasible_speed(cfg, 2.0, 0.1) == pytest.approx(0.1 * om / (1 + 1 / 50))
+    assert feasible_speed(build_record(cfg), 2.0, 0.1) == pytest.approx(0.1 * om / (1 + 1 / 50))
     cfg.reference.kind = "line"
-    assert feasible_speed(cfg, 0.1, 2.0) == pytest.approx(0.1 * om)
+    assert feasible_speed(build_record(cfg), 0.1, 2.0) == pytest.approx(0.1 * om)

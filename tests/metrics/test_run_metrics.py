@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import load_config
-from ftc_mj.metrics.onsets import fault_onsets
 from ftc_mj.metrics.run import compute_metrics
+from ftc_mj.sim.record import build_record, fault_onsets
 from ftc_mj.telemetry.columns import BASE_COLUMNS, WHEEL_CODES
 
 
@@ -44,7 +44,7 @@ def test_innovation_fraction_and_rmse() -> None:
     tr["innovation"][:] = 1.0
     tr["innovation"][:50] = 3.0  # 5 % outside 2 sigma
     tr["R_L_hat"][:] = 2.0 + 0.3  # constant error 0.3 m
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["innovation_in_2sigma"] == pytest.approx(0.95)
     assert m["radius_rmse_L"] == pytest.approx(0.3)
     assert m["radius_final_error_L"] == pytest.approx(0.3)
@@ -67,7 +67,7 @@ def test_radius_nees_uses_the_cross_covariance() -> None:
     e = np.array([0.05, 0.05])
     expected = float(e @ np.linalg.solve(P, e))
     assert expected == pytest.approx(20.0, rel=1e-9)  # 2 · 0.05² / (0.25 · (1 - 0.999))
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["radius_nees_mean"] == pytest.approx(expected, rel=1e-9)
     # the full-state NEES adds the three pose terms (zero errors here): the same value
     assert m["nees_mean"] == pytest.approx(expected, rel=1e-9)
@@ -87,7 +87,7 @@ def test_nis_is_normalised_per_measurement_dimension() -> None:
     tr["nis"][:] = tr["nis_dof"]  # every step's NIS equals its dimension: 1 per dimension
     tr["nis"][5] = np.nan  # a rejected step
     tr["nis_dof"][5] = 0.0
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["nis_mean"] == pytest.approx(1.0)
     # 990 speed-only steps (one rejected) and 10 with a fix: 1019 channel samples in 999 steps
     assert m["nis_test"]["samples"] == 999 and m["nis_test"]["dof"] == pytest.approx(1019 / 999)
@@ -99,7 +99,7 @@ def test_detection_delay_and_limits() -> None:
     _declare(tr, 10.5, 20.0, "left")
     wmax = cfg.robot.omega_max
     tr["omega_R_cmd"][:200] = wmax  # 10 % of rows at the limit
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["detection_delay"] == pytest.approx(0.5) and m["time_to_correct_isolation"] == pytest.approx(0.5)
     assert m["false_alarm"] is False and m["false_alarms"] == 0 and m["missed_detection"] is False
     assert m["true_fault_wheel"] == "left" and m["isolated_wheel"] == "left" and m["isolation_correct"] is True
@@ -108,7 +108,7 @@ def test_detection_delay_and_limits() -> None:
     # total variation: one jump of wmax over 19.99 s
     assert m["command_total_variation_per_s"] == pytest.approx(wmax / 19.99)
     _declare(tr, 1.0, 1.2, "right")  # an earlier false alarm, cleared
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["false_alarm"] is True and m["false_alarms"] == 1 and m["declarations"] == 2
     assert m["detection_delay"] == pytest.approx(0.5) and m["first_declaration_time"] == pytest.approx(1.0)
 
@@ -119,21 +119,21 @@ def test_false_alarm_active_at_the_onset_is_not_a_zero_delay() -> None:
     cfg = load_config("scenario2", {"duration": 20.0})
     tr = _trace(2000)
     _declare(tr, 8.0, 20.0, "unknown")
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["false_alarm"] is True and m["false_alarms"] == 1
     assert m["detection_delay"] is None and m["missed_detection"] is True and m["missed_detections"] == 1
     assert m["onsets"][0]["declared_at_onset"] == "unknown"
     # the false alarm clears at 10.2 s and a new declaration starts at 10.6 s: that one is the detection
     tr["fault_detected"][(tr["t"] >= 10.2) & (tr["t"] < 10.6)] = 0.0
     tr["declared_wheel"][(tr["t"] >= 10.2) & (tr["t"] < 10.6)] = 0.0
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["detection_delay"] == pytest.approx(0.6) and m["false_alarms"] == 1 and m["declarations"] == 2
     assert m["time_to_correct_isolation"] is None  # 'unknown' never isolates
     # a wrong-wheel false alarm that switches to the right wheel after the onset: detected then
     tr = _trace(2000)
     _declare(tr, 8.0, 10.3, "right")
     _declare(tr, 10.3, 20.0, "left")
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["false_alarms"] == 1 and m["detection_delay"] == pytest.approx(0.3)
     assert m["time_to_correct_isolation"] == pytest.approx(0.3) and m["false_isolations"] == 0
 
@@ -145,7 +145,7 @@ def test_wrong_wheel_declarations_after_the_onset_are_false_isolations() -> None
     _declare(tr, 11.0, 12.0, "both")   # names the healthy wheel too
     _declare(tr, 12.0, 13.0, "left")
     _declare(tr, 13.0, 14.0, "right")  # and back to the wrong one
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["false_isolations"] == 3 and m["onsets"][0]["false_isolations"] == 3
     assert m["detection_delay"] == pytest.approx(0.4)  # 'right' is a declaration: the fault was detected
     assert m["time_to_correct_isolation"] == pytest.approx(2.0)
@@ -159,7 +159,7 @@ def test_scenario3_reports_both_onsets() -> None:
     tr = _trace(2000)
     _declare(tr, 5.3, 10.7, "left")
     _declare(tr, 10.7, 20.0, "both")
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     first, second = m["onsets"]
     assert (first["wheel"], first["time"], second["wheel"], second["time"]) == ("left", 5.0, "right", 10.0)
     assert first["detection_delay"] == pytest.approx(0.3) and first["time_to_correct_isolation"] == pytest.approx(0.3)
@@ -172,14 +172,14 @@ def test_scenario3_reports_both_onsets() -> None:
     assert m["isolation_correct_fraction"] == pytest.approx((4.7 + 9.3) / 15.0)
     # 'both' before the right onset names a healthy wheel: a false isolation in the first window
     _declare(tr, 6.0, 7.0, "both")
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["onsets"][0]["false_isolations"] == 1 and m["onsets"][1]["false_isolations"] == 0
 
 
 def test_fault_after_the_end_is_neither_detected_nor_missed() -> None:
     cfg = load_config("scenario2", {"duration": 8.0})
     tr = _trace(800)
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["onsets"] == [{"wheel": "left", "time": 10.0, "status": "after end"}]
     assert m["missed_detection"] is None and m["detection_delay"] is None and m["missed_detections"] is None
     assert m["fault_onset_time"] is None and m["true_fault_wheel"] is None and m["isolation_correct"] is None
@@ -189,16 +189,16 @@ def test_fault_after_the_end_is_neither_detected_nor_missed() -> None:
 def test_no_fault_run_has_nothing_to_detect() -> None:
     cfg = load_config("scenario1", {"duration": 10.0})
     tr = _trace(1000)
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {"exceptions": 1})
+    m = compute_metrics(build_record(cfg), tr, {"exceptions": 1})
     assert m["onsets"] == [] and m["missed_detection"] is None and m["isolation_correct_fraction"] is None
     assert m["false_alarm"] is False and m["exceptions"] == 1
     _declare(tr, 2.0, 3.0, "left")
     _declare(tr, 4.0, 5.0, "left")
-    m = compute_metrics(cfg, tr, fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), tr, {})
     assert m["false_alarms"] == 2 and m["false_isolations"] is None
 
 
 def test_missed_detection() -> None:
     cfg = load_config("scenario2", {"duration": 20.0})
-    m = compute_metrics(cfg, _trace(2000), fault_onsets(cfg), {})
+    m = compute_metrics(build_record(cfg), _trace(2000), {})
     assert m["missed_detection"] is True and m["detection_delay"] is None

@@ -28,7 +28,8 @@ def test_cli_run_writes_all_outputs(tmp_path: Path) -> None:
     assert res.exit_code == 0, res.output + res.stderr
     (run_dir,) = [p for p in tmp_path.iterdir()]
     assert sorted(p.name for p in run_dir.iterdir()) == ["config.toml", "events.json", "metrics.json",
-                                                         "metrics.schema.json", "run.rrd", "trace.parquet"]
+                                                         "metrics.schema.json", "record.json", "run.rrd",
+                                                         "trace.parquet"]
     # config.toml is the fully resolved config: it reloads to the same run
     cfg = validate_config(read_toml(run_dir / "config.toml"))
     assert cfg == load_config("scenario2", {"duration": 2.0})
@@ -264,7 +265,7 @@ def test_a_simulated_run_written_afterwards_reads_back_the_same(shared_runs: Sha
     d = shared_runs.run_dir(name)
     assert d.name == out.run_id and sorted(p.name for p in d.iterdir()) == ["config.toml", "events.json",
                                                                           "metrics.json", "metrics.schema.json",
-                                                                          "trace.parquet"]
+                                                                          "record.json", "trace.parquet"]
     back = ftc_mj.load_run(d)
     assert back.config == shared_runs.config(name) and back.run_id == out.run_id
     for col, values in out.result.trace.items():

@@ -7,8 +7,8 @@ import polars as pl
 
 from ftc_mj.config import load_config
 from ftc_mj.estimation.consistency import anees_bounds
-from ftc_mj.metrics.onsets import fault_onsets
 from ftc_mj.metrics.run import compute_metrics
+from ftc_mj.sim.record import build_record
 from ftc_mj.study.rows import flatten_metrics
 from ftc_mj.study.tables import consistency_table, run_tests
 from ftc_mj.telemetry.columns import BASE_COLUMNS
@@ -30,7 +30,7 @@ def _run_metrics(rng: np.random.Generator, scale: float) -> dict:
     tr["nis"] = scale**2 * rng.chisquare(1, size=n)
     tr["nis_dof"][:] = 1.0
     tr["solve_time_ms"][:] = np.nan
-    return flatten_metrics(compute_metrics(cfg, tr, fault_onsets(cfg), {}))
+    return flatten_metrics(compute_metrics(build_record(cfg), tr, {}))
 
 
 def test_consistency_table_pools_seeds_with_chi2_bounds() -> None:

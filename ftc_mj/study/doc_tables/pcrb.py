@@ -23,8 +23,7 @@ import polars as pl
 
 from ...config import RunConfig
 from ...estimation.calibration import nominal_point
-from ...estimation.decision_factory import reference_rates
-from ...estimation.factory import setup_from_config
+from ...sim.record import build_record
 from ..extras import ISOLATED_SPLIT_M, PCRB_MODELS, PCRB_TIMES, time_tag
 from .results import read_results
 
@@ -56,8 +55,9 @@ def _steady_sigmas(gyro: float | None) -> tuple[dict[str, dict[str, float]], lis
     """Per recursion (``own``, ``constant``) the steady-state σ (m) along each direction, and the directions
     (with speed only the split is a random walk nothing observes: only ``w`` is shown)."""
     cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro}})
-    setup = setup_from_config(cfg)
-    p = nominal_point(setup, *reference_rates(cfg))  # the filters' own gains (not the residual generator's)
+    record = build_record(cfg)  # the record of a run of the nominal circle (no run needed: only its setup)
+    setup = record.setup
+    p = nominal_point(setup, *record.reference_rates)  # the filters' own gains (not the residual generator's)
     m = p.m
     H, K = np.array(p.H).reshape(m, 5), np.array(p.K).reshape(5, m)
     F = np.array(p.F).reshape(5, 5)

@@ -12,6 +12,7 @@ from typer.testing import CliRunner
 from ftc_mj.cli import app
 from ftc_mj.config import RunConfig
 from ftc_mj.metrics.fdi import cumulative_kl
+from ftc_mj.sim.record import build_record
 from ftc_mj.study.fdi.curves import Cell, Run, lorden_bound, operating_point, poisson_rate
 from ftc_mj.study.plan import plan_study
 from ftc_mj.study.runner import run_study
@@ -60,7 +61,7 @@ def test_cumulative_information_and_lorden_bound_of_a_step_puncture() -> None:
     v = np.full(n, 0.5 * 2.0 * (5.1 + 4.9) + 0.3)
     v[k_on + 1:] -= 2.45
     trace = {"t": t, "v": v, "yaw_rate": np.zeros(n), "omega_R": np.full(n, 5.1), "omega_L": np.full(n, 4.9)}
-    K = np.array(cumulative_kl(cfg, trace, t[k_on]))
+    K = np.array(cumulative_kl(build_record(cfg).setup, trace, t[k_on]))
     assert K[0] == pytest.approx(0.0, abs=1e-9) and np.diff(K[:3]) == pytest.approx([12.005, 12.005], rel=1e-9)
     assert K[-1] > 25.0 and K.size == 4  # stops once beyond the cap
     runs = [_run(str(i), [], 10.0) for i in range(3)]

@@ -2,10 +2,10 @@
 ``fault_detected`` and ``declared_wheel`` columns of a run with an estimator; times in s from the
 start of the run.
 
-A wheel is faulty from its scheduled onset (:func:`~ftc_mj.metrics.onsets.fault_onsets`) on. An onset after the run's
-last step is *after the end*: listed in ``onsets`` with ``status = "after end"`` and neither
-detected nor missed (it counts for no other key either). Onsets at the same time form one
-onset (wheel ``both``).
+A wheel is faulty from its scheduled onset (the run record's ``onsets``,
+:func:`~ftc_mj.sim.record.fault_onsets`) on. An onset after the run's last step is *after the end*:
+listed in ``onsets`` with ``status = "after end"`` and neither detected nor missed (it counts for no
+other key either). Onsets at the same time form one onset (wheel ``both``).
 ``onsets``: one dict per onset, in time order, with ``wheel``, ``time``, ``status`` (``in run`` /
 ``after end``) and, for onsets in the run, over its *window* (from the onset to the next onset or
 the end of the run):

@@ -261,6 +261,7 @@ class ClosedLoop:
         self.rows = 0
         self.error: str | None = None
         self.error_where: str | None = None
+        self._columns: tuple[int, dict[str, np.ndarray]] | None = None  # (rows, trace) of :meth:`columns`
 
     def step(self, k: int) -> None:
         """Estimator step ``k`` (time ``k * dt``, s), then the plant's advance to the next one."""
@@ -406,10 +407,15 @@ class ClosedLoop:
 
     def columns(self) -> dict[str, np.ndarray]:
         """The trace (cut after the last complete row of a run that ended early) with the posterior
-        Cramér–Rao bound columns of a run with a filter (computed once, from the record's filter setup)."""
+        Cramér–Rao bound columns of a run with a filter, from the record's filter setup: computed once for
+        the rows so far (asked again with no new row, e.g. by an episode's score and its metrics, the same
+        columns are returned)."""
+        if self._columns is not None and self._columns[0] == self.rows:
+            return self._columns[1]
         cols = self.trace.first_rows(self.rows) if self.rows < self.n else self.trace.columns
         if self.parts.estimator is not None and self.rows:
             cols.update(pcrb_columns(self.run_record.setup, cols))
+        self._columns = (self.rows, cols)
         return cols
 
     def result(self, wall0: float) -> SimResult:

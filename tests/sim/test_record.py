@@ -17,6 +17,7 @@ from ftc_mj.config import load_config
 from ftc_mj.estimation.setup import FilterSetup
 from ftc_mj.metrics.fdi import fdi_sweep_metrics
 from ftc_mj.metrics.run import compute_metrics
+from ftc_mj.sim.loop import ClosedLoop
 from ftc_mj.sim.record import build_record, read_record
 from ftc_mj.sim.run import execute
 
@@ -96,3 +97,17 @@ def test_the_record_resolves_what_the_config_says() -> None:
     line = build_record(load_config("scenario1", {"reference.kind": "line"}))
     assert line.reference_rates == (10.0, 0.0) and line.path_curvatures == (0.0,)
     assert line.first_onset is None
+
+
+def test_a_loop_asked_twice_for_its_result_computes_the_bound_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """An episode's score and its metrics each ask the loop for its result (:mod:`ftc_mj.envs`): the bound of
+    the same rows is computed once; a new row computes it again, for the longer trace."""
+    cfg = load_config("scenario2", SHORT)
+    calls = _counting(monkeypatch)
+    loop = ClosedLoop(cfg)
+    for k in range(loop.n - 1):
+        loop.step(k)
+    first, again = loop.result(0.0), loop.result(0.0)
+    assert calls["trace_pcrb"] == 1 and again.trace["R_L_pcrb_std"] is first.trace["R_L_pcrb_std"]
+    loop.step(loop.n - 1)
+    assert loop.result(0.0).trace["R_L_pcrb_std"].size == loop.n and calls["trace_pcrb"] == 2

@@ -133,8 +133,8 @@ def bound_scores(cfg: RunConfig, trace: dict[str, np.ndarray], faults: list[dict
 def radius_bound(cfg: RunConfig, trace: dict[str, np.ndarray], since: float) -> dict[str, Any]:
     """The PCRB σ (m) of each radius at the last row for radii constant since ``since`` (s), and the
     filter's final errors (m); ``None`` without an estimator."""
-    from ..estimation.factory import setup_from_config
     from ..estimation.pcrb import trace_pcrb
+    from ..wiring.estimation import setup_from_config
 
     t = np.asarray(trace["t"], float)
     keys = ("radius_pcrb_R", "radius_pcrb_L", "radius_error_R", "radius_error_L")

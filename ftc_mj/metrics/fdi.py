@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 
 from ..config import RunConfig
-from ..estimation.factory import setup_from_config
 from ..model.kinematics import body_rates
+from ..wiring.estimation import setup_from_config
 
 RULES: tuple[str, ...] = ("sigma", "mode", "cusum", "glr")
 KL_CAP = 25.0

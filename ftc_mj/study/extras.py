@@ -35,9 +35,9 @@ def time_tag(t: float) -> str:
 def pcrb_split(cfg: RunConfig, trace: dict[str, np.ndarray]) -> dict[str, Any]:
     """See the module docstring; columns ``omega_ratio_9_9``, ``omega_ratio_12``, and per bound
     ``pcrb_split_<tag>_<time>`` (m) and ``pcrb_split_<tag>_isolated_s`` (s, None if never)."""
-    from ..estimation.factory import setup_from_config
     from ..estimation.observability import radius_directions
     from ..estimation.pcrb import trace_pcrb
+    from ..wiring.estimation import setup_from_config
 
     t = trace["t"]
     k0 = int(np.searchsorted(t, PCRB_FROM_S - 1e-9))

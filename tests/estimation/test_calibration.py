@@ -11,13 +11,13 @@ import pytest
 from ftc_mj.estimation import Measurement
 from ftc_mj.estimation.calibration import null_threshold, siegmund_arl0
 from ftc_mj.estimation.decision import ChangeRule
-from ftc_mj.estimation.decision_factory import (
+from ftc_mj.registry import decision_rules
+from ftc_mj.wiring.decision import (
     build_change_detectors,
     build_decision_rule,
     calibrated_threshold,
     nominal_point_of,
 )
-from ftc_mj.registry import decision_rules
 from tests.estimation.filters import decision_cfg, excited_data, make_filter
 
 

@@ -23,8 +23,8 @@ import polars as pl
 
 from ...config import RunConfig
 from ...estimation.calibration import nominal_point
-from ...estimation.decision_factory import reference_rates
-from ...estimation.factory import setup_from_config
+from ...wiring.decision import reference_rates
+from ...wiring.estimation import setup_from_config
 from ..extras import ISOLATED_SPLIT_M, PCRB_MODELS, PCRB_TIMES, time_tag
 from .results import read_results
 

@@ -39,8 +39,7 @@ def _auto(settings: DecisionSettings, context: RunContext) -> AutoRule:
 def _change(name: str):  # noqa: ANN202 - a factory of the registry contract
     def factory(settings: DecisionSettings, context: RunContext, threshold: float,
                 detectors: ChangeDetectors) -> ChangeRule:
-        return ChangeRule(name, settings.dwell, threshold, detectors, settings.min_drop, settings.change_holdoff,
-                          settings.glr_window)
+        return ChangeRule(name, settings, threshold, detectors)
     factory.__name__ = f"_{name}"
     return factory
 

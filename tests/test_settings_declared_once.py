@@ -11,7 +11,8 @@ builds them and in the config sections that compose them:
   ``Estimator`` and ``DecisionRule`` declare methods);
 - no component or registered factory takes its ``settings`` as ``Any`` (or unannotated);
 - the config sections of these components add no field of their own besides the composition
-  (``kind``, ``decision``, ``options``, ``excitation``, ``degraded``).
+  (``kind``, ``decision``, ``options``, ``excitation``, ``degraded``);
+- the components import neither the application config nor the wiring.
 
 A planted duplicate shows that the first check finds one.
 """
@@ -165,3 +166,22 @@ def test_config_sections_only_compose(section: str) -> None:
     own = set(cls.__dict__.get("__annotations__", {}))
     assert own <= COMPOSITION[section], f"{section} declares {sorted(own - COMPOSITION[section])} itself"
     assert any(base.__module__ != sections.__name__ and issubclass(base, BaseModel) for base in cls.__mro__[1:])
+
+
+def test_components_import_neither_the_config_nor_the_wiring() -> None:
+    offenders = []
+    for mod in modules():
+        if not mod.__name__.startswith(PACKAGES):
+            continue
+        for node in ast.walk(ast.parse(Path(mod.__file__).read_text())):
+            if isinstance(node, ast.ImportFrom):
+                level = node.level - (1 if Path(mod.__file__).name == "__init__.py" else 0)  # parts to drop
+                base = mod.__name__.split(".")[: len(mod.__name__.split(".")) - level] if node.level else []
+                target = ".".join([*base, node.module or ""]) if node.level else node.module or ""
+            elif isinstance(node, ast.Import):
+                target = node.names[0].name
+            else:
+                continue
+            if target.startswith(("ftc_mj.config", "ftc_mj.wiring")):
+                offenders.append(f"{mod.__name__} imports {target}")
+    assert not offenders, offenders

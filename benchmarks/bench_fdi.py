@@ -21,10 +21,10 @@ from bench_filters import scenario
 from ftc_mj.config import RunConfig, load_config
 from ftc_mj.estimation import UKF, Measurement
 from ftc_mj.estimation.calibration import null_threshold
-from ftc_mj.estimation.decision_factory import build_fault_decision, calibrated_threshold
-from ftc_mj.estimation.factory import setup_from_config
 from ftc_mj.estimation.pcrb import pcrb_columns
 from ftc_mj.sim.loop import simulate
+from ftc_mj.wiring.decision import build_fault_decision, calibrated_threshold
+from ftc_mj.wiring.estimation import setup_from_config
 
 
 def step_costs(steps: int, gyro: float | None) -> dict[str, np.ndarray]:

@@ -30,9 +30,9 @@ from filterpy.kalman import IMMEstimator, JulierSigmaPoints, UnscentedKalmanFilt
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import Measurement
-from ftc_mj.estimation.factory import setup_from_config
 from ftc_mj.estimation.setup import FilterSetup
 from ftc_mj.model.kinematics import KinematicModel
+from ftc_mj.wiring.estimation import setup_from_config
 from tests.estimation.filters import make_filter
 
 
@@ -135,7 +135,8 @@ import time
 t0 = time.perf_counter()
 import numpy as np
 from ftc_mj.config import RunConfig
-from ftc_mj.estimation import Measurement, build_estimator
+from ftc_mj.estimation import Measurement
+from ftc_mj.wiring.estimation import build_estimator
 t1 = time.perf_counter()
 print(f"imports {t1 - t0:6.2f} s", end="")
 for name, kind in (("UKF", "ukf"), ("EKF", "ekf"), ("IMM-UKF", "imm-ukf"), ("IMM-EKF", "imm-ekf")):

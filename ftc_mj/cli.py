@@ -637,13 +637,16 @@ def scenarios() -> None:
 @app.command()
 def components(plugin: Plugins = None) -> None:
     """List the registered estimators, decision rules, controllers, policies and references (built-in,
-    from installed packages' entry points and from --plugin modules)."""
-    from .registry import REGISTRIES, load_plugins
+    from installed packages' entry points and from --plugin modules), each with its settings: a built-in's
+    settings model, a plug-in's ``options`` model (field, type and range, default, what it is)."""
+    from .registry import REGISTRIES, load_plugins, settings_listing
 
     try:
         load_plugins(plugin or [])
         for reg in REGISTRIES.values():
             typer.echo(f"{reg.config_key}: {', '.join(reg.names())}")
+            for line in settings_listing(reg):
+                typer.echo(line)
     except BadInput as err:
         _fail(str(err))
 

@@ -7,10 +7,14 @@ radians throughout (the only degree-valued fields end in ``_deg``).
 
 from __future__ import annotations
 
+import ast
+import inspect
 import math
 import re
+import textwrap
 from pathlib import Path
-from typing import Annotated, Any
+from types import UnionType
+from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
 from pydantic import (
     AfterValidator,
@@ -52,6 +56,7 @@ def ranged(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False
             raise ValueError(f"must be a finite number in {where}, got {v!r}")
         return v
 
+    check.interval = where  # type: ignore[attr-defined]  # read by describe_settings
     return Annotated[float, Strict(), AfterValidator(check)]
 
 
@@ -112,6 +117,7 @@ def component(name: str) -> Any:
     def check(v: str) -> str:
         return registry.REGISTRIES[name].check(v)
 
+    check.interval = f"a registered {registry.REGISTRIES[name].kind}"  # type: ignore[attr-defined]
     return Annotated[str, Strict(), AfterValidator(check)]
 
 
@@ -140,3 +146,59 @@ class StrictModel(BaseModel):
 
     model_config = ConfigDict(extra="forbid", validate_assignment=True)
 
+
+
+def _type_text(annotation: Any, metadata: list[Any]) -> str:
+    """A settings field's type as a reader wants it: ``float in (0, 1e+06]``, ``"a" | "b"``, ``bool``,
+    ``tuple[float in [0, 1e+06], …]``, ``… | none``."""
+    for m in metadata:
+        interval = getattr(getattr(m, "func", None), "interval", None)
+        if interval is not None:
+            return interval if interval.startswith("a registered") else f"float in {interval}"
+    bounds = [f"{type(m).__name__.lower()} {getattr(m, type(m).__name__.lower())}" for m in metadata
+              if type(m).__name__ in ("Ge", "Le")]
+    origin, args = get_origin(annotation), get_args(annotation)
+    if origin is Annotated:
+        return _type_text(args[0], [*args[1:], *metadata])
+    if origin is Literal:
+        return " | ".join(repr(a) if isinstance(a, str) else str(a) for a in args)
+    if origin in (Union, UnionType):
+        return " | ".join("none" if a is type(None) else _type_text(a, []) for a in args)
+    if origin in (tuple, list):
+        items = [_type_text(a, []) for a in args if a is not Ellipsis]
+        inner = f"{len(items)} × {items[0]}" if len(items) > 2 and len(set(items)) == 1 else ", ".join(items)
+        return f"{origin.__name__}[{inner}]"
+    name = getattr(annotation, "__name__", str(annotation))
+    return f"{name} ({', '.join(bounds)})" if bounds else name
+
+
+def _field_docs(model: type[BaseModel]) -> dict[str, str]:
+    """The first line of each field's docstring (the string literal after its declaration), over the MRO."""
+    docs: dict[str, str] = {}
+    for cls in reversed(model.__mro__):
+        if not (isinstance(cls, type) and issubclass(cls, BaseModel)) or cls.__module__.startswith("pydantic"):
+            continue
+        try:
+            tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
+        except (OSError, TypeError, SyntaxError):
+            continue
+        body = tree.body[0].body if tree.body and isinstance(tree.body[0], ast.ClassDef) else []
+        for stmt, nxt in zip(body, body[1:], strict=False):
+            if (isinstance(stmt, ast.AnnAssign) and isinstance(stmt.target, ast.Name) and isinstance(nxt, ast.Expr)
+                    and isinstance(nxt.value, ast.Constant) and isinstance(nxt.value.value, str)):
+                line = " ".join(nxt.value.value.split(". ")[0].split()).rstrip(".") + "."
+                docs[stmt.target.id] = line if len(line) <= 100 else line[:99] + "…"
+    return docs
+
+
+def describe_settings(model: type[BaseModel]) -> list[str]:
+    """One line per field of the settings ``model``: ``name: type = default — first docstring line`` (the
+    listing of ``ftc-mj components``, generated from the one declaration)."""
+    docs = _field_docs(model)
+    rows = []
+    for name, f in model.model_fields.items():
+        default = f.default_factory() if f.default_factory is not None else f.default  # type: ignore[call-arg]
+        shown = "required" if f.is_required() else f"= {default!r}"
+        doc = f" — {docs[name]}" if name in docs else ""
+        rows.append(f"{name}: {_type_text(f.annotation, list(f.metadata))} {shown}{doc}")
+    return rows

@@ -180,12 +180,12 @@ class Registry:
                 self.register(ep.name, factory, origin=f"entry point {ep.value}")
 
 
-estimators = Registry("estimator", "ftc_mj.estimators", "ftc_mj.estimation.factory", "estimator.kind")
+estimators = Registry("estimator", "ftc_mj.estimators", "ftc_mj.wiring.estimation", "estimator.kind")
 """``factory(settings: EstimatorConfig, context: RunContext) -> Estimator | None`` (``settings``: the
-``[estimator]`` section; ``None``: the run has no filter)."""
-decision_rules = Registry("decision rule", "ftc_mj.decision_rules", "ftc_mj.estimation.decision_factory",
+``[estimator]`` section; ``None``: the run has no filter); meta ``section``: a built-in's settings model."""
+decision_rules = Registry("decision rule", "ftc_mj.decision_rules", "ftc_mj.wiring.decision",
                           "estimator.decision.rule")
-"""``factory(settings: DecisionConfig, context: RunContext) -> DecisionRule`` (``settings``: the
+"""``factory(settings: DecisionSettings, context: RunContext) -> DecisionRule`` (``settings``: the
 ``[estimator.decision]`` section); meta ``calibrate="cusum"|"glr"``: the factory is called with that
 detector's calibrated threshold (LLR units) as a third argument; meta ``detectors=True``: and with the
 run's :class:`~ftc_mj.estimation.residual.ChangeDetectors` (the no-fault residual generator with its
@@ -196,7 +196,7 @@ meta ``reusable=True``: the controller has ``reset()`` and is cached per process
 ``rate_bounded=True``: its first input stays within ``controller.omega_rate_max / rate`` of the
 command in force (the loop clips a dither to that bound)."""
 policies = Registry("policy", "ftc_mj.policies", "ftc_mj.reconfiguration.policies", "reconfiguration.policy")
-"""``factory(settings: ReconfigurationConfig, context: RunContext) -> ReconfigurationPolicy``
+"""``factory(settings: ReconfigurationSettings, context: RunContext) -> ReconfigurationPolicy``
 (``settings``: the ``[reconfiguration]`` section, a plug-in's ``options`` in ``settings.options``);
 meta ``needs_estimator=False``: used even in runs without a filter (otherwise such runs use ``none``)."""
 references = Registry("reference", "ftc_mj.references", "ftc_mj.control.factory", "reference.kind")
@@ -249,6 +249,26 @@ def load_plugins(modules: Iterable[str]) -> None:
             msg = str(err).splitlines()[0] if str(err) else ""
             raise BadInput(f"plugins: cannot import {name!r}: {type(err).__name__}: {msg[:200]}") from None
         _loaded_plugins.add(name)
+
+
+def settings_listing(registry: Registry) -> list[str]:
+    """The settings of every component of ``registry``, as ``ftc-mj components`` prints them: per component,
+    the model a built-in was registered with (meta ``section``; components sharing one model are listed
+    together) and a plug-in's ``options`` model, one indented line per field
+    (:func:`ftc_mj.fields.describe_settings`, imported here on use: the fields module imports this one)."""
+    describe = importlib.import_module("ftc_mj.fields").describe_settings
+    groups: dict[tuple[type, str], list[str]] = {}
+    for name in registry.names():
+        entry = registry.get(name)
+        for model, where in ((entry.meta.get("section"), registry.config_key.rsplit(".", 1)[0]),
+                             (entry.settings, "options")):
+            if model is not None:
+                groups.setdefault((model, where), []).append(name)
+    lines = []
+    for (model, where), names in groups.items():
+        lines.append(f"  {', '.join(names)} — [{where}] {model.__name__}:")
+        lines.extend(f"    {row}" for row in describe(model))
+    return lines
 
 
 def check_options(registry: Registry, name: str, options: Mapping[str, Any]) -> dict[str, Any]:

@@ -1,8 +1,9 @@
 """The one-line text of a pydantic validation error: ``<dotted.field>: why[, got <value>]``.
 
 The one home of this formatting: the run config (:mod:`ftc_mj.config.load`), the plug-in
-``options`` tables (:func:`ftc_mj.fields.options_of`) and the study files
-(:mod:`ftc_mj.study.spec`) all use :func:`one_line`, so every bad input reads the same.
+``options`` tables (:func:`ftc_mj.fields.options_of`), the study files (:mod:`ftc_mj.study.spec`)
+and the components built from plain tables without a run config (:func:`section`) all use
+:func:`one_line`, so every bad input reads the same.
 """
 
 from __future__ import annotations
@@ -10,7 +11,9 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
+
+from .errors import BadInput
 
 
 def field_path(loc: tuple[Any, ...], unknown_key: bool = False, item: bool = False) -> str:
@@ -62,3 +65,18 @@ def one_line(err: ValidationError) -> str:
     if named:  # a section's check naming its field: estimator.imm_models
         return f"{loc}.{named.group(1)}: {named.group(2)}{extra}"
     return f"{loc}: {msg}{extra}"
+
+
+def section(model: type[BaseModel], value: Any, where: str) -> Any:
+    """A settings model from an instance of ``model``, a plain table or ``None`` (the defaults), for
+    components built without a run config; :class:`~ftc_mj.errors.BadInput` naming ``<where>.<field>``."""
+    if isinstance(value, model):
+        return value
+    try:
+        return model.model_validate({} if value is None else dict(value))
+    except ValidationError as err:
+        line = one_line(err)
+        raise BadInput(f"{where}: {line.removeprefix('<root>: ')}" if line.startswith("<root>")
+                       else f"{where}.{line}") from None
+    except TypeError:
+        raise BadInput(f"{where}: expected a table of settings, got {type(value).__name__}") from None

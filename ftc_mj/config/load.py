@@ -16,7 +16,7 @@ from pydantic import BaseModel, ValidationError
 from ..errors import BadInput
 from ..fields import NAME_RE
 from ..suggest import first_leaf, suggest_key
-from ..validation import one_line
+from ..validation import one_line, section
 from .files import read_toml, scenario_path
 from .schema import RunConfig
 
@@ -41,21 +41,6 @@ def unknown_key_hint(err: ValidationError) -> str:
     parts = [*loc, *first_leaf(e.get("input"))]
     key = suggest_key(RunConfig, parts, len(loc) - 1)
     return f"; did you mean {key}?" if key else ""
-
-
-def section(model: type[BaseModel], value: Any, where: str) -> Any:
-    """One config section from an instance of ``model``, a plain table or ``None`` (the defaults), for
-    components built without a run config; :class:`BadInput` naming ``<where>.<field>``."""
-    if isinstance(value, model):
-        return value
-    try:
-        return model.model_validate({} if value is None else dict(value))
-    except ValidationError as err:
-        line = one_line(err)
-        raise BadInput(f"{where}: {line.removeprefix('<root>: ')}" if line.startswith("<root>")
-                       else f"{where}.{line}") from None
-    except TypeError:
-        raise BadInput(f"{where}: expected a table of settings, got {type(value).__name__}") from None
 
 
 def from_sections(**sections: Any) -> RunConfig:

@@ -2,7 +2,6 @@
 open loop, the path-following NMPC; the reference paths; LGL helpers."""
 
 from .base import Controller, ControlOutput
-from .factory import build_controller, build_reference, controller_from_settings, problem_spec, tracking_problem
 from .lgl import (
     barycentric_interpolate,
     barycentric_weights,
@@ -49,3 +48,15 @@ __all__ = [
     "problem_spec",
     "tracking_problem",
 ]
+
+
+_FACTORY_NAMES = ("build_controller", "build_reference", "controller_from_settings", "problem_spec", "tracking_problem")
+
+
+def __getattr__(name: str) -> object:
+    """The factory's names, imported on first use: the factory reads the application config, which composes
+    settings declared in this package (:mod:`.excitation`), so importing it here would be a cycle."""
+    if name in _FACTORY_NAMES:
+        from . import factory
+        return getattr(factory, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

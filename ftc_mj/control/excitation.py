@@ -1,4 +1,5 @@
-"""Persistent excitation for fault isolation: a yaw-rate dither at constant speed.
+"""Persistent excitation for fault isolation: a yaw-rate dither at constant speed, and its settings
+(:class:`ExcitationSettings`, the ``[reconfiguration.excitation]`` section).
 
 With speed-only sensing only the radius combination ``R_R ω_R + R_L ω_L`` is observed at each
 instant (:mod:`~ftc_mj.estimation.observability`); the split between the radii is seen only through
@@ -18,6 +19,24 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from ..fields import Flag, PosFloat, StrictModel, ranged
+
+
+class ExcitationSettings(StrictModel):
+    """Yaw-rate dither while a fault is suspected but not isolated (off by default).
+
+    With speed-only sensing the split between the radii is seen only through turning
+    (``ω_R − ω_L``). The dither adds ``δψ̇ = amplitude · sin(2π t / period)`` to the commanded yaw
+    rate at constant model speed (:func:`yaw_dither`, :func:`dither_wheel_rates`); at 10 m/s every 0.1 rad/s of
+    amplitude is 1 m/s² of extra lateral acceleration (the robot starts lifting a wheel at 3.9 m/s² in a
+    quasi-steady turn, :mod:`ftc_mj.plant.limits`; the circle itself needs 2)."""
+
+    enabled: Flag = False
+    amplitude: ranged(0.0, 1.0, lo_open=True, unit="rad/s") = 0.05
+    """Yaw-rate dither amplitude (rad/s)."""
+    period: PosFloat = 2.0
+    """Dither period (s)."""
 
 
 def yaw_dither(t: float, amplitude: float, period: float) -> float:

@@ -1,20 +1,21 @@
 """FDI filters (paper §3): EKF, UKF and IMM over [x, y, psi, R_R, R_L], plus the fault-decision layer.
 
-Entry points: :func:`build_estimator` and :func:`build_fault_decision` (from a
-:class:`~ftc_mj.config.RunConfig`: the factories, the only modules here that read the application
-config), the filters' ``from_settings`` (from their own settings, without a run config) and the
-components' own constructors (``UKF(setup)``, ``FaultDecision(settings, R0, rule)``). The filters step
-through the compiled kernels of :mod:`.kernels`.
+Each component declares its settings model beside it (:class:`FilterSettings`, :class:`IMMSettings`,
+:class:`DecisionSettings`); the package reads no application config. Entry points: the filters'
+``from_settings`` (from their own settings, without a run config), ``from_context`` (in a run: the
+registered factories) and the components' own constructors (``UKF(setup)``,
+``FaultDecision(settings, R0, rule)``); a run's components are built from its config by
+:mod:`ftc_mj.wiring.estimation` and :mod:`ftc_mj.wiring.decision`. The filters step through the compiled
+kernels of :mod:`.kernels`.
 Every estimator's ``step(u, z)`` returns a :class:`FilterOutput`.
 """
 
 from .base import Estimator, FilterOutput, Hypothesis, Measurement
 from .decision import DecisionRule, DecisionState, DecisionStep, FaultDecision
-from .decision_factory import build_fault_decision
 from .ekf import EKF
-from .factory import build_estimator
-from .imm import IMM
-from .setup import FilterSetup
+from .imm import IMM, HypothesisSettings, IMMSettings
+from .rule_statistics import DecisionSettings
+from .setup import FilterSettings, FilterSetup
 from .ukf import UKF
 
 __all__ = [
@@ -22,14 +23,16 @@ __all__ = [
     "IMM",
     "UKF",
     "DecisionRule",
+    "DecisionSettings",
     "DecisionState",
     "DecisionStep",
     "Estimator",
     "FaultDecision",
     "FilterOutput",
+    "FilterSettings",
     "FilterSetup",
     "Hypothesis",
+    "HypothesisSettings",
+    "IMMSettings",
     "Measurement",
-    "build_estimator",
-    "build_fault_decision",
 ]

@@ -36,13 +36,14 @@ class Hypothesis:
     """What one member of a multiple-model bank assumes about the wheel radii.
 
     ``frac_R``/``frac_L``: radius as a fraction of nominal (a step to that radius; 1 = healthy);
-    ``ramp``: instead, the left radius deflates linearly (at ``estimator.ramp_rate``).
+    ``ramp``: instead, the left radius deflates linearly (at ``estimator.ramp_rate``). Built from a
+    configured bank's :class:`~ftc_mj.estimation.imm.HypothesisSettings` (whose defaults are the only ones).
     """
 
     name: str
     frac_R: float
     frac_L: float
-    ramp: bool = False
+    ramp: bool
 
     @property
     def wheel(self) -> str | None:

@@ -233,20 +233,21 @@ class ChangeRule:
 
     declare_dwell = 0.0
 
-    def __init__(self, name: str, dwell: float, threshold: float, detectors: ChangeDetectors | None = None,
-                 min_drop: float = 0.1, holdoff: float = 0.0, window: float = 0.5) -> None:
-        """``name``: ``cusum`` or ``glr``; ``dwell`` (s); ``threshold``: calibrated by the factory for the
-        target mean time between false alarms (:func:`.calibration.arl0_threshold`); ``detectors``: the
-        run's residual generator and detectors (the factory builds them for the run's filter; ``None``:
-        the rule cannot run and says so at its first step); ``min_drop``: summed estimated drop (m) that
-        declares a wheel; ``holdoff`` (s), ``window`` (s, the GLR window): see the class docstring."""
-        self.name, self.dwell = name, dwell
+    def __init__(self, name: str, settings: DecisionSettings, threshold: float,
+                 detectors: ChangeDetectors | None = None) -> None:
+        """``name``: ``cusum`` or ``glr``; ``settings``: the decision's (its ``dwell`` (s); ``min_drop``, the
+        summed estimated drop (m) that declares a wheel; ``change_holdoff`` (s) and ``glr_window`` (s): see the
+        class docstring); ``threshold``: calibrated by the wiring for the target mean time between false
+        alarms (:func:`.calibration.arl0_threshold`); ``detectors``: the run's residual generator and
+        detectors (the wiring builds them for the run's filter; ``None``: the rule cannot run and says so at
+        its first step)."""
+        self.name, self.dwell = name, settings.dwell
         self.threshold = threshold
         """Threshold (log-likelihood-ratio units) for a mean time ``decision.arl0`` between false alarms."""
         self.detectors = detectors
-        self.min_drop = min_drop
-        self.holdoff = holdoff
-        self.window = window
+        self.min_drop = settings.min_drop
+        self.holdoff = settings.change_holdoff
+        self.window = settings.glr_window
         self.alarms: list[tuple[float, str | None, float, float]] = []
         """Each settled alarm: its crossing time (s), isolated wheel, the GLR's drop (m per wheel) and onset (s)."""
         self.drops = {"right": 0.0, "left": 0.0}
@@ -321,7 +322,7 @@ class FaultDecision:
     ``settings``: the ``[estimator.decision]`` section; ``R0``: the model's nominal wheel radius (m);
     ``rule``: the decision rule (an object as :class:`DecisionRule`); ``statistics``: every rule's
     statistics (:class:`.rule_statistics.RuleStatistics`), needed when ``settings.statistics`` is on or
-    the rule sets ``needs_statistics`` (the factory :func:`.decision_factory.build_fault_decision`
+    the rule sets ``needs_statistics`` (the wiring :func:`ftc_mj.wiring.decision.build_fault_decision`
     builds all of them from a run config).
     """
 

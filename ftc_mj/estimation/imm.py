@@ -57,37 +57,83 @@ A step is one call of the compiled kernel of the members' kind (:mod:`.kernels.i
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import Annotated, Any, Literal
 
 import numpy as np
+from pydantic import Field, Strict, model_validator
 
+from ..context import RunContext
+from ..fields import Flag, Fraction, PosFloat, StrictModel, ranged
 from .base import FilterOutput, Hypothesis, Measurement
 from .buffers import BufferView, FilterBuffers, HealthCounters
 from .kernels.imm import imm_combine, imm_step_ekf, imm_step_ukf, impose_hypotheses
 from .kernels.layout import C_HYP, P_RAMP_STEP
 from .measurements import kernel_inputs
-from .setup import FilterSetup
+from .setup import FilterSettings, FilterSetup, setup_from_settings
 
 BANK_4: tuple[Hypothesis, ...] = (
-    Hypothesis("no fault", 1.0, 1.0),
-    Hypothesis("right 50%", 0.5, 1.0),
-    Hypothesis("left 50%", 1.0, 0.5),
-    Hypothesis("both 50%", 0.5, 0.5),
+    Hypothesis("no fault", 1.0, 1.0, False),
+    Hypothesis("right 50%", 0.5, 1.0, False),
+    Hypothesis("left 50%", 1.0, 0.5, False),
+    Hypothesis("both 50%", 0.5, 0.5, False),
 )
 BANK_5: tuple[Hypothesis, ...] = (*BANK_4, Hypothesis("left ramp", 1.0, 1.0, ramp=True))
 
 
-class ImmSettings(Protocol):
-    """What an IMM reads of the ``[estimator]`` section beside :class:`~.setup.FilterSetup`."""
+class HypothesisSettings(StrictModel):
+    """One member of a custom IMM bank (``estimator.imm_bank``): what it assumes about the wheel radii."""
 
-    imm_bank: list | None
-    imm_models: int
-    imm_variant: str
-    p_stay: float | None
-    p_stay_4: float
-    p_stay_5: float
-    hypothesis_sigma: float
-    ramp_rate: float
+    name: Annotated[str, Strict(), Field(min_length=1, max_length=60)]
+    """Shown in events and figures, e.g. ``"left 30 %"``."""
+    frac_R: ranged(0.0, 1.0, lo_open=True) = 1.0
+    """Right radius as a fraction of nominal (1 = healthy; a puncture makes a radius smaller)."""
+    frac_L: ranged(0.0, 1.0, lo_open=True) = 1.0
+    """Left radius as a fraction of nominal."""
+    ramp: Flag = False
+    """The left radius deflates linearly at ``estimator.ramp_rate`` from the bank's estimate (a ramp
+    hypothesis; ``frac_L`` is then not used) instead of a step to ``frac_L``."""
+
+
+class IMMSettings(FilterSettings):
+    """The settings of an IMM bank: its members' (:class:`~.setup.FilterSettings`) and the bank's own."""
+
+    imm_models: Literal[4, 5] = 4
+    """The paper's IMM bank: 4 models (no fault, 50 % right, 50 % left, both 50 %) or 5 (plus a left
+    ramp). Not used with ``imm_bank``."""
+    imm_bank: Annotated[list[HypothesisSettings], Field(min_length=2, max_length=12)] | None = None
+    """A custom IMM bank: its members' hypotheses, in order (``None`` = the paper's bank of
+    ``imm_models`` members). The decision layer reads the hypotheses, whatever their number and order."""
+    p_stay: Fraction | None = None
+    """Diagonal of a custom bank's transition matrix (the rest shared equally); ``None`` =
+    ``p_stay_4`` for banks of up to 4 members, else ``p_stay_5``."""
+    imm_variant: Literal["hypothesis", "paper"] = "hypothesis"
+    """``hypothesis``: each member's process model pins its hypothesis; ``paper``: the members differ only in
+    their initial radii (the module docstring says what each does)."""
+    p_stay_4: Fraction = 0.97
+    """Diagonal of the 4-model bank's transition matrix."""
+    p_stay_5: Fraction = 0.96
+    """Diagonal of the 5-model bank's transition matrix."""
+    ramp_rate: PosFloat = 0.1
+    """Deflation rate (m/s) hypothesised by the 5th (linear puncture) IMM model."""
+    hypothesis_sigma: PosFloat = 0.05
+    """IMM ``hypothesis`` variant: std (m) of a member's hypothesised radius, re-imposed at every
+    prediction (tolerance for small modelling errors such as tyre compression)."""
+
+    @model_validator(mode="after")
+    def _bank(self) -> IMMSettings:
+        """A custom bank replaces ``imm_models`` (not both) and its hypotheses have distinct names."""
+        if self.imm_bank is not None:
+            if "imm_models" in self.model_fields_set:
+                raise ValueError("imm_models: give either imm_models (the paper's banks) or imm_bank, not both")
+            names = [h.name for h in self.imm_bank]
+            if len(set(names)) != len(names):
+                raise ValueError("imm_bank: hypothesis names must differ")
+        return self
+
+    @property
+    def bank_size(self) -> int:
+        """Members of the IMM bank (``imm_bank`` if given, else ``imm_models``)."""
+        return len(self.imm_bank) if self.imm_bank is not None else self.imm_models
 
 
 def transition_matrix(n: int, p_stay: float) -> np.ndarray:
@@ -96,14 +142,14 @@ def transition_matrix(n: int, p_stay: float) -> np.ndarray:
     return np.full((n, n), off) + np.eye(n) * (p_stay - off)
 
 
-def configured_bank(est: ImmSettings) -> tuple[Hypothesis, ...]:
+def configured_bank(est: IMMSettings) -> tuple[Hypothesis, ...]:
     """The bank ``est`` asks for: ``est.imm_bank`` in its order, else the paper's of ``imm_models`` members."""
     if est.imm_bank is not None:
         return tuple(Hypothesis(h.name, h.frac_R, h.frac_L, h.ramp) for h in est.imm_bank)
     return BANK_4 if est.imm_models == 4 else BANK_5
 
 
-def configured_transition(est: ImmSettings, n: int) -> np.ndarray:
+def configured_transition(est: IMMSettings, n: int) -> np.ndarray:
     """Transition matrix of an ``n``-member bank: ``est.p_stay`` on the diagonal if set, else ``p_stay_4``
     for 4 members and ``p_stay_5`` otherwise."""
     p = est.p_stay if est.p_stay is not None else (est.p_stay_4 if n == 4 else est.p_stay_5)
@@ -124,7 +170,10 @@ class IMM(HealthCounters):
     views of the bank's buffers: assigning to them copies into the buffers.
     """
 
-    def __init__(self, setup: FilterSetup, settings: ImmSettings, member: str = "ukf", *,
+    Settings = IMMSettings
+    """The bank's settings model (the ``[estimator]`` section composes it)."""
+
+    def __init__(self, setup: FilterSetup, settings: IMMSettings, member: str = "ukf", *,
                  hypotheses: tuple[Hypothesis, ...] | None = None, transition: np.ndarray | None = None,
                  variant: str | None = None) -> None:
         self.setup = setup
@@ -140,7 +189,21 @@ class IMM(HealthCounters):
         self._init_constants(settings)
         self._init_state()
 
-    def _init_constants(self, settings: ImmSettings) -> None:
+    @classmethod
+    def from_context(cls, settings: IMMSettings, context: RunContext, member: str = "ukf") -> IMM:
+        """The bank of its settings in a run, of ``member`` (``"ekf"``/``"ukf"``) filters (the sensors' noise,
+        the geometry and the initial pose from the run context): the factory the registry calls."""
+        return cls(FilterSetup.from_context(settings, context), settings, member)
+
+    @classmethod
+    def from_settings(cls, member: str = "ukf", settings: IMMSettings | Any = None, sensors: Any = None,
+                      **geometry: Any) -> IMM:
+        """The bank built from its own settings, without a run config (models or plain tables, one-line
+        errors; ``geometry`` as :func:`.setup.setup_from_settings`)."""
+        est, setup = setup_from_settings(settings, sensors, model=cls.Settings, **geometry)
+        return cls(setup, est, member)
+
+    def _init_constants(self, settings: IMMSettings) -> None:
         """The bank's constants in the buffers: transition matrix, pinned radii (m), the covariance
         masks of the hypothesis variant and the ramp step (m per step)."""
         n, R0, st = self.n_modes, self.setup.nominal_radius, self._st

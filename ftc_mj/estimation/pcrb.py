@@ -172,7 +172,7 @@ def trace_pcrb(
     Parameters
     ----------
     setup, trace
-        The run's filter (:func:`ftc_mj.estimation.factory.setup_from_config`) and its trace (true
+        The run's filter (:func:`ftc_mj.wiring.estimation.setup_from_config`) and its trace (true
         states, wheel rates, measurements).
     q_radius : float, optional
         Radius process-noise σ per step (m); default: the filters' (``setup.Q``).

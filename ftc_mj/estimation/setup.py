@@ -1,42 +1,65 @@
 """The resolved parameters of one filter: :class:`FilterSetup` (model, rate, noise, health rules).
 
-A filter is built from these, and these from the filter's own settings — the ``[estimator]`` section,
-the sensors' noise and the model geometry — by :meth:`FilterSetup.from_sections`; the factory
-(:mod:`.factory`) validates plain tables and takes the geometry from the run context.
+A filter is built from these, and these from the filter's own settings (:class:`FilterSettings`, declared
+here once: the ``[estimator]`` section composes it), the sensors' noise
+(:class:`~ftc_mj.model.sensors.SensorSettings`) and the model geometry — by :meth:`FilterSetup.from_sections`,
+from the run context by :meth:`FilterSetup.from_context`, from plain tables by :func:`setup_from_settings`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any
 
 import numpy as np
+from pydantic import model_validator
 
+from ..context import RunContext
+from ..fields import NonNegFloat, PosFloat, Rate, StrictModel, ranged
 from ..model.kinematics import KinematicModel
+from ..model.sensors import SensorSettings
+from ..validation import section
 
 
-class EstimatorSettings(Protocol):
-    """What a filter reads of the ``[estimator]`` section (SI units)."""
+class FilterSettings(StrictModel):
+    """The settings of one Kalman filter (EKF, UKF, and each member of an IMM bank; SI units). The
+    defaults are exactly the paper's values."""
 
-    rate: float
-    initial_radii: tuple[float, float] | None
-    p0_sigma: Sequence[float]
-    q_diffusion: Sequence[float]
-    kappa: float
-    nis_gate: float
-    divergence_nis: float
-    divergence_dwell: float
-    reset_inflation: float
-    min_radius: float
+    rate: Rate = 100.0
+    """Filter rate (Hz); dt = 1/rate."""
+    kappa: ranged(-5.0, 1.0e3, lo_open=True) = 0.001
+    """Julier sigma-point parameter."""
+    p0_sigma: tuple[PosFloat, PosFloat, PosFloat, PosFloat, PosFloat] = (0.5, 0.5, math.radians(1.0), 0.5, 0.5)
+    """Initial standard deviations of [x, y, psi, R_R, R_L] (m, m, rad, m, m)."""
+    q_diffusion: tuple[NonNegFloat, NonNegFloat, NonNegFloat, NonNegFloat, NonNegFloat] = (0.25, 0.25, 1e-4, 0.04, 0.04)
+    """Process noise as a diffusion per second of [x, y, psi, R_R, R_L] (m²/s, m²/s, rad²/s, m²/s, m²/s):
+    ``Q = diag(q_diffusion · dt)`` per filter step, so the filter's model does not change with
+    ``rate``. The default is the paper's ``Q = diag((q · dt)²)``, ``q = (5, 5, 0.1, 2, 2)``, at its
+    100 Hz (``q² / 100``), bit for bit."""
+    initial_radii: tuple[PosFloat, PosFloat] | None = None
+    """Initial radius estimates (m); ``None`` = the model's nominal radius."""
+    min_radius: PosFloat = 0.05
+    """Floor (m) for radius estimates handed on (and for the ramp hypothesis)."""
+    nis_gate: PosFloat = 1.0e4
+    """An innovation with NIS above this is rejected as an outlier (not used to update)."""
+    divergence_nis: PosFloat = 50.0
+    """NIS above this for ``divergence_dwell`` seconds counts as divergence (reset)."""
+    divergence_dwell: PosFloat = 1.0
+    """Time (s) the NIS must stay above ``divergence_nis`` before the filter is reset."""
+    reset_inflation: PosFloat = 10.0
+    """Covariance inflation factor on a divergence reset."""
 
-
-class SensorSettings(Protocol):
-    """The measurement noise a filter must match (σ in SI units; ``None`` = channel absent)."""
-
-    speed_sigma: float
-    yaw_rate_sigma: float | None
-    position_sigma: float | None
+    @model_validator(mode="before")
+    @classmethod
+    def _no_q_rate(cls, data: Any) -> Any:
+        """``q_rate`` (``Q = diag((q_rate · dt)²)``, which retuned the filter with its rate) was replaced
+        by the rate-invariant ``q_diffusion``: say how to convert instead of "unknown key"."""
+        if isinstance(data, dict) and "q_rate" in data:
+            raise ValueError("q_rate: replaced by q_diffusion (per second, rate-invariant): "
+                             "q_diffusion = q_rate² / rate, e.g. (0.25, 0.25, 1e-4, 0.04, 0.04) at 100 Hz")
+        return data
 
 
 @dataclass(frozen=True)
@@ -75,7 +98,7 @@ class FilterSetup:
     """Smallest radius a reset or a ramp keeps (m)."""
 
     @classmethod
-    def from_sections(cls, est: EstimatorSettings, sen: SensorSettings, *, wheel_radius: float,
+    def from_sections(cls, est: FilterSettings, sen: SensorSettings, *, wheel_radius: float,
                       half_track: float, initial_pose: Sequence[float]) -> FilterSetup:
         """The filter of the validated ``[estimator]`` and ``[sensors]`` sections, a model of nominal
         wheel radius ``R0`` and half track ``b`` (m), starting at ``initial_pose`` (m, m, rad)."""
@@ -94,6 +117,32 @@ class FilterSetup:
             **{name: getattr(sen, name) for name in _SENSOR_FIELDS},
             **{name: getattr(est, name) for name in _ESTIMATOR_FIELDS},
         )
+
+
+    @classmethod
+    def from_context(cls, settings: FilterSettings, context: RunContext) -> FilterSetup:
+        """A filter's resolved parameters from its settings and the run context (the sensors' noise, the
+        model's nominal wheel radius and half track (m), the initial pose)."""
+        return cls.from_sections(settings, context.sensors, wheel_radius=context.nominal_radii[0],
+                                 half_track=context.half_track, initial_pose=context.initial_pose)
+
+
+Table = Mapping[str, Any] | None
+"""A settings model's plain table (``None`` = its defaults)."""
+
+
+def setup_from_settings(settings: FilterSettings | Table = None, sensors: SensorSettings | Table = None, *,
+                        model: type[FilterSettings] = FilterSettings, wheel_radius: float = 2.0,
+                        half_track: float = 1.0, initial_pose: Sequence[float] = (0.0, 0.0, 0.0)
+                        ) -> tuple[Any, FilterSetup]:
+    """The validated filter settings (a ``model``) and the filter's resolved parameters, from the settings
+    (objects or plain tables, one-line errors naming ``estimator.<field>`` / ``sensors.<field>``; ``None`` =
+    the paper's values: its ``Q`` and ``P0``, speed σ 0.5 m/s, no gyro, no position fix), the model's nominal
+    wheel radius and half track (m) and the initial pose (m, m, rad)."""
+    est = section(model, settings, "estimator")
+    sen = section(SensorSettings, sensors, "sensors")
+    return est, FilterSetup.from_sections(est, sen, wheel_radius=wheel_radius, half_track=half_track,
+                                          initial_pose=initial_pose)
 
 
 def process_noise(diffusion: Sequence[float], dt: float) -> np.ndarray:

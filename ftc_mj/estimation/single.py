@@ -7,22 +7,41 @@ divergence resets).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from ..context import RunContext
 from .base import FilterOutput, Measurement
 from .buffers import Counter, FilterBuffers, HealthCounters
 from .kernels.layout import C_STEPS
 from .kernels.single import single_step_ekf, single_step_ukf
 from .measurements import kernel_inputs
-from .setup import FilterSetup
+from .setup import FilterSettings, FilterSetup, setup_from_settings
 
 
 class SingleFilter(HealthCounters):
     """Base of :class:`~ftc_mj.estimation.EKF` and :class:`~ftc_mj.estimation.UKF`, built from its
-    resolved parameters ``setup`` (:class:`.setup.FilterSetup`; the factory and ``from_settings``
-    build it from the filter's own settings)."""
+    resolved parameters ``setup`` (:class:`.setup.FilterSetup`); :meth:`from_context` (the registered
+    factory) and :meth:`from_settings` build it from the filter's own settings, :attr:`Settings`."""
 
     member = "ukf"
+    Settings = FilterSettings
+    """The filter's settings model (the ``[estimator]`` section composes it)."""
+
+    @classmethod
+    def from_context(cls, settings: FilterSettings, context: RunContext) -> SingleFilter:
+        """The filter of its settings in a run (the sensors' noise, the geometry and the initial pose from
+        the run context): the factory the registry calls."""
+        return cls(FilterSetup.from_context(settings, context))
+
+    @classmethod
+    def from_settings(cls, settings: FilterSettings | Any = None, sensors: Any = None, **geometry: Any) -> SingleFilter:
+        """The filter built from its own settings, without a run config: ``settings`` and ``sensors`` as
+        models or plain tables (one-line errors), ``geometry`` the keywords ``wheel_radius``, ``half_track``
+        (m) and ``initial_pose`` (m, m, rad) of :func:`.setup.setup_from_settings`. It gives the same
+        estimates as the filter of a run with those settings."""
+        return cls(setup_from_settings(settings, sensors, model=cls.Settings, **geometry)[1])
 
     def __init__(self, setup: FilterSetup) -> None:
         self.setup = setup

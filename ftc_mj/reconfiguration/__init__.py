@@ -1,23 +1,24 @@
 """How the estimated radii reach the controller: the reconfiguration policies (which radii the
 controller's model uses at each solve) and the robust NMPC's scenario weights from the filter.
 
-Public API::
+Each component takes its own settings model, declared beside it (:class:`ReconfigurationSettings`,
+:class:`DegradedSettings`); the package reads no application config::
 
-    policy = build_policy(cfg, with_estimator=True)     # the registered policy cfg.reconfiguration.policy names
-    policy = SafePolicy(resolved_reconfiguration(cfg), run_context(cfg))  # from its settings ("auto" resolved)
-    weighting = build_scenario_weighting(cfg)           # None unless a robust NMPC is re-weighted by the filter
-    degraded = build_degraded_mode(cfg)                 # None unless pf-nmpc with the safe policy (the default)
+    policy = SafePolicy(ReconfigurationSettings(max_rate=1.0), context)   # from its settings and a RunContext
+
+A run's policy, degraded mode and scenario weighting are built from its config by
+:mod:`ftc_mj.wiring.reconfiguration` (``build_policy``, ``build_degraded_mode``, ``build_scenario_weighting``).
 """
 
 from __future__ import annotations
 
-from .degraded import DegradedMode, NoSlipCheck
-from .factory import build_degraded_mode, build_policy, build_scenario_weighting, resolved_reconfiguration
+from .degraded import DegradedMode, DegradedSettings, NoSlipCheck
 from .policies import (
     DirectPolicy,
     NominalPolicy,
     ReconfigState,
     ReconfigurationPolicy,
+    ReconfigurationSettings,
     SafePolicy,
     TruthPolicy,
 )
@@ -25,17 +26,15 @@ from .scenario_weights import ScenarioWeighting, posterior_weights
 
 __all__ = [
     "DegradedMode",
+    "DegradedSettings",
     "DirectPolicy",
     "NoSlipCheck",
     "NominalPolicy",
     "ReconfigState",
     "ReconfigurationPolicy",
+    "ReconfigurationSettings",
     "SafePolicy",
     "ScenarioWeighting",
     "TruthPolicy",
-    "build_degraded_mode",
-    "build_policy",
-    "build_scenario_weighting",
     "posterior_weights",
-    "resolved_reconfiguration",
 ]

@@ -48,7 +48,7 @@ exit are events; the interval, the mode and the flagged wheels are trace columns
 from __future__ import annotations
 
 from collections import deque
-from typing import Protocol
+from typing import Literal
 
 import numpy as np
 
@@ -56,25 +56,43 @@ from ..context import RunContext
 from ..control.pathfollow_spec import RadiusInterval
 from ..estimation.base import FilterOutput
 from ..estimation.decision import DecisionState, departures
+from ..fields import NonNegFloat, PosFloat, StrictModel, ranged
 from ..telemetry import Event
 from .policies import ReconfigState
 
 _WHEELS = {"right": (True, False), "left": (False, True), "both": (True, True), "unknown": (True, True)}
 
 
-class DegradedSettings(Protocol):
-    """What the degraded mode reads of its settings (``[reconfiguration.degraded]``)."""
+class DegradedSettings(StrictModel):
+    """The degraded mode and the no-slip test of the identification (:mod:`~ftc_mj.reconfiguration.degraded`):
+    from the first alarm until the fault is isolated and identified, the model radius of each suspect wheel
+    follows its estimate down (an upper bound of the true radius while the tyre is dragged), a controller that
+    takes radius intervals (``pf-nmpc``) bounds the robot's lateral acceleration over each suspect wheel's
+    interval, and a wheel whose estimate moves faster than a tyre's radius can (a skid) is not identified."""
 
-    min_radius: float
-    """Smallest radius (m) a fault can leave: the floor of a suspect wheel's interval and model radius."""
-    depth: float
-    """How far (m) below the estimate a suspect wheel's interval reaches (0: the point the model uses)."""
-    skid_window: float
-    """Window (s) of the no-slip test (two halves compared)."""
-    max_radius_rate: float
-    """Fastest change (m/s) of a rolling tyre's radius (a deflation) the no-slip test accepts."""
-    skid_k_sigma: float
-    """Allowance of the no-slip test for the estimate's scatter, in σ of the radius."""
+    mode: Literal["auto", "on", "off"] = "auto"
+    """``auto`` (default): on with the ``safe`` policy, a controller registered to take radius intervals
+    (``pf-nmpc``), a sensor that tells the wheels apart (a yaw-rate gyro or position fixes) and a plant whose
+    tyres can slide (MuJoCo; on the kinematic plant the estimate is no upper bound and following it made
+    scenarios 2 and 3 worse, docs/config-defaults.md), else off;
+    ``on``: with any policy but ``none`` and ``truth`` (and such a controller); ``off``: never. From the first
+    alarm the model radius of a suspect wheel follows its estimate down; with it the pf-nmpc's lift-off after
+    a puncture fell from 0.25–1.05 s to 0.03–0.11 s on the development seeds 0–5 (docs/findings.md)."""
+    min_radius: PosFloat = 0.05
+    """Smallest radius (m) a fault can leave: the floor of a suspect wheel's interval and model radius (the tyre
+    down to its rim; scenario 4 deflates to 0.1 m)."""
+    depth: NonNegFloat = 0.0
+    """How far (m) below the estimate a suspect wheel's interval reaches: the lateral bound holds for every
+    radius in ``[max(min_radius, estimate − depth), estimate]``. 0 (default): the point the model uses. On the
+    development seeds 0–5 a depth of 0.2 m and 0.5 m lengthened the lift-off (scenario 3: 0.05–0.11 s at 0,
+    0.17–0.36 s at 0.2, 0.31–0.53 s at 0.5): the rows brake the robot, which drags the punctured tyre harder."""
+    skid_window: ranged(0.02, 10.0, unit="s") = 0.5
+    """Window (s) of the no-slip test: the mean estimate of its second half is compared with that of its first."""
+    max_radius_rate: NonNegFloat = 0.2
+    """Fastest change (m/s) of a rolling tyre's radius the no-slip test accepts (a deflation; scenario 4's is
+    0.1 m/s). A skid moved the estimate at 0.4–1.2 m/s in the measured case (docs/findings.md)."""
+    skid_k_sigma: NonNegFloat = 2.0
+    """Allowance of the no-slip test for the estimate's own scatter, in standard deviations of the radius."""
 
 
 class NoSlipCheck:

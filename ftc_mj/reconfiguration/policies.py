@@ -42,40 +42,71 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections import deque
 from enum import IntEnum
-from typing import Any, Protocol
+from typing import Literal
 
 import numpy as np
+from pydantic import Field
 
 from ..context import RunContext
 from ..estimation.base import FilterOutput
 from ..estimation.decision import DecisionState
 from ..estimation.observability import radius_directions
+from ..fields import Flag, NonNegFloat, Options, PosFloat, StrictModel, component, options_of
 from ..registry import BUILTIN, policies
 from ..telemetry import Event
 
 
-class SafeSettings(Protocol):
-    """What the ``safe`` policy reads of its settings (the ``[reconfiguration]`` section)."""
+class ReconfigurationSettings(StrictModel):
+    """How the estimated radii reach the controller's model: the policy and its settings (the ``[reconfiguration]``
+    section without its ``excitation`` and ``degraded`` tables, which the config adds). A policy built directly
+    takes ``condition_on_healthy = "auto"`` as off; the wiring resolves it for the run's controller."""
 
-    min_radius: float
-    """Lower clamp (m) of a handed-over radius."""
-    max_sigma: float
-    """Largest σ (m) of each radius and of the split accepted for hand-over."""
-    max_rate: float
-    """Largest change (m/s) of a handed-over radius."""
-    max_growth_rate: float
-    """Largest increase (m/s) of an isolated wheel's radius."""
-    condition_on_healthy: bool | str
-    """Hand over the isolated wheel's estimate conditioned on the other radius being nominal (``True``); the
-    factory resolves ``"auto"`` for the run's controller, and a policy built directly takes it as off."""
-    nis_window: float
-    """Window (s) of the mean NIS."""
-    max_nis_ratio: float
-    """Mean NIS per measurement above which the filter is inconsistent."""
-    spike_nis_ratio: float
-    """NIS per measurement since the last solve above which the radii are held."""
-    trust_lag: float
-    """Age (s) of the last trusted radii a revert goes back to."""
+    policy: component("policies") = "safe"
+    """A registered reconfiguration policy (:data:`ftc_mj.registry.policies`). Built-in: ``none``:
+    nominal radii (the paper's "feedback off"). ``direct``: the latest estimate at every solve (the
+    paper's "feedback on"). ``safe``: hand radii over only after the fault decision has
+    declared and isolated a fault and the estimate is identified (σ of each radius and of the
+    unobservable split below ``max_sigma``, innovations consistent); clamped to
+    [``min_radius``, nominal], rate-limited to ``max_rate``; reverts to the last trusted values on
+    filter divergence and to nominal when the decision is withdrawn. ``truth``: the true radii
+    (an oracle upper bound for comparisons; not realisable)."""
+    max_sigma: PosFloat = 0.1
+    """Largest standard deviation (m) of each radius and of the radius split accepted for hand-over."""
+    min_radius: PosFloat = 0.05
+    """Lower clamp (m) of a handed-over radius (upper clamp: the nominal radius)."""
+    max_rate: PosFloat = 5.0
+    """Largest change of a handed-over radius (m/s): a 50 % step (1 m) is handed over in 0.2 s."""
+    max_growth_rate: NonNegFloat = 0.05
+    """Largest *increase* (m/s) of a handed-over radius while the fault stays declared. A punctured tyre
+    does not re-inflate: an estimate that grows quickly is the filter leaving the kinematic model's
+    domain (a lifted or skidding wheel), not the tyre; this rate still lets the model radius recover
+    from a transient undershoot (0.2 m in 4 s). Reverts (filter trouble, withdrawn decision) are not
+    limited by it. Chosen by the rule of the built-in study ``tune_growth`` on the development seeds
+    0–9 (docs/studies.md)."""
+    condition_on_healthy: Literal["auto"] | Flag = "auto"
+    """With one wheel isolated, hand over the filter's estimate of its radius *conditioned on the other wheel's
+    radius being nominal* (``R_iso + P_io / P_oo (R_nom − R_other)``, the Gaussian posterior given what the
+    decision asserts) instead of the raw estimate. The filter's two radii errors are strongly correlated (ρ ≈
+    0.995 with a yaw-rate gyro: a common scale error, while the ratio is well identified); pairing the raw
+    estimate of one wheel with the nominal other turns that scale error into a ratio, i.e. yaw-rate, error of
+    the controller's model. ``auto`` (default): on with a controller registered to take radius intervals
+    (``pf-nmpc``), off with the others (the time-parametrised NMPC tipped over with it in scenarios 3 and 4,
+    docs/config-defaults.md); ``true``: on; ``false``: the raw estimate."""
+    nis_window: PosFloat = 1.0
+    """Window (s) of the innovation-consistency check (mean NIS)."""
+    max_nis_ratio: PosFloat = 5.0
+    """Mean NIS per measurement over ``nis_window`` above which the filter is taken as inconsistent:
+    no new hand-over, and a revert to the last trusted radii (a consistent filter gives ≈ 1)."""
+    spike_nis_ratio: PosFloat = 12.0
+    """A NIS per measurement above this at any step since the last solve *holds* the radii in use
+    (a sudden jump of the estimate is not handed over; P(χ²₁ > 12) ≈ 5e-4)."""
+    trust_lag: NonNegFloat = 1.0
+    """On a revert, the last trusted radii are those handed over at least this long (s) before the
+    filter reported trouble (its estimate may already have been drifting)."""
+    options: Options = Field(default_factory=dict, validate_default=True)
+    """Settings of a plug-in policy (its registered settings model); built-in policies take none."""
+
+    _options = options_of("policies", "policy")
 
 
 class ReconfigState(IntEnum):
@@ -105,7 +136,7 @@ class ReconfigurationPolicy(ABC):
 
     initial_state = ReconfigState.NOMINAL
 
-    def __init__(self, settings: Any, context: RunContext | None = None) -> None:
+    def __init__(self, settings: ReconfigurationSettings, context: RunContext | None = None) -> None:
         if not isinstance(context, RunContext):
             raise TypeError(f"{type(self).__name__}: ReconfigurationPolicy(cfg) is the old contract; take (settings, "
                             "context) and call super().__init__(settings, context) (docs/plugins.md of the source "
@@ -142,7 +173,7 @@ class DirectPolicy(ReconfigurationPolicy):
 
     initial_state = ReconfigState.HANDED
 
-    def __init__(self, settings: Any, context: RunContext) -> None:
+    def __init__(self, settings: ReconfigurationSettings, context: RunContext) -> None:
         super().__init__(settings, context)
         self._current = self.nominal.copy()
 
@@ -169,7 +200,7 @@ class TruthPolicy(ReconfigurationPolicy):
 class SafePolicy(ReconfigurationPolicy):
     """``safe``: gated, clamped, rate-limited hand-over with holds and reverts (module docstring)."""
 
-    def __init__(self, settings: SafeSettings, context: RunContext) -> None:
+    def __init__(self, settings: ReconfigurationSettings, context: RunContext) -> None:
         super().__init__(settings, context)
         rc = settings
         self.min_radius = rc.min_radius
@@ -295,6 +326,6 @@ class SafePolicy(ReconfigurationPolicy):
 
 policies.register("none", NominalPolicy, origin=BUILTIN)
 policies.register("direct", DirectPolicy, origin=BUILTIN)
-policies.register("safe", SafePolicy, origin=BUILTIN)
+policies.register("safe", SafePolicy, origin=BUILTIN, section=ReconfigurationSettings)
 policies.register("truth", TruthPolicy, origin=BUILTIN, needs_estimator=False)
 

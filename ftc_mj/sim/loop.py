@@ -40,8 +40,6 @@ from ..control.excitation import dither_wheel_rates, yaw_dither
 from ..control.factory import build_reference
 from ..estimation.base import FilterOutput, Measurement
 from ..estimation.decision import DecisionState, FaultDecision
-from ..estimation.decision_factory import build_fault_decision
-from ..estimation.factory import build_estimator
 from ..estimation.pcrb import pcrb_columns
 from ..metrics.record import RunRecord
 from ..plant import SensorReading, Sensors, Truth
@@ -49,10 +47,12 @@ from ..plant.actuator_faults import ACTUATOR_COLUMNS
 from ..plant.faults import fault_list
 from ..plant.sensor_faults import SENSOR_COLUMNS
 from ..reconfiguration.degraded import DegradedMode
-from ..reconfiguration.factory import build_degraded_mode, build_policy, build_scenario_weighting
 from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
+from ..wiring.decision import build_fault_decision
+from ..wiring.estimation import build_estimator
+from ..wiring.reconfiguration import build_degraded_mode, build_policy, build_scenario_weighting
 from .cache import controller_for, plant_for
 from .record import build_record
 from .trace import TraceWriter

@@ -18,13 +18,13 @@ import numpy as np
 
 from ..config import RunConfig, run_context
 from ..control.factory import build_reference
-from ..estimation.decision_factory import reference_rates
-from ..estimation.factory import setup_from_config
 from ..estimation.setup import FilterSetup
 from ..identity import run_id
 from ..io import write_json
 from ..metrics.record import RunRecord
 from ..plant.faults import schedule_onset
+from ..wiring.decision import reference_rates
+from ..wiring.estimation import setup_from_config
 
 RECORD_FILE = "record.json"
 """The record's file in a run folder."""

@@ -9,8 +9,8 @@ import numpy as np
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import EKF, IMM, UKF
-from ftc_mj.estimation.factory import setup_from_config
 from ftc_mj.model.kinematics import KinematicModel
+from ftc_mj.wiring.estimation import setup_from_config
 from tests.support.numpy_filters import NumpyEKF, NumpyIMM, NumpyUKF
 
 Filter = EKF | UKF | IMM

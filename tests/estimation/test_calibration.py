@@ -11,13 +11,16 @@ import pytest
 from ftc_mj.estimation import Measurement
 from ftc_mj.estimation.calibration import null_threshold, siegmund_arl0
 from ftc_mj.estimation.decision import ChangeRule
-from ftc_mj.estimation.decision_factory import (
+from ftc_mj.estimation.rule_statistics import DecisionSettings
+from ftc_mj.registry import decision_rules
+from ftc_mj.wiring.decision import (
     build_change_detectors,
     build_decision_rule,
     calibrated_threshold,
     nominal_point_of,
+    nominal_points_of,
+    reference_operating_points,
 )
-from ftc_mj.registry import decision_rules
 from tests.estimation.filters import decision_cfg, excited_data, make_filter
 
 
@@ -65,10 +68,31 @@ def test_threshold_grows_with_the_log_of_arl0() -> None:
 def test_change_rule_gets_its_threshold_from_the_factory() -> None:
     """The rule holds the threshold it is given; the factory calibrates it at the nominal point of the
     run's reference path (a line and a circle give different nominal points)."""
-    assert ChangeRule("glr", 0.5, 7.25).threshold == 7.25
+    assert ChangeRule("glr", DecisionSettings(), 7.25).threshold == 7.25
     cfg = decision_cfg("cusum", 0.01)
     rule = build_decision_rule(cfg)
     assert isinstance(rule, ChangeRule) and rule.threshold == calibrated_threshold(cfg, "cusum")
     line = cfg.model_copy(update={"reference": cfg.reference.model_copy(update={"kind": "line"})})
     assert nominal_point_of(line) != nominal_point_of(cfg)
     assert not decision_rules.get("cusum").legacy and decision_rules.get("cusum").meta["calibrate"] == "cusum"
+
+
+def test_a_figure_eight_is_calibrated_on_both_lobes() -> None:
+    """A figure-eight turns one way on its first lobe and the other way on its second (yaw rate ±V/R), so its
+    operating points are both lobes', not a circle's one: the second is the opposite circle's, and the
+    detectors' threshold is the larger of the two lobes' (the mean time between false alarms holds on both)."""
+    cfg = decision_cfg("glr", 0.01)
+    ref = cfg.reference
+
+    def with_reference(**update: object):  # noqa: ANN202 - a RunConfig
+        return cfg.model_copy(update={"reference": ref.model_copy(update=update)})
+
+    fig8, cw = with_reference(kind="figure8"), with_reference(direction="cw")
+    v, w = ref.speed, ref.speed / ref.radius
+    assert reference_operating_points(cfg) == ((v, w),)
+    assert reference_operating_points(fig8) == ((v, w), (v, -w))
+    assert reference_operating_points(with_reference(kind="line")) == ((v, 0.0),)
+    lobes = nominal_points_of(fig8)
+    assert lobes == (nominal_point_of(cfg), nominal_point_of(cw)) and lobes[0] != lobes[1]
+    h = calibrated_threshold(fig8, "glr")
+    assert h == max(calibrated_threshold(cfg, "glr"), calibrated_threshold(cw, "glr"))

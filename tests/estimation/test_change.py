@@ -11,11 +11,11 @@ import pytest
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import FaultDecision, FilterOutput, Measurement
-from ftc_mj.estimation.decision_factory import build_fault_decision
 from ftc_mj.estimation.imm import BANK_4
 from ftc_mj.estimation.rule_statistics import sigma_isolation
 from ftc_mj.metrics.fdi import first_alarm_records
 from ftc_mj.model.kinematics import KinematicModel
+from ftc_mj.wiring.decision import build_fault_decision
 from tests.estimation.filters import decision_cfg, make_filter
 
 ONSET = 300  # step of the puncture in the synthetic runs
@@ -164,8 +164,8 @@ def test_a_position_fix_without_speed_and_gyro_is_not_read_as_speed_and_gyro() -
     with the speed/gyro Jacobian and noise. The same innovation with its channels named speed and gyro
     is used."""
     from ftc_mj.estimation.change import linearise_step
-    from ftc_mj.estimation.factory import setup_from_config
     from ftc_mj.estimation.kernels.layout import POS_X, POS_Y, SPEED, YAW
+    from ftc_mj.wiring.estimation import setup_from_config
 
     setup = setup_from_config(RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01, "position_sigma": 1.0}}))
     x, u = np.array([0.0, 0.0, 0.0, 2.0, 2.0]), np.array([5.0, 5.0])

@@ -8,7 +8,7 @@ import pytest
 from scipy.stats import chi2
 
 from ftc_mj.config import RunConfig
-from ftc_mj.estimation import Measurement, build_estimator
+from ftc_mj.estimation import Measurement
 from ftc_mj.estimation.consistency import (
     anees,
     anees_bounds,
@@ -20,7 +20,7 @@ from ftc_mj.estimation.consistency import (
     nees,
     nis,
 )
-from ftc_mj.estimation.factory import setup_from_config
+from ftc_mj.wiring.estimation import build_estimator, setup_from_config
 
 
 # ---------------------------------------------------------------------------- the maths

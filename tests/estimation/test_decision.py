@@ -7,8 +7,8 @@ import pytest
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import FaultDecision, FilterOutput, Hypothesis
-from ftc_mj.estimation.decision_factory import build_fault_decision
 from ftc_mj.estimation.imm import BANK_4, BANK_5
+from ftc_mj.wiring.decision import build_fault_decision
 
 
 def out(RR: float, RL: float, sigma: float = 0.02, mu: list[float] | None = None,
@@ -157,20 +157,22 @@ def test_mode_rule_reads_the_declared_hypotheses_not_the_bank_size() -> None:
     """A 4-member bank of 30 % punctures in another order than the paper's, and a 3-member bank: the
     class probabilities come from each member's hypothesis. (Guessing the paper's bank from the size
     would read member 1 of the permuted bank, ``left 30 %``, as the right wheel.)"""
-    bank4 = (Hypothesis("both 30%", 0.7, 0.7), Hypothesis("left 30%", 1.0, 0.7), Hypothesis("no fault", 1.0, 1.0),
-             Hypothesis("right 30%", 0.7, 1.0))
+    bank4 = (Hypothesis("both 30%", 0.7, 0.7, False), Hypothesis("left 30%", 1.0, 0.7, False),
+             Hypothesis("no fault", 1.0, 1.0, False), Hypothesis("right 30%", 0.7, 1.0, False))
     cfg = RunConfig.model_validate({"estimator": {"kind": "imm-ukf", "decision": {"rule": "mode"}}})
     s = feed(build_fault_decision(cfg), 0.0, 1.0, out(2.0, 1.4, mu=[0.02, 0.95, 0.02, 0.01], bank=bank4))
     assert s.detected and s.wheel == "left" and s.active_mode == 1
     s = feed(build_fault_decision(cfg), 0.0, 1.0, out(1.4, 1.4, mu=[0.93, 0.03, 0.02, 0.02], bank=bank4))
     assert s.detected and s.wheel == "both"
-    bank3 = (Hypothesis("no fault", 1.0, 1.0), Hypothesis("right 30%", 0.7, 1.0), Hypothesis("left 30%", 1.0, 0.7))
+    bank3 = (Hypothesis("no fault", 1.0, 1.0, False), Hypothesis("right 30%", 0.7, 1.0, False),
+             Hypothesis("left 30%", 1.0, 0.7, False))
     s = feed(build_fault_decision(cfg), 0.0, 1.0, out(1.4, 2.0, mu=[0.04, 0.95, 0.01], bank=bank3))
     assert s.detected and s.wheel == "right"
     s = feed(build_fault_decision(cfg), 0.0, 1.0, out(1.4, 1.4, mu=[0.98, 0.01, 0.01], bank=bank3))
     assert not s.detected  # no member hypothesises both wheels: that class has probability 0
     # several members of one class add up: two left severities of 0.5 each exceed the 0.9 threshold
-    two_left = (Hypothesis("no fault", 1.0, 1.0), Hypothesis("left 30%", 1.0, 0.7), Hypothesis("left 60%", 1.0, 0.4))
+    two_left = (Hypothesis("no fault", 1.0, 1.0, False), Hypothesis("left 30%", 1.0, 0.7, False),
+                Hypothesis("left 60%", 1.0, 0.4, False))
     s = feed(build_fault_decision(cfg), 0.0, 1.0, out(2.0, 1.0, mu=[0.06, 0.47, 0.47], bank=two_left))
     assert s.detected and s.wheel == "left"
 

@@ -10,10 +10,11 @@ import pytest
 from filterpy.kalman import ExtendedKalmanFilter, JulierSigmaPoints, UnscentedKalmanFilter
 
 from ftc_mj.config import RunConfig, run_context
-from ftc_mj.estimation import EKF, IMM, UKF, FilterOutput, Measurement, build_estimator
+from ftc_mj.estimation import EKF, IMM, UKF, FilterOutput, Measurement
 from ftc_mj.estimation.setup import FilterSetup
 from ftc_mj.model.kinematics import KinematicModel, casadi_to_numpy
 from ftc_mj.registry import estimators
+from ftc_mj.wiring.estimation import build_estimator
 from tests.estimation.filters import excited_data, make_filter
 
 N_STEPS = 400
@@ -225,7 +226,7 @@ def test_builtin_factories_take_settings_and_context() -> None:
     for kind in ("ekf", "ukf", "imm-ekf", "imm-ukf", "none"):
         assert not estimators.get(kind).legacy
     run = build_estimator(cfg)
-    own = IMM.from_settings("ukf", {"kind": "imm-ukf"}, {"yaw_rate_sigma": 0.01}, wheel_radius=2.0, half_track=1.0)
+    own = IMM.from_settings("ukf", {"imm_models": 4}, {"yaw_rate_sigma": 0.01}, wheel_radius=2.0, half_track=1.0)
     direct = estimators.create("imm-ukf", cfg.estimator, run_context(cfg))
     u, zs, zy = excited_data(20, yaw_sigma=0.01)
     for k in range(20):
@@ -239,7 +240,7 @@ def test_process_noise_is_a_diffusion_per_second() -> None:
     """``Q = diag(q_diffusion · dt)``: the variance the filter adds per second is the same at 50, 100 and
     400 Hz (to round-off, 1e-12 relative), and the default at 100 Hz is the paper's
     ``diag((q · dt)²)``, ``q = (5, 5, 0.1, 2, 2)``, bit for bit (today's runs unchanged)."""
-    from ftc_mj.estimation.factory import setup_from_settings
+    from ftc_mj.estimation.setup import setup_from_settings
 
     per_second = []
     for rate in (50.0, 100.0, 400.0):

@@ -11,10 +11,10 @@ from filterpy.kalman import IMMEstimator, JulierSigmaPoints, UnscentedKalmanFilt
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import IMM, Hypothesis, Measurement
-from ftc_mj.estimation.decision_factory import build_fault_decision
-from ftc_mj.estimation.factory import setup_from_config
 from ftc_mj.estimation.imm import BANK_4, transition_matrix
 from ftc_mj.model.kinematics import KinematicModel, inverse_rates
+from ftc_mj.wiring.decision import build_fault_decision
+from ftc_mj.wiring.estimation import setup_from_config
 from tests.estimation.filters import make_filter
 from tests.support.numpy_filters import assemble
 
@@ -74,7 +74,7 @@ def test_imm_matches_filterpy_immestimator() -> None:
 def test_two_model_hand_computed_cycle() -> None:
     """Mixing, mode-probability update and combination for 2 models, computed by hand."""
     cfg = RunConfig()
-    bank = (Hypothesis("a", 1.0, 1.0), Hypothesis("b", 1.0, 0.5))
+    bank = (Hypothesis("a", 1.0, 1.0, False), Hypothesis("b", 1.0, 0.5, False))
     Pi = np.array([[0.9, 0.1], [0.2, 0.8]])
     imm = make_filter("imm-ukf", cfg, hypotheses=bank, transition=Pi, variant="paper")
     imm.mu = np.array([0.8, 0.2])

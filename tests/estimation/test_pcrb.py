@@ -9,9 +9,9 @@ from filterpy.kalman import KalmanFilter
 
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import Measurement
-from ftc_mj.estimation.factory import setup_from_config
 from ftc_mj.estimation.pcrb import data_model_bound, information_bound, pcrb_columns, trace_pcrb
 from ftc_mj.model.kinematics import body_rates
+from ftc_mj.wiring.estimation import setup_from_config
 
 
 def test_linear_gaussian_bound_is_the_kalman_covariance() -> None:

@@ -9,10 +9,10 @@ import pytest
 from ftc_mj.config import RunConfig
 from ftc_mj.estimation import EKF, IMM, UKF, Measurement
 from ftc_mj.estimation.consistency import anis
-from ftc_mj.estimation.decision_factory import build_fault_decision
-from ftc_mj.estimation.factory import setup_from_config
 from ftc_mj.estimation.kernels.layout import SPEED
 from ftc_mj.model.kinematics import KinematicModel, inverse_rates
+from ftc_mj.wiring.decision import build_fault_decision
+from ftc_mj.wiring.estimation import setup_from_config
 from tests.estimation.filters import make_filter
 from tests.support.numpy_filters import Assembled, make_core
 

@@ -8,11 +8,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.config import DegradedConfig, load_config, run_context
+from ftc_mj.config import load_config, run_context
 from ftc_mj.estimation import UKF
 from ftc_mj.estimation.base import FilterOutput, Measurement
 from ftc_mj.estimation.decision import DecisionState
-from ftc_mj.reconfiguration import DegradedMode, NoSlipCheck, ReconfigState, build_degraded_mode
+from ftc_mj.reconfiguration import DegradedMode, DegradedSettings, NoSlipCheck, ReconfigState
+from ftc_mj.wiring.reconfiguration import build_degraded_mode
 
 RATE = 100.0  # Hz, the estimator
 
@@ -99,7 +100,7 @@ def test_interval_depth_reaches_below_the_estimate_down_to_min_radius() -> None:
     """``depth`` 0.3 m: the suspect wheel's interval is ``[1.2, 1.5]`` m for an estimate of 1.5 m, and never
     below ``min_radius``: ``[0.05, 0.2]`` m for an estimate of 0.2 m."""
     cfg = load_config("scenario2", {"controller.kind": "pf-nmpc"})
-    mode = DegradedMode(DegradedConfig(depth=0.3), run_context(cfg), 3.0, 0.1, 5.0, 0.1)
+    mode = DegradedMode(DegradedSettings(depth=0.3), run_context(cfg), 3.0, 0.1, 5.0, 0.1)
     _, iv = mode.hand_over(0.1, np.array([2.0, 2.0]), _out(2.0, 1.5), _decision(False, None), ReconfigState.NOMINAL)
     assert iv is not None and iv.lo.tolist() == [2.0, pytest.approx(1.2)] and iv.hi.tolist() == [2.0, 1.5]
     _, iv = mode.hand_over(0.2, np.array([2.0, 2.0]), _out(2.0, 0.2), _decision(False, None), ReconfigState.NOMINAL)
@@ -112,7 +113,7 @@ def test_a_failing_no_slip_test_keeps_the_wheel_open_while_the_model_follows_the
     the model's left radius goes down towards the smaller of the policy's radius and the estimate (1.0 m) at the
     policy's 5 m/s (0.5 m per 0.1 s solve); the failing test is an event; the right wheel is untouched."""
     cfg = load_config("scenario2", {"controller.kind": "pf-nmpc", "reconfiguration.degraded.mode": "on"})
-    mode = DegradedMode(DegradedConfig(), run_context(cfg), 3.0, 0.1, 5.0, 0.1)
+    mode = DegradedMode(DegradedSettings(), run_context(cfg), 3.0, 0.1, 5.0, 0.1)
     for _ in range(50):
         mode.observe(_out(2.0, 2.0))
     for k in range(50):
@@ -129,7 +130,7 @@ def test_an_unidentified_radius_block_is_not_followed() -> None:
     """σ 0.3 m on each radius (a filter that cannot tell the wheels apart, as with speed only): the interval
     opens on the alarm but the model keeps the policy's radii — one wheel's estimate then bounds nothing."""
     cfg = load_config("scenario2", {"controller.kind": "pf-nmpc"})
-    mode = DegradedMode(DegradedConfig(), run_context(cfg), 3.0, 0.1, 5.0, 0.1)
+    mode = DegradedMode(DegradedSettings(), run_context(cfg), 3.0, 0.1, 5.0, 0.1)
     r, iv = mode.hand_over(0.1, np.array([2.0, 2.0]), _out(2.0, 0.5, sigma=0.3), _decision(True, "left"),
                            ReconfigState.HOLD)
     assert r.tolist() == [2.0, 2.0] and iv is not None

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from ftc_mj.config import ReconfigurationConfig, load_config, run_context
+from ftc_mj.config import load_config, run_context
 from ftc_mj.context import RunContext
 from ftc_mj.errors import BadInput
 from ftc_mj.estimation.base import FilterOutput
@@ -21,12 +21,11 @@ from ftc_mj.reconfiguration import (
     DirectPolicy,
     ReconfigState,
     ReconfigurationPolicy,
+    ReconfigurationSettings,
     SafePolicy,
     ScenarioWeighting,
-    build_policy,
-    build_scenario_weighting,
-    resolved_reconfiguration,
 )
+from ftc_mj.wiring.reconfiguration import build_policy, build_scenario_weighting, resolved_reconfiguration
 
 OMEGA = np.array([5.0, 5.0])
 TRUTH = (2.0, 1.0)
@@ -226,10 +225,10 @@ def test_policies_from_their_settings_and_the_run_context() -> None:
     """No run config: the ``[reconfiguration]`` settings and a :class:`RunContext`. The rate limits divide by
     the controller rate as configured (49 Hz, whose 1 / (1 / 49) is not 49 to the last bit); the floor is the
     context's ``min_radius``; the built-in factory gives the same policy as ``build_policy``."""
-    fb = SafePolicy(ReconfigurationConfig(max_rate=1.0, max_growth_rate=0.5), _context())
+    fb = SafePolicy(ReconfigurationSettings(max_rate=1.0, max_growth_rate=0.5), _context())
     assert fb.max_step == 1.0 / 49.0 and fb.max_grow == 0.5 / 49.0 and fb._nis.maxlen == 100
     np.testing.assert_array_equal(fb.nominal, [2.0, 2.0])
-    direct = DirectPolicy(ReconfigurationConfig(), _context(nominal_radii=(1.5, 1.5), min_radius=0.2))
+    direct = DirectPolicy(ReconfigurationSettings(), _context(nominal_radii=(1.5, 1.5), min_radius=0.2))
     np.testing.assert_array_equal(direct.radii(0.0, _out(2.1, -0.3, 0.5), None, False, OMEGA, TRUTH), [2.1, 0.2])
     cfg = load_config("scenario2", {"reconfiguration.max_rate": 1.0})
     built, own = build_policy(cfg), SafePolicy(cfg.reconfiguration, run_context(cfg))

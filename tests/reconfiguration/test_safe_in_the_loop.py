@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import load_config
-from ftc_mj.estimation import build_estimator as real_build_estimator
 from ftc_mj.reconfiguration import ReconfigState
 from ftc_mj.sim import loop as loop_module
 from ftc_mj.sim.run import execute
+from ftc_mj.wiring.estimation import build_estimator as real_build_estimator
 
 T_SABOTAGE = 20.0
 T_RELEASE = 25.0

@@ -49,10 +49,10 @@ from typing import Any
 import numpy as np
 
 from ...config import RunConfig
-from ...estimation.decision_factory import calibrated_threshold
 from ...estimation.rule_statistics import sigma_isolation
 from ...metrics.fdi import lorden_delays
 from ...paper.seeds import HELD_OUT_START
+from ...wiring.decision import calibrated_threshold
 from ..stats import Estimate, bootstrap_mean_ci, rate_ci
 from .cells import RULES, Cell, Run
 

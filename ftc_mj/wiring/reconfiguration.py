@@ -1,13 +1,14 @@
-"""Reconfiguration policies and scenario weights from the application config: the only module of
-:mod:`ftc_mj.reconfiguration` that reads it."""
+"""Reconfiguration policies, the degraded mode and the scenario weights of a run, from the application
+config (the built-in policies register themselves with their settings model in
+:mod:`ftc_mj.reconfiguration.policies`)."""
 
 from __future__ import annotations
 
 from ..config import ReconfigurationConfig, RunConfig, run_context
+from ..reconfiguration.degraded import DegradedMode
+from ..reconfiguration.policies import ReconfigurationPolicy
+from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers, policies
-from .degraded import DegradedMode
-from .policies import ReconfigurationPolicy
-from .scenario_weights import ScenarioWeighting
 
 
 def build_policy(cfg: RunConfig, with_estimator: bool = True) -> ReconfigurationPolicy:

@@ -1,0 +1,136 @@
+"""The built-in decision rules, registered by name (:data:`ftc_mj.registry.decision_rules`) with their
+settings model (:class:`~ftc_mj.estimation.rule_statistics.DecisionSettings`), and the fault-decision layer
+of a run from the application config.
+
+A registered factory takes the rule's own settings (the ``[estimator.decision]`` section) and the
+:class:`~ftc_mj.context.RunContext`; a rule registered with the meta ``calibrate="cusum"`` or ``"glr"``
+also gets the threshold of that change detector, calibrated here for ``decision.arl0`` at the nominal
+operating points of the run's residual generator (:mod:`~ftc_mj.estimation.residual`) on its reference
+path (:func:`calibrated_threshold`) — a rule does not read the path itself — and one registered with
+``detectors=True`` (the built-in ``cusum`` and ``glr``) also the run's
+:class:`~ftc_mj.estimation.residual.ChangeDetectors`.
+"""
+
+from __future__ import annotations
+
+from ..config import RunConfig, run_context
+from ..context import RunContext
+from ..estimation.calibration import NominalPoint, arl0_threshold, nominal_point
+from ..estimation.change import glr_window_steps
+from ..estimation.decision import AutoRule, ChangeRule, DecisionRule, FaultDecision, ModeRule, SigmaRule
+from ..estimation.residual import ChangeDetectors, residual_setup
+from ..estimation.rule_statistics import DecisionSettings, RuleStatistics
+from ..registry import BUILTIN, decision_rules
+from .estimation import setup_from_config
+
+
+def _sigma(settings: DecisionSettings, context: RunContext) -> SigmaRule:
+    return SigmaRule(settings, context.nominal_radii[0])
+
+
+def _mode(settings: DecisionSettings, context: RunContext) -> ModeRule:
+    return ModeRule(settings, context.nominal_radii[0])
+
+
+def _auto(settings: DecisionSettings, context: RunContext) -> AutoRule:
+    return AutoRule(settings, context.nominal_radii[0])
+
+
+def _change(name: str):  # noqa: ANN202 - a factory of the registry contract
+    def factory(settings: DecisionSettings, context: RunContext, threshold: float,
+                detectors: ChangeDetectors) -> ChangeRule:
+        return ChangeRule(name, settings, threshold, detectors)
+    factory.__name__ = f"_{name}"
+    return factory
+
+
+decision_rules.register("sigma", _sigma, origin=BUILTIN, section=DecisionSettings)
+decision_rules.register("mode", _mode, origin=BUILTIN, section=DecisionSettings)
+decision_rules.register("auto", _auto, origin=BUILTIN, section=DecisionSettings)
+decision_rules.register("cusum", _change("cusum"), origin=BUILTIN, section=DecisionSettings, calibrate="cusum",
+                        detectors=True)
+decision_rules.register("glr", _change("glr"), origin=BUILTIN, section=DecisionSettings, calibrate="glr",
+                        detectors=True)
+
+
+def reference_operating_points(cfg: RunConfig) -> tuple[tuple[float, float], ...]:
+    """The steady (speed (m/s), yaw rate (rad/s)) pairs the run's reference holds, in the order it holds them:
+    a line one, with no yaw rate; a circle (and a plug-in path, taken as a circle of ``reference.radius``) one,
+    ``±speed / radius`` (ccw positive); a figure-eight two, its first lobe's (the ``direction`` side) and then
+    the opposite lobe's, whose yaw rate has the other sign."""
+    ref = cfg.reference
+    if ref.kind == "line":
+        return ((ref.speed, 0.0),)
+    psidot = ref.speed / ref.radius * (1.0 if ref.direction == "ccw" else -1.0)
+    if ref.kind == "figure8":
+        return ((ref.speed, psidot), (ref.speed, -psidot))
+    return ((ref.speed, psidot),)
+
+
+def reference_rates(cfg: RunConfig) -> tuple[float, float]:
+    """The run's reference's speed (m/s) and yaw rate (rad/s) at its start (the first of
+    :func:`reference_operating_points`)."""
+    return reference_operating_points(cfg)[0]
+
+
+def nominal_points_of(cfg: RunConfig) -> tuple[NominalPoint, ...]:
+    """The run's residual generator (:func:`~ftc_mj.estimation.residual.residual_setup`) at each steady
+    operating point of its reference (:func:`reference_operating_points`) with nominal radii
+    (:func:`~ftc_mj.estimation.calibration.nominal_point`)."""
+    setup = residual_setup(setup_from_config(cfg))
+    return tuple(nominal_point(setup, *rates) for rates in reference_operating_points(cfg))
+
+
+def nominal_point_of(cfg: RunConfig) -> NominalPoint:
+    """The run's residual generator at its reference's starting operating point (:func:`nominal_points_of`)."""
+    return nominal_points_of(cfg)[0]
+
+
+def glr_window_of(cfg: RunConfig) -> int:
+    """GLR window (filter steps) of the run: ``decision.glr_window`` (s) at ``estimator.rate``."""
+    return glr_window_steps(cfg.estimator.decision.glr_window, cfg.estimator.rate)
+
+
+def calibrated_threshold(cfg: RunConfig, kind: str) -> float:
+    """Threshold (log-likelihood-ratio units) of the ``cusum`` or ``glr`` rule of the run ``cfg`` for
+    ``decision.arl0`` (s) between false alarms: the largest of the thresholds calibrated at each operating
+    point of the reference (a figure-eight's two lobes), so the mean time between false alarms is at least
+    ``arl0`` on every part of the path."""
+    d = cfg.estimator.decision
+    return max(arl0_threshold(kind, point, arl0=d.arl0, shift=d.cusum_shift, window=glr_window_of(cfg),
+                              rate=cfg.estimator.rate) for point in nominal_points_of(cfg))
+
+
+def build_decision_rule(cfg: RunConfig) -> DecisionRule:
+    """The registered rule ``estimator.decision.rule`` of the run (a plug-in's of the old contract is
+    called with the run config)."""
+    d = cfg.estimator.decision
+    entry = decision_rules.get(d.rule)
+    kind = entry.meta.get("calibrate")
+    extra = (calibrated_threshold(cfg, kind),) if kind is not None and not entry.legacy else ()
+    if entry.meta.get("detectors") and not entry.legacy:
+        extra = (*extra, build_change_detectors(cfg))
+    return decision_rules.create(d.rule, d, run_context(cfg), *extra, run_config=cfg)
+
+
+def build_change_detectors(cfg: RunConfig) -> ChangeDetectors:
+    """The run's residual generator with its CUSUM and GLR (:mod:`.residual`)."""
+    d = cfg.estimator.decision
+    return ChangeDetectors(setup_from_config(cfg), d.cusum_shift, d.isolation_llr, glr_window_of(cfg))
+
+
+def build_rule_statistics(cfg: RunConfig) -> RuleStatistics:
+    """Every rule's per-step statistics for the run's filter."""
+    return RuleStatistics(setup_from_config(cfg), cfg.estimator.decision, cfg.estimator.rate, glr_window_of(cfg))
+
+
+def build_fault_decision(cfg: RunConfig, rule: DecisionRule | None = None) -> FaultDecision:
+    """The run's fault-decision layer: its rule (``rule``, else :func:`build_decision_rule`) and, when
+    ``decision.statistics`` is on or the rule sets ``needs_statistics``, every rule's statistics."""
+    d = cfg.estimator.decision
+    impl = rule if rule is not None else build_decision_rule(cfg)
+    needs = bool(getattr(impl, "needs_statistics", False))
+    stats = build_rule_statistics(cfg) if d.statistics or needs else None
+    return FaultDecision(d, cfg.model_wheel_radius, impl, stats)
+
+

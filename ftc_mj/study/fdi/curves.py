@@ -52,7 +52,7 @@ from ...config import RunConfig
 from ...estimation.decision_factory import calibrated_threshold
 from ...estimation.rule_statistics import sigma_isolation
 from ...metrics.fdi import lorden_delays
-from ...paper.seeds import HELD_OUT_START
+from ..spec import HELD_OUT_START
 from ..stats import Estimate, bootstrap_mean_ci, rate_ci
 from .cells import RULES, Cell, Run
 

@@ -25,7 +25,7 @@ from ...config import RunConfig
 from ...estimation.calibration import nominal_point
 from ...estimation.decision_factory import reference_rates
 from ...estimation.factory import setup_from_config
-from ..extras import ISOLATED_SPLIT_M, PCRB_MODELS, PCRB_TIMES, time_tag
+from ...study.extras import ISOLATED_SPLIT_M, PCRB_MODELS, PCRB_TIMES, time_tag
 from .results import read_results
 
 BOUND_NAMES = {"model": "filters' model", "constant": "radii constant"}

@@ -9,14 +9,14 @@ The public API (:mod:`ftc_mj.api`, :mod:`ftc_mj.registry`)::
     ftc_mj.load_run(run.path); ftc_mj.run_study("observability", workers=2); ftc_mj.load_study(dir)
     ftc_mj.register_estimator("my-filter", MyFilter)   # MyFilter(settings, context); estimator.kind = "my-filter"
 
-Layers (data flows downwards; lower layers never import higher ones)::
+Layers, lowest first (a package imports only its own layer's and lower ones; ``tests/test_architecture.py``)::
 
-    config ─┬─> plant (MuJoCo truth, faults, sensors)
-            ├─> model (kinematics, one definition)
-            ├─> estimation (EKF, UKF, IMM, fault decision)   uses model
-            ├─> control (reference, NMPC, LMPC, open loop)   uses model
-            └─> sim (multi-rate loop) -> trace, metrics; rerun/ (Rerun) only to write a .rrd
-    report (paper matrix, claims, figures), study (dask sweeps), api, cli
+    base modules (errors, fields, validation, registry, resources, io, context, markdown)
+    model (kinematics, sensor model; one definition)
+    plant (MuJoCo truth, faults, sensors), estimation (EKF, UKF, IMM, fault decision), control (NMPC, LMPC, …)
+    telemetry (what a run records) -> reconfiguration (policies) -> config -> wiring (components from the config)
+    identity, metrics -> rundir -> rerun (.rrd) -> sim (the multi-rate loop, a run)
+    study (dask sweeps) -> paper (matrix, claims), benchmark -> reports (docs/ pages) -> api, envs -> cli
 
 Names are imported on first use, so ``import ftc_mj`` stays light.
 """

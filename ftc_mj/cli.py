@@ -381,7 +381,7 @@ def outcome_counts(counts: dict[str, int]) -> str:
 def _print_doc_tables(name: str, out_dir: Path) -> None:
     """Print the published tables of study ``name`` from ``out_dir`` and write them to OUT/doc_tables.md."""
     from .io import atomic_path
-    from .study.doc_tables import doc_tables
+    from .reports.doc_tables import doc_tables
 
     text = doc_tables(name, out_dir)
     with atomic_path(out_dir / "doc_tables.md") as tmp:
@@ -583,6 +583,7 @@ def paper(
         for d in (out_dir, out_dir / "runs", out_dir / "figures", out_dir / "compare"):
             remove_stale_temporaries(d)
         res = run_paper(out_dir, opts, echo=lambda s: typer.echo(s, err=True))
+        res.published = _publish_claims(out_dir, opts.publish)
         compared = _claim_comparisons(res, out_dir / "compare") if mode == PaperRrd.compare else []
     except BadInput as err:
         _fail(str(err))
@@ -594,6 +595,15 @@ def paper(
     if res.failed:
         typer.echo(f"ftc-mj: {len(res.failed)} run(s) failed: {', '.join(res.failed)}", err=True)
         raise typer.Exit(EXIT_FAILED)
+
+
+def _publish_claims(out_dir: Path, docs: Path | None) -> list[Path]:
+    """``--publish DOCS``: write ``DOCS/paper-claims.md`` and its figures after the report (the files written)."""
+    if docs is None:
+        return []
+    from .reports.paper_claims import publish
+
+    return publish(out_dir, docs)
 
 
 def _report_paper(res: Any, compared: list[Path]) -> None:
@@ -703,8 +713,8 @@ def bench(
                                  progress=not quiet and sys.stderr.isatty(),
                                  echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True))
         if docs is not None:
-            from .benchmark.publish import argv_of
-            from .benchmark.publish import publish as publish_docs
+            from .reports.benchmark_page import argv_of
+            from .reports.benchmark_page import publish as publish_docs
 
             argv = argv_of(methods=methods, split=split.value, draws=draws, start=start or None, out=out,
                            workers=workers, benchmark=None if version == "ftc-v1" else version, healthy=healthy,
@@ -736,14 +746,16 @@ def studies() -> None:
     (run one with 'ftc-mj study NAME'; its plan with 'ftc-mj study NAME --list')."""
     import shutil
 
+    from .reports.doc_tables import doc_table_studies
     from .resources import builtin_studies
     from .study.listing import study_entry
     from .study.plan import plan_study
 
     width = max(60, min(100, shutil.get_terminal_size((100, 24)).columns))
+    published = doc_table_studies()
     for name in builtin_studies():
         plan = plan_study(name)
-        typer.echo("\n".join(study_entry(name, plan, width, Path("runs/out/studies") / plan.spec.name)))
+        typer.echo("\n".join(study_entry(name, plan, width, Path("runs/out/studies") / plan.spec.name, published)))
 
 
 def main() -> None:  # pragma: no cover - console entry point

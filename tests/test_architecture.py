@@ -2,6 +2,9 @@
 
 - no import cycle inside ``ftc_mj`` (every ``import``/``from … import`` counts, also the lazy ones
   inside functions and under ``TYPE_CHECKING``: a cycle of lazy imports is still a cycle of concepts);
+- the packages are layered (:data:`LAYERS`): no package imports a package of a higher layer, and the
+  file graph collapsed to packages has no cycle (two packages of one layer may import each other's
+  modules in one direction only);
 - the components (``estimation``, ``control``, ``plant``, ``reconfiguration``) are built from their
   own settings: none of their modules imports the application config ``ftc_mj.config`` except
   their factory modules (``factory.py``, ``<what>_factory.py``);
@@ -19,6 +22,28 @@ import ftc_mj
 
 ROOT = Path(ftc_mj.__file__).parent
 COMPONENT_PACKAGES = ("estimation", "control", "plant", "reconfiguration")
+LAYERS: tuple[tuple[str, ...], ...] = (
+    # the base modules: errors, the typed settings fields and their validation, the registry, file
+    # helpers, the run context a component may know, the Markdown table helper; ``ftc_mj`` is the lazy
+    # facade ``ftc_mj/__init__.py`` (its static imports are base ones, the rest are importlib strings)
+    ("ftc_mj", "errors", "validation", "suggest", "resources", "registry", "io", "context", "fields", "markdown"),
+    ("model",),                                     # the kinematics and the sensor model, one definition
+    ("plant", "estimation", "control"),             # the components, built from their own settings
+    ("telemetry",),                                 # the trace columns and events the components write
+    ("reconfiguration",),                           # the policies between the estimators and the controllers
+    ("config",),                                    # the application config, composing the components' settings
+    ("wiring",),                                    # builds components from the config (the factories' layer)
+    ("identity", "metrics"),                        # a run's identity; the metrics of a run
+    ("rundir",),                                    # the reader of a run folder
+    ("rerun",),                                     # Rerun recordings and comparisons of run folders
+    ("sim",),                                       # the closed loop and a run
+    ("study",),                                     # sweeps of runs
+    ("paper", "benchmark"),                         # the experiments built on studies
+    ("reports",),                                   # docs/ pages from the studies, the paper and the benchmark
+    ("api", "envs"),                                # the Python API; the Gymnasium environment
+    ("cli",),                                       # the command line
+)
+"""The layer order of the top-level packages and modules of ``ftc_mj``, lowest first."""
 MAX_FUNCTION_LINES = 80
 GENERATED_MARKER = "GENERATED"
 
@@ -79,6 +104,69 @@ def find_cycle(graph: dict[str, set[str]]) -> list[str]:
                 path.append(child)
                 stack.append((child, iter(sorted(graph[child]))))
     return []
+
+
+def package_of(module: str) -> str:
+    """The top-level package (or module) of ``ftc_mj`` that ``module`` belongs to (``ftc_mj`` for the root)."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else parts[0]
+
+
+def exempt(module: str, target: str) -> bool:
+    """A component's factory module importing the application config: allowed until the factories have moved
+    to ``ftc_mj/wiring`` (the same exemption as :func:`test_components_do_not_read_the_application_config`)."""
+    return (package_of(module) in COMPONENT_PACKAGES and module.rsplit(".", 1)[-1].endswith("factory")
+            and package_of(target) == "config")
+
+
+def package_graph(graph: dict[str, set[str]]) -> dict[str, dict[str, str]]:
+    """The module graph collapsed to packages: ``{package: {imported package: one module-level import that
+    makes the edge}}`` (imports inside a package and the exempt ones left out)."""
+    out: dict[str, dict[str, str]] = {}
+    for module in sorted(graph):
+        edges = out.setdefault(package_of(module), {})
+        for target in sorted(graph[module]):
+            if package_of(target) != package_of(module) and not exempt(module, target):
+                edges.setdefault(package_of(target), f"{module} -> {target}")
+    return out
+
+
+def layer_violations(packages: dict[str, dict[str, str]], layers: tuple[tuple[str, ...], ...]) -> list[str]:
+    """Every import of a package from a higher layer (as ``module -> module``, with the two layers)."""
+    level = {p: i for i, layer in enumerate(layers) for p in layer}
+    return [f"{why} (layer {level[p]} imports layer {level[q]})" for p, edges in sorted(packages.items())
+            for q, why in sorted(edges.items()) if level[q] > level[p]]
+
+
+def test_every_package_has_a_layer():
+    declared = [p for layer in LAYERS for p in layer]
+    assert len(declared) == len(set(declared)), "a package is declared in two layers"
+    found = set(package_graph(import_graph()))
+    assert not found - set(declared), f"packages without a layer in LAYERS: {sorted(found - set(declared))}"
+    assert not set(declared) - found, f"LAYERS names missing packages: {sorted(set(declared) - found)}"
+
+
+def test_no_package_imports_a_higher_layer():
+    wrong = layer_violations(package_graph(import_graph()), LAYERS)
+    assert not wrong, "imports of a higher layer: " + "; ".join(wrong)
+
+
+def test_no_package_level_import_cycle():
+    packages = package_graph(import_graph())
+    cycle = find_cycle({p: set(edges) for p, edges in packages.items()})
+    assert not cycle, "package-level import cycle: " + " -> ".join(cycle) + " (" + "; ".join(
+        packages[a][b] for a, b in zip(cycle, cycle[1:], strict=False)) + ")"
+
+
+def test_the_package_checks_find_planted_faults():
+    graph = {"ftc_mj.study.a": {"ftc_mj.paper.b"}, "ftc_mj.paper.b": {"ftc_mj.study.c"}, "ftc_mj.study.c": set(),
+             "ftc_mj.control.factory": {"ftc_mj.config.x"}, "ftc_mj.config.x": set()}
+    packages = package_graph(graph)
+    assert packages["study"] == {"paper": "ftc_mj.study.a -> ftc_mj.paper.b"}
+    assert packages["control"] == {}, "the factory exemption covers only the config import"
+    assert find_cycle({p: set(e) for p, e in packages.items()}) == ["paper", "study", "paper"]
+    assert layer_violations(packages, (("config", "control"), ("study",), ("paper",))) == [
+        "ftc_mj.study.a -> ftc_mj.paper.b (layer 1 imports layer 2)"]
 
 
 def test_no_import_cycle_inside_ftc_mj():

@@ -15,6 +15,7 @@ from typing import Any
 import polars as pl
 
 from ..io import atomic_path
+from ..markdown import row, table
 from ..metrics.outcome import OFF_PATH_M
 from ..study.stats import Estimate
 from ..study.store import StudyStore
@@ -75,23 +76,21 @@ def overall_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
     95 % interval)."""
     head = ["method", *RATES.values(), "isolation correct", "isolation wrong",
             *(f"{k} ({u})" for k, u in CONTINUOUS.items())]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    body = []
     for m in methods:
         a = aggregate([r for r in rows if r["method"] == m])
         cells = [_pct(a[k]) for k in RATES] + [_pct(a["isolation_correct"]), _pct(a["isolation_wrong"])]
         cells += [a[k].fmt(u) + f" (n={a[k].n})" if a[k].n else "—" for k, u in CONTINUOUS.items()]
-        lines.append(f"| {m} | " + " | ".join(cells) + " |")
-    return lines
+        body.append([m, *cells])
+    return table(head, body)
 
 
 def class_table(rows: list[dict[str, Any]], methods: list[str], score: str = "success") -> list[str]:
     """Rate of ``score`` per fault class (rows) and method (columns), Wilson 95 % intervals."""
-    lines = ["| fault class | " + " | ".join(methods) + " |", "|" + "---|" * (len(methods) + 1)]
-    for c in [c for c in FAULT_CLASSES if any(r["fault_class"] == c for r in rows)]:
-        cells = [_pct(aggregate([r for r in rows if r["method"] == m and r["fault_class"] == c])[score])
-                 for m in methods]
-        lines.append(f"| {c} | " + " | ".join(cells) + " |")
-    return lines
+    body = [[c, *(_pct(aggregate([r for r in rows if r["method"] == m and r["fault_class"] == c])[score])
+                  for m in methods)]
+            for c in FAULT_CLASSES if any(r["fault_class"] == c for r in rows)]
+    return table(["fault class", *methods], body)
 
 
 def pairs_asked(methods: list[str]) -> list[tuple[str, str, str]]:
@@ -106,7 +105,7 @@ def _paired_line(p: Paired, unit: str) -> str:
         f"{d.mean:+.3g}{unit}" if d.n else "—")
     pv = f"{p.p_value:.2g}" if math.isfinite(p.p_value) else "—"
     eff = f"{p.effect:+.2f}" if math.isfinite(p.effect) else "—"
-    return f"| {p.a} − {p.b} | {p.score} | {d.n} | {ci} | {p.a_larger} / {p.b_larger} | {pv} | {eff} |"
+    return row([f"{p.a} − {p.b}", p.score, d.n, ci, f"{p.a_larger} / {p.b_larger}", pv, eff])
 
 
 def paired_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
@@ -114,8 +113,8 @@ def paired_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
     lines = []
     for a, b, q in pairs_asked(methods):
         lines += [f"**{q}** ({a} against {b}, same draws):", "",
-                  "| pair | score | pairs | mean difference [paired bootstrap 95 %] | a larger / b larger "
-                  "| Wilcoxon p | rank-biserial r |", "|---|---|---|---|---|---|---|"]
+                  *table(["pair", "score", "pairs", "mean difference [paired bootstrap 95 %]", "a larger / b larger",
+                          "Wilcoxon p", "rank-biserial r"])]
         for score, unit in (("success", ""), ("contouring_max", " m"), ("detection_delay", " s")):
             lines.append(_paired_line(paired(rows, score, a, b), unit))
         lines.append("")
@@ -155,29 +154,28 @@ def bounds_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
     radius errors against the PCRB (medians of the ratio)."""
     import numpy as np
 
-    lines = ["| method | detected draws with a bound | median delay / Lorden bound | median radius error / PCRB |",
-             "|---|---|---|---|"]
+    body = []
     for m in methods:
         mine = [r for r in rows if r["method"] == m]
         lo = [r["detection_delay"] / r["lorden_delay_bound"] for r in mine if r.get("detection_delay") is not None
               and r.get("lorden_delay_bound")]
         pc = [r[f"radius_error_{w}"] / r[f"radius_pcrb_{w}"] for r in mine for w in "RL"
               if r.get(f"radius_pcrb_{w}") and r.get(f"radius_error_{w}") is not None]
-        lines.append(f"| {m} | {len(lo)} | {np.median(lo):.3g} | " if lo else f"| {m} | 0 | — | ")
-        lines[-1] += f"{np.median(pc):.3g} |" if pc else "— |"
-    return lines
+        body.append([m, len(lo), f"{np.median(lo):.3g}" if lo else "—", f"{np.median(pc):.3g}" if pc else "—"])
+    return table(["method", "detected draws with a bound", "median delay / Lorden bound",
+                  "median radius error / PCRB"], body)
 
 
 def failures(rows: list[dict[str, Any]], bp: Any, limit: int = 30) -> list[str]:
     """The runs that did not succeed, named so anyone can replay them (draw index, method, what happened)."""
     bad = sorted((r for r in rows if not r.get("success")), key=lambda r: (r["draw"], r["method"]))
-    lines = ["| draw | fault class | method | outcome | contouring max (m) | tipped | replay |",
-             "|---|---|---|---|---|---|---|"]
+    body = []
     for r in bad[:limit]:
         cm = r.get("contouring_max")
         replay = f"`ftc-mj bench {r['method']} --split {bp.split} --start {r['draw']} --draws 1`"
-        lines.append(f"| {r['draw']} | {r['fault_class']} | {r['method']} | {r.get('outcome') or r.get('status')} | "
-                     f"{'—' if cm is None else f'{cm:.2f}'} | {r.get('tipped')} | {replay} |")
+        body.append([r["draw"], r["fault_class"], r["method"], r.get("outcome") or r.get("status"),
+                     "—" if cm is None else f"{cm:.2f}", r.get("tipped"), replay])
+    lines = table(["draw", "fault class", "method", "outcome", "contouring max (m)", "tipped", "replay"], body)
     if len(bad) > limit:
         lines.append(f"| … | {len(bad) - limit} more in scores.parquet | | | | | |")
     return lines
@@ -206,8 +204,8 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
            f"error| from 5 s after the last fault onset is ≤ {OFF_PATH_M:g} m. Rates: % [Wilson 95 %] (n runs); "
            "continuous scores: mean ± half the percentile-bootstrap 95 % interval (n runs with a value).",
            *([] if not computed else ["", computed]), "",
-           "| method | settings digest | description |", "|---|---|---|"]
-    out += [f"| {m.name} | `{m.digest}` | {m.description} |" for m in bp.methods]
+           *table(["method", "settings digest", "description"],
+                  ([m.name, f"`{m.digest}`", m.description] for m in bp.methods))]
     out += ["", "## Overall", "", *overall_table(rows, methods), "", "## Success by fault class", "",
             *class_table(rows, methods), ""]
     if len(methods) > 1:

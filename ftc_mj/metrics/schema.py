@@ -18,6 +18,8 @@ from __future__ import annotations
 import tomllib
 from typing import TYPE_CHECKING, Any, overload
 
+from ..markdown import cell, table
+
 if TYPE_CHECKING:
     import polars as pl
 
@@ -78,9 +80,9 @@ def schema_markdown() -> str:
             "`ftc-mj metrics --markdown`; each run also writes it as `metrics.schema.json` beside its",
             "`metrics.json`). Units are SI; `1` dimensionless, `fraction` a share in [0, 1], `count` an integer",
             "count; no unit: text, flags and nested records. `null` marks a value that does not apply to the run.",
-            "", "| key | unit | meaning |", "|---|---|---|"]
-    rows = [f"| `{k}` | {u} | {d.replace('|', chr(92) + '|')} |" for k, (u, d) in METRICS.items()]
-    return "\n".join(head + rows) + "\n"
+            ""]
+    rows = ([f"`{k}`", u, cell(d)] for k, (u, d) in METRICS.items())
+    return "\n".join(head + table(["key", "unit", "meaning"], rows)) + "\n"
 
 
 def schema_lines() -> list[str]:

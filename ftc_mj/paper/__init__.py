@@ -5,6 +5,7 @@ One direction, no cycles: :mod:`.matrix` and :mod:`.seeds` (what runs) → :mod:
 (running it as a study; :mod:`.derived` adds the trace-derived metrics) → :mod:`.claims` (checks,
 claim families, thresholds) → :mod:`.verdicts` (judging them per seed and over seeds) →
 :mod:`.render` (``claims.md``), :mod:`.diff` (against a baseline), :mod:`.figures`,
-:mod:`.summary` (``summary.csv``) and :mod:`.tuning` (the data-tuned parameters) → :mod:`.publish`
-(``docs/paper-claims.md``) → :mod:`.run` (the pipeline and ``paper_run.json``).
+:mod:`.summary` (``summary.csv``) and :mod:`.tuning` (the data-tuned parameters) → :mod:`.run` (the
+pipeline and ``paper_run.json``). ``docs/paper-claims.md`` is published from an output folder by
+:mod:`ftc_mj.reports.paper_claims`, in the reports layer above this package.
 """

@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ..markdown import dict_table
 from .claims.checks import FAIL, NA, NOT_EVALUATED, NOT_REPRODUCED, NOT_RUN, PARTLY, PASS, REPRODUCED, fmt, num
 from .claims.paper import lbl
 from .claims.thresholds import THRESHOLDS
@@ -43,23 +44,8 @@ LABELS_NOTE = ("Run labels: `s<scenario>-<filter>[5]-<fb|nofb>-<controller>` (fe
 
 
 def md_table(rows: Sequence[Mapping[str, Any]]) -> str:
-    """A Markdown table of dict rows (the union of keys, in first-seen order)."""
-    if not rows:
-        return "_no data_\n"
-    keys: list[str] = []
-    for r in rows:
-        for k in r:
-            if k not in keys:
-                keys.append(k)
-    out = ["| " + " | ".join(cell(k) for k in keys) + " |", "|" + "|".join("---" for _ in keys) + "|"]
-    for r in rows:
-        out.append("| " + " | ".join(cell(fmt(r.get(k))) for k in keys) + " |")
-    return "\n".join(out) + "\n"
-
-
-def cell(text: str) -> str:
-    """``text`` safe inside a Markdown table cell (``|`` escaped, no line breaks)."""
-    return str(text).replace("|", "\\|").replace("\n", " ")
+    """A Markdown table of dict rows (the union of keys, in first-seen order; values by :func:`fmt`)."""
+    return dict_table(rows, fmt)
 
 
 def thresholds_table() -> str:

@@ -25,7 +25,8 @@ Layout of ``OUT``::
     OUT/paper_run.json     the invocation, wall times, machine load, verdicts
 
 ``--publish DOCS`` then writes ``DOCS/paper-claims.md`` and copies the figure selection into ``DOCS/figures/``
-(:mod:`.publish`).
+(:mod:`ftc_mj.reports.paper_claims`, called by the CLI after :func:`run_paper`; the folder is checked here,
+before any run).
 
 Everything is written atomically; finished runs are reused (the study's persisted rows; the quick
 look recomputes its failed runs, over seeds a failed row is kept).
@@ -52,7 +53,6 @@ from .claims import evaluate_all
 from .diff import claims_document, compare, load_baseline
 from .matrix import MatrixEntry, full_matrix, select
 from .matrix_study import AXIS, load_matrix_study, run_matrix_study
-from .publish import check_target, publish
 from .render import render_claims
 from .seeds import DEV_SEEDS, seed_set
 from .summary import write_summary_csv
@@ -84,7 +84,8 @@ class PaperOptions:
     tune: bool = False
     baselines: list[Path] = field(default_factory=list)
     publish: Path | None = None
-    """Docs folder that receives ``paper-claims.md`` and the figure selection after the report (:mod:`.publish`)."""
+    """Docs folder that receives ``paper-claims.md`` and the figure selection after the report
+    (:mod:`ftc_mj.reports.paper_claims`)."""
 
     def check(self) -> None:
         if self.jobs < 1:
@@ -180,9 +181,14 @@ def run_paper(out: Path, opts: PaperOptions, *, show_progress: bool | None = Non
     load0 = os.getloadavg()
     res = run_matrix_and_report(out, entries, opts, show, echo)
     write_json(out / "paper_run.json", run_info(out, opts, res, load0))
-    if opts.publish is not None:
-        res.published = publish(out, opts.publish)
     return res
+
+
+def check_target(docs: Path) -> None:
+    """``docs`` must be an existing folder (:class:`BadInput` naming ``--publish`` otherwise)."""
+    if not Path(docs).is_dir():
+        raise BadInput(f"--publish: {docs} is not a directory (the docs folder that receives paper-claims.md "
+                       "and figures/)")
 
 
 def run_info(out: Path, opts: PaperOptions, res: PaperResult, load0: tuple[float, ...]) -> dict[str, Any]:

@@ -36,6 +36,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from ftc_mj.errors import BadInput
+from ftc_mj.markdown import table
 from ftc_mj.rundir import RECORDING, read_config, read_metrics, read_run_trace, trace_events
 from ftc_mj.telemetry import Event
 
@@ -256,11 +257,9 @@ def _log_run(rec: rr.RecordingStream, run: RunData, prefix: str, color: list[int
 
 def summary_markdown(runs: Sequence[RunData]) -> str:
     """A markdown table: one row per run with its label, folder, status and key metrics (SI units)."""
-    head = "| run | folder | " + " | ".join(f"{k} ({u})" if u else k for k, u in SUMMARY_KEYS) + " |"
-    lines = ["# Compared runs", "", head, "|" + "---|" * (len(SUMMARY_KEYS) + 2)]
-    for r in runs:
-        cells = [_cell(r.metrics.get(k)) for k, _ in SUMMARY_KEYS]
-        lines.append(f"| {r.label} | `{r.path.name}` | " + " | ".join(cells) + " |")
+    head = ["run", "folder", *(f"{k} ({u})" if u else k for k, u in SUMMARY_KEYS)]
+    rows = ([r.label, f"`{r.path.name}`", *(_cell(r.metrics.get(k)) for k, _ in SUMMARY_KEYS)] for r in runs)
+    lines = ["# Compared runs", "", *table(head, rows)]
     lines += ["", "Radius errors are estimate − truth; cross-track error is positive left of the path."]
     return "\n".join(lines)
 

@@ -10,9 +10,10 @@
   summarised metrics and their grouping by axis;
 - :mod:`.analysis` — ``summary.md`` (:mod:`.findings`, :mod:`.tables`) and its figures
   (:mod:`.summary_figures` on :mod:`.plotting`);
-- :mod:`.fdi` — ``ftc-mj fdi-curves``: operating characteristics of the decision rules;
-- :mod:`.doc_tables` — the published tables of ``docs/`` from the built-in studies
-  (``ftc-mj study NAME --report``).
+- :mod:`.fdi` — ``ftc-mj fdi-curves``: operating characteristics of the decision rules.
+
+The published tables of ``docs/`` from the built-in studies (``ftc-mj study NAME --report``) are
+:mod:`ftc_mj.reports.doc_tables`, in the reports layer above the studies.
 
 See ``docs/studies.md``.
 """

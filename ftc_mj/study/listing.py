@@ -5,6 +5,7 @@ plan, one run a line). Reads the plan only; nothing is simulated or written."""
 from __future__ import annotations
 
 import textwrap
+from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
@@ -29,13 +30,12 @@ def fdi_curves_apply(plan: StudyPlan) -> bool:
     return logged and any(_no_fault(r.config) for r in plan.runs)
 
 
-def analyses(plan: StudyPlan, builtin: bool) -> list[str]:
+def analyses(plan: StudyPlan, published: Collection[str] = ()) -> list[str]:
     """The analyses that apply to the study, as the commands or files that give them (``OUT``: its
-    output folder); ``builtin``: it is a built-in study (only those have published tables)."""
-    from .doc_tables import doc_table_studies
-
+    output folder); ``published``: the built-in studies with published docs tables (given by the caller,
+    :func:`ftc_mj.reports.doc_tables.doc_table_studies`: the reports layer sits above the studies)."""
     out = ["OUT/summary.md and OUT/figures/ (written at the end of every study)"]
-    if builtin and plan.spec.name in doc_table_studies():
+    if plan.spec.name in published:
         out.append(f"ftc-mj study {plan.path.stem} --report (its published docs tables)")
     if fdi_curves_apply(plan):
         out.append("ftc-mj fdi-curves OUT (FDI operating characteristics)")
@@ -62,10 +62,12 @@ def measured_rate(out: Path) -> float | None:
     return 60.0 * runs / wall if runs and wall > 0 else None
 
 
-def study_entry(name: str, plan: StudyPlan, width: int = 100, out: Path | None = None) -> list[str]:
+def study_entry(name: str, plan: StudyPlan, width: int = 100, out: Path | None = None,
+                published: Collection[str] = ()) -> list[str]:
     """The lines ``ftc-mj studies`` prints for one built-in study: name, run count and simulated time (and,
     if its output folder ``out`` records finished invocations, the expected duration at the rate measured
-    there), the whole description wrapped to ``width`` characters, the analyses that apply."""
+    there), the whole description wrapped to ``width`` characters, the analyses that apply (``published``:
+    as for :func:`analyses`)."""
     head = f"{name}: {len(plan.runs)} runs, {_hours(simulated_s(plan))} simulated"
     rate = measured_rate(out) if out is not None else None
     if rate:
@@ -73,7 +75,7 @@ def study_entry(name: str, plan: StudyPlan, width: int = 100, out: Path | None =
     desc = " ".join(plan.spec.description.split()) or "(no description)"
     wrap = {"width": width, "break_on_hyphens": False, "break_long_words": False, "initial_indent": "    "}
     lines = [head, *textwrap.wrap(desc, subsequent_indent="    ", **wrap)]
-    lines += textwrap.wrap("analyses: " + "; ".join(analyses(plan, builtin=True)), subsequent_indent="      ", **wrap)
+    lines += textwrap.wrap("analyses: " + "; ".join(analyses(plan, published)), subsequent_indent="      ", **wrap)
     return lines
 
 

@@ -10,26 +10,19 @@ import numpy as np
 import polars as pl
 
 from ..estimation.consistency import ChiSquareTest, combine
+from ..markdown import cell, table
 from .metrics import MetricDef, column_eq, estimate
 from .stats import fmt_g
 
 
 def axis_table(df: pl.DataFrame, column: str, values: list[Any], metrics: list[MetricDef]) -> str:
     """Markdown table: one row per axis value, one column per metric (mean ± CI)."""
-    names = (md_cell(m.label) + (f" ({m.unit})" if m.unit else "") for m in metrics)
-    head = f"| {column} | n | " + " | ".join(names) + " |"
-    sep = "|" + "---|" * (len(metrics) + 2)
-    lines = [head, sep]
+    names = (cell(m.label) + (f" ({m.unit})" if m.unit else "") for m in metrics)
+    rows = []
     for v in values:
         part = df.filter(column_eq(column, v))
-        cells = [estimate(part, m).fmt("", m.rate) for m in metrics]
-        lines.append(f"| {md_cell(str(v))} | {part.height} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
-
-
-def md_cell(text: str) -> str:
-    """Escape a table cell for markdown."""
-    return text.replace("|", "\\|")
+        rows.append([cell(v), part.height, *(estimate(part, m).fmt("", m.rate) for m in metrics)])
+    return "\n".join(table([column, "n", *names], rows))
 
 
 def confusion(df: pl.DataFrame) -> tuple[list[str], list[str], np.ndarray]:
@@ -50,10 +43,8 @@ def confusion(df: pl.DataFrame) -> tuple[list[str], list[str], np.ndarray]:
 
 def confusion_md(rows: list[str], cols: list[str], mat: np.ndarray) -> str:
     """Markdown table of a confusion matrix (rows: true wheel, columns: isolated wheel, cells: runs)."""
-    lines = ["| true \\ isolated | " + " | ".join(cols) + " |", "|" + "---|" * (len(cols) + 1)]
-    for i, r in enumerate(rows):
-        lines.append(f"| {r} | " + " | ".join(str(int(x)) for x in mat[i]) + " |")
-    return "\n".join(lines)
+    body = ([r, *(int(x) for x in mat[i])] for i, r in enumerate(rows))
+    return "\n".join(table(["true \\ isolated", *cols], body))
 
 
 CONSISTENCY: tuple[tuple[str, str, bool], ...] = (
@@ -89,13 +80,12 @@ def consistency_cell(test: ChiSquareTest) -> str:
 def consistency_table(df: pl.DataFrame, column: str, values: list[Any]) -> str:
     """Markdown table: per axis value, each consistency statistic pooled over the group's runs
     (:func:`~ftc_mj.estimation.consistency.combine`) with its two-sided 95 % χ² bounds."""
-    head = f"| {column} | runs | " + " | ".join(md_cell(label) for _, label, _ in CONSISTENCY) + " |"
-    lines = [head, "|" + "---|" * (len(CONSISTENCY) + 2)]
+    rows = []
     for v in values:
         part = df.filter(column_eq(column, v))
         cells = [consistency_cell(combine(run_tests(part, p), per_dof=pd)) for p, _, pd in CONSISTENCY]
-        lines.append(f"| {md_cell(str(v))} | {part.height} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        rows.append([cell(v), part.height, *cells])
+    return "\n".join(table([column, "runs", *(cell(label) for _, label, _ in CONSISTENCY)], rows))
 
 
 CONSISTENCY_NOTE = (

@@ -9,9 +9,9 @@ import pytest
 
 from ftc_mj import __version__
 from ftc_mj.benchmark.methods import load_methods
-from ftc_mj.benchmark.publish import publish
 from ftc_mj.benchmark.report import write_outputs
 from ftc_mj.benchmark.run import plan_bench
+from ftc_mj.reports.benchmark_page import publish
 
 
 def _results(bp) -> pl.DataFrame:

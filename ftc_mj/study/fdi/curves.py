@@ -51,8 +51,8 @@ import numpy as np
 from ...config import RunConfig
 from ...estimation.rule_statistics import sigma_isolation
 from ...metrics.fdi import lorden_delays
-from ...paper.seeds import HELD_OUT_START
 from ...wiring.decision import calibrated_threshold
+from ..spec import HELD_OUT_START
 from ..stats import Estimate, bootstrap_mean_ci, rate_ci
 from .cells import RULES, Cell, Run
 

@@ -21,6 +21,8 @@ import numpy as np
 import polars as pl
 
 from ...io import atomic_path
+from ...markdown import row as md_row
+from ...markdown import table
 from ...metrics.schema import upgrade_names
 from ..series import stack_series
 from ..stats import fmt_g
@@ -59,14 +61,14 @@ def point_rows(rc: RuleCurves, p: Point, keys: list[str]) -> list[str]:
                                                        _f(p.early[sev], pct=True), _range(p.delay[sev]),
                                                        f"{p.delay[sev].n}", _f(p.pd[sev], pct=True),
                                                        _f(p.iso[sev], pct=True), _f(p.unknown[sev], pct=True)]
-        lines.append("| " + " | ".join(cells) + " |")
+        lines.append(md_row(cells))
     return lines
 
 
 def points_table(curves: list[RuleCurves], keys: list[str], which: str, horizon: float) -> list[str]:
     head = [*keys, "rule", "threshold", "ARL0 s [95 %] (alarms)", "severity", "early alarm", "delay",
             "n", f"detected ≤ {horizon:g} s", "isolated right", "unknown"]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines = table(head)
     for rc in curves:
         p = rc.design if which == "design" else rc.matched
         if p is not None:
@@ -79,7 +81,7 @@ def false_alarm_table(curves: list[RuleCurves], keys: list[str]) -> list[str]:
     the measured rate over the target ``1/decision.arl0`` with its 95 % interval."""
     head = [*keys, "rule", "threshold", "runs", "alarms", "exposure (s)", "ARL0 s [95 %]",
             "rate / target [95 %]"]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines = table(head)
     for rc in curves:
         p, cfg = rc.design, rc.cell.config
         assert cfg is not None
@@ -87,7 +89,7 @@ def false_alarm_table(curves: list[RuleCurves], keys: list[str]) -> list[str]:
                  f"{p.rate.hi * cfg.estimator.decision.arl0:.2f}]" if rc.rule in ("cusum", "glr") else "—"
         row = [*(str(rc.cell.key[k]) for k in keys), rc.rule, f"{p.h:.3g}", str(len(rc.cell.nofault)), str(p.rate.n),
                f"{p.exposure:.0f}", _arl(p.arl0), target]
-        lines.append("| " + " | ".join(row) + " |")
+        lines.append(md_row(row))
     return lines
 
 
@@ -99,7 +101,7 @@ def best_rules(curves: list[RuleCurves], keys: list[str], levels: tuple[float, .
     for rc in curves:
         by_cell.setdefault(tuple(rc.cell.key.values()), []).append(rc)
     head = [*keys, "severity", *[f"ARL0 ≥ {lv:g} s: rule delay (s)" for lv in levels]]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines = table(head)
     for ck, rcs in by_cell.items():
         sevs = sorted({s for rc in rcs for s in rc.design.delay}, key=str)
         for sev in sevs:
@@ -114,7 +116,7 @@ def best_rules(curves: list[RuleCurves], keys: list[str], levels: tuple[float, .
                         cand.append((best.delay[sev].mean, rc.rule))
                 cand.sort()
                 row.append(", ".join(f"{r} {d:.3g}" for d, r in cand) if cand else "none")
-            lines.append("| " + " | ".join(row) + " |")
+            lines.append(md_row(row))
     return lines
 
 
@@ -157,7 +159,7 @@ def _ratio_table(df: pl.DataFrame, keys: list[str], settle: float, needed: str, 
     ``columns``; cells without the column ``needed`` are left out."""
     nof = df.filter(pl.col("fault_onset_time").is_null() & (pl.col("status") == "ok"))
     head = [*keys, "runs", *columns]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines = table(head)
     rng = np.random.default_rng(0)
     for ck, part in nof.group_by(keys, maintain_order=True):
         if needed not in part.columns:
@@ -168,7 +170,7 @@ def _ratio_table(df: pl.DataFrame, keys: list[str], settle: float, needed: str, 
             r, lo, hi = rmse_over_pcrb(e, b, late, rng)
             rms_b = math.sqrt(np.nanmean(np.where(late, b * b, np.nan)))
             vals.append(f"{r:.3g} [{lo:.3g}, {hi:.3g}] ({rms_b:.3g})")
-        lines.append("| " + " | ".join([*map(str, ck), str(part.height), *vals]) + " |")
+        lines.append(md_row([*ck, part.height, *vals]))
     return lines
 
 

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from ftc_mj.cli import app
 from ftc_mj.errors import BadInput
-from ftc_mj.study.doc_tables import doc_tables, reconfiguration, robust_ftc
+from ftc_mj.reports.doc_tables import doc_tables, reconfiguration, robust_ftc
 
 
 def _reconfiguration(out: Path) -> None:
@@ -94,7 +94,7 @@ def test_window_stats_of_the_full_trace() -> None:
 
 
 def test_rate_bound_and_physical_plant_tables(tmp_path: Path) -> None:
-    from ftc_mj.study.doc_tables import physical_plant, rate_bound
+    from ftc_mj.reports.doc_tables import physical_plant, rate_bound
 
     rows = []
     for (yaw, rp, fb), form, seed in itertools.product(rate_bound.CONFIGS, ("old", "new"), (0, 1)):
@@ -123,9 +123,64 @@ def test_rate_bound_and_physical_plant_tables(tmp_path: Path) -> None:
 
 def test_pcrb_constant_truth_table_has_the_published_digits() -> None:
     """The nominal-circle table of docs/fdi.md (no run needed): the same digits."""
-    from ftc_mj.study.doc_tables.pcrb import constant_truth_table
+    from ftc_mj.reports.doc_tables.pcrb import constant_truth_table
 
     published = [("0.0356", "0.0261", "0.733"), ("0.0371", "0.0272", "0.732"), ("0.0513", "0.0375", "0.732"),
                  ("0.0035", "0.0032", "0.908"), ("0.0513", "0.0376", "0.732")]
     rows = constant_truth_table()[2:]
     assert [tuple(r.strip("| ").split(" | ")[2:]) for r in rows] == published
+
+
+def _columns(line: str) -> int:
+    """Cells of a Markdown table line (``|`` not escaped by a backslash delimit them)."""
+    import re
+
+    return len(re.split(r"(?<!\\)\|", line)) - 2
+
+
+def test_pathfollow_table_states_each_cell_once_with_its_numbers(tmp_path: Path) -> None:
+    """Two seeds per cell of a small pathfollow study: one row per (scenario, sensing, policy, controller) run,
+    in the table's order, with 9 cells; the mean and worst of the recovered contouring error and the tip-over
+    count are the data's."""
+    from ftc_mj.reports.doc_tables import pathfollow
+
+    rows = [{"fault": sc, "cell": f"speed/{pol}/{ctl}", "seed": seed, "status": "ok",
+             "contouring_max_recovered": 0.2 * (seed + 1), "liftoff_time_post_transient_s": None,
+             "tipped": seed == 1 and pol == "safe", "omega_at_limit_s": 1.0, "speed_ratio_final": 1.0,
+             "cross_track_max": 0.5, "cross_track_max_settled": 0.05, "speed_mean_after_fault": 10.0}
+            for sc, pol, ctl, seed in itertools.product(("s2", "s4"), ("none", "safe"), ("nmpc", "pf-nmpc"), (0, 1))]
+    out = tmp_path / "pathfollow"
+    out.mkdir()
+    pl.DataFrame(rows).write_parquet(out / "results.parquet")
+    table = pathfollow.report(out).split("\n\n")[1].split("\n\nnmpc:")[0].splitlines()
+    assert table[1] == "|---|" + "---|" * 8 and all(_columns(ln) == 9 for ln in table), table
+    body = table[2:]
+    assert [ln.split(" | ")[:4] for ln in body] == [[f"| {sc}", "speed", pol, ctl] for sc in "24"
+                                                    for pol in ("none", "safe") for ctl in ("nmpc", "pf-nmpc")]
+    assert body[2] == "| 2 | speed | safe | nmpc | 0.3 ± 1.3 (0.4) | — | 1/2 | 1 ± 0 (1) | 1 ± 0 (1) |"
+
+
+def test_fdi_tables_merge_identical_filters_and_insert_their_column(tmp_path: Path, monkeypatch) -> None:
+    """Filters whose rows are identical share one row (``EKF, UKF``); the filters column is the third of
+    every row; table 1 has 12 cells per line, table 2 five plus one per rule."""
+    from types import SimpleNamespace
+
+    from ftc_mj.reports.doc_tables import fdi
+
+    cells = [SimpleNamespace(key={"plant": "mujoco", "sensors": "speed", "estimator": e})
+             for e in ("ekf", "ukf", "imm-ekf")]
+
+    def rows(cell: SimpleNamespace) -> tuple[list[tuple[str, ...]], list[tuple[str, ...]]]:
+        x = "2" if cell.key["estimator"] == "imm-ekf" else "1"
+        return ([("mujoco", "speed", "glr", x, "> 30 (0)", "—", "—", "—", "1/2", "1/2", "0/2")],
+                [("mujoco", "speed", "50 %", "0.3", "none", "none", "none", x)])
+
+    monkeypatch.setattr(fdi, "load_cells", lambda out, axis: (cells, None))
+    monkeypatch.setattr(fdi, "cell_rows", rows)
+    t1, t2 = fdi.report(tmp_path).split("\n\n")
+    t1, t2 = t1.splitlines(), t2.splitlines()
+    assert all(_columns(ln) == 12 for ln in t1) and all(_columns(ln) == 5 + len(fdi.RULES) for ln in t2)
+    assert t1[2:] == ["| mujoco | speed | EKF, UKF | glr | 1 | > 30 (0) | — | — | — | 1/2 | 1/2 | 0/2 |",
+                      "| mujoco | speed | IMM-EKF | glr | 2 | > 30 (0) | — | — | — | 1/2 | 1/2 | 0/2 |"]
+    assert t2[2:] == ["| mujoco | speed | EKF, UKF | 50 % | 0.3 | none | none | none | 1 |",
+                      "| mujoco | speed | IMM-EKF | 50 % | 0.3 | none | none | none | 2 |"]

@@ -16,21 +16,22 @@ from pathlib import Path
 
 import polars as pl
 
+from ... import markdown as md
 from .results import read_results
 
-HEAD = ("| plant | sensors | NMPC cost | feedback | R̂_L mean 15–40 s (m) | R̂_R mean 15–40 s (m) | "
-        "max \\|cross-track\\| after 15 s (m) | yaw-rate std 1–10 s (rad/s) | detection delay (s) | isolated | "
-        "command TV (rad/s²) | rows out of domain |\n|---|---|---|---|---|---|---|---|---|---|---|---|")
+HEAD = "\n".join(md.table(["plant", "sensors", "NMPC cost", "feedback", "R̂_L mean 15–40 s (m)", "R̂_R mean 15–40 s (m)",
+                            "max \\|cross-track\\| after 15 s (m)", "yaw-rate std 1–10 s (rad/s)",
+                            "detection delay (s)", "isolated", "command TV (rad/s²)", "rows out of domain"]))
 
 
 def row(m: dict, plant: str, yaw: bool, rp: float, fb: bool) -> str:
     """The table row of one run (its results row ``m``)."""
     dd = m.get("detection_delay")
-    return (f"| {plant} | {'speed+yaw' if yaw else 'speed'} | {'rate penalty 1' if rp else 'paper'} | "
-            f"{'on' if fb else 'off'} | {m['R_L_hat_mean_15_40']:.2f} | {m['R_R_hat_mean_15_40']:.2f} | "
-            f"{m['cross_track_max_abs_after_15']:.2f} | {m['yaw_rate_std_1_10']:.3f} | "
-            f"{'—' if dd is None else f'{dd:.2f}'} | {m.get('isolated_wheel') or '—'} | "
-            f"{m['command_total_variation_per_s']:.1f} | {m['plant_out_of_domain_fraction']:.0%} |")
+    return md.row([plant, "speed+yaw" if yaw else "speed", "rate penalty 1" if rp else "paper", "on" if fb else "off",
+                   f"{m['R_L_hat_mean_15_40']:.2f}", f"{m['R_R_hat_mean_15_40']:.2f}",
+                   f"{m['cross_track_max_abs_after_15']:.2f}", f"{m['yaw_rate_std_1_10']:.3f}",
+                   "—" if dd is None else f"{dd:.2f}", m.get("isolated_wheel") or "—",
+                   f"{m['command_total_variation_per_s']:.1f}", f"{m['plant_out_of_domain_fraction']:.0%}"])
 
 
 def report(out: Path) -> str:

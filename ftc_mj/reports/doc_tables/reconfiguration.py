@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 
+from ... import markdown as md
 from .results import float_column, read_results
 
 POLICIES = ("none", "direct", "safe", "truth")
@@ -38,9 +39,9 @@ def row(d: pl.DataFrame, sc: str, sens: str, pol: str) -> str:
     hand_txt = ("never" if not np.isfinite(hand).any() else mean_worst(hand, ".2f")) if pol == "safe" else "—"
     at_limit = float(np.mean(float_column(d, "omega_at_limit_s")))
     rec = mean_worst(float_column(d, "cross_track_max_recovered"))
-    return (f"| {sc[1]} | {sens.replace('+', ' + ')} | {pol} | {rec} | "
-            f"{float(np.mean(final)):.3g} | {at_limit:.1f} | {tipped}/{d.height} | "
-            f"{mean_worst(float_column(d, 'liftoff_time_post_transient_s'), '.2f')} | {hand_txt} |")
+    return md.row([sc[1], sens.replace("+", " + "), pol, rec, f"{float(np.mean(final)):.3g}", f"{at_limit:.1f}",
+                   f"{tipped}/{d.height}", mean_worst(float_column(d, "liftoff_time_post_transient_s"), ".2f"),
+                   hand_txt])
 
 
 def report(out: Path) -> str:
@@ -48,9 +49,8 @@ def report(out: Path) -> str:
     df = read_results(out)
     lines = [f"{df.height} runs ({df.filter(pl.col('status') != 'ok').height} not ok), seeds "
              f"{sorted(set(df['seed'].to_list()))}\n",
-             "| scenario | sensing | policy | max \\|cte\\| from onset + 5 s (m) | final \\|cte\\| (m) "
-             "| wheel at limit (s) | tipped | lift-off (s) | hand-over after onset (s) |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             *md.table(["scenario", "sensing", "policy", "max \\|cte\\| from onset + 5 s (m)", "final \\|cte\\| (m)",
+                        "wheel at limit (s)", "tipped", "lift-off (s)", "hand-over after onset (s)"])]
     for sc in ("s2", "s3", "s4"):
         for sens in ("speed", "speed+yaw"):
             for pol in POLICIES:

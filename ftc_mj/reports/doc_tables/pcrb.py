@@ -24,7 +24,7 @@ import polars as pl
 from ...config import RunConfig
 from ...estimation.calibration import nominal_point
 from ...sim.record import build_record
-from ..extras import ISOLATED_SPLIT_M, PCRB_MODELS, PCRB_TIMES, time_tag
+from ...study.extras import ISOLATED_SPLIT_M, PCRB_MODELS, PCRB_TIMES, time_tag
 from .results import read_results
 
 BOUND_NAMES = {"model": "filters' model", "constant": "radii constant"}

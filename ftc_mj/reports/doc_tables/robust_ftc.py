@@ -16,8 +16,9 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 
+from ... import markdown as md
 from ...errors import BadInput
-from ..stats import mean_ci
+from ...study.stats import mean_ci
 from .results import read_results
 
 STUDIES = ("robust_ftc", "robust_ftc_fixed")
@@ -40,8 +41,8 @@ def cell(v: np.ndarray, fixed: bool) -> str:
 def table(df: pl.DataFrame) -> str:
     """The published table from the rows of both studies."""
     ok = df.filter(pl.col("status") == "ok")
-    lines = ["| scenario | plant | sensing | strategy | n | max \\|cte\\| from onset + 5 s (m) | final \\|cte\\| (m) | "
-             "RMS \\|cte\\| from 5 s (m) | tipped | solver fallbacks |", "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = md.table(["scenario", "plant", "sensing", "strategy", "n", "max \\|cte\\| from onset + 5 s (m)",
+                      "final \\|cte\\| (m)", "RMS \\|cte\\| from 5 s (m)", "tipped", "solver fallbacks"])
     keys = ok.select("fault", "plant", "sensing", "strategy").unique().rows()
     keys = sorted(keys, key=lambda k: (k[0], k[1], k[2] if k[3] not in FIXED else "", ORDER.get(k[3], 99)))
     seen = set()
@@ -60,10 +61,9 @@ def table(df: pl.DataFrame) -> str:
         rms = c["cross_track_rms_settled"].to_numpy()
         n_tip = int(c["tipped"].sum())
         n = 1 if fixed else c.height
-        lines.append(f"| {fault[1:]} | {plant} | {'any' if fixed else sensing} | {strategy} | {n} | "
-                     f"{cell(rec, fixed)} | {cell(fin, fixed)} | {cell(rms, fixed)} | "
-                     f"{n_tip if not fixed else int(n_tip > 0)}/{n} | "
-                     f"{int(c['solver_failures'].max())} |")
+        lines.append(md.row([fault[1:], plant, "any" if fixed else sensing, strategy, n, cell(rec, fixed),
+                             cell(fin, fixed), cell(rms, fixed), f"{n_tip if not fixed else int(n_tip > 0)}/{n}",
+                             int(c["solver_failures"].max())]))
     return "\n".join(lines)
 
 

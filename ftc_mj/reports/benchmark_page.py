@@ -9,10 +9,11 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+from ..benchmark.definition import BenchmarkDefinition, Range, load_definition
+from ..benchmark.methods import BUILTIN
 from ..errors import BadInput
 from ..io import atomic_path
-from .definition import BenchmarkDefinition, Range, load_definition
-from .methods import BUILTIN
+from ..markdown import table
 
 FULL_RUN = ("ftc-mj bench paper safe pathfollow hybrid passive feedback-off --split test --draws 200 --workers 2 "
             "--publish docs")
@@ -38,32 +39,30 @@ def definition_tables(d: BenchmarkDefinition) -> list[str]:
     """The distributions of the definition as Markdown tables (units in the cells)."""
     f, p, pa, s = d.fault, d.plant, d.path, d.sensors
     lines = [f"Benchmark `{d.version}` (`ftc_mj/data/benchmarks/{d.version}.toml`), runs of {d.duration:g} s.", "",
-             "| fault class | probability |", "|---|---|"]
-    lines += [f"| {c} | {v:g} |" for c, v in f.classes.items()]
-    lines += ["", "| factor | distribution |", "|---|---|",
-              f"| second fault | probability {f.double:g} given a first; another target, "
-              f"{_r(f.second_delay, 's')} later |",
-              f"| onset of the first fault | uniform {_r(f.onset, 's')} |",
-              f"| step puncture: remaining radius | uniform {_r(f.puncture_fraction)} of nominal |",
-              f"| ramp puncture: final radius, rate | uniform {_r(f.ramp_final_fraction)} of nominal; "
-              f"{_r(f.ramp_rate, 'm/s')} |",
-              f"| servo loss of effectiveness | remaining gain and torque uniform {_r(f.effectiveness)} |",
-              f"| speed bias / drift | ± uniform {_r(f.speed_bias, 'm/s')} / ± {_r(f.speed_drift, 'm/s²')} |",
-              f"| gyro bias / drift | ± uniform {_r(f.gyro_bias, 'rad/s')} / ± {_r(f.gyro_drift, 'rad/s²')} |",
-              f"| sensor dropout | uniform {_r(f.dropout_duration, 's')} |",
-              f"| tyre friction | uniform {_r(p.tyre_friction)} |",
-              f"| servo gain | uniform {_r(p.actuator_gain, 'N m s/rad', 5)} |",
-              f"| payload mass; centre (forward, left, up from the axle) | uniform {_r(p.payload_mass, 'kg')}; "
-              f"{_r(p.payload_offset_x, 'm')}, {_r(p.payload_offset_y, 'm')}, {_r(p.payload_offset_z, 'm')} |",
-              "| path | " + ", ".join(f"{k} {v:g}" for k, v in pa.kinds.items()) + f"; circle radius one of "
-              f"{', '.join(f'{r:g}' for r in pa.circle_radius)} m, figure-eight lobe one of "
-              f"{', '.join(f'{r:g}' for r in pa.figure8_radius)} m; counter-clockwise {pa.direction_ccw:g} |",
-              f"| desired speed | uniform {_r(pa.speed, 'm/s')}, capped at √({pa.max_lateral_accel:g} m/s² × radius) |",
-              f"| speed sensor σ | uniform {_r(s.speed_sigma, 'm/s')} |",
-              f"| yaw-rate gyro | present with probability {s.gyro:g} (always with a gyro fault); σ log-uniform "
-              f"{_r(s.gyro_sigma, 'rad/s')} |",
-              f"| pose noise σ (controller's pose) | uniform {_r(s.pose_sigma, 'm (and rad)')} |"]
-    return lines
+             *table(["fault class", "probability"], ([c, f"{v:g}"] for c, v in f.classes.items())), ""]
+    factors = [
+        ("second fault", f"probability {f.double:g} given a first; another target, {_r(f.second_delay, 's')} later"),
+        ("onset of the first fault", f"uniform {_r(f.onset, 's')}"),
+        ("step puncture: remaining radius", f"uniform {_r(f.puncture_fraction)} of nominal"),
+        ("ramp puncture: final radius, rate",
+         f"uniform {_r(f.ramp_final_fraction)} of nominal; {_r(f.ramp_rate, 'm/s')}"),
+        ("servo loss of effectiveness", f"remaining gain and torque uniform {_r(f.effectiveness)}"),
+        ("speed bias / drift", f"± uniform {_r(f.speed_bias, 'm/s')} / ± {_r(f.speed_drift, 'm/s²')}"),
+        ("gyro bias / drift", f"± uniform {_r(f.gyro_bias, 'rad/s')} / ± {_r(f.gyro_drift, 'rad/s²')}"),
+        ("sensor dropout", f"uniform {_r(f.dropout_duration, 's')}"),
+        ("tyre friction", f"uniform {_r(p.tyre_friction)}"),
+        ("servo gain", f"uniform {_r(p.actuator_gain, 'N m s/rad', 5)}"),
+        ("payload mass; centre (forward, left, up from the axle)", f"uniform {_r(p.payload_mass, 'kg')}; "
+         f"{_r(p.payload_offset_x, 'm')}, {_r(p.payload_offset_y, 'm')}, {_r(p.payload_offset_z, 'm')}"),
+        ("path", ", ".join(f"{k} {v:g}" for k, v in pa.kinds.items()) + "; circle radius one of "
+         f"{', '.join(f'{r:g}' for r in pa.circle_radius)} m, figure-eight lobe one of "
+         f"{', '.join(f'{r:g}' for r in pa.figure8_radius)} m; counter-clockwise {pa.direction_ccw:g}"),
+        ("desired speed", f"uniform {_r(pa.speed, 'm/s')}, capped at √({pa.max_lateral_accel:g} m/s² × radius)"),
+        ("speed sensor σ", f"uniform {_r(s.speed_sigma, 'm/s')}"),
+        ("yaw-rate gyro", f"present with probability {s.gyro:g} (always with a gyro fault); σ log-uniform "
+         f"{_r(s.gyro_sigma, 'rad/s')}"),
+        ("pose noise σ (controller's pose)", f"uniform {_r(s.pose_sigma, 'm (and rad)')}")]
+    return lines + table(["factor", "distribution"], factors)
 
 
 def publish(docs: Path, report: Path, out: Path, argv: list[str], version: str) -> Path:

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 from ftc_mj.cli import app
 from ftc_mj.errors import BadInput
 from ftc_mj.paper import run as paper_run
-from ftc_mj.paper.publish import REGENERATE, publish
+from ftc_mj.reports.paper_claims import REGENERATE, publish
 
 runner = CliRunner()
 KEPT = ("policies.png", "radius_s1.png", "trajectory_s2.png")

@@ -17,7 +17,7 @@ from ftc_mj.config import RunConfig, load_config
 from ftc_mj.errors import BadInput
 from ftc_mj.model.kinematics import max_path_speed
 from ftc_mj.plant import LIFTOFF, SCRAPE
-from ftc_mj.study.doc_tables import pathfollow_figure as pf
+from ftc_mj.reports.doc_tables import pathfollow_figure as pf
 from ftc_mj.study.plan import plan_study
 from ftc_mj.study.runner import run_study
 from tests.support.fake_runs import FakeOutcome, FakeResult

@@ -14,8 +14,8 @@ from typer.testing import CliRunner
 from ftc_mj.cli import app
 from ftc_mj.config import RunConfig
 from ftc_mj.paper.tuning import DWELL_RULE, GROWTH_RULE, TUNED, run_tuning
+from ftc_mj.reports.doc_tables import doc_table_studies, doc_tables
 from ftc_mj.study import worker
-from ftc_mj.study.doc_tables import doc_table_studies, doc_tables
 from tests.paper.test_tuning import _dwell_rows, _growth_rows
 from tests.support.fake_runs import FakeOutcome, FakeResult
 

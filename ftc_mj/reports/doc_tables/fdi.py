@@ -23,9 +23,18 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fdi.cells import RULES, Cell, load_cells
-from ..fdi.curves import Point, arl0_of, design_threshold, lorden_bound, operating_point, poisson_rate, thresholds
-from ..stats import Estimate
+from ... import markdown as md
+from ...study.fdi.cells import RULES, Cell, load_cells
+from ...study.fdi.curves import (
+    Point,
+    arl0_of,
+    design_threshold,
+    lorden_bound,
+    operating_point,
+    poisson_rate,
+    thresholds,
+)
+from ...study.stats import Estimate
 
 HORIZON = 2.0
 LEVEL = 100.0
@@ -60,8 +69,8 @@ def count(e: Estimate) -> str:
     return "—" if e.n == 0 else f"{round(e.mean * e.n)}/{e.n}"
 
 
-def cell_rows(cell: Cell) -> tuple[list[str], list[str]]:
-    """Rows of table 1 and table 2 of a cell, without the filter column."""
+def cell_rows(cell: Cell) -> tuple[list[tuple[str, ...]], list[tuple[str, ...]]]:
+    """Rows (cells) of table 1 and table 2 of a cell, without the filter column."""
     assert cell.config is not None
     plant, sensors = str(cell.key["plant"]), str(cell.key["sensors"])
     sevs = sorted(cell.faults, key=float)
@@ -87,10 +96,13 @@ def cell_rows(cell: Cell) -> tuple[list[str], list[str]]:
         bound = float(lorden_bound(cell, s, np.array([floor]), dt)[0])
         table2.append([plant, sensors, f"{100 * float(s):.0f} %", g(bound, 2),
                        *(best.get((r, s), "—") for r in RULES)])
-    return ["| " + " | ".join(r) + " |" for r in design], ["| " + " | ".join(r) + " |" for r in table2]
+    return [tuple(r) for r in design], [tuple(r) for r in table2]
 
 
-def merged(cells: list[Cell]) -> tuple[list[tuple[str, list[str]]], list[tuple[str, list[str]]]]:
+Rows = list[tuple[str, list[tuple[str, ...]]]]
+
+
+def merged(cells: list[Cell]) -> tuple[Rows, Rows]:
     """Per table, (filters, rows) with the filters whose rows are identical merged."""
     out: tuple[dict, dict] = ({}, {})
     for cell in cells:
@@ -101,20 +113,18 @@ def merged(cells: list[Cell]) -> tuple[list[tuple[str, list[str]]], list[tuple[s
     return tuple([(", ".join(f), list(k[2])) for k, f in d.items()] for d in out)  # type: ignore[return-value]
 
 
-def with_filters(row: str, filters: str) -> str:
+def with_filters(row: tuple[str, ...], filters: str) -> str:
     """A row with the filters column inserted after plant and sensors."""
-    parts = row.split(" | ")
-    return " | ".join([*parts[:2], filters, *parts[2:]])
+    return md.row([*row[:2], filters, *row[2:]])
 
 
 def report(out: Path) -> str:
     """Both summary tables from the ``fdi`` study's output folder."""
     cells, _ = load_cells(Path(out), "severity")
     t1, t2 = merged(cells)
-    lines = ["| plant | sensors | filters | rule | threshold | ARL0 s [95 %] (alarms) | delay s, 20 % | delay s, 50 % "
-             "| delay s, 80 % | detected ≤ 2 s | isolation correct | unknown |", "|" + "---|" * 12]
+    lines = md.table(["plant", "sensors", "filters", "rule", "threshold", "ARL0 s [95 %] (alarms)", "delay s, 20 %",
+                      "delay s, 50 %", "delay s, 80 %", "detected ≤ 2 s", "isolation correct", "unknown"])
     lines += [with_filters(r, filters) for filters, rows in t1 for r in rows]
-    lines += ["", "| plant | sensors | filters | severity | Lorden bound (s) | " + " | ".join(RULES) + " |",
-              "|" + "---|" * 9]
+    lines += ["", *md.table(["plant", "sensors", "filters", "severity", "Lorden bound (s)", *RULES])]
     lines += [with_filters(r, filters) for filters, rows in t2 for r in rows]
     return "\n".join(lines) + "\n"

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 
-from ..stats import mean_ci
+from ... import markdown as md
+from ...study.stats import mean_ci
 from .results import read_results
 
 CONFIGS = list(itertools.product((False, True), (0.0, 1.0), (False, True)))
@@ -29,16 +30,16 @@ COLUMNS = {"yaw_rate_std_1_10": "yaw-rate std 1–10 s (rad/s)", "command_total_
 """Results column → table heading."""
 
 
-def label(cfg: tuple[bool, float, bool]) -> str:
+def label(cfg: tuple[bool, float, bool]) -> list[str]:
     """The sensors, cost and feedback cells of a row."""
     yaw, rp, fb = cfg
-    return f"{'speed+yaw' if yaw else 'speed'} | {'rate penalty 1' if rp else 'paper'} | {'on' if fb else 'off'}"
+    return ["speed+yaw" if yaw else "speed", "rate penalty 1" if rp else "paper", "on" if fb else "off"]
 
 
 def header(title: str) -> str:
     """A table's title and heading (blank line before)."""
-    cols = " | ".join(f"{c}: old / new" for c in COLUMNS.values())
-    return f"\n{title}\n\n| sensors | NMPC cost | feedback | {cols} |\n|---|---|---|" + "---|" * len(COLUMNS)
+    cols = (f"{c}: old / new" for c in COLUMNS.values())
+    return f"\n{title}\n\n" + "\n".join(md.table(["sensors", "NMPC cost", "feedback", *cols]))
 
 
 def values(df: pl.DataFrame, cfg: tuple[bool, float, bool], formulation: str, column: str) -> np.ndarray:
@@ -57,12 +58,12 @@ def report(out: Path) -> str:
     first = df.filter(pl.col("seed") == 0)
     for cfg in CONFIGS:
         cells = [f"{values(first, cfg, 'old', c)[0]:.3g} / {values(first, cfg, 'new', c)[0]:.3g}" for c in COLUMNS]
-        lines.append(f"| {label(cfg)} | " + " | ".join(cells) + " |")
+        lines.append(md.row([*label(cfg), *cells]))
     lines.append(header(f"Means over seeds 0–{len(seeds) - 1} (± Student-t 95 % half-width):"))
     for cfg in CONFIGS:
         cells = []
         for c in COLUMNS:
             e = [mean_ci(values(df, cfg, f, c)) for f in ("old", "new")]
             cells.append(" / ".join(f"{x.mean:.3g} ± {x.half:.2g}" for x in e))
-        lines.append(f"| {label(cfg)} | " + " | ".join(cells) + " |")
+        lines.append(md.row([*label(cfg), *cells]))
     return "\n".join(lines) + "\n"

@@ -17,7 +17,7 @@ import polars as pl
 
 from ...paper.render import md_table
 from ...paper.tuning import STUDY_DIR, TUNED, Tuned
-from ..spec import read_study_spec
+from ...study.spec import read_study_spec
 from .results import read_results
 
 

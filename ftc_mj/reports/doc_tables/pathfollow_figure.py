@@ -24,8 +24,8 @@ import polars as pl
 from ...config import load_config
 from ...errors import BadInput
 from ...paper.render import md_table
-from ..plotting import pyplot, save_figure
-from ..series import stack_series
+from ...study.plotting import pyplot, save_figure
+from ...study.series import stack_series
 from .results import read_results
 
 COLORS = {"nmpc": "tab:orange", "pf-nmpc": "tab:blue"}

@@ -3,7 +3,7 @@ the figure selection :data:`FIGURES` copied into ``DOCS/figures/``.
 
 The head note is generated: the command, commit, date and machine load from ``paper_run.json``, which
 seeds are development and which held-out, the tuning results, and the verdicts that changed against
-the baseline (``changes.md``, the mechanical comparison of :mod:`.diff`); the body is ``claims.md``
+the baseline (``changes.md``, the mechanical comparison of :mod:`ftc_mj.paper.diff`); the body is ``claims.md``
 verbatim, with the figure list cut to the figures copied.
 """
 
@@ -13,8 +13,8 @@ import json
 import shutil
 from pathlib import Path
 
-from ..errors import BadInput
 from ..io import atomic_path
+from ..paper.run import check_target
 
 FIGURES = ("imm_variants_s2.png", "innovations_s2.png", "mode_probs_nofb.png", "policies.png",
            "radius_comparison_s4.png", "radius_s1.png", "trajectory_nmpc_vs_lmpc.png", "trajectory_s2.png",
@@ -25,13 +25,6 @@ REGENERATE = ("Regenerate with `ftc-mj paper --quick --out runs/out/paper-quick`
               "`ftc-mj paper --out runs/out/paper --tune --baseline docs/paper-claims.md --baseline "
               "runs/out/paper-quick --publish docs` (add `--report-only` to rebuild from finished runs).")
 """The last sentence of the head note's first paragraph: the commands that make the published file."""
-
-
-def check_target(docs: Path) -> None:
-    """``docs`` must be an existing folder (:class:`BadInput` naming ``--publish`` otherwise)."""
-    if not Path(docs).is_dir():
-        raise BadInput(f"--publish: {docs} is not a directory (the docs folder that receives paper-claims.md "
-                       "and figures/)")
 
 
 def head_note(out: Path) -> str:

@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 
-from ..stats import mean_ci, rate_ci
+from ... import markdown as md
+from ...study.stats import mean_ci, rate_ci
 from .results import float_column, read_results, worst
 
 SCEN = ("s1", "s2", "s3", "s4")
@@ -49,10 +50,8 @@ def tipped(df: pl.DataFrame) -> str:
 
 def comparison_table(df: pl.DataFrame) -> str:
     """Every scenario × sensing × policy × controller cell."""
-    head = ("| scenario | sensing | policy | controller | max \\|e_c\\| from last onset + 5 s (m) | lift-off after "
-            "transients (s) | tipped | wheel at limit (s) | speed last 5 s / feasible |\n"
-            "|---|---|---|---|---|---|---|---|---|")
-    lines = [head]
+    lines = md.table(["scenario", "sensing", "policy", "controller", "max \\|e_c\\| from last onset + 5 s (m)",
+                      "lift-off after transients (s)", "tipped", "wheel at limit (s)", "speed last 5 s / feasible"])
     for sc in SCEN:
         for sens in ("speed", "speed+yaw"):
             for pol in POLICIES:
@@ -60,9 +59,9 @@ def comparison_table(df: pl.DataFrame) -> str:
                     d = sel(df, fault=sc, sensors=sens, policy=pol, controller=ctl)
                     if d.height == 0:
                         continue
-                    lines.append(f"| {sc[1]} | {sens} | {pol} | {ctl} | {cell(d, 'contouring_max_recovered')} | "
-                                 f"{cell(d, 'liftoff_time_post_transient_s')} | {tipped(d)} | "
-                                 f"{cell(d, 'omega_at_limit_s')} | {cell(d, 'speed_ratio_final')} |")
+                    lines.append(md.row([sc[1], sens, pol, ctl, cell(d, "contouring_max_recovered"),
+                                         cell(d, "liftoff_time_post_transient_s"), tipped(d),
+                                         cell(d, "omega_at_limit_s"), cell(d, "speed_ratio_final")]))
     return "\n".join(lines)
 
 

@@ -54,6 +54,7 @@ from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
 from .cache import controller_for, plant_for
+from .guards import check_command, check_estimate
 from .trace import TraceWriter
 
 
@@ -310,6 +311,7 @@ class ClosedLoop:
         u_pred = self.u_prev if self.u_prev is not None else u_meas
         self.z = z
         self.out = self.parts.estimator.step(u_pred, z)
+        check_estimate(self.out, self.rows * self.dt, self.cfg.estimator.kind, self.parts.estimator)
         return self.out, u_pred
 
     def decide(self, t: float, out: FilterOutput, u_pred: np.ndarray) -> DecisionState:
@@ -364,6 +366,7 @@ class ClosedLoop:
         cfg = self.cfg
         exc = cfg.reconfiguration.excitation
         cmd = self.parts.controller.solve(t, rd.pose, radii, self.applied)
+        check_command(cmd.omega, t, cfg.controller.kind, self.parts.controller)
         if exc.enabled and self.suspected:
             dither = yaw_dither(t, exc.amplitude, exc.period)
             cmd.omega = dither_wheel_rates(cmd.omega, dither, radii, cfg.model_half_track,
@@ -392,7 +395,7 @@ class ClosedLoop:
     def fail(self, exc: Exception) -> None:
         """End the run at the first unfinished row: the error, where it was raised, an event."""
         self.error = f"{type(exc).__name__}: {exc}"
-        self.error_where = _where(exc)
+        self.error_where = getattr(exc, "where", None) or _where(exc)
         self.events.append(Event(self.rows * self.dt, "error", f"run failed: {self.error} ({self.error_where})"))
 
     def columns(self) -> dict[str, np.ndarray]:

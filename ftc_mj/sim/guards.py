@@ -13,6 +13,13 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import RunFailed
+
+
+class BuildFailed(RunFailed):
+    """A component of the run could not be built (its constructor raised); ``str()`` is one line with the
+    exception and where it was raised."""
+
 
 class NonFiniteOutput(RuntimeError):
     """A component returned a value that is not finite; ``where`` names the component and its method."""

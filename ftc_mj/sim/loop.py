@@ -38,6 +38,7 @@ from ..config import RunConfig
 from ..control.base import ControlOutput
 from ..control.excitation import dither_wheel_rates, yaw_dither
 from ..control.factory import build_reference
+from ..errors import BadInput
 from ..estimation.base import FilterOutput, Measurement
 from ..estimation.decision import DecisionState, FaultDecision
 from ..estimation.decision_factory import build_fault_decision
@@ -54,7 +55,7 @@ from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
 from .cache import controller_for, plant_for
-from .guards import check_command, check_estimate
+from .guards import BuildFailed, check_command, check_estimate
 from .trace import TraceWriter
 
 
@@ -441,11 +442,21 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
     (plant flags, filter rejections and resets, solver fallbacks). Any other exception of a
     component (a ``TypeError``, a shape bug) ends the run early with ``error``/``error_where`` set
     (the run's status is ``failed``), or, with ``strict`` (default: :func:`strict_default`), is
-    re-raised.
+    re-raised. A component whose constructor raises is :class:`~ftc_mj.sim.guards.BuildFailed` (one line
+    saying what and where; the run has not started).
     """
     strict = strict_default() if strict is None else strict
     wall0 = time.perf_counter()
-    loop = ClosedLoop(cfg)
+    try:
+        loop = ClosedLoop(cfg)
+    except BadInput:
+        raise
+    except Exception as exc:  # a component's constructor (a plug-in's): one line, not its traceback
+        if strict:
+            raise
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        raise BuildFailed(f"the run's components could not be built: {type(exc).__name__}: {first[:200]} "
+                          f"({_where(exc)})") from None
     report_every = max(1, loop.n // 200)
     try:
         for k in range(loop.n):

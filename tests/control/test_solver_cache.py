@@ -196,3 +196,40 @@ def test_an_entry_over_the_size_bound_is_not_read(cache: Path, capsys: pytest.Ca
     capsys.readouterr()
     ipopt_solver("t", rosenbrock(), OPTS)
     assert solver_cache.stats == {"built": 2, "loaded": 0} and "larger than" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("poison", ["empty function", "named pipe"])
+def test_a_poisoned_cache_does_not_spoil_or_hang_a_run(tmp_path: Path, poison: str) -> None:
+    """``ftc-mj run`` end to end in a fresh process: the cache is filled by a first run, every entry is
+    then replaced (by ``zlib.compress(b"")``: an empty CasADi function; by a named pipe nothing writes
+    to); the second run rebuilds, says so in one line per entry, solves as the first did and does not
+    hang."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1", CACHE_ENV: str(tmp_path / "cache")}
+    env.pop(SWITCH_ENV, None)
+    args = [sys.executable, "-m", "ftc_mj.cli", "run", "scenario2", "--duration", "2", "--set",
+            "controller.solver='ipopt'", "--set", "plant.kind='kinematic'", "--no-rrd", "-q"]
+
+    def run(out: str) -> tuple[dict, str]:
+        proc = subprocess.run([*args, "--out", str(tmp_path / out)], env=env, capture_output=True, text=True,
+                              timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        return json.loads((Path(proc.stdout.strip()) / "metrics.json").read_text()), proc.stderr
+
+    good, _ = run("first")
+    entries = sorted((tmp_path / "cache" / "solvers").glob("*.casadi.z"))
+    assert entries and good["status"] == "ok" and good["solver_failures"] == 0
+    for path in entries:
+        path.unlink()
+        if poison == "named pipe":
+            os.mkfifo(path)
+        else:
+            path.write_bytes(zlib.compress(b""))
+    again, err = run("second")
+    assert err.count("ftc-mj: warning: solver cache entry") == len(entries), err
+    assert again["solver_failures"] == 0 and again["cross_track_rms"] == good["cross_track_rms"]
+    assert all(p.is_file() for p in entries)  # replaced by good entries

@@ -133,3 +133,16 @@ def test_a_study_row_of_a_non_finite_plugin_is_failed(poison: str, tmp_path: Pat
     df = ftc_mj.run_study(study, tmp_path / "out", serial=True).results.sort("run_index")
     assert df["status"].to_list() == ["ok", "failed"]
     assert df["error"][1].startswith("NonFiniteOutput: controller 'poison-nan' returned")
+
+
+def test_a_bench_run_of_a_non_finite_plugin_is_not_ok(poison: str) -> None:
+    """The bench's worker function (:func:`ftc_mj.benchmark.run.bench_run`) on a draw-like run: the row's
+    status is failed, with the error, and it is scored as a failure."""
+    from ftc_mj.benchmark.run import bench_run
+    from ftc_mj.config import load_config
+
+    cfg = load_config("scenario2", {"plugins": [poison], "controller.kind": "poison-inf", "plant.kind": "kinematic",
+                                    "duration": 1.5})
+    m = bench_run(cfg, None, False).metrics
+    assert m["status"] == "failed" and m["error"].startswith("NonFiniteOutput: controller 'poison-inf'")
+    assert m["success"] is False

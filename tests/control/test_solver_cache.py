@@ -189,6 +189,25 @@ def test_a_folder_in_the_entrys_place_leaves_no_temporary(cache: Path, capsys: p
     assert capsys.readouterr().err.count("cannot be used (not a regular file)") == 2
 
 
+def test_a_full_disk_leaves_no_temporary(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """On a real full file system the entry cannot be written: the solver is built and used, and no
+    temporary (a few MB each) is left behind in the cache folder."""
+    from tests.support.small_disk import fill, small_tmpfs
+
+    with small_tmpfs(tmp_path / "small", "1m") as mnt:
+        if mnt is None:
+            pytest.skip("no tmpfs can be mounted here")
+        monkeypatch.setenv(CACHE_ENV, str(mnt))
+        monkeypatch.delenv(SWITCH_ENV, raising=False)
+        monkeypatch.setattr(solver_cache, "stats", {"built": 0, "loaded": 0})
+        (mnt / "solvers").mkdir()
+        fill(mnt)
+        for _ in range(2):
+            assert solve(ipopt_solver("t", rosenbrock(), OPTS))[2] > 3
+        assert solver_cache.stats == {"built": 2, "loaded": 0}
+        assert list((mnt / "solvers").iterdir()) == []
+
+
 def test_an_entry_over_the_size_bound_is_not_read(cache: Path, capsys: pytest.CaptureFixture[str],
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     ipopt_solver("t", rosenbrock(), OPTS)

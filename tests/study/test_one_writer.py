@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 from ftc_mj.cli import app
 from ftc_mj.errors import BadInput
 from ftc_mj.io import writer_lock
+from tests.support.small_disk import fill, small_tmpfs
 
 ROOT = Path(__file__).resolve().parents[2]
 STUDY = textwrap.dedent("""
@@ -115,31 +116,8 @@ def test_two_studies_on_one_folder_one_computes_the_other_refuses(tmp_path: Path
 @pytest.fixture
 def small_disk(tmp_path: Path) -> Iterator[Path | None]:
     """A real 4 MB tmpfs (root may mount one), else ``None``."""
-    mnt = tmp_path / "small"
-    mnt.mkdir()
-    ok = os.geteuid() == 0 and subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4m", "tmpfs", str(mnt)],
-                                              capture_output=True).returncode == 0
-    try:
-        yield mnt if ok else None
-    finally:
-        if ok:
-            subprocess.run(["umount", "-l", str(mnt)], check=False)
-
-
-def fill(folder: Path) -> None:
-    """Write zeros into ``folder/filler`` until the file system is full."""
-    with open(folder / "filler", "wb", buffering=0) as fh:
-        try:
-            while True:
-                fh.write(b"\0" * 65536)
-        except OSError:
-            pass
-    with open(folder / "filler", "ab", buffering=0) as fh:
-        try:
-            while True:
-                fh.write(b"\0")
-        except OSError:
-            pass
+    with small_tmpfs(tmp_path / "small") as mnt:
+        yield mnt
 
 
 def test_results_on_a_full_disk_end_with_one_line_and_exit_1(small_disk: Path | None, tmp_path: Path,

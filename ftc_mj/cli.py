@@ -321,7 +321,8 @@ def study(
     """Sweep a study on dask.distributed: every finished run is persisted at once under
     OUT/rows/; re-running the same command computes only the missing runs; OUT/results.parquet,
     OUT/summary.md and OUT/figures/ are written at the end. With --report, the published tables of
-    docs/ from a finished output folder instead."""
+    docs/ from a finished output folder instead. One process writes an output folder at a time: a second
+    study or bench on it exits 2 at once."""
     from .api import plan_study, run_study
     from .study.cluster import validate_address, validate_dashboard
     from .study.plan import study_path
@@ -352,6 +353,8 @@ def study(
     except (BadInput, StudyInterruptedError, KeyboardInterrupt) as err:
         _end_study(err)
         return
+    except Exception as err:  # noqa: BLE001 - re-raised unless the results could not be written
+        _output_failed(err)
     done = outcome.already_done + len(outcome.computed)
     n_bad = len(outcome.failed) - len(outcome.unstable)
     typer.echo(f"{plan.spec.name}: computed {len(outcome.computed)} runs ({n_bad} failed, {len(outcome.unstable)} "
@@ -367,6 +370,18 @@ def _end_study(err: BaseException) -> None:
     if isinstance(err, BadInput):
         _fail(str(err))
     _interrupted(str(err) if not isinstance(err, KeyboardInterrupt) else "interrupted")
+
+
+def _output_failed(err: Exception) -> None:
+    """End ``ftc-mj study`` / ``bench`` whose results could not be written (a full disk: ``OSError``, or
+    polars' and pyarrow's own errors saying so; :class:`RunFailed`) with one line and exit 1 (every run
+    persisted before is kept); re-raise anything else."""
+    from .io import output_failure
+
+    why = str(err) if isinstance(err, RunFailed) else output_failure(err)
+    if why is None:
+        raise err
+    _fail(why, EXIT_FAILED)
 
 
 def outcome_counts(counts: dict[str, int]) -> str:
@@ -690,7 +705,8 @@ def bench(
 ) -> None:
     """Score methods on draws of the benchmark (faults, conditions, paths, noise from a versioned definition) on
     Dask: OUT/draws.parquet, OUT/scores.parquet, the report (leaderboard.md on the test split), figures and
-    Rerun comparisons. Every run is persisted as it finishes; re-running the command computes only the rest."""
+    Rerun comparisons. Every run is persisted as it finishes; re-running the command computes only the rest.
+    One process writes an output folder at a time: a second bench or study on it exits 2 at once."""
     from .benchmark.methods import load_methods
     from .benchmark.run import plan_bench, run_bench
     from .study.cluster import validate_address
@@ -723,6 +739,8 @@ def bench(
     except (BadInput, StudyInterruptedError, KeyboardInterrupt) as err:
         _end_study(err)
         return
+    except Exception as err:  # noqa: BLE001 - re-raised unless the results could not be written
+        _output_failed(err)
     done = report.already_done + len(report.computed)
     typer.echo(f"bench: computed {len(report.computed)} runs ({len(report.failed)} not ok) in "
                f"{report.wall_time_s:.1f} s; {done} of {report.planned} done; report {path}")

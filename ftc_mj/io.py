@@ -205,3 +205,66 @@ def remove_stale_temporaries(folder: Path) -> list[Path]:
             continue
         removed.append(Path(e.path))
     return removed
+
+
+_held_locks: dict[str, int] = {}
+"""The folders this process holds the writer's lock of (real path → open descriptor)."""
+
+
+@contextmanager
+def writer_lock(folder: Path, option: str = "--out") -> Iterator[Path]:
+    """Hold the one-writer lock of the output folder ``folder`` (created if missing) while the block runs.
+
+    An advisory ``flock`` on the folder itself (no lock file to leave behind; released by the kernel
+    when the process ends, also on SIGKILL). A second process asking for it gets :class:`BadInput`
+    naming ``option`` at once instead of computing the same runs again; within one process the lock
+    is re-entrant (``ftc-mj bench`` holds it around the study runner, which takes it too)."""
+    import fcntl
+
+    from .errors import BadInput
+
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        key = os.path.realpath(folder)
+        if key in _held_locks:
+            yield folder
+            return
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError as err:
+        raise BadInput(f"{option}: cannot use {str(folder)[:80]}: {err.strerror}") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        raise BadInput(f"{option}: {folder} is being written by another ftc-mj process (study or bench); wait "
+                       "for it to finish or use another folder") from None
+    _held_locks[key] = fd
+    try:
+        yield folder
+    finally:
+        del _held_locks[key]
+        os.close(fd)
+
+
+def output_failure(err: BaseException, folder: Path | None = None) -> str | None:
+    """One line saying why results could not be written, if ``err`` is such a failure: an ``OSError`` (a
+    full disk, a folder removed, no permission), or polars' or pyarrow's own error from a writer. Without
+    ``folder`` (the error's origin unknown) such an error counts only when it names an OS error; with it
+    (the error of writing into ``folder``) it always does, and a full file system there is said.
+    ``None`` for anything else."""
+    if isinstance(err, OSError):
+        where = f": {err.filename}" if err.filename else ""
+        return f"cannot write the results: {err.strerror or err}{where}"
+    if not (type(err).__module__ or "").startswith(("polars", "pyarrow")):
+        return None
+    text = " ".join(str(err).split())[:200]
+    if folder is None and not any(s in text for s in ("os error", "No space left", "I/O error")):
+        return None
+    full = ""
+    if folder is not None and "No space left" not in text:
+        try:
+            full = "; no space left on device" if shutil.disk_usage(folder).free == 0 else ""
+        except OSError:
+            full = ""
+    return f"cannot write the results: {type(err).__name__}: {text}{full}"

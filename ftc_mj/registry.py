@@ -236,7 +236,7 @@ def current_directory_on_path() -> None:
 def load_plugins(modules: Iterable[str]) -> None:
     """Import each plug-in module once (importing registers its components), the current directory
     searched too (:func:`current_directory_on_path`). :class:`BadInput` naming ``plugins`` if a name is
-    malformed or the module cannot be imported."""
+    malformed or the module cannot be imported (also when importing it calls ``sys.exit``)."""
     for name in modules:
         if not isinstance(name, str) or not MODULE_RE.match(name):
             raise BadInput(f"plugins: {name!r} is not a module name (e.g. \"my_pkg.filters\")")
@@ -245,6 +245,9 @@ def load_plugins(modules: Iterable[str]) -> None:
         current_directory_on_path()
         try:
             importlib.import_module(name)
+        except SystemExit as err:  # sys.exit() on import would end ftc-mj silently (exit 0, nothing written)
+            raise BadInput(f"plugins: importing {name!r} called sys.exit({err.code!r}); a plug-in module must "
+                           "only define and register its components") from None
         except Exception as err:  # noqa: BLE001 - whatever the plug-in raised, the user's module is named
             msg = str(err).splitlines()[0] if str(err) else ""
             raise BadInput(f"plugins: cannot import {name!r}: {type(err).__name__}: {msg[:200]}") from None

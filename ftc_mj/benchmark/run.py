@@ -18,12 +18,12 @@ from typing import Any
 
 from ..errors import BadInput
 from ..identity import canonical_hash
-from ..io import atomic_path
+from ..io import atomic_path, writer_lock
 from ..study.plan import PlannedRun, StudyPlan, run_key
 from ..study.spec import AnalysisSpec, StudySpec
 from ..study.store import StudyStore
 from .definition import SPLITS, load_definition
-from .draws import Draw, draw
+from .draws import MAX_INDEX, Draw, draw
 from .methods import Method
 from .score import score_run
 
@@ -67,6 +67,9 @@ def check_request(split: str, n_draws: int, start: int) -> None:
         raise BadInput(f"--draws: must be in [1, {MAX_DRAWS}], got {n_draws}")
     if start < 0:
         raise BadInput(f"--start: must be >= 0, got {start}")
+    if start + n_draws > MAX_INDEX:
+        raise BadInput(f"--start: the draws {start}..{start + n_draws - 1} go beyond the last draw index "
+                       f"{MAX_INDEX - 1}")
 
 
 def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str = "ftc-v1", start: int = 0,
@@ -118,12 +121,20 @@ def run_bench(bp: BenchPlan, out: Path, *, workers: int = 2, address: str | None
               compare: int = 1, echo: Any = None) -> tuple[Any, Path]:
     """Compute the bench's missing runs into ``out`` (the study runner: Dask, rows persisted one by one),
     then write the outputs (:func:`~ftc_mj.benchmark.report.write_outputs`); returns the study report and
-    the report file."""
+    the report file. Nothing is written before the folder is checked and the scheduler at ``address``
+    answered; the folder has one writer (:func:`~ftc_mj.io.writer_lock`: a second bench or study on it
+    gets :class:`BadInput`)."""
+    import contextlib
+
+    from ..study.cluster import open_client
     from ..study.runner import run_study
     from .report import write_outputs
 
-    prepare_output(bp, out)
-    report = run_study(bp.plan, out, workers=workers, address=address, run_fn=bench_run, analyse=False,
-                       progress=progress, echo=echo)
-    assert report.results is not None
-    return report, write_outputs(bp, report.results, out, compare=compare, echo=echo)
+    StudyStore(out).check(bp.plan)
+    remote = open_client(workers, address) if address is not None else contextlib.nullcontext(None)
+    with remote as client, writer_lock(out):
+        prepare_output(bp, out)
+        report = run_study(bp.plan, out, workers=workers, client=client, run_fn=bench_run, analyse=False,
+                           progress=progress, echo=echo)
+        assert report.results is not None
+        return report, write_outputs(bp, report.results, out, compare=compare, echo=echo)

@@ -8,10 +8,16 @@ its results are bitwise those of a fresh build (``tests/control/test_solver_cach
 
 Key: SHA-256 of the CasADi version, the solver name, the serialised problem (``x``, ``p`` → ``f``,
 ``g``: every symbol, operation and constant) and the options. A changed problem, option or CasADi
-version is a new key; a file that cannot be read or loaded is rebuilt and replaced. Files are
-written atomically (a temporary name, then ``os.replace``), so concurrent processes never read half a
-file. Each entry is the zlib-compressed serialisation (a few MB); loading an entry sets its
-modification time, so the oldest files are the least recently used (:func:`prune`).
+version is a new key. An entry is :data:`MAGIC`, one JSON header line recording what it was built from
+(the CasADi version, the key, the function's name, its inputs' and outputs' shapes, the payload's size
+and SHA-256), then the zlib-compressed serialisation (a few MB). An entry is used only when all of that
+matches the problem asked for and the loaded function has the name and the shapes that problem's
+``nlpsol`` has; anything else (an old-format or damaged file, another problem's solver under the key,
+an empty function, a folder, a named pipe, a device, a link out of the folder, a file over
+:data:`MAX_ENTRY_BYTES`) is rebuilt and replaced, with one warning line on stderr. Files are written
+atomically (a temporary name, then ``os.replace``; the temporary is removed when that fails), so
+concurrent processes never read half a file. Loading an entry sets its modification time, so the
+oldest files are the least recently used (:func:`prune`).
 
 Where: ``$FTC_MJ_CACHE_DIR/solvers`` if set, else ``$XDG_CACHE_HOME/ftc-mj/solvers`` (default
 ``~/.cache/ftc-mj/solvers``). ``FTC_MJ_SOLVER_CACHE=off`` builds every solver afresh. Deleting the
@@ -21,7 +27,10 @@ folder is always safe.
 from __future__ import annotations
 
 import hashlib
+import json
 import os
+import stat
+import sys
 import tempfile
 import time
 import zlib
@@ -33,9 +42,17 @@ CACHE_ENV = "FTC_MJ_CACHE_DIR"
 """Environment variable naming the cache root (the solvers go to its ``solvers/`` folder)."""
 SWITCH_ENV = "FTC_MJ_SOLVER_CACHE"
 """Environment variable: ``off``/``0``/``no`` disables the solver cache."""
+MAGIC = b"ftc-mj solver cache 2\n"
+"""First line of an entry (format 2: then one JSON header line, then the compressed serialisation)."""
+MAX_ENTRY_BYTES = 256 * 2**20
+"""Largest entry read (bytes); the largest solver of the package compresses to a few MB."""
 
 stats = {"built": 0, "loaded": 0}
 """This process's counts of solvers built afresh and loaded from the cache."""
+
+
+class EntryRejected(Exception):
+    """A cache entry that must not be used; ``str()`` says why in a few words."""
 
 
 def cache_dir() -> Path | None:
@@ -59,13 +76,94 @@ def problem_key(name: str, nlp: dict, opts: dict) -> str:
     return h.hexdigest()[:32]
 
 
-def _load(path: Path) -> ca.Function | None:
+def expected_signature(nlp: dict) -> dict[str, list]:
+    """The ``[name, rows, columns, nonzeros]`` of every input and output an IPOPT ``nlpsol`` of ``nlp`` has
+    (dense vectors: the decision variables ``x``, the parameters ``p``, the constraints ``g``)."""
+    x, p = tuple(nlp["x"].shape), tuple(nlp["p"].shape)
+    g = (int(nlp["g"].numel()), 1)
+    shape = {"x0": x, "p": p, "lbx": x, "ubx": x, "lbg": g, "ubg": g, "lam_x0": x, "lam_g0": g,
+             "x": x, "f": (1, 1), "g": g, "lam_x": x, "lam_g": g, "lam_p": p}
+    return {"in": [[n, *shape[n], shape[n][0] * shape[n][1]] for n in ca.nlpsol_in()],
+            "out": [[n, *shape[n], shape[n][0] * shape[n][1]] for n in ca.nlpsol_out()]}
+
+
+def signature(f: ca.Function) -> dict[str, list]:
+    """The ``[name, rows, columns, nonzeros]`` of every input and output of ``f``."""
+    return {"in": [[f.name_in(i), f.size1_in(i), f.size2_in(i), f.nnz_in(i)] for i in range(f.n_in())],
+            "out": [[f.name_out(i), f.size1_out(i), f.size2_out(i), f.nnz_out(i)] for i in range(f.n_out())]}
+
+
+def header(key: str, name: str, nlp: dict, payload: bytes) -> dict:
+    """What an entry records about itself: format, CasADi version, key, function name, the shapes of
+    its inputs and outputs, the payload's size (bytes) and SHA-256."""
+    return {"casadi": ca.__version__, "key": key, "name": name, "signature": expected_signature(nlp),
+            "payload_bytes": len(payload), "sha256": hashlib.sha256(payload).hexdigest()}
+
+
+def _read_regular(path: Path) -> bytes | None:
+    """The bytes of the entry ``path`` if it is a regular file in its folder (a link is followed only to
+    a regular file inside the same folder) of at most :data:`MAX_ENTRY_BYTES`; ``None`` if there is
+    none. Opened non-blocking and checked again after opening, so a named pipe or a device never
+    blocks the process."""
     try:
-        solver = ca.Function.deserialize(zlib.decompress(path.read_bytes()).decode())
+        st = os.lstat(path)
     except FileNotFoundError:
         return None
-    except (OSError, zlib.error, UnicodeDecodeError, RuntimeError):
-        return None  # unreadable or from an incompatible build: rebuilt and replaced
+    if stat.S_ISLNK(st.st_mode):
+        target = path.resolve()
+        if target.parent != path.parent.resolve():
+            raise EntryRejected("a link out of the cache folder")
+        st = os.lstat(target)
+        path = target
+    if not stat.S_ISREG(st.st_mode):
+        raise EntryRejected("not a regular file")
+    if st.st_size > MAX_ENTRY_BYTES:
+        raise EntryRejected(f"larger than {MAX_ENTRY_BYTES} bytes")
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0))
+    with os.fdopen(fd, "rb") as fh:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise EntryRejected("not a regular file")
+        return fh.read(MAX_ENTRY_BYTES + 1)
+
+
+def _verified(data: bytes, key: str, name: str, nlp: dict) -> ca.Function:
+    """The solver in the entry ``data`` once its header, payload and function match the problem (``key``,
+    ``name``, ``nlp``); :class:`EntryRejected` saying what does not."""
+    if not data.startswith(MAGIC):
+        raise EntryRejected("not an entry of this format")
+    line, sep, payload = data[len(MAGIC):].partition(b"\n")
+    try:
+        head = json.loads(line) if sep else None
+    except (UnicodeDecodeError, json.JSONDecodeError):
+        head = None
+    if not isinstance(head, dict):
+        raise EntryRejected("unreadable header")
+    want = header(key, name, nlp, payload)
+    for field in ("casadi", "key", "name", "signature", "payload_bytes", "sha256"):
+        if head.get(field) != want[field]:
+            raise EntryRejected(f"{field} does not match")
+    try:
+        solver = ca.Function.deserialize(zlib.decompress(payload).decode())
+    except (zlib.error, UnicodeDecodeError, RuntimeError) as err:
+        raise EntryRejected(f"cannot be loaded ({type(err).__name__})") from None
+    if solver.is_null() or solver.name() != name or signature(solver) != want["signature"]:
+        raise EntryRejected("the function is not this problem's solver")
+    return solver
+
+
+def _load(path: Path, key: str, name: str, nlp: dict) -> ca.Function | None:
+    """The verified solver of ``path``; ``None`` when there is no entry or (one warning line) when it
+    cannot be used."""
+    try:
+        data = _read_regular(path)
+        if data is None:
+            return None
+        solver = _verified(data, key, name, nlp)
+    except (EntryRejected, OSError) as err:
+        why = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
+        print(f"ftc-mj: warning: solver cache entry {path} cannot be used ({why}); rebuilding it",
+              file=sys.stderr)
+        return None
     try:
         os.utime(path)  # the modification time is the last use: old entries can be pruned by age
     except OSError:
@@ -73,15 +171,27 @@ def _load(path: Path) -> ca.Function | None:
     return solver
 
 
-def _store(path: Path, solver: ca.Function) -> None:
+def _store(path: Path, solver: ca.Function, key: str, name: str, nlp: dict) -> None:
+    """Write the entry of ``solver`` atomically; a failure (a read-only or full disk, a folder in the
+    entry's place) leaves no temporary file and costs the next process a build, nothing else."""
+    payload = zlib.compress(solver.serialize().encode(), 1)
+    head = json.dumps(header(key, name, nlp, payload), sort_keys=True).encode() + b"\n"
+    tmp: str | None = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
         with os.fdopen(fd, "wb") as f:
-            f.write(zlib.compress(solver.serialize().encode(), 1))
+            f.write(MAGIC + head + payload)
         os.replace(tmp, path)
+        tmp = None
     except OSError:
-        pass  # a read-only or full disk costs the next process a build, nothing else
+        pass
+    finally:
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
 
 
 def ipopt_solver(name: str, nlp: dict, opts: dict) -> ca.Function:
@@ -92,14 +202,15 @@ def ipopt_solver(name: str, nlp: dict, opts: dict) -> ca.Function:
     if folder is None:
         stats["built"] += 1
         return ca.nlpsol(name, "ipopt", nlp, opts)
-    path = folder / f"{name}-{problem_key(name, nlp, opts)}.casadi.z"
-    solver = _load(path)
+    key = problem_key(name, nlp, opts)
+    path = folder / f"{name}-{key}.casadi.z"
+    solver = _load(path, key, name, nlp)
     if solver is not None:
         stats["loaded"] += 1
         return solver
     solver = ca.nlpsol(name, "ipopt", nlp, opts)
     stats["built"] += 1
-    _store(path, solver)
+    _store(path, solver, key, name, nlp)
     return solver
 
 

@@ -101,7 +101,9 @@ class DiffDriveEnv(gym.Env):
               ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start the episode ``options`` names (:mod:`ftc_mj.envs.episode`); the first observation is the
         controller sample at t = 0. :class:`~ftc_mj.errors.BadInput` naming a bad option or setting; an
-        exception of a component during the episode propagates (as in strict mode, ``FTC_MJ_STRICT=1``)."""
+        exception of a component during the episode propagates (as in strict mode, ``FTC_MJ_STRICT=1``).
+        A reset that raises leaves no episode: :meth:`step` refuses until a reset succeeds."""
+        self._done, self.loop, self._sample = True, None, None
         super().reset(seed=seed)
         cfg, self.draw = episode_config(self.scenario, self.overrides, options, seed)
         if float(cfg.robot.omega_max) != self.omega_max:
@@ -118,7 +120,8 @@ class DiffDriveEnv(gym.Env):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Hold ``action`` (rad/s, clipped to ``±omega_max``) for one controller period."""
         if self._done or self.loop is None or self._sample is None:
-            raise RuntimeError("step() before reset() or after the episode ended: call reset()")
+            raise RuntimeError("step() without an episode (before a successful reset(), after a reset() that "
+                               "raised, or after the episode ended): call reset()")
         loop, k = self.loop, self._k
         loop.apply(k, self._sample.t, ControlOutput(omega=self._command(action)))
         loop.finish(k)
@@ -139,11 +142,17 @@ class DiffDriveEnv(gym.Env):
         return self._observation(self._sample), reward, terminated, truncated, self._info(self._sample)
 
     def _command(self, action: Any) -> np.ndarray:
-        """The action as a float64 command (rad/s) within the robot's limits; a non-finite one is an error."""
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != (2,) or not np.all(np.isfinite(a)):
-            raise ValueError(f"action: expected 2 finite wheel rates [omega_R, omega_L] (rad/s), got {action!r}")
-        return np.clip(a, -self.omega_max, self.omega_max)
+        """The action as a float64 command (rad/s) within the robot's limits. Anything but two finite real
+        numbers of shape ``(2,)`` (``(2, 1)``, strings, complex numbers, NaN, ±inf) is a ``ValueError``."""
+        try:
+            a = np.asarray(action)
+        except (TypeError, ValueError):  # ragged sequences
+            a = np.asarray(None)
+        if a.shape != (2,) or a.dtype.kind not in "fiu" or not np.all(np.isfinite(a)):
+            shown = " ".join(repr(action).split())[:80]
+            raise ValueError(f"action: expected 2 finite real wheel rates [omega_R, omega_L] (rad/s) of shape (2,), "
+                             f"got {shown}")
+        return np.clip(a.astype(np.float64), -self.omega_max, self.omega_max)
 
     def _final_sample(self) -> Sample:
         """The sensors read once more at the run's end (no trace row: the run has ``n`` rows)."""

@@ -38,6 +38,7 @@ from ..config import RunConfig
 from ..control.base import ControlOutput
 from ..control.excitation import dither_wheel_rates, yaw_dither
 from ..control.factory import build_reference
+from ..errors import BadInput
 from ..estimation.base import FilterOutput, Measurement
 from ..estimation.decision import DecisionState, FaultDecision
 from ..estimation.pcrb import pcrb_columns
@@ -54,6 +55,7 @@ from ..wiring.decision import build_fault_decision
 from ..wiring.estimation import build_estimator
 from ..wiring.reconfiguration import build_degraded_mode, build_policy, build_scenario_weighting
 from .cache import controller_for, plant_for
+from .guards import BuildFailed, check_command, check_estimate
 from .record import build_record
 from .trace import TraceWriter
 
@@ -320,6 +322,7 @@ class ClosedLoop:
         u_pred = self.u_prev if self.u_prev is not None else u_meas
         self.z = z
         self.out = self.parts.estimator.step(u_pred, z)
+        check_estimate(self.out, self.rows * self.dt, self.cfg.estimator.kind, self.parts.estimator)
         return self.out, u_pred
 
     def decide(self, t: float, out: FilterOutput, u_pred: np.ndarray) -> DecisionState:
@@ -374,6 +377,7 @@ class ClosedLoop:
         cfg = self.cfg
         exc = cfg.reconfiguration.excitation
         cmd = self.parts.controller.solve(t, rd.pose, radii, self.applied)
+        check_command(cmd.omega, t, cfg.controller.kind, self.parts.controller)
         if exc.enabled and self.suspected:
             dither = yaw_dither(t, exc.amplitude, exc.period)
             cmd.omega = dither_wheel_rates(cmd.omega, dither, radii, cfg.model_half_track,
@@ -402,7 +406,7 @@ class ClosedLoop:
     def fail(self, exc: Exception) -> None:
         """End the run at the first unfinished row: the error, where it was raised, an event."""
         self.error = f"{type(exc).__name__}: {exc}"
-        self.error_where = _where(exc)
+        self.error_where = getattr(exc, "where", None) or _where(exc)
         self.events.append(Event(self.rows * self.dt, "error", f"run failed: {self.error} ({self.error_where})"))
 
     def columns(self) -> dict[str, np.ndarray]:
@@ -453,11 +457,21 @@ def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,
     (plant flags, filter rejections and resets, solver fallbacks). Any other exception of a
     component (a ``TypeError``, a shape bug) ends the run early with ``error``/``error_where`` set
     (the run's status is ``failed``), or, with ``strict`` (default: :func:`strict_default`), is
-    re-raised.
+    re-raised. A component whose constructor raises is :class:`~ftc_mj.sim.guards.BuildFailed` (one line
+    saying what and where; the run has not started).
     """
     strict = strict_default() if strict is None else strict
     wall0 = time.perf_counter()
-    loop = ClosedLoop(cfg)
+    try:
+        loop = ClosedLoop(cfg)
+    except BadInput:
+        raise
+    except Exception as exc:  # a component's constructor (a plug-in's): one line, not its traceback
+        if strict:
+            raise
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        raise BuildFailed(f"the run's components could not be built: {type(exc).__name__}: {first[:200]} "
+                          f"({_where(exc)})") from None
     report_every = max(1, loop.n // 200)
     try:
         for k in range(loop.n):

@@ -23,6 +23,7 @@ import polars as pl
 
 from ..errors import BadInput
 from ..identity import source_revision
+from ..io import writer_lock
 from .cluster import open_client, validate_address
 from .plan import PlannedRun, StudyPlan
 from .rows import failed_result, make_row
@@ -142,7 +143,6 @@ def run_study(
     report = StudyReport(Path(out), invocation, len(plan.runs), already)
     t0 = time.perf_counter()
     persist = _persister(store, report, on_row)
-    store.reconcile_log()  # rows a killed invocation persisted but did not get to log
     kw = {"rrd": "all" if rrd == "compare" else rrd, "runs_dir": str(store.runs_dir) if rrd != "none" else None,
           "ts_rate": plan.spec.analysis.timeseries_rate, "ts_columns": list(plan.spec.analysis.timeseries_columns),
           "run_fn": run_fn,
@@ -152,25 +152,42 @@ def run_study(
     announce = bool(todo) and progress  # with the progress bar: why it stays at 0 for a while
     if announce and (serial or local):  # before the workers start (a remote scheduler: once it answered)
         say(starting_line(len(todo), already, workers if local else None))
-    with _progress(progress, len(todo), plan.spec.name) as advance:
-        if not todo:
-            store.init(plan)
-            store.log("start", invocation=invocation, todo=0, done_before=already)
-        elif serial:
-            _run_serial(todo, kw, persist, advance, store, report, plan)
-        else:
-            ctx = (contextlib.nullcontext(client) if client is not None
-                   else open_client(workers, address, dashboard))
-            with ctx as cl:
-                if announce and not local:
-                    say(starting_line(len(todo), already, "the cluster's"))
+    selected = store.done_keys()
+    with contextlib.ExitStack() as held:  # the writer's lock, from the first write to the last
+
+        def hold() -> None:
+            held.enter_context(writer_lock(store.root))
+            store.reconcile_log()  # rows a killed invocation persisted but did not get to log
+
+        with _progress(progress, len(todo), plan.spec.name) as advance:
+            if not todo:
+                hold()
                 store.init(plan)
-                store.log("start", invocation=invocation, todo=len(todo), done_before=already,
-                          backend=str(cl.scheduler.address) if hasattr(cl, "scheduler") else "dask")
-                _run_dask(cl, todo, kw, persist, advance, store, report, plan)
-    report.wall_time_s = time.perf_counter() - t0
-    _finish(plan, store, report, rrd, analyse, say)
+                store.log("start", invocation=invocation, todo=0, done_before=already)
+            elif serial:
+                hold()
+                _run_serial(_still_missing(todo, store, selected), kw, persist, advance, store, report, plan)
+            else:
+                ctx = (contextlib.nullcontext(client) if client is not None
+                       else open_client(workers, address, dashboard))
+                with ctx as cl:
+                    hold()  # once the address answered: nothing is written before
+                    if announce and not local:
+                        say(starting_line(len(todo), already, "the cluster's"))
+                    store.init(plan)
+                    store.log("start", invocation=invocation, todo=len(todo), done_before=already,
+                              backend=str(cl.scheduler.address) if hasattr(cl, "scheduler") else "dask")
+                    _run_dask(cl, _still_missing(todo, store, selected), kw, persist, advance, store, report, plan)
+        report.wall_time_s = time.perf_counter() - t0
+        _finish(plan, store, report, rrd, analyse, say)
     return report
+
+
+def _still_missing(todo: list[PlannedRun], store: StudyStore, selected: set[str]) -> list[PlannedRun]:
+    """The runs of ``todo`` no other process has persisted since they were selected (``selected``: the keys
+    with a row then), once this process holds the folder's writer lock."""
+    new = store.done_keys() - selected
+    return [r for r in todo if r.key not in new]
 
 
 def starting_line(todo: int, already: int, workers: int | str | None) -> str:

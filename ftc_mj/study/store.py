@@ -28,8 +28,8 @@ import polars as pl
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from ..errors import BadInput
-from ..io import atomic_path, remove_stale_temporaries, write_json
+from ..errors import BadInput, OutputError
+from ..io import atomic_path, output_failure, remove_stale_temporaries, write_json
 from ..metrics.schema import upgrade_names
 from ..sim.output import check_output_root
 from .plan import StudyPlan, identity_diff
@@ -50,9 +50,14 @@ class StudyStore:
         file, in a folder without write permission, beyond the path limits: the checks of ``ftc-mj run``,
         :func:`~ftc_mj.sim.output.check_output_root`) or that holds another study's results. Writes
         nothing that stays."""
-        if self.root.exists() and not self.root.is_dir():
-            raise BadInput(f"--out: {self.root} exists and is not a directory")
-        check_output_root(self.root, max((f"{r.key}.parquet" for r in plan.runs), key=len, default="rows"))
+        longest = max((f"{r.key}.parquet" for r in plan.runs), key=len, default="rows")
+        try:
+            if self.root.exists() and not self.root.is_dir():
+                raise BadInput(f"--out: {self.root} exists and is not a directory")
+        except OSError as err:  # a name too long for the file system, a folder that may not be searched
+            check_output_root(self.root, longest)  # names the limit when it is one
+            raise BadInput(f"--out: cannot use {str(self.root)[:80]}: {err.strerror}") from None
+        check_output_root(self.root, longest)
         pj = self.root / "plan.json"
         if pj.is_file():
             try:
@@ -137,8 +142,15 @@ class StudyStore:
         df = self.read_rows([r.key for r in plan.runs])
         if df.height:
             df = df.sort("run_index")
-        with atomic_path(self.root / "results.parquet") as tmp:
-            df.write_parquet(tmp)
+        try:
+            with atomic_path(self.root / "results.parquet") as tmp:
+                df.write_parquet(tmp)
+        except Exception as err:  # noqa: BLE001 - polars reports a full disk as its own ComputeError
+            why = output_failure(err, self.root)
+            if why is None:
+                raise
+            raise OutputError(f"{self.root / 'results.parquet'}: {why}; the rows are kept in {self.rows_dir}, "
+                              "re-run the same command once there is room") from None
         return df
 
     # ------------------------------------------------------------------ log

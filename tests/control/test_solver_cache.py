@@ -3,8 +3,10 @@ the options and nothing else; a broken file is rebuilt; the switch turns it off.
 
 from __future__ import annotations
 
+import json
 import os
 import time
+import zlib
 from pathlib import Path
 
 import casadi as ca
@@ -86,3 +88,167 @@ def test_a_load_marks_the_entry_used_and_prune_deletes_only_unused_ones(cache: P
     assert t_path.stat().st_mtime > old + 3000.0
     assert prune(cache, 1800.0) == 1
     assert t_path.is_file() and not u_path.exists()
+
+
+def entry(cache: Path, name: str = "t") -> Path:
+    (path,) = cache.glob(f"{name}-*.casadi.z")
+    return path
+
+
+def rebuilt_with_one_warning(capsys: pytest.CaptureFixture[str], cache: Path) -> ca.Function:
+    """Ask for the solver of the damaged entry: it is rebuilt (not loaded), one warning line names the
+    entry, and the replacement loads next time."""
+    capsys.readouterr()
+    solver = ipopt_solver("t", rosenbrock(), OPTS)
+    assert solver_cache.stats["loaded"] == 0 and solver_cache.stats["built"] == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("ftc-mj: warning: solver cache entry ") and "rebuilding" in err
+    ipopt_solver("t", rosenbrock(), OPTS)
+    assert solver_cache.stats["loaded"] == 1 and capsys.readouterr().err == ""
+    assert [p.name for p in cache.iterdir()] == [entry(cache).name]  # no temporary left
+    return solver
+
+
+def test_an_empty_function_under_the_key_is_rebuilt(cache: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The old format's poisoned entry: ``zlib.compress(b"")`` loads as an empty CasADi function."""
+    ipopt_solver("t", rosenbrock(), OPTS)
+    entry(cache).write_bytes(zlib.compress(b""))
+    assert solve(rebuilt_with_one_warning(capsys, cache))[2] > 3
+
+
+def test_an_empty_function_with_a_forged_header_is_rebuilt(cache: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A header that matches the key, checksum and shapes cannot make an empty function load: the loaded
+    function itself must have the name and shapes of the problem's ``nlpsol``."""
+    ipopt_solver("t", rosenbrock(), OPTS)
+    payload = zlib.compress(b"")
+    key = problem_key("t", rosenbrock(), OPTS)
+    head = json.dumps(solver_cache.header(key, "t", rosenbrock(), payload)).encode()
+    entry(cache).write_bytes(solver_cache.MAGIC + head + b"\n" + payload)
+    rebuilt_with_one_warning(capsys, cache)
+
+
+@pytest.mark.parametrize("other", ["max_iter=1", "another problem"])
+def test_another_problems_solver_under_the_key_is_rebuilt(cache: Path, capsys: pytest.CaptureFixture[str],
+                                                          other: str) -> None:
+    """A valid entry of another problem (other options; other sizes) copied under this key is refused: its
+    header records its own key (and shapes)."""
+    if other == "max_iter=1":
+        ipopt_solver("t", rosenbrock(), {**OPTS, "ipopt.max_iter": 1})
+    else:
+        x, p = ca.SX.sym("x", 10), ca.SX.sym("p", 2)
+        ipopt_solver("t", {"x": x, "p": p, "f": ca.sumsqr(x - p[0]), "g": x[0] - p[1]}, OPTS)
+    stranger = entry(cache)
+    stranger.rename(cache / f"t-{problem_key('t', rosenbrock(), OPTS)}.casadi.z")
+    solver_cache.stats.update(built=1, loaded=0)
+    assert solve(rebuilt_with_one_warning(capsys, cache))[2] > 3  # max_iter=1 would stop after one iteration
+
+
+@pytest.mark.parametrize("damage", ["bit flip", "truncated", "old format"])
+def test_a_damaged_entry_is_rebuilt(cache: Path, capsys: pytest.CaptureFixture[str], damage: str) -> None:
+    ipopt_solver("t", rosenbrock(), OPTS)
+    path = entry(cache)
+    data = bytearray(path.read_bytes())
+    if damage == "bit flip":
+        data[-100] ^= 0x10  # in the payload: the checksum catches it
+    elif damage == "truncated":
+        data = data[: len(data) // 2]
+    else:  # the format before headers: a valid solver, compressed, without a record of what it is
+        data = bytearray(zlib.compress(ca.nlpsol("t", "ipopt", rosenbrock(), OPTS).serialize().encode()))
+    path.write_bytes(bytes(data))
+    rebuilt_with_one_warning(capsys, cache)
+
+
+def test_a_named_pipe_as_entry_does_not_hang(cache: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Nothing ever writes to the pipe: a blocking open would wait forever."""
+    cache.mkdir(parents=True)
+    os.mkfifo(cache / f"t-{problem_key('t', rosenbrock(), OPTS)}.casadi.z")
+    t0 = time.monotonic()
+    solver_cache.stats.update(built=1)
+    rebuilt_with_one_warning(capsys, cache)
+    assert time.monotonic() - t0 < 60 and entry(cache).is_file()
+
+
+def test_a_link_out_of_the_cache_is_not_followed(cache: Path, tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    ipopt_solver("t", rosenbrock(), OPTS)
+    outside = tmp_path / "elsewhere.casadi.z"
+    entry(cache).rename(outside)  # a good entry, but outside the folder
+    (cache / outside.name.replace("elsewhere", f"t-{problem_key('t', rosenbrock(), OPTS)}")).symlink_to(outside)
+    solver_cache.stats.update(built=1)
+    rebuilt_with_one_warning(capsys, cache)
+    assert outside.is_file() and not entry(cache).is_symlink()  # the link was replaced, its target left alone
+
+
+def test_a_folder_in_the_entrys_place_leaves_no_temporary(cache: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    cache.mkdir(parents=True)
+    (cache / f"t-{problem_key('t', rosenbrock(), OPTS)}.casadi.z").mkdir()
+    for _ in range(2):
+        assert solve(ipopt_solver("t", rosenbrock(), OPTS))[2] > 3
+    assert solver_cache.stats == {"built": 2, "loaded": 0}
+    assert [p.name for p in cache.iterdir()] == [entry(cache).name]  # only the folder: no temporary file
+    assert capsys.readouterr().err.count("cannot be used (not a regular file)") == 2
+
+
+def test_a_full_disk_leaves_no_temporary(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """On a real full file system the entry cannot be written: the solver is built and used, and no
+    temporary (a few MB each) is left behind in the cache folder."""
+    from tests.support.small_disk import fill, small_tmpfs
+
+    with small_tmpfs(tmp_path / "small", "1m") as mnt:
+        if mnt is None:
+            pytest.skip("no tmpfs can be mounted here")
+        monkeypatch.setenv(CACHE_ENV, str(mnt))
+        monkeypatch.delenv(SWITCH_ENV, raising=False)
+        monkeypatch.setattr(solver_cache, "stats", {"built": 0, "loaded": 0})
+        (mnt / "solvers").mkdir()
+        fill(mnt)
+        for _ in range(2):
+            assert solve(ipopt_solver("t", rosenbrock(), OPTS))[2] > 3
+        assert solver_cache.stats == {"built": 2, "loaded": 0}
+        assert list((mnt / "solvers").iterdir()) == []
+
+
+def test_an_entry_over_the_size_bound_is_not_read(cache: Path, capsys: pytest.CaptureFixture[str],
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    ipopt_solver("t", rosenbrock(), OPTS)
+    monkeypatch.setattr(solver_cache, "MAX_ENTRY_BYTES", entry(cache).stat().st_size - 1)
+    capsys.readouterr()
+    ipopt_solver("t", rosenbrock(), OPTS)
+    assert solver_cache.stats == {"built": 2, "loaded": 0} and "larger than" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("poison", ["empty function", "named pipe"])
+def test_a_poisoned_cache_does_not_spoil_or_hang_a_run(tmp_path: Path, poison: str) -> None:
+    """``ftc-mj run`` end to end in a fresh process: the cache is filled by a first run, every entry is
+    then replaced (by ``zlib.compress(b"")``: an empty CasADi function; by a named pipe nothing writes
+    to); the second run rebuilds, says so in one line per entry, solves as the first did and does not
+    hang."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1", CACHE_ENV: str(tmp_path / "cache")}
+    env.pop(SWITCH_ENV, None)
+    args = [sys.executable, "-m", "ftc_mj.cli", "run", "scenario2", "--duration", "2", "--set",
+            "controller.solver='ipopt'", "--set", "plant.kind='kinematic'", "--no-rrd", "-q"]
+
+    def run(out: str) -> tuple[dict, str]:
+        proc = subprocess.run([*args, "--out", str(tmp_path / out)], env=env, capture_output=True, text=True,
+                              timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        return json.loads((Path(proc.stdout.strip()) / "metrics.json").read_text()), proc.stderr
+
+    good, _ = run("first")
+    entries = sorted((tmp_path / "cache" / "solvers").glob("*.casadi.z"))
+    assert entries and good["status"] == "ok" and good["solver_failures"] == 0
+    for path in entries:
+        path.unlink()
+        if poison == "named pipe":
+            os.mkfifo(path)
+        else:
+            path.write_bytes(zlib.compress(b""))
+    again, err = run("second")
+    assert err.count("ftc-mj: warning: solver cache entry") == len(entries), err
+    assert again["solver_failures"] == 0 and again["cross_track_rms"] == good["cross_track_rms"]
+    assert all(p.is_file() for p in entries)  # replaced by good entries

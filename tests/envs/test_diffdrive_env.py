@@ -263,3 +263,36 @@ def test_bad_options_and_actions_name_the_field() -> None:
         env.episode_row("agent")
     with pytest.raises(ValueError, match="^action"):
         env.step([np.nan, 0.0])
+
+
+@pytest.mark.parametrize("options", [{"speed": 3}, {"split": "train", "index": 0}, {"split": "dev", "index": -1},
+                                     {"scenario": "no-such-scenario"}, {"overrides": {"duration": -1.0}}])
+def test_a_failed_reset_leaves_no_episode_to_step(options: dict) -> None:
+    """After a reset that raised, ``step`` does not continue the previous episode (it was at t = 0.3 s):
+    it refuses in one line until a reset succeeds, which starts at t = 0."""
+    env = DiffDriveEnv("scenario2", KINEMATIC)
+    env.reset()
+    for _ in range(3):
+        env.step([5.0, 5.0])
+    with pytest.raises(BadInput):
+        env.reset(options=options)
+    with pytest.raises(RuntimeError, match=r"^step\(\) without an episode .*reset\(\) that raised") as err:
+        env.step([5.0, 5.0])
+    assert "\n" not in str(err.value)
+    with pytest.raises(RuntimeError, match="no episode"):
+        env.episode_result()
+    _, info = env.reset()
+    assert info["t"] == 0.0 and env.step([5.0, 5.0])[4]["t"] == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("action", [np.zeros((2, 1)), np.zeros((1, 2)), ["1", "2"], "12", [1 + 2j, 0.0],
+                                    np.array([1j, 1j]), [1.0], [1.0, 2.0, 3.0], [[1.0], 2.0], None,
+                                    [np.inf, 0.0], [0.0, -np.inf], [np.nan, 0.0]])
+def test_an_action_that_is_not_two_finite_real_numbers_is_refused(action: object) -> None:
+    env = DiffDriveEnv("scenario2", KINEMATIC)
+    env.reset()
+    with pytest.raises(ValueError, match=r"^action: expected 2 finite real wheel rates .* of shape \(2,\), got") as err:
+        env.step(action)
+    assert "\n" not in str(err.value)
+    obs, *_ = env.step(np.array([5, 5]))  # integers are real numbers; the episode goes on from t = 0
+    assert env.loop is not None and env.loop.trace.columns["omega_R_cmd"][0] == 5.0

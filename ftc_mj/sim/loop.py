@@ -177,14 +177,14 @@ def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any]
     reference = build_reference(cfg)
     controller = controller_for(cfg, reference) if with_controller else None
     estimator = build_estimator(cfg)
-    decision = build_fault_decision(cfg) if estimator is not None else None
+    record = build_record(cfg, reference=reference, estimator=estimator)
+    decision = build_fault_decision(cfg, setup=record.setup) if estimator is not None else None
     policy = build_policy(cfg, with_estimator=estimator is not None)
     weighting = build_scenario_weighting(cfg) if with_controller else None
     degraded = build_degraded_mode(cfg) if estimator is not None else None
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
-    record = build_record(cfg, reference=reference, estimator=estimator)
     return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting, degraded, record)
 
 

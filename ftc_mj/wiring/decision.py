@@ -20,6 +20,7 @@ from ..estimation.change import glr_window_steps
 from ..estimation.decision import AutoRule, ChangeRule, DecisionRule, FaultDecision, ModeRule, SigmaRule
 from ..estimation.residual import ChangeDetectors, residual_setup
 from ..estimation.rule_statistics import DecisionSettings, RuleStatistics
+from ..estimation.setup import FilterSetup
 from ..registry import BUILTIN, decision_rules
 from .estimation import setup_from_config
 
@@ -73,11 +74,17 @@ def reference_rates(cfg: RunConfig) -> tuple[float, float]:
     return reference_operating_points(cfg)[0]
 
 
-def nominal_points_of(cfg: RunConfig) -> tuple[NominalPoint, ...]:
-    """The run's residual generator (:func:`~ftc_mj.estimation.residual.residual_setup`) at each steady
-    operating point of its reference (:func:`reference_operating_points`) with nominal radii
-    (:func:`~ftc_mj.estimation.calibration.nominal_point`)."""
-    setup = residual_setup(setup_from_config(cfg))
+def _setup(cfg: RunConfig, setup: FilterSetup | None) -> FilterSetup:
+    """The run's filter setup: ``setup`` when the caller has it (the run record's, resolved once per run),
+    else resolved from the config."""
+    return setup if setup is not None else setup_from_config(cfg)
+
+
+def nominal_points_of(cfg: RunConfig, setup: FilterSetup | None = None) -> tuple[NominalPoint, ...]:
+    """The run's residual generator (:func:`~ftc_mj.estimation.residual.residual_setup`) of its filter setup
+    (``setup``, else resolved from ``cfg``) at each steady operating point of its reference
+    (:func:`reference_operating_points`) with nominal radii (:func:`~ftc_mj.estimation.calibration.nominal_point`)."""
+    setup = residual_setup(_setup(cfg, setup))
     return tuple(nominal_point(setup, *rates) for rates in reference_operating_points(cfg))
 
 
@@ -91,46 +98,48 @@ def glr_window_of(cfg: RunConfig) -> int:
     return glr_window_steps(cfg.estimator.decision.glr_window, cfg.estimator.rate)
 
 
-def calibrated_threshold(cfg: RunConfig, kind: str) -> float:
+def calibrated_threshold(cfg: RunConfig, kind: str, setup: FilterSetup | None = None) -> float:
     """Threshold (log-likelihood-ratio units) of the ``cusum`` or ``glr`` rule of the run ``cfg`` for
     ``decision.arl0`` (s) between false alarms: the largest of the thresholds calibrated at each operating
     point of the reference (a figure-eight's two lobes), so the mean time between false alarms is at least
     ``arl0`` on every part of the path."""
     d = cfg.estimator.decision
     return max(arl0_threshold(kind, point, arl0=d.arl0, shift=d.cusum_shift, window=glr_window_of(cfg),
-                              rate=cfg.estimator.rate) for point in nominal_points_of(cfg))
+                              rate=cfg.estimator.rate) for point in nominal_points_of(cfg, setup))
 
 
-def build_decision_rule(cfg: RunConfig) -> DecisionRule:
+def build_decision_rule(cfg: RunConfig, setup: FilterSetup | None = None) -> DecisionRule:
     """The registered rule ``estimator.decision.rule`` of the run (a plug-in's of the old contract is
-    called with the run config)."""
+    called with the run config); ``setup``: the run's filter setup, if the caller has it."""
     d = cfg.estimator.decision
     entry = decision_rules.get(d.rule)
     kind = entry.meta.get("calibrate")
-    extra = (calibrated_threshold(cfg, kind),) if kind is not None and not entry.legacy else ()
+    extra = (calibrated_threshold(cfg, kind, setup),) if kind is not None and not entry.legacy else ()
     if entry.meta.get("detectors") and not entry.legacy:
-        extra = (*extra, build_change_detectors(cfg))
+        extra = (*extra, build_change_detectors(cfg, setup))
     return decision_rules.create(d.rule, d, run_context(cfg), *extra, run_config=cfg)
 
 
-def build_change_detectors(cfg: RunConfig) -> ChangeDetectors:
+def build_change_detectors(cfg: RunConfig, setup: FilterSetup | None = None) -> ChangeDetectors:
     """The run's residual generator with its CUSUM and GLR (:mod:`.residual`)."""
     d = cfg.estimator.decision
-    return ChangeDetectors(setup_from_config(cfg), d.cusum_shift, d.isolation_llr, glr_window_of(cfg))
+    return ChangeDetectors(_setup(cfg, setup), d.cusum_shift, d.isolation_llr, glr_window_of(cfg))
 
 
-def build_rule_statistics(cfg: RunConfig) -> RuleStatistics:
+def build_rule_statistics(cfg: RunConfig, setup: FilterSetup | None = None) -> RuleStatistics:
     """Every rule's per-step statistics for the run's filter."""
-    return RuleStatistics(setup_from_config(cfg), cfg.estimator.decision, cfg.estimator.rate, glr_window_of(cfg))
+    return RuleStatistics(_setup(cfg, setup), cfg.estimator.decision, cfg.estimator.rate, glr_window_of(cfg))
 
 
-def build_fault_decision(cfg: RunConfig, rule: DecisionRule | None = None) -> FaultDecision:
+def build_fault_decision(cfg: RunConfig, rule: DecisionRule | None = None, *,
+                         setup: FilterSetup | None = None) -> FaultDecision:
     """The run's fault-decision layer: its rule (``rule``, else :func:`build_decision_rule`) and, when
-    ``decision.statistics`` is on or the rule sets ``needs_statistics``, every rule's statistics."""
+    ``decision.statistics`` is on or the rule sets ``needs_statistics``, every rule's statistics; ``setup``:
+    the run's filter setup (the run record's), else each part resolves it from the config."""
     d = cfg.estimator.decision
-    impl = rule if rule is not None else build_decision_rule(cfg)
+    impl = rule if rule is not None else build_decision_rule(cfg, setup)
     needs = bool(getattr(impl, "needs_statistics", False))
-    stats = build_rule_statistics(cfg) if d.statistics or needs else None
+    stats = build_rule_statistics(cfg, setup) if d.statistics or needs else None
     return FaultDecision(d, cfg.model_wheel_radius, impl, stats)
 
 

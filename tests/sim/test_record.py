@@ -45,12 +45,17 @@ def _counting(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
     return calls
 
 
-@pytest.mark.parametrize("estimator", ["ukf", "none"])
+@pytest.mark.parametrize(("estimator", "extra"), [
+    ("ukf", {}), ("none", {}),
+    ("ukf", {"estimator.decision.rule": "glr"}),  # the rule's threshold calibration and detectors use the setup
+    ("ukf", {"estimator.decision.rule": "cusum", "estimator.decision.statistics": True}),
+])
 def test_the_filter_setup_and_the_bound_are_computed_once_per_run(
-        estimator: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        estimator: str, extra: dict[str, Any], tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A run with its metrics, its written folder and its benchmark scores resolves the filter setup once
-    (the filter's own, which the record keeps) and computes the PCRB once (none without a filter)."""
-    cfg = load_config("scenario2", {**SHORT, "estimator.kind": estimator})
+    (the filter's own, which the record keeps and the decision rules' calibration, detectors and statistics
+    share) and computes the PCRB once (none without a filter)."""
+    cfg = load_config("scenario2", {**SHORT, "estimator.kind": estimator, **extra})
     calls = _counting(monkeypatch)
     out = execute(cfg, tmp_path, rrd=False)
     res = out.result

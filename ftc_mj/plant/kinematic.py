@@ -19,7 +19,8 @@ import numpy as np
 
 from ..model.kinematics import body_rates, inverse_rates, pose_rates
 from .base import PlantClock
-from .faults.tyre import EPS_T, RadiusSchedule, wheel_index, wheel_schedules
+from .faults.records import wheel_schedules
+from .faults.tyre import EPS_T, RadiusSchedule, wheel_index
 from .settings import FaultSettings, PlantSettings, RobotSettings, plant_geometry
 from .truth import Truth
 

@@ -35,7 +35,8 @@ from ..errors import BadInput
 from ..model.kinematics import inverse_rates
 from .base import PlantClock
 from .builder import build_model
-from .faults.tyre import EPS_T, RadiusSchedule, wheel_index, wheel_schedules
+from .faults.records import wheel_schedules
+from .faults.tyre import EPS_T, RadiusSchedule, wheel_index
 from .layout import model_layout
 from .mujoco_truth import attitude, axle_motion, chassis_rotation, domain_flags, world_rate, wrap_angle
 from .physics_warnings import BAD_STATE_WARNINGS, silence_mujoco_warnings

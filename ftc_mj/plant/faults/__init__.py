@@ -24,11 +24,19 @@ from .base import (
 )
 from .plant import PlantFaults
 from .plugin import PluginFaultSettings
-from .records import FaultSpec, fault_list, faults_of, plant_faults_of, sensor_faults_of, table_faults
+from .records import (
+    FaultSpec,
+    fault_list,
+    faults_of,
+    plant_faults_of,
+    sensor_faults_of,
+    table_faults,
+    wheel_schedules,
+)
 from .sensor import SENSOR_CLASSES, SENSOR_COLUMNS, SENSORS, SensorFaults, SensorFaultSettings
 from .servo import ACTUATOR_COLUMNS, LOCK_SOLIMP, LOCK_TORQUE, SERVO_CLASSES, ActuatorFaultSettings, ServoEffect
 from .settings import FaultSettings
-from .tyre import EPS_T, Breakpoints, Puncture, RadiusSchedule, schedule_onset, wheel_index, wheel_schedules
+from .tyre import EPS_T, Breakpoints, Puncture, RadiusSchedule, schedule_onset, wheel_index
 
 __all__ = [
     "ACTUATOR_COLUMNS", "EPS_T", "LOCK_SOLIMP", "LOCK_TORQUE", "NEVER", "SENSORS", "SENSOR_CLASSES", "SENSOR_COLUMNS",

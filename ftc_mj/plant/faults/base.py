@@ -18,6 +18,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from pydantic import BaseModel
+
 from ... import registry
 
 NEVER = sys.maxsize
@@ -89,7 +91,7 @@ class FaultClass(ABC):
     config: ClassVar[str] = "[[faults.plugin]]"
     """Where a run config sets one (the table and its selecting key)."""
 
-    def __init__(self, settings: Any) -> None:
+    def __init__(self, settings: BaseModel) -> None:
         self.settings = settings
 
     # ---------------------------------------------------------------- the configured fault

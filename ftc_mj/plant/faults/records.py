@@ -9,7 +9,7 @@ from .base import FaultClass, PlantFault, SensorFault, fault_class
 from .sensor import SENSOR_CLASSES
 from .servo import SERVO_CLASSES
 from .settings import FaultSettings
-from .tyre import Puncture, WheelSchedule, schedule_onset
+from .tyre import Puncture, RadiusSchedule, WheelSchedule, schedule_onset
 
 
 @dataclass(frozen=True)
@@ -32,6 +32,12 @@ class FaultSpec:
         return f"{self.fault_class} on {self.target}, size {self.size:g}{' ' + unit if unit else ''}"
 
 
+def wheel_schedules(faults: FaultSettings, nominal: float) -> tuple[RadiusSchedule, RadiusSchedule]:
+    """The radius schedules ``(right, left)`` of the fault settings around the ``nominal`` radius (m)."""
+    return (RadiusSchedule(faults.right, nominal, "faults.right"),
+            RadiusSchedule(faults.left, nominal, "faults.left"))
+
+
 def faults_of(faults: FaultSettings, nominal_radius: float) -> list[FaultClass]:
     """Every fault of the settings (``[faults]``) around the plant's ``nominal_radius`` (m) as an object of
     its class: the punctures (right, then left; a wheel whose schedule never departs from nominal has
@@ -39,7 +45,7 @@ def faults_of(faults: FaultSettings, nominal_radius: float) -> list[FaultClass]:
     out: list[FaultClass] = []
     for wheel, bps in (("right", faults.right), ("left", faults.left)):
         if schedule_onset(bps, nominal_radius) is not None:
-            out.append(Puncture(WheelSchedule(wheel, bps, nominal_radius)))
+            out.append(Puncture(WheelSchedule(wheel=wheel, breakpoints=bps, nominal=nominal_radius)))
     return out + table_faults(faults)
 
 

@@ -19,14 +19,13 @@ from __future__ import annotations
 import math
 from bisect import bisect_right
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from pydantic import Field
 
 from ... import registry
 from ...errors import BadInput
-from ...fields import FiniteFloat
+from ...fields import FiniteFloat, StrictModel
 from .base import WHEELS, FaultClass, Param, Sample
 
 EPS_T = 1e-9
@@ -185,20 +184,12 @@ def check_schedule(v: Breakpoints) -> Breakpoints:
     return v
 
 
-def wheel_schedules(faults: Any, nominal: float) -> tuple[RadiusSchedule, RadiusSchedule]:
-    """The radius schedules ``(right, left)`` of the fault settings (their ``right``/``left`` breakpoints)
-    around the ``nominal`` radius (m)."""
-    return (RadiusSchedule(faults.right, nominal, "faults.right"),
-            RadiusSchedule(faults.left, nominal, "faults.left"))
-
-
-@dataclass(frozen=True)
-class WheelSchedule:
+class WheelSchedule(StrictModel):
     """One wheel's configured schedule: the wheel, its breakpoints (s, m) and the nominal radius (m)."""
 
-    wheel: str
-    breakpoints: Sequence[Sequence[float]]
-    nominal: float
+    wheel: Literal["right", "left"]
+    breakpoints: Breakpoints
+    nominal: FiniteFloat
 
 
 class Puncture(FaultClass):

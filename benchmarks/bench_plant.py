@@ -22,7 +22,8 @@ import mujoco
 
 from ftc_mj.config import RunConfig
 from ftc_mj.model.kinematics import inverse_rates
-from ftc_mj.plant import Sensors, build_plant
+from ftc_mj.plant import Sensors
+from ftc_mj.wiring.plant import build_plant
 
 
 def _best(fn: Callable[[], float], repeat: int) -> float:

@@ -661,9 +661,12 @@ def scenarios() -> None:
 
 @app.command()
 def components(plugin: Plugins = None) -> None:
-    """List the registered estimators, decision rules, controllers, policies and references (built-in,
-    from installed packages' entry points and from --plugin modules), each with its settings: a built-in's
-    settings model, a plug-in's ``options`` model (field, type and range, default, what it is)."""
+    """List the registered estimators, decision rules, controllers, policies, references and fault classes
+    (built-in, from installed packages' entry points and from --plugin modules), each with its settings: a
+    built-in's settings model, a plug-in's ``options`` model (field, type and range, default, what it is);
+    then each fault class with its component, mode, targets, parameters' ranges and the measurements that
+    observe it."""
+    from .plant.faults import all_classes
     from .registry import REGISTRIES, load_plugins, settings_listing
 
     try:
@@ -672,6 +675,10 @@ def components(plugin: Plugins = None) -> None:
             typer.echo(f"{reg.config_key}: {', '.join(reg.names())}")
             for line in settings_listing(reg):
                 typer.echo(line)
+        typer.echo("fault classes:")
+        for cls in all_classes():
+            drawn = f"; drawn as {', '.join(cls.drawn_as)}" if cls.drawn_as else ""
+            typer.echo(f"  {cls.describe()}{drawn}")
     except BadInput as err:
         _fail(str(err))
 
@@ -693,7 +700,9 @@ def bench(
                                               "<last draw>[-healthy]).")] = None,
     workers: Annotated[int, typer.Option(help="Local Dask worker processes.")] = 2,
     address: Annotated[str | None, typer.Option(help="Scheduler of a running Dask cluster, tcp://HOST:PORT.")] = None,
-    version: Annotated[str, typer.Option("--benchmark", help="Benchmark definition version.")] = "ftc-v1",
+    version: Annotated[str, typer.Option("--benchmark", help="Benchmark definition: a shipped version, or a "
+                                         "definition file (*.toml; its plugins may register fault classes).")
+                       ] = "ftc-v1",
     healthy: Annotated[bool, typer.Option("--healthy", help="Run every draw without its faults (the check that "
                                                             "the healthy robot follows every drawn path).")] = False,
     compare: Annotated[int, typer.Option(help="Rerun comparisons of this many draws where the methods differ "
@@ -719,7 +728,8 @@ def bench(
             raise BadInput("--compare: must be >= 0")
         if address is not None:
             validate_address(address)
-        out_dir = _folder(out) or Path("runs/out/bench") / (f"{version}-{split.value}-{start}-{start + draws - 1}"
+        label = Path(version).stem if version.endswith(".toml") else version
+        out_dir = _folder(out) or Path("runs/out/bench") / (f"{label}-{split.value}-{start}-{start + draws - 1}"
                                                            + ("-healthy" if healthy else ""))
         docs = _folder(publish, "--publish")
         if docs is not None and not docs.is_dir():

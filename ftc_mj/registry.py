@@ -203,8 +203,15 @@ references = Registry("reference", "ftc_mj.references", "ftc_mj.control.factory"
 """``factory(settings: ReferenceConfig, context: RunContext) -> Reference`` (``settings``: the ``[reference]``
 section; the path starts at ``context.initial_pose``)."""
 
+fault_classes = Registry("fault class", "ftc_mj.fault_classes", "ftc_mj.plant.faults", "faults.plugin.fault_class")
+"""``factory(settings) -> FaultClass``: the fault class itself (:class:`~ftc_mj.plant.faults.base.FaultClass`,
+its name, targets, units, parameters' ranges, physics, truth columns and observing measurements as class
+attributes), built from one configuration table; ``settings``: the model of a plug-in class's ``options``
+(``[[faults.plugin]]``). A benchmark definition's ``plugins`` modules register the classes it draws."""
+
 REGISTRIES: dict[str, Registry] = {"estimators": estimators, "decision_rules": decision_rules,
-                                   "controllers": controllers, "policies": policies, "references": references}
+                                   "controllers": controllers, "policies": policies, "references": references,
+                                   "fault_classes": fault_classes}
 """Every registry by its name."""
 
 _loaded_plugins: set[str] = set()
@@ -272,6 +279,15 @@ def settings_listing(registry: Registry) -> list[str]:
         lines.append(f"  {', '.join(names)} — [{where}] {model.__name__}:")
         lines.extend(f"    {row}" for row in describe(model))
     return lines
+
+
+def load_plugins_of(data: Any) -> None:
+    """Import the modules a table about to be validated names in ``plugins`` (a run config, a benchmark
+    definition), so that the components it names are registered first; anything else is left to the
+    validation to reject."""
+    mods = data.get("plugins") if isinstance(data, dict) else None
+    if isinstance(mods, list) and all(isinstance(m, str) for m in mods):
+        load_plugins(mods)
 
 
 def check_options(registry: Registry, name: str, options: Mapping[str, Any]) -> dict[str, Any]:

@@ -124,7 +124,7 @@ def test_plant_and_controller_from_their_own_settings() -> None:
     cost has no reason to change speed on the path, 0.05 rad/s = 1 % allowed) turning left
     (``ω_R > ω_L``)."""
     from ftc_mj.control import CircleReference, controller_from_settings
-    from ftc_mj.plant import plant_from_settings
+    from ftc_mj.wiring.plant import plant_from_settings
 
     plant = plant_from_settings({"kind": "kinematic"}, robot={"wheel_radius": 2.0})
     plant.set_command(5.0, 5.0)
@@ -143,7 +143,9 @@ def test_plant_and_controller_from_their_own_settings() -> None:
 
 def test_version_and_public_names() -> None:
     assert ftc_mj.__version__ == "0.1.0"
-    assert set(ftc_mj.components()) == {"estimators", "decision_rules", "controllers", "policies", "references"}
+    assert set(ftc_mj.components()) == {"estimators", "decision_rules", "controllers", "policies", "references",
+                                        "fault_classes"}
+    assert "actuator_loss" in ftc_mj.components()["fault_classes"] and callable(ftc_mj.register_fault_class)
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         _ = ftc_mj.nope  # type: ignore[attr-defined]
     assert json.loads(json.dumps(ftc_mj.__all__))  # plain names

@@ -3,6 +3,12 @@ every draw comes from, as a strict pydantic model read with a one-line error nam
 
 Ranges are ``[low, high]`` (uniform unless a field says otherwise), probabilities are tables of
 ``name = p`` summing to 1. SI units; radii and servo gains of faults as fractions of the nominal.
+
+The faults a draw can name are the registered fault classes' drawn names
+(:attr:`~ftc_mj.plant.faults.base.FaultClass.drawn_as`); the file keeps their distributions — the
+probabilities (in the file's order, the order the draws choose in) and the ranges each class reads — so a
+version's draws never change when a class is added. A file may name ``plugins``: modules registering
+further fault classes (imported first, here and in every run of the bench).
 """
 
 from __future__ import annotations
@@ -11,17 +17,16 @@ import math
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import Field, ValidationError, model_validator
+from pydantic import ConfigDict, Field, ValidationError, model_validator
 
-from ..config import one_line, read_toml
+from .. import registry
+from ..config import existing_file, one_line, read_toml
 from ..errors import BadInput
 from ..fields import StrictModel
+from ..plant.faults import drawn_classes
 from ..resources import resource_path
 from ..study.spec import HELD_OUT_START
 
-FAULT_CLASSES = ("none", "puncture_step", "puncture_ramp", "actuator_loss", "wheel_lock", "actuator_unresponsive",
-                 "speed_bias", "speed_drift", "speed_dropout", "gyro_bias", "gyro_drift", "gyro_dropout")
-"""Every fault class a draw can name (``none``: a fault-free draw)."""
 PATH_KINDS = ("circle", "figure8", "line")
 """The reference paths a draw can name (``reference.kind``)."""
 SPLITS = ("dev", "test")
@@ -65,27 +70,39 @@ def _check_probabilities(table: dict[str, float], names: tuple[str, ...]) -> dic
 
 
 class FaultDistribution(StrictModel):
-    """The faults: the first fault's class, a second fault's probability, onsets and sizes."""
+    """The faults: the first fault's class (``none``: a fault-free draw; else a fault class's drawn name),
+    a second fault's probability, the onsets, and the ranges (``[low, high]``) the classes draw their sizes
+    from, each under the name its class reads (``puncture_fraction``, ``speed_bias`` …)."""
+
+    model_config = ConfigDict(extra="allow", validate_assignment=True)
+    __pydantic_extra__: dict[str, Range] = Field(init=False)  # type: ignore[assignment]
 
     classes: dict[str, Prob]
     double: Prob
     onset: Range
     second_delay: Range
-    puncture_fraction: Range
-    ramp_final_fraction: Range
-    ramp_rate: Range
-    effectiveness: Range
-    speed_bias: Range
-    speed_drift: Range
-    gyro_bias: Range
-    gyro_drift: Range
-    dropout_duration: Range
+
+    @property
+    def ranges(self) -> dict[str, Range]:
+        """The classes' ranges by name."""
+        return dict(self.__pydantic_extra__ or {})
 
     @model_validator(mode="after")
     def _classes(self) -> FaultDistribution:
-        _check_probabilities(self.classes, FAULT_CLASSES)
-        if self.puncture_fraction.low <= 0 or self.ramp_final_fraction.low <= 0:
-            raise ValueError("puncture_fraction: remaining radius fractions must be > 0")
+        """Registered drawn names summing to 1, each class's ranges present and inside its parameters' ranges,
+        no range that no class reads."""
+        drawn = drawn_classes()
+        _check_probabilities(self.classes, ("none", *drawn))
+        ranges, used = self.ranges, set()
+        for kind in self.classes:
+            for name in drawn[kind].drawn_as[kind] if kind != "none" else ():
+                if name not in ranges:
+                    raise ValueError(f"{name}: {kind} draws from this range; it is missing")
+                drawn[kind].check_range(name, ranges[name].low, ranges[name].high)
+                used.add(name)
+        for name in ranges:
+            if name not in used:
+                raise ValueError(f"{name}: unknown key (no fault class in classes draws from it)")
         return self
 
 
@@ -139,6 +156,9 @@ class BenchmarkDefinition(StrictModel):
     """One version of the benchmark (the file's sections)."""
 
     version: Annotated[str, Field(pattern=r"^[a-z0-9][a-z0-9.-]{0,40}$")]
+    plugins: Annotated[list[str], Field(max_length=50)] = Field(default_factory=list)
+    """Modules registering the plug-in fault classes the draws name (imported before the rest is read, and
+    named in every drawn run's ``plugins``, so every method and every worker meets the same classes)."""
     duration: Annotated[float, Field(gt=0, le=3600)]
     splits: dict[str, Annotated[int, Field(ge=0)]]
     seeds: SeedRanges
@@ -146,6 +166,13 @@ class BenchmarkDefinition(StrictModel):
     plant: PlantDistribution
     path: PathDistribution
     sensors: SensorDistribution
+
+    @model_validator(mode="before")
+    @classmethod
+    def _plugins_first(cls, data: object) -> object:
+        """Import the ``plugins`` modules before the fault classes are checked."""
+        registry.load_plugins_of(data)
+        return data
 
     @model_validator(mode="after")
     def _splits(self) -> BenchmarkDefinition:
@@ -177,8 +204,13 @@ def parse_definition(data: dict[str, object], where: str) -> BenchmarkDefinition
 
 
 def load_definition(version: str = "ftc-v1") -> BenchmarkDefinition:
-    """The definition of ``version`` (read once per process)."""
+    """The definition of ``version``: a shipped version's name, or the path of a definition file (``*.toml``);
+    read once per process."""
     if version not in _CACHE:
+        if version.endswith(".toml"):
+            path = existing_file(version, "--benchmark")
+            _CACHE[version] = parse_definition(read_toml(path, "benchmark"), f"benchmark {path.name}")
+            return _CACHE[version]
         path = definition_path(version)
         d = parse_definition(read_toml(path, "benchmark"), f"benchmark {path.name}")
         if d.version != version:

@@ -22,21 +22,22 @@ from typing import Any
 
 import numpy as np
 
-from ..config import RobotConfig
+from ..config import RobotSettings
 from ..errors import BadInput
-from .definition import FAULT_CLASSES, PATH_KINDS, SPLITS, BenchmarkDefinition, Range, load_definition
+from ..plant.faults import drawn_classes
+from .definition import PATH_KINDS, SPLITS, BenchmarkDefinition, Range, load_definition
 
-WHEELS = ("right", "left")
 MAX_INDEX = 10**9
 """Largest draw index (a draw's index is part of its random stream's key)."""
 
 
 @dataclass(frozen=True)
 class FaultDraw:
-    """One drawn fault: its class (:data:`~ftc_mj.benchmark.definition.FAULT_CLASSES`), target
+    """One drawn fault: its class's drawn name (:attr:`~ftc_mj.plant.faults.base.FaultClass.drawn_as`), target
     (``right``/``left`` wheel, ``speed``/``yaw_rate`` sensor), onset (s) and size — the remaining radius
     or servo fraction of a puncture or loss, the bias (m/s, rad/s) or drift rate (m/s², rad/s²) of a sensor
-    fault, 0 for a lock or an unresponsive servo — plus a ramp's rate (m/s) and a dropout's duration (s)."""
+    fault, 0 for a lock or an unresponsive servo, a plug-in class's size — plus a ramp's rate (m/s) and a
+    dropout's duration (s)."""
 
     fault_class: str
     target: str
@@ -44,13 +45,6 @@ class FaultDraw:
     size: float
     rate: float = 0.0
     duration: float = 0.0
-
-    @property
-    def family(self) -> str:
-        """``tyre``, ``actuator`` or ``sensor``."""
-        if self.fault_class.startswith("puncture"):
-            return "tyre"
-        return "sensor" if self.target in ("speed", "yaw_rate") else "actuator"
 
 
 @dataclass(frozen=True)
@@ -74,7 +68,9 @@ class Draw:
     speed_sigma: float
     gyro_sigma: float | None
     pose_sigma: float
-    nominal_radius: float = field(default_factory=lambda: float(RobotConfig().wheel_radius))
+    nominal_radius: float = field(default_factory=lambda: float(RobotSettings().wheel_radius))
+    plugins: tuple[str, ...] = ()
+    """The definition's plug-in modules (its runs name them in ``plugins``)."""
 
     @property
     def name(self) -> str:
@@ -118,32 +114,21 @@ class Draw:
         out: dict[str, Any] = {"name": self.name, "description": f"benchmark {self.version}, {self.split} draw "
                                f"{self.index}", "duration": self.duration, "seed": self.seed, "plant": plant,
                                "sensors": sensors, "reference": ref}
+        if self.plugins:
+            out["plugins"] = list(self.plugins)
         out["faults"] = fault_tables(self.faults, self.nominal_radius) if with_faults else {"right": [], "left": []}
         return out
 
 
 def fault_tables(faults: tuple[FaultDraw, ...], R0: float) -> dict[str, Any]:
-    """The ``[faults]`` section of drawn faults: radius schedules (``[t, r]`` breakpoints, m) for the
-    punctures, ``actuator`` and ``sensor`` tables for the rest (only when there are any)."""
+    """The ``[faults]`` section of drawn faults (each added by its class,
+    :meth:`~ftc_mj.plant.faults.base.FaultClass.add_to`): radius schedules (``[t, r]`` breakpoints, m) for
+    the punctures, ``actuator``, ``sensor`` and ``plugin`` tables for the rest (only when there are any)."""
     out: dict[str, Any] = {"right": [], "left": []}
+    classes = drawn_classes()
     for f in faults:
-        if f.fault_class == "puncture_step":
-            out[f.target] = [[f.onset, R0], [f.onset, f.size * R0]]
-        elif f.fault_class == "puncture_ramp":
-            out[f.target] = [[f.onset, R0], [f.onset + (1.0 - f.size) * R0 / f.rate, f.size * R0]]
-        elif f.family == "actuator":
-            kind = {"actuator_loss": "loss", "wheel_lock": "lock", "actuator_unresponsive": "unresponsive"}
-            table: dict[str, Any] = {"wheel": f.target, "kind": kind[f.fault_class], "onset": f.onset}
-            if f.fault_class == "actuator_loss":
-                table["effectiveness"] = f.size
-            out.setdefault("actuator", []).append(table)
-        else:
-            table = {"sensor": f.target, "kind": f.fault_class.split("_", 1)[1], "onset": f.onset}
-            if f.fault_class.endswith("dropout"):
-                table["duration"] = f.duration
-            else:
-                table["size"] = f.size
-            out.setdefault("sensor", []).append(table)
+        classes[f.fault_class].add_to(out, f.fault_class, f.target, f.onset,
+                                      {"size": f.size, "rate": f.rate, "duration": f.duration}, R0)
     return out
 
 
@@ -171,47 +156,34 @@ def choose(rng: np.random.Generator, table: dict[str, float], names: tuple[str, 
     return keys[int(rng.choice(len(keys), p=p / p.sum()))]
 
 
-TARGETS = {"puncture_step": WHEELS, "puncture_ramp": WHEELS, "actuator_loss": WHEELS, "wheel_lock": WHEELS,
-           "actuator_unresponsive": WHEELS, "speed_bias": ("speed",), "speed_drift": ("speed",),
-           "speed_dropout": ("speed",), "gyro_bias": ("yaw_rate",), "gyro_drift": ("yaw_rate",),
-           "gyro_dropout": ("yaw_rate",)}
-"""The targets a fault class can hit."""
-
-
-def draw_fault(rng: np.random.Generator, d: BenchmarkDefinition, cls: str, onset: float,
+def draw_fault(rng: np.random.Generator, d: BenchmarkDefinition, kind: str, onset: float,
                exclude: str | None = None) -> FaultDraw:
-    """A fault of class ``cls`` at ``onset`` (s) on a target other than ``exclude``, with its size drawn."""
-    f = d.fault
-    targets = [t for t in TARGETS[cls] if t != exclude]
+    """A fault drawn as ``kind`` at ``onset`` (s) on a target of its class other than ``exclude``, with its
+    size drawn by its class (:meth:`~ftc_mj.plant.faults.base.FaultClass.draw`) from the definition's ranges."""
+    cls = drawn_classes()[kind]
+    targets = [t for t in cls.targets if t != exclude]
     target = targets[int(rng.integers(len(targets)))]
     sign = 1.0 if rng.random() < 0.5 else -1.0
-    if cls == "puncture_step":
-        return FaultDraw(cls, target, onset, round(uniform(rng, f.puncture_fraction), 4))
-    if cls == "puncture_ramp":
-        return FaultDraw(cls, target, onset, round(uniform(rng, f.ramp_final_fraction), 4),
-                         rate=round(uniform(rng, f.ramp_rate), 4))
-    if cls == "actuator_loss":
-        return FaultDraw(cls, target, onset, round(uniform(rng, f.effectiveness), 4))
-    if cls in ("wheel_lock", "actuator_unresponsive"):
-        return FaultDraw(cls, target, onset, 0.0)
-    if cls.endswith("dropout"):
-        return FaultDraw(cls, target, onset, 0.0, duration=round(uniform(rng, f.dropout_duration), 3))
-    size = {"speed_bias": f.speed_bias, "speed_drift": f.speed_drift, "gyro_bias": f.gyro_bias,
-            "gyro_drift": f.gyro_drift}[cls]
-    return FaultDraw(cls, target, onset, round(sign * uniform(rng, size), 5))
+    ranges = d.fault.ranges
+    drawn = cls.draw(kind, lambda name: uniform(rng, ranges[name]), sign)
+    return FaultDraw(kind, target, onset, drawn["size"], rate=drawn.get("rate", 0.0),
+                     duration=drawn.get("duration", 0.0))
 
 
 def draw_faults(rng: np.random.Generator, d: BenchmarkDefinition) -> tuple[FaultDraw, ...]:
-    """No fault, one, or (with probability ``fault.double``) two on different targets, the second later."""
-    first_cls = choose(rng, d.fault.classes, FAULT_CLASSES)
+    """No fault, one, or (with probability ``fault.double``) two on different targets, the second later; the
+    classes chosen in the order the definition lists them."""
+    order = tuple(d.fault.classes)
+    first_cls = choose(rng, d.fault.classes, order)
     if first_cls == "none":
         return ()
     first = draw_fault(rng, d, first_cls, round(uniform(rng, d.fault.onset), 2))
     if rng.random() >= d.fault.double:
         return (first,)
+    classes = drawn_classes()
     others = {c: p for c, p in d.fault.classes.items()
-              if c != "none" and any(t != first.target for t in TARGETS[c])}
-    second_cls = choose(rng, others, FAULT_CLASSES)
+              if c != "none" and any(t != first.target for t in classes[c].targets)}
+    second_cls = choose(rng, others, order)
     onset = round(first.onset + uniform(rng, d.fault.second_delay), 2)
     return (first, draw_fault(rng, d, second_cls, onset, exclude=first.target))
 
@@ -253,4 +225,4 @@ def draw(split: str, index: int, version: str = "ftc-v1") -> Draw:
         payload_mass=round(uniform(rng, pl.payload_mass), 2), payload_offset=tuple(round(v, 3) for v in payload),
         path=kind, path_radius=radius, direction=direction, speed=speed,
         speed_sigma=round(uniform(rng, s.speed_sigma), 4), gyro_sigma=round(gsig, 5) if gyro else None,
-        pose_sigma=round(uniform(rng, s.pose_sigma), 4))
+        pose_sigma=round(uniform(rng, s.pose_sigma), 4), plugins=tuple(d.plugins))

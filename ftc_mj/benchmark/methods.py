@@ -74,8 +74,10 @@ class Method:
     digest: str = field(default="", compare=False)
 
     def apply(self, scenario: dict[str, Any]) -> RunConfig:
-        """The run config of a draw's ``scenario`` run by this method (validated; :class:`BadInput`)."""
-        data = {**scenario, "plugins": list(self.plugins)} if self.plugins else dict(scenario)
+        """The run config of a draw's ``scenario`` run by this method (validated; :class:`BadInput`); its
+        ``plugins``: the draw's (the benchmark's fault classes), then the method's."""
+        plugins = [*scenario.get("plugins", []), *(p for p in self.plugins if p not in scenario.get("plugins", []))]
+        data = {**scenario, "plugins": plugins} if plugins else dict(scenario)
         data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
         for k, v in self.settings.items():
             set_dotted(data, k, v)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,6 @@ from ..markdown import row, table
 from ..metrics.outcome import OFF_PATH_M
 from ..study.stats import Estimate
 from ..study.store import StudyStore
-from .definition import FAULT_CLASSES
 from .stats import CONTINUOUS, RATES, Paired, aggregate, paired
 
 QUESTIONS = (("paper", "safe", "does the paper's loop generalise (against the safe loop)"),
@@ -45,7 +45,7 @@ def write_outputs(bp: Any, results: pl.DataFrame, out: Path, *, compare: int = 1
     with atomic_path(out / "scores.parquet") as tmp:
         scores.write_parquet(tmp)
     rows = scores.to_dicts()
-    figures = draw_figures(rows, [m.name for m in bp.methods], out / "figures")
+    figures = draw_figures(rows, [m.name for m in bp.methods], out / "figures", bp.classes)
     compared = write_comparisons(bp, rows, out / "compare", compare) if compare > 0 else []
     text = render(bp, rows, figures, compared, computed_line(out))
     path = out / report_name(bp.split, bp.healthy)
@@ -85,11 +85,17 @@ def overall_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
     return table(head, body)
 
 
-def class_table(rows: list[dict[str, Any]], methods: list[str], score: str = "success") -> list[str]:
-    """Rate of ``score`` per fault class (rows) and method (columns), Wilson 95 % intervals."""
+def classes_of(rows: list[dict[str, Any]], order: Sequence[str]) -> list[str]:
+    """The fault classes of ``rows``: ``none`` first, then in ``order`` (the definition's)."""
+    return [c for c in ("none", *(c for c in order if c != "none")) if any(r["fault_class"] == c for r in rows)]
+
+
+def class_table(rows: list[dict[str, Any]], methods: list[str], order: Sequence[str], score: str = "success"
+                ) -> list[str]:
+    """Rate of ``score`` per fault class (rows, in ``order``) and method (columns), Wilson 95 % intervals."""
     body = [[c, *(_pct(aggregate([r for r in rows if r["method"] == m and r["fault_class"] == c])[score])
                   for m in methods)]
-            for c in FAULT_CLASSES if any(r["fault_class"] == c for r in rows)]
+            for c in classes_of(rows, order)]
     return table(["fault class", *methods], body)
 
 
@@ -207,7 +213,7 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
            *table(["method", "settings digest", "description"],
                   ([m.name, f"`{m.digest}`", m.description] for m in bp.methods))]
     out += ["", "## Overall", "", *overall_table(rows, methods), "", "## Success by fault class", "",
-            *class_table(rows, methods), ""]
+            *class_table(rows, methods, bp.classes), ""]
     if len(methods) > 1:
         ans = answers(rows, methods)
         out += ["## The project's questions", "", *ans] if ans else []
@@ -224,8 +230,9 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
     return "\n".join(out) + "\n"
 
 
-def draw_figures(rows: list[dict[str, Any]], methods: list[str], folder: Path) -> list[Path]:
-    """``success_by_class.png`` (success rate per fault class per method, Wilson 95 % bars) and
+def draw_figures(rows: list[dict[str, Any]], methods: list[str], folder: Path, order: Sequence[str] = ()
+                 ) -> list[Path]:
+    """``success_by_class.png`` (success rate per fault class per method, in ``order``, Wilson 95 % bars) and
     ``paired_contouring.png`` (the paired differences of the largest contouring error per asked pair)."""
     import matplotlib
 
@@ -234,7 +241,7 @@ def draw_figures(rows: list[dict[str, Any]], methods: list[str], folder: Path) -
     import numpy as np
 
     folder.mkdir(parents=True, exist_ok=True)
-    classes = [c for c in FAULT_CLASSES if any(r["fault_class"] == c for r in rows)]
+    classes = classes_of(rows, order)
     fig, ax = plt.subplots(figsize=(min(13.0, max(6.0, 0.9 * len(classes) * max(1, len(methods)) ** 0.5)), 4.2))
     w = 0.8 / max(1, len(methods))
     for j, m in enumerate(methods):

@@ -57,6 +57,8 @@ class BenchPlan:
     version: str
     healthy: bool
     meta: dict[str, Any] = field(default_factory=dict)
+    classes: tuple[str, ...] = ()
+    """The drawn fault classes in the definition's order (the report's rows)."""
 
 
 def check_request(split: str, n_draws: int, start: int) -> None:
@@ -78,7 +80,7 @@ def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str 
     from .. import __version__
 
     check_request(split, n_draws, start)
-    load_definition(version)
+    definition = load_definition(version)
     draws = [draw(split, i, version) for i in range(start, start + n_draws)]
     runs: list[PlannedRun] = []
     seen: dict[str, str] = {}
@@ -92,18 +94,20 @@ def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str 
             runs.append(PlannedRun(len(runs), key, {"method": m.name, "draw": d.index, "fault_class":
                                                     "none" if healthy else d.fault_class}, cfg.seed,
                                    cfg.model_dump(mode="json")))
-    meta = {"benchmark": version, "split": split, "draws": [start, start + n_draws], "healthy": healthy,
+    meta = {"benchmark": definition.version, "split": split, "draws": [start, start + n_draws], "healthy": healthy,
             "methods": {m.name: {"digest": m.digest, "source": m.source, "description": m.description,
                                  "settings": m.settings, "plugins": list(m.plugins)} for m in methods},
             "package_version": __version__}
+    if definition.plugins:  # a definition with plug-in fault classes: its file and modules are part of the bench
+        meta.update(definition_file=version, fault_plugins=list(definition.plugins))
     identity = {k: v for k, v in meta.items() if k != "package_version"}
     identity["methods"] = {m.name: m.digest for m in methods}
-    name = f"bench-{version}-{split}" + ("-healthy" if healthy else "")
-    spec = StudySpec(name=name, description=f"ftc-mj bench {version} {split}", scenario="scenario1",
+    name = f"bench-{definition.version}-{split}" + ("-healthy" if healthy else "")
+    spec = StudySpec(name=name, description=f"ftc-mj bench {definition.version} {split}", scenario="scenario1",
                      analysis=AnalysisSpec(figures=False))
     plan = StudyPlan(spec, Path("bench.json"), canonical_hash(identity), runs, ["method", "draw", "fault_class"], {},
                      json.loads(json.dumps(identity, default=str)))
-    return BenchPlan(plan, draws, methods, split, version, healthy, meta)
+    return BenchPlan(plan, draws, methods, split, definition.version, healthy, meta, tuple(definition.fault.classes))
 
 
 def prepare_output(bp: BenchPlan, out: Path) -> None:

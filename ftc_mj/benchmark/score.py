@@ -55,7 +55,7 @@ from ..metrics.path import path_following_metrics
 from ..metrics.record import RunRecord
 from ..metrics.run import plant_metrics, reconfiguration_metrics
 from ..metrics.series import first_time, starts
-from ..plant.faults import fault_list, wheel_schedules
+from ..plant.faults import SensorFault, fault_class, fault_list, wheel_schedules
 from ..sim.record import build_record
 
 SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "liftoff_s", "false_alarm", "detected",
@@ -65,13 +65,14 @@ SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "lifto
 
 
 def fault_truth(cfg: RunConfig) -> list[dict[str, Any]]:
-    """Every configured fault (:func:`~ftc_mj.plant.faults.fault_list`: class, target, onset in s, size in the
-    class's unit) as a dict with ``end`` (s) — when a puncture's radius stops changing, the onset otherwise —
-    in onset order."""
+    """Every configured fault (:func:`~ftc_mj.plant.faults.records.fault_list`: class, target, onset in s, size
+    in the class's unit) as a dict with ``end`` (s) — when a radius fault's schedule stops changing, the onset
+    otherwise — in onset order."""
     R0 = cfg.plant_wheel_radius
     ends = {w: s.end_time for w, s in zip(("right", "left"), wheel_schedules(cfg.faults, R0), strict=True)}
     out = [{"fault_class": f.fault_class, "target": f.target, "onset": f.onset, "size": f.size,
-            "end": ends[f.target] if f.fault_class == "puncture" else f.onset} for f in fault_list(cfg.faults, R0)]
+            "end": ends[f.target] if fault_class(f.fault_class).radius_fault else f.onset}
+           for f in fault_list(cfg.faults, R0)]
     return sorted(out, key=lambda f: f["onset"])
 
 
@@ -87,7 +88,7 @@ def isolation_verdict(code: np.ndarray, t: np.ndarray, faults: list[dict[str, An
     last = WHEEL_OF_CODE.get(int(declared[-1]))
     if last == "unknown":
         return "unknown"
-    if any(f["fault_class"] != "puncture" for f in faults):
+    if any(not fault_class(f["fault_class"]).radius_fault for f in faults):
         return "wrong"
     wheels = {f["target"] for f in faults}
     truth = "both" if wheels == {"right", "left"} else wheels.pop()
@@ -107,16 +108,17 @@ def fdi_scores(trace: dict[str, np.ndarray], faults: list[dict[str, Any]]) -> di
 
 
 def sensor_kl(cfg: RunConfig, trace: dict[str, np.ndarray], fault: dict[str, Any]) -> np.ndarray:
-    """Cumulative KL information (nats per row) of a sensor bias or drift from its onset: ``Σ ½ (offset/σ)²``
-    with the injected offset (m/s or rad/s) and the sensor's σ; empty for a dropout (no information)."""
+    """Cumulative KL information (nats per row) of a sensor fault from its onset: ``Σ ½ (offset/σ)²`` with the
+    injected offset (m/s or rad/s, its class's
+    :meth:`~ftc_mj.plant.faults.base.SensorFault.offset_profile`) and the sensor's σ; empty for a class that
+    carries no information (a dropout)."""
     sigma = cfg.sensors.speed_sigma if fault["target"] == "speed" else cfg.sensors.yaw_rate_sigma
     t = np.asarray(trace["t"], float)
     t = t[(t >= fault["onset"] - 1e-9) & (t < fault["onset"] + KL_PROFILE_S)]
-    if sigma is None or fault["fault_class"].endswith("dropout") or t.size == 0:
-        return np.zeros(0)
     dt = 1.0 / cfg.estimator.rate
-    offset = fault["size"] * ((t - fault["onset"] + dt) if fault["fault_class"].endswith("drift") else np.ones_like(t))
-    return np.cumsum(0.5 * (offset / sigma) ** 2)
+    offset = None if sigma is None or t.size == 0 else fault_class(fault["fault_class"]).offset_profile(  # type: ignore[attr-defined]
+        fault["size"], t - fault["onset"] + dt)
+    return np.zeros(0) if offset is None else np.cumsum(0.5 * (offset / sigma) ** 2)
 
 
 def bound_scores(cfg: RunConfig, record: RunRecord, trace: dict[str, np.ndarray],
@@ -126,7 +128,7 @@ def bound_scores(cfg: RunConfig, record: RunRecord, trace: dict[str, np.ndarray]
     dt = 1.0 / cfg.estimator.rate
     if faults:
         f = faults[0]
-        K = (sensor_kl(cfg, trace, f) if f["target"] in ("speed", "yaw_rate")
+        K = (sensor_kl(cfg, trace, f) if issubclass(fault_class(f["fault_class"]), SensorFault)
              else np.asarray(cumulative_kl(record.setup, trace, f["onset"]), float))
         if K.size:
             d = float(lorden_delays(K, np.array([cfg.estimator.decision.arl0]), dt)[0])

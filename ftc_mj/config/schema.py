@@ -15,16 +15,17 @@ from .. import registry
 from ..context import RunContext
 from ..fields import SafeName, StrictModel, ranged, ranged_int
 from ..model.sensors import SensorSettings
+from ..plant.faults import SERVO_CLASSES, PlantFault, fault_class
 from .sections import (
     ControllerConfig,
     EstimatorConfig,
-    FaultConfig,
-    ModelConfig,
+    FaultSettings,
+    ModelSettings,
     OutputConfig,
-    PlantConfig,
+    PlantSettings,
     ReconfigurationConfig,
     ReferenceConfig,
-    RobotConfig,
+    RobotSettings,
 )
 
 
@@ -42,10 +43,10 @@ class RunConfig(StrictModel):
     duration: ranged(0.0, 3600.0, lo_open=True, unit="s") = 40.0
     """Simulated time (s); an hour is 360 000 trace rows (about 130 MB in memory)."""
     seed: ranged_int(0, 2**63 - 1) = 0
-    robot: RobotConfig = Field(default_factory=RobotConfig)
-    plant: PlantConfig = Field(default_factory=PlantConfig)
-    model: ModelConfig = Field(default_factory=ModelConfig)
-    faults: FaultConfig = Field(default_factory=FaultConfig)
+    robot: RobotSettings = Field(default_factory=RobotSettings)
+    plant: PlantSettings = Field(default_factory=PlantSettings)
+    model: ModelSettings = Field(default_factory=ModelSettings)
+    faults: FaultSettings = Field(default_factory=FaultSettings)
     sensors: SensorSettings = Field(default_factory=SensorSettings)
     estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
     controller: ControllerConfig = Field(default_factory=ControllerConfig)
@@ -57,9 +58,7 @@ class RunConfig(StrictModel):
     @classmethod
     def _plugins_first(cls, data: Any) -> Any:
         """Import the ``plugins`` modules before any component name is checked."""
-        mods = data.get("plugins") if isinstance(data, dict) else None
-        if isinstance(mods, list) and all(isinstance(m, str) for m in mods):
-            registry.load_plugins(mods)
+        registry.load_plugins_of(data)
         return data
 
     @model_validator(mode="before")
@@ -124,16 +123,23 @@ class RunConfig(StrictModel):
 
     @model_validator(mode="after")
     def _faults_fit_plant(self) -> RunConfig:
-        """A gyro fault needs a gyro (``sensors.yaw_rate_sigma``); the kinematic plant has no servo, so
-        of the actuator faults it takes only ``lock`` (its wheel rates are the commands)."""
+        """A gyro fault needs a gyro (``sensors.yaw_rate_sigma``); a plant fault needs a plant its class acts on
+        (the kinematic plant has no servo, so of the actuator faults it takes only ``lock``: its wheel rates are
+        the commands)."""
         for i, f in enumerate(self.faults.sensor):
             if f.sensor == "yaw_rate" and self.sensors.yaw_rate_sigma is None:
                 raise ValueError(f"faults.sensor[{i}].sensor: 'yaw_rate' needs a gyro (set sensors.yaw_rate_sigma)")
-        if self.plant.kind == "kinematic":
-            for i, f in enumerate(self.faults.actuator):
-                if f.kind != "lock":
-                    raise ValueError(f"faults.actuator[{i}].kind: {f.kind!r} needs a servo (plant.kind = 'mujoco'); "
-                                     "the kinematic plant takes 'lock' only")
+        for i, f in enumerate(self.faults.actuator):
+            if self.plant.kind not in SERVO_CLASSES[f.kind].plants:
+                raise ValueError(f"faults.actuator[{i}].kind: {f.kind!r} needs a servo (plant.kind = 'mujoco'); "
+                                 "the kinematic plant takes 'lock' only")
+        for i, p in enumerate(self.faults.plugin):
+            cls = fault_class(p.fault_class)
+            if issubclass(cls, PlantFault) and self.plant.kind not in cls.plants:
+                raise ValueError(f"faults.plugin[{i}].fault_class: {p.fault_class!r} acts on the "
+                                 f"{' or '.join(cls.plants)} plant, not on plant.kind = {self.plant.kind!r}")
+            if p.target == "yaw_rate" and self.sensors.yaw_rate_sigma is None:
+                raise ValueError(f"faults.plugin[{i}].target: 'yaw_rate' needs a gyro (set sensors.yaw_rate_sigma)")
         return self
 
     # ---------------------------------------------------------------- resolved values

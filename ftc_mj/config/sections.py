@@ -7,38 +7,27 @@ A component's factory receives its own section (``estimator``, ``controller``, �
 estimation and reconfiguration sections are composed of the settings models declared beside their
 components (:mod:`ftc_mj.estimation.setup`, :mod:`~ftc_mj.estimation.imm`,
 :mod:`~ftc_mj.estimation.rule_statistics`, :mod:`ftc_mj.reconfiguration.policies`,
-:mod:`~ftc_mj.reconfiguration.degraded`, :mod:`ftc_mj.control.excitation`); nothing here re-declares them.
+:mod:`~ftc_mj.reconfiguration.degraded`, :mod:`ftc_mj.control.excitation`); nothing here re-declares them. The
+plant's sections (``robot``, ``plant``, ``model``, ``faults``) are declared beside the plant
+(:mod:`ftc_mj.plant.settings`, the fault classes' tables in :mod:`ftc_mj.plant.faults`) and composed here.
 """
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal
 
 from pydantic import (
-    BeforeValidator,
     Field,
-    SerializerFunctionWrapHandler,
-    Strict,
-    field_validator,
-    model_serializer,
     model_validator,
 )
 
-from .. import resources
 from ..control.excitation import ExcitationSettings
 from ..estimation.imm import HypothesisSettings, IMMSettings
 from ..estimation.rule_statistics import DecisionSettings
 from ..fields import (
-    DEFAULT_MODEL_FILE,
-    FLOAT_BOUND,
-    OMEGA_MAX,
-    AngleDeg,
     FiniteFloat,
     Flag,
-    Fraction,
-    Length,
     NonNegFloat,
     Options,
     PathText,
@@ -49,222 +38,12 @@ from ..fields import (
     ranged,
     ranged_int,
 )
+from ..plant.settings import FaultSettings as FaultSettings  # the plant's sections, composed by RunConfig
+from ..plant.settings import ModelSettings as ModelSettings
+from ..plant.settings import PlantSettings as PlantSettings
+from ..plant.settings import RobotSettings as RobotSettings
 from ..reconfiguration.degraded import DegradedSettings
 from ..reconfiguration.policies import ReconfigurationSettings
-
-
-class RobotConfig(StrictModel):
-    """Nominal design shared by plant and model unless overridden there."""
-
-    wheel_radius: Length = 2.0
-    """Nominal wheel radius R0 (m)."""
-    half_track: Length = 1.0
-    """Half track b (m): wheel centre to axle midpoint; track width is 2b."""
-    omega_max: ranged(0.0, 1.0e4, lo_open=True, unit="rad/s") = OMEGA_MAX
-    """Wheel-rate limit (rad/s), symmetric."""
-
-
-class PlantConfig(StrictModel):
-    """Truth plant (MuJoCo). ``None`` means: take the value from ``robot``."""
-
-    model_file: Annotated[str, BeforeValidator(lambda v: str(v) if isinstance(v, Path) else v), Strict()] = (
-        DEFAULT_MODEL_FILE)
-    """The MJCF robot: ``builtin:<name>`` for a model shipped in the package (the same robot on every
-    machine, :mod:`ftc_mj.resources`), else a file path, stored absolute (relative paths are taken from
-    the working directory) so that a resolved config re-runs from any directory."""
-    variant: Literal["suspended", "rigid"] = "suspended"
-    timestep: ranged(1.0e-5, 0.05, unit="s") = 0.001
-    """Physics step (s)."""
-    wheel_radius: Length | None = None
-    half_track: Length | None = None
-    chassis_mass: PosFloat | None = None
-    """Chassis mass (kg); ``None`` keeps the MJCF value."""
-    wheel_mass: PosFloat | None = None
-    """Mass of one wheel (kg); ``None`` keeps the MJCF value."""
-    tyre_friction: PosFloat | None = None
-    """Sliding friction coefficient of the tyres; ``None`` keeps the MJCF value."""
-    caster_friction: NonNegFloat = 0.0
-    """Sliding friction of the caster(s); 0 = frictionless (the kinematic model's assumption)."""
-    actuator_gain: PosFloat | None = None
-    """Velocity-actuator gain kv (N m s/rad); ``None`` keeps the MJCF value."""
-    payload_mass: ranged(0.0, 1.0e4, unit="kg") = 0.0
-    """Mass (kg) of a payload fixed to the chassis (a uniform 0.4 m ball); 0 = none (the MJCF robot as it is).
-    It adds to the chassis weight *after* the struts' preload is set, so they sag under it, and it moves the
-    centre of mass, hence the load each tyre and the caster carry and the lift-off lateral acceleration."""
-    payload_offset: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (0.0, 0.0, 0.0)
-    """Position (m) of the payload's centre in the chassis frame: forward of the axle midpoint, to the left,
-    and up from the hub height (the chassis frame's origin; negative = below the axle)."""
-    initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (0.0, 0.0, 0.0)
-    """Initial (x, y, psi) of the axle midpoint (m, m, rad)."""
-    start_moving: Flag = True
-    """Start in steady motion at the reference's speed and yaw rate at t = 0 (the paper's runs begin on the
-    path at 10 m/s); False = start from rest."""
-    reseat_hub: Flag = True
-    """Levelling suspension (suspended variant): on every radius change move the hub and its strut's spring
-    reference by the radius change, so the tyre stays on the ground with the same load and the chassis level.
-    ``False``: passive struts (a shrunken tyre hangs on its spring and the chassis rolls)."""
-    kind: Literal["mujoco", "kinematic"] = "mujoco"
-    """``mujoco``: the physical truth plant; ``kinematic``: the ideal kinematic model integrated exactly (RK4)."""
-    wheel_load_fraction: Fraction = 0.7
-    """Share of the chassis weight carried by the two wheel slides (suspended variant); the caster takes the rest.
-    The builder sets the slide spring preload and the chassis centre of mass (x) from it."""
-    slip_limit: PosFloat = 0.3
-    """Longitudinal tyre slip speed (m/s) above which the plant raises the ``SLIP`` flag."""
-    tilt_limit_deg: AngleDeg = 10.0
-    """Roll or pitch (deg) above which the plant raises the ``LARGE_ROLL`` flag."""
-    tipped_limit_deg: AngleDeg = 60.0
-    """Roll or pitch (deg) above which the plant raises the ``TIPPED`` flag."""
-
-    @model_serializer(mode="wrap")
-    def _omit_no_payload(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
-        """The fields, without ``payload_mass``/``payload_offset`` when there is no payload: a run without one
-        keeps the identity (run id, study key) it had before the payload existed."""
-        data = handler(self)
-        if not data.get("payload_mass"):
-            data.pop("payload_mass", None)
-            data.pop("payload_offset", None)
-        return data
-
-    @field_validator("model_file")
-    @classmethod
-    def _model_exists(cls, v: str) -> str:
-        """A ``builtin:<name>`` model shipped in the package, else an existing file, stored absolute."""
-        if not v.strip() or "\0" in v:
-            raise ValueError("must be a non-empty path without NUL bytes (or builtin:<name>)")
-        if resources.is_builtin_model(v):
-            resources.model_path(v)  # ValueError naming the built-in models
-            return v
-        p = Path(v)
-        try:
-            p = p.absolute()
-            found = p.is_file()
-        except OSError as err:  # e.g. a name too long for the file system
-            raise ValueError(f"cannot use {str(v)[:80]}: {err.strerror}") from None
-        if not found:
-            raise ValueError(f"model file not found: {v}")
-        return str(p)
-
-
-class ModelConfig(StrictModel):
-    """What the filters and controllers assume. ``None`` means: take the value from ``robot``."""
-
-    half_track: Length | None = None
-    wheel_radius: Length | None = None
-
-
-Breakpoints = Annotated[list[tuple[FiniteFloat, FiniteFloat]], Field(max_length=10_000)]
-
-
-def _check_schedule(v: Breakpoints) -> Breakpoints:
-    """``v`` if its times (s) are finite, non-negative and non-decreasing with at most two breakpoints at
-    one time (a step), and its radii (m) finite and positive; else ``ValueError`` saying which."""
-    last = -math.inf
-    for t, r in v:
-        if not (math.isfinite(t) and math.isfinite(r)):
-            raise ValueError("breakpoints must be finite")
-        if t < 0:
-            raise ValueError(f"breakpoint time {t} is negative")
-        if r <= 0:
-            raise ValueError(f"radius {r} must be > 0")
-        if t < last:
-            raise ValueError(f"breakpoint times must be non-decreasing ({t} after {last})")
-        last = t
-    times = [t for t, _ in v]
-    for i in range(len(times) - 2):
-        if times[i] == times[i + 1] == times[i + 2]:
-            raise ValueError(f"more than two breakpoints at t={times[i]}")
-    return v
-
-
-FaultTime = ranged(0.0, FLOAT_BOUND, unit="s")
-"""A fault's onset (s): any time from 0; one after the end of a run never happens in it."""
-
-
-class ActuatorFaultConfig(StrictModel):
-    """One fault of a wheel's velocity servo (``[[faults.actuator]]``), permanent from ``onset``.
-
-    ``loss``: loss of effectiveness, the servo's gain and its torque limit both scaled by
-    ``effectiveness``; ``lock``: the wheel is held at zero rate (a seized bearing or gearbox);
-    ``unresponsive``: the servo applies no torque and the wheel turns freely. The physics of each:
-    :mod:`ftc_mj.plant.actuator_faults`.
-    """
-
-    wheel: Literal["right", "left"]
-    kind: Literal["loss", "lock", "unresponsive"]
-    onset: FaultTime
-    effectiveness: ranged(0.0, 1.0, hi_open=True) | None = None
-    """``loss`` only: the fraction of the servo's gain and torque limit that remains, in [0, 1)."""
-
-    @model_validator(mode="after")
-    def _effectiveness_for_loss(self) -> ActuatorFaultConfig:
-        """``effectiveness`` is given for a ``loss`` and for nothing else."""
-        if self.kind == "loss" and self.effectiveness is None:
-            raise ValueError("effectiveness: a 'loss' needs the remaining fraction in [0, 1)")
-        if self.kind != "loss" and self.effectiveness is not None:
-            raise ValueError(f"effectiveness: only a 'loss' has one, not a {self.kind!r}")
-        return self
-
-
-class SensorFaultConfig(StrictModel):
-    """One fault of a sensor (``[[faults.sensor]]``) from ``onset`` for ``duration`` seconds.
-
-    ``bias``: a constant offset ``size`` (m/s for the speed sensor, rad/s for the gyro); ``drift``: an
-    offset growing at ``size`` per second (m/s², rad/s²) from 0 at the onset; ``dropout``: the samples
-    are missing (NaN in the reading; the filters update with the channels present). The physics of each:
-    :mod:`ftc_mj.plant.sensor_faults`.
-    """
-
-    sensor: Literal["speed", "yaw_rate"]
-    kind: Literal["bias", "drift", "dropout"]
-    onset: FaultTime
-    size: FiniteFloat | None = None
-    """``bias``: the offset (m/s or rad/s); ``drift``: its growth rate (m/s² or rad/s²); not for ``dropout``."""
-    duration: ranged(0.0, 1.0e9, lo_open=True, unit="s") = 1.0e9
-    """How long the fault lasts (s); the default outlasts any run (at most 3600 s)."""
-
-    @model_validator(mode="after")
-    def _size_for_offsets(self) -> SensorFaultConfig:
-        """``size`` is given for a ``bias`` or ``drift`` and not for a ``dropout``."""
-        if self.kind != "dropout" and self.size is None:
-            raise ValueError(f"size: a {self.kind!r} needs its size (m/s or rad/s; per second for a drift)")
-        if self.kind == "dropout" and self.size is not None:
-            raise ValueError("size: a 'dropout' has no size (its samples are missing)")
-        return self
-
-
-class FaultConfig(StrictModel):
-    """The injected faults: tyre punctures, servo faults and sensor faults.
-
-    ``right``/``left``: piecewise-linear wheel-radius schedules, lists of ``[t, radius]`` breakpoints.
-    Before the first breakpoint the radius is the nominal one; after the last it is held. A step is
-    two breakpoints at the same time. Empty = no fault on that wheel. ``actuator``/``sensor``: lists of
-    :class:`ActuatorFaultConfig` / :class:`SensorFaultConfig` tables. Empty lists are left out of the
-    resolved config, so a run without such faults has the identity (run id, study key) it had before
-    they existed.
-    """
-
-    right: Breakpoints = Field(default_factory=list)
-    left: Breakpoints = Field(default_factory=list)
-    actuator: Annotated[list[ActuatorFaultConfig], Field(max_length=100)] = Field(default_factory=list)
-    sensor: Annotated[list[SensorFaultConfig], Field(max_length=100)] = Field(default_factory=list)
-
-    @field_validator("right", "left")
-    @classmethod
-    def _valid_schedule(cls, v: Breakpoints) -> Breakpoints:
-        """Each wheel's schedule checked by :func:`_check_schedule`."""
-        return _check_schedule(v)
-
-    @model_serializer(mode="wrap")
-    def _omit_empty(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
-        """The fields, without ``actuator``/``sensor`` when they are empty."""
-        data = handler(self)
-        for name in ("actuator", "sensor"):
-            if not data.get(name):
-                data.pop(name, None)
-        return data
-
-
-
 
 DecisionConfig = DecisionSettings
 """The ``[estimator.decision]`` section: :class:`~ftc_mj.estimation.rule_statistics.DecisionSettings`."""

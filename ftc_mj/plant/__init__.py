@@ -1,58 +1,33 @@
-"""The truth plant: MuJoCo robot (or the ideal kinematic model), tyre-fault schedules, servo faults
-(:mod:`.actuator_faults`), noisy sensors and their faults (:mod:`.sensor_faults`); every configured fault as
-a record: :func:`.faults.fault_list`.
+"""The truth plant: MuJoCo robot (or the ideal kinematic model), noisy sensors, and the fault classes that
+act on them (:mod:`.faults`: tyre punctures, servo faults, sensor faults, plug-in classes); the plant's
+settings models (:mod:`.settings`).
 
-Public API::
+Public API (the names load their module on first use, so the settings models import no MuJoCo)::
 
-    plant = build_plant(cfg)            # Plant (MuJoCo) or KinematicPlant, by cfg.plant.kind
-    plant = plant_from_settings({"kind": "kinematic"}, robot=None, faults={"left": [[10, 2], [10, 1]]})
-    plant = Plant(cfg.plant, cfg.robot, cfg.faults)   # from the sections (any objects with their fields)
-    sensors = Sensors(cfg.sensors, seed=cfg.seed)
+    plant = Plant(cfg.plant, cfg.robot, cfg.faults)   # from its settings models
+    plant = KinematicPlant(cfg.plant, cfg.robot, cfg.faults)
+    sensors = Sensors(cfg.sensors, seed=cfg.seed, faults=cfg.faults)
     plant.set_command(wR, wL); plant.advance(10); tr = plant.truth(); z = sensors.read(tr)
+
+The plant of a run config (``plant.kind`` selects it): :func:`ftc_mj.wiring.plant.build_plant`.
 """
 
 from __future__ import annotations
 
-from .builder import build_model, load_spec
-from .factory import build_plant, make_plant, plant_from_settings
-from .faults import RadiusSchedule
-from .kinematic import KinematicPlant
-from .robot import Plant
-from .sensors import SensorReading, Sensors
-from .truth import (
-    FLAG_NAMES,
-    LARGE_ROLL,
-    LIFTOFF,
-    NAN,
-    PHYSICS_WARNING,
-    SCRAPE,
-    SLIP,
-    TIPPED,
-    UNSTABLE,
-    Truth,
-    flag_names,
-)
+import importlib
+from typing import Any
 
-__all__ = [
-    "FLAG_NAMES",
-    "LARGE_ROLL",
-    "LIFTOFF",
-    "NAN",
-    "PHYSICS_WARNING",
-    "SCRAPE",
-    "SLIP",
-    "TIPPED",
-    "UNSTABLE",
-    "KinematicPlant",
-    "Plant",
-    "RadiusSchedule",
-    "SensorReading",
-    "Sensors",
-    "Truth",
-    "build_model",
-    "build_plant",
-    "flag_names",
-    "load_spec",
-    "make_plant",
-    "plant_from_settings",
-]
+_NAMES = {
+    "build_model": "builder", "load_spec": "builder", "RadiusSchedule": "faults", "KinematicPlant": "kinematic",
+    "Plant": "robot", "SensorReading": "sensors", "Sensors": "sensors",
+    **dict.fromkeys(("FLAG_NAMES", "LARGE_ROLL", "LIFTOFF", "NAN", "PHYSICS_WARNING", "SCRAPE", "SLIP", "TIPPED",
+                     "UNSTABLE", "Truth", "flag_names"), "truth"),
+}
+
+__all__ = sorted(_NAMES)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _NAMES:
+        return getattr(importlib.import_module(f"{__name__}.{_NAMES[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

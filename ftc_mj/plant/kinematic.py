@@ -1,9 +1,9 @@
 """An ideal truth plant: the kinematic model itself, integrated exactly at the physics step.
 
 Same interface as :class:`ftc_mj.plant.robot.Plant` (``reset``, ``time``, ``set_command``, ``advance``,
-``set_wheel_radius``, ``truth``), selected with ``plant.kind = "kinematic"`` through :func:`build_plant`. Useful as a
-model-exact reference for filters and controllers (no slip, no roll, no actuator lag: the wheel rates are the
-clipped commands).
+``set_wheel_radius``, ``truth``), selected with ``plant.kind = "kinematic"`` through
+:func:`~ftc_mj.wiring.plant.build_plant`. Useful as a model-exact reference for filters and controllers (no
+slip, no roll, no actuator lag: the wheel rates are the clipped commands).
 
 Integration: while radii and commands are constant the pose follows the exact arc of
 :func:`ftc_mj.model.kinematics.body_rates`' speed and yaw rate (closed form, any number of steps at once); in
@@ -18,9 +18,9 @@ import math
 import numpy as np
 
 from ..model.kinematics import body_rates, inverse_rates, pose_rates
-from .actuator_faults import ActuatorFaults
 from .base import PlantClock
-from .faults import EPS_T, RadiusSchedule, wheel_index, wheel_schedules
+from .faults.records import wheel_schedules
+from .faults.tyre import EPS_T, RadiusSchedule, wheel_index
 from .settings import FaultSettings, PlantSettings, RobotSettings, plant_geometry
 from .truth import Truth
 
@@ -41,8 +41,8 @@ class KinematicPlant(PlantClock):
         self.omega_max: float = float(robot.omega_max)
         self.initial_pose: tuple[float, float, float] = tuple(float(v) for v in plant.initial_pose)  # type: ignore[assignment]
         self.schedules: tuple[RadiusSchedule, RadiusSchedule] = wheel_schedules(faults, self.nominal_radius)
-        self.actuator_faults = ActuatorFaults(faults.actuator, self.dt)
         self._locked = (False, False)
+        self._setup_faults(faults)
         self.reset()
 
     def reset(self) -> None:
@@ -52,7 +52,7 @@ class KinematicPlant(PlantClock):
         self._k = 0
         self._cmd = [0.0, 0.0]
         self._radius = [s.value(EPS_T) for s in self.schedules]
-        self._restart_servo_faults()
+        self._restart_faults()
 
     @property
     def frozen(self) -> bool:
@@ -74,9 +74,10 @@ class KinematicPlant(PlantClock):
         if self._locked != (False, False):
             self._cmd = [0.0 if lk else w for w, lk in zip(out, self._locked, strict=True)]
 
-    def _apply_servo(self, eff: tuple[float, float], lock: tuple[bool, bool]) -> None:
-        """Hold a locked wheel at rate 0 (``eff`` has no meaning without a servo: the configuration admits
-        ``lock`` only)."""
+    def hold_wheels(self, lock: tuple[bool, bool]) -> None:
+        """Hold each locked wheel at rate 0 whatever the command (a wheel lock,
+        :class:`~ftc_mj.plant.faults.servo.ServoEffect`; without a servo the configuration admits no other
+        servo fault)."""
         self._locked = lock
         self.set_command(*self._cmd)
 

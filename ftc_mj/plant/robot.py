@@ -33,10 +33,10 @@ import numpy as np
 
 from ..errors import BadInput
 from ..model.kinematics import inverse_rates
-from .actuator_faults import LOCK_SOLIMP, LOCK_TORQUE, ActuatorFaults
 from .base import PlantClock
 from .builder import build_model
-from .faults import EPS_T, RadiusSchedule, wheel_index, wheel_schedules
+from .faults.records import wheel_schedules
+from .faults.tyre import EPS_T, RadiusSchedule, wheel_index
 from .layout import model_layout
 from .mujoco_truth import attitude, axle_motion, chassis_rotation, domain_flags, world_rate, wrap_angle
 from .physics_warnings import BAD_STATE_WARNINGS, silence_mujoco_warnings
@@ -51,8 +51,9 @@ class Plant(PlantClock):
         plant: the plant settings (model file, variant, timestep, geometry overrides, initial pose, flag
             limits; :class:`~ftc_mj.plant.settings.PlantSettings`).
         robot: the robot settings (nominal radius and half track, m; rate limit, rad/s).
-        faults: the radius schedules of the right and left wheel and the servo faults
-            (:mod:`~ftc_mj.plant.actuator_faults`: gain, torque limit and hinge damping changed in place).
+        faults: the fault settings: the radius schedules of the right and left wheel, and the plant faults
+            acting through their effects (:mod:`~ftc_mj.plant.faults.servo`: gain, torque limit and hinge
+            damping changed in place).
     """
 
     kind = "mujoco"
@@ -82,13 +83,7 @@ class Plant(PlantClock):
         self.layout = L = model_layout(m, self.variant)
         self._g_sphere, self._g_visual, self._g_spoke = L.sphere_geoms, L.visual_geoms, L.spoke_geoms
         self._root_q, self._slide_q, self._act = L.root_q, L.slide_q, L.actuators
-        self.actuator_faults = ActuatorFaults(faults.actuator, self.dt)
-        act, hinge = list(self._act), list(L.hinge_v)
-        # the healthy servos (gain kv, bias -kv, torque limits) and hinges (dry friction, its constraint's
-        # impedance and time constant) that the faults change
-        self._servo0 = (m.actuator_gainprm[act, 0].copy(), m.actuator_biasprm[act, 2].copy(),
-                        m.actuator_forcerange[act].copy(), m.dof_frictionloss[hinge].copy(),
-                        m.dof_solimp[hinge].copy(), m.dof_solref[hinge].copy())
+        self._setup_faults(faults)
         self._tilt_limit = math.radians(pc.tilt_limit_deg)
         self._tipped_limit = math.radians(pc.tipped_limit_deg)
         self._slip_limit = float(pc.slip_limit)
@@ -139,7 +134,7 @@ class Plant(PlantClock):
                 self.set_wheel_radius("right" if i == 0 else "left", r, reseat=True)
         d.ctrl[:] = 0.0
         d.time = 0.0
-        self._restart_servo_faults()
+        self._restart_faults()
         mujoco.mj_forward(m, d)
         self._save_good()
 
@@ -233,24 +228,6 @@ class Plant(PlantClock):
             qpos[a] = lo if q < lo else (hi if q > hi else q)
             # Self-levelling: the strut's spring reference follows the hub, so the down-force is unchanged.
             self._qpos_spring[a] += dr
-
-    def _apply_servo(self, eff: tuple[float, float], lock: tuple[bool, bool]) -> None:
-        """Scale each wheel's servo gain and torque limit by its effectiveness (fraction); hold a locked
-        wheel's hinge by a stiff dry friction of :data:`~ftc_mj.plant.actuator_faults.LOCK_TORQUE` N m (in
-        the model, in place)."""
-        m = self.model
-        kv, bias, limits, friction, solimp, solref = self._servo0
-        for i in (0, 1):
-            a, e, dof = self._act[i], eff[i], self.layout.hinge_v[i]
-            m.actuator_gainprm[a, 0] = e * kv[i]
-            m.actuator_biasprm[a, 2] = e * bias[i]
-            m.actuator_forcerange[a] = e * limits[i]
-            if lock[i]:
-                m.dof_frictionloss[dof] = LOCK_TORQUE
-                m.dof_solimp[dof, :2] = LOCK_SOLIMP
-                m.dof_solref[dof] = (2.0 * self.dt, 1.0)
-            else:
-                m.dof_frictionloss[dof], m.dof_solimp[dof], m.dof_solref[dof] = friction[i], solimp[i], solref[i]
 
     # ------------------------------------------------------------------ stepping
     def _advance(self, n: int) -> None:

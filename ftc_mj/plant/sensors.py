@@ -3,20 +3,21 @@
 Every :meth:`Sensors.read` draws the same fixed block of standard normals, whichever sensors are configured, so
 a run is deterministic for a given config and seed, and switching a sensor on or off does not change the noise
 sequence of the others (e.g. adding a gyro leaves the speed noise identical). Sensor faults
-(:mod:`~ftc_mj.plant.sensor_faults`: bias, drift, dropout of the speed sensor or the gyro) act on top of
-the noise and draw nothing.
+(:mod:`~ftc_mj.plant.faults.sensor`: bias, drift, dropout of the speed sensor or the gyro, and plug-in
+sensor fault classes) act on top of the noise and draw nothing.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from .sensor_faults import SensorFaults
-from .settings import SensorFaultSettings, SensorSettings
+from ..model.sensors import SensorSettings
+from .faults.records import sensor_faults_of
+from .faults.sensor import SensorFaults
+from .faults.settings import FaultSettings
 from .truth import Truth
 
 _N_DRAWS = 9  # speed, yaw rate, position x, position y, omega_R, omega_L, pose x, pose y, pose psi
@@ -53,15 +54,15 @@ class Sensors:
 
     Args:
         settings: the sensor settings (noise levels in SI units; ``None`` = sensor absent;
-            :class:`~ftc_mj.plant.settings.SensorSettings`).
+            :class:`~ftc_mj.model.sensors.SensorSettings`).
         seed: seed of the generator; the same settings and seed give the same readings.
-        faults: the sensor faults (``[[faults.sensor]]`` tables; none by default).
+        faults: the fault settings, of which the faults acting on the readings are taken (none by default).
     """
 
-    def __init__(self, settings: SensorSettings, seed: int, faults: Sequence[SensorFaultSettings] = ()) -> None:
+    def __init__(self, settings: SensorSettings, seed: int, faults: FaultSettings | None = None) -> None:
         self.settings = settings
         self.seed = int(seed)
-        self.faults = SensorFaults(faults)
+        self.faults = SensorFaults(sensor_faults_of(faults))
         self._faulty = bool(self.faults)  # read at every sample: a plain attribute, not a __bool__ call
         self._fix_period = 1.0 / float(settings.position_rate)
         self.reset()

@@ -1,123 +1,144 @@
-"""What the plant reads of its settings: the ``[plant]``, ``[robot]``, ``[faults]`` and ``[sensors]`` sections.
+"""The plant's settings, declared once: the ``[robot]``, ``[plant]`` and ``[model]`` sections as pydantic
+models (the run config composes them, :mod:`ftc_mj.config.sections`), and the ``[faults]`` and ``[sensors]``
+sections' models re-exported from where they live (:mod:`ftc_mj.plant.faults`, :mod:`ftc_mj.model.sensors`).
 
-The plant is built from these sections alone (never from the whole run config): the protocols below name
-the fields each part reads, so any object with them (the config's pydantic sections, a test's namespace)
-will do. Only :mod:`ftc_mj.plant.factory` takes them out of a run config.
+The plant is built from these models alone (never from the whole run config); only the wiring
+(:mod:`ftc_mj.wiring.plant`) takes them out of a run config.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Protocol
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import (
+    BeforeValidator,
+    SerializerFunctionWrapHandler,
+    Strict,
+    field_validator,
+    model_serializer,
+)
+
+from .. import resources
+from ..fields import (
+    DEFAULT_MODEL_FILE,
+    OMEGA_MAX,
+    AngleDeg,
+    FiniteFloat,
+    Flag,
+    Fraction,
+    Length,
+    NonNegFloat,
+    PosFloat,
+    StrictModel,
+    ranged,
+)
+from ..model.sensors import SensorSettings
+from .faults.sensor import SensorFaultSettings
+from .faults.servo import ActuatorFaultSettings
+from .faults.settings import FaultSettings
+
+__all__ = ["ActuatorFaultSettings", "FaultSettings", "ModelSettings", "PlantSettings", "RobotSettings",
+           "SensorFaultSettings", "SensorSettings", "plant_geometry"]
 
 
-class RobotSettings(Protocol):
-    """The nominal design (``[robot]``): what plant and model share unless the plant overrides it."""
+class RobotSettings(StrictModel):
+    """Nominal design shared by plant and model unless overridden there."""
 
-    wheel_radius: float
-    """Nominal wheel radius (m)."""
-    half_track: float
-    """Wheel centre to axle midpoint (m)."""
-    omega_max: float
-    """Symmetric wheel-rate limit (rad/s)."""
+    wheel_radius: Length = 2.0
+    """Nominal wheel radius R0 (m)."""
+    half_track: Length = 1.0
+    """Half track b (m): wheel centre to axle midpoint; track width is 2b."""
+    omega_max: ranged(0.0, 1.0e4, lo_open=True, unit="rad/s") = OMEGA_MAX
+    """Wheel-rate limit (rad/s), symmetric."""
 
 
-class PlantSettings(Protocol):
-    """The truth plant (``[plant]``); ``None`` for ``wheel_radius``/``half_track`` means the robot's value."""
+class PlantSettings(StrictModel):
+    """Truth plant (MuJoCo). ``None`` means: take the value from ``robot``."""
 
-    kind: str
-    """``"mujoco"`` (physics) or ``"kinematic"`` (the ideal model)."""
-    model_file: str
-    """The MJCF robot (a path or ``builtin:<name>``)."""
-    variant: str
-    """``"suspended"`` (wheels on sprung slides) or ``"rigid"``."""
-    timestep: float
+    model_file: Annotated[str, BeforeValidator(lambda v: str(v) if isinstance(v, Path) else v), Strict()] = (
+        DEFAULT_MODEL_FILE)
+    """The MJCF robot: ``builtin:<name>`` for a model shipped in the package (the same robot on every
+    machine, :mod:`ftc_mj.resources`), else a file path, stored absolute (relative paths are taken from
+    the working directory) so that a resolved config re-runs from any directory."""
+    variant: Literal["suspended", "rigid"] = "suspended"
+    timestep: ranged(1.0e-5, 0.05, unit="s") = 0.001
     """Physics step (s)."""
-    wheel_radius: float | None
-    """Wheel radius (m) overriding the robot's."""
-    half_track: float | None
-    """Half track (m) overriding the robot's."""
-    initial_pose: Sequence[float]
-    """Initial ``(x, y, psi)`` of the axle midpoint (m, m, rad)."""
-    reseat_hub: bool
-    """Levelling suspension: the hub follows a radius change."""
-    slip_limit: float
-    """Longitudinal slip speed (m/s) above which ``SLIP`` is raised."""
-    tilt_limit_deg: float
-    """Roll or pitch (deg) above which ``LARGE_ROLL`` is raised."""
-    tipped_limit_deg: float
-    """Roll or pitch (deg) above which ``TIPPED`` is raised."""
-    chassis_mass: float | None
+    wheel_radius: Length | None = None
+    half_track: Length | None = None
+    chassis_mass: PosFloat | None = None
     """Chassis mass (kg); ``None`` keeps the MJCF value."""
-    wheel_mass: float | None
+    wheel_mass: PosFloat | None = None
     """Mass of one wheel (kg); ``None`` keeps the MJCF value."""
-    tyre_friction: float | None
+    tyre_friction: PosFloat | None = None
     """Sliding friction coefficient of the tyres; ``None`` keeps the MJCF value."""
-    caster_friction: float
-    """Sliding friction coefficient of the caster (0 = frictionless)."""
-    actuator_gain: float | None
-    """Velocity-servo gain kv (N m s/rad); ``None`` keeps the MJCF value."""
-    wheel_load_fraction: float
-    """Share of the chassis weight on the two wheel slides (the caster takes the rest)."""
-    payload_mass: float
-    """Payload fixed to the chassis (kg); 0 = none."""
-    payload_offset: Sequence[float]
-    """Payload centre in the chassis frame (m): forward, left, up from the hub height."""
+    caster_friction: NonNegFloat = 0.0
+    """Sliding friction of the caster(s); 0 = frictionless (the kinematic model's assumption)."""
+    actuator_gain: PosFloat | None = None
+    """Velocity-actuator gain kv (N m s/rad); ``None`` keeps the MJCF value."""
+    payload_mass: ranged(0.0, 1.0e4, unit="kg") = 0.0
+    """Mass (kg) of a payload fixed to the chassis (a uniform 0.4 m ball); 0 = none (the MJCF robot as it is).
+    It adds to the chassis weight *after* the struts' preload is set, so they sag under it, and it moves the
+    centre of mass, hence the load each tyre and the caster carry and the lift-off lateral acceleration."""
+    payload_offset: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (0.0, 0.0, 0.0)
+    """Position (m) of the payload's centre in the chassis frame: forward of the axle midpoint, to the left,
+    and up from the hub height (the chassis frame's origin; negative = below the axle)."""
+    initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (0.0, 0.0, 0.0)
+    """Initial (x, y, psi) of the axle midpoint (m, m, rad)."""
+    start_moving: Flag = True
+    """Start in steady motion at the reference's speed and yaw rate at t = 0 (the paper's runs begin on the
+    path at 10 m/s); False = start from rest."""
+    reseat_hub: Flag = True
+    """Levelling suspension (suspended variant): on every radius change move the hub and its strut's spring
+    reference by the radius change, so the tyre stays on the ground with the same load and the chassis level.
+    ``False``: passive struts (a shrunken tyre hangs on its spring and the chassis rolls)."""
+    kind: Literal["mujoco", "kinematic"] = "mujoco"
+    """``mujoco``: the physical truth plant; ``kinematic``: the ideal kinematic model integrated exactly (RK4)."""
+    wheel_load_fraction: Fraction = 0.7
+    """Share of the chassis weight carried by the two wheel slides (suspended variant); the caster takes the rest.
+    The builder sets the slide spring preload and the chassis centre of mass (x) from it."""
+    slip_limit: PosFloat = 0.3
+    """Longitudinal tyre slip speed (m/s) above which the plant raises the ``SLIP`` flag."""
+    tilt_limit_deg: AngleDeg = 10.0
+    """Roll or pitch (deg) above which the plant raises the ``LARGE_ROLL`` flag."""
+    tipped_limit_deg: AngleDeg = 60.0
+    """Roll or pitch (deg) above which the plant raises the ``TIPPED`` flag."""
+
+    @model_serializer(mode="wrap")
+    def _omit_no_payload(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """The fields, without ``payload_mass``/``payload_offset`` when there is no payload: a run without one
+        keeps the identity (run id, study key) it had before the payload existed."""
+        data = handler(self)
+        if not data.get("payload_mass"):
+            data.pop("payload_mass", None)
+            data.pop("payload_offset", None)
+        return data
+
+    @field_validator("model_file")
+    @classmethod
+    def _model_exists(cls, v: str) -> str:
+        """A ``builtin:<name>`` model shipped in the package, else an existing file, stored absolute."""
+        if not v.strip() or "\0" in v:
+            raise ValueError("must be a non-empty path without NUL bytes (or builtin:<name>)")
+        if resources.is_builtin_model(v):
+            resources.model_path(v)  # ValueError naming the built-in models
+            return v
+        p = Path(v)
+        try:
+            p = p.absolute()
+            found = p.is_file()
+        except OSError as err:  # e.g. a name too long for the file system
+            raise ValueError(f"cannot use {str(v)[:80]}: {err.strerror}") from None
+        if not found:
+            raise ValueError(f"model file not found: {v}")
+        return str(p)
 
 
-class ActuatorFaultSettings(Protocol):
-    """One servo fault (``[[faults.actuator]]``, :mod:`ftc_mj.plant.actuator_faults`)."""
+class ModelSettings(StrictModel):
+    """What the filters and controllers assume. ``None`` means: take the value from ``robot``."""
 
-    wheel: str
-    """``"right"`` or ``"left"``."""
-    kind: str
-    """``"loss"``, ``"lock"`` or ``"unresponsive"``."""
-    onset: float
-    """Time (s) from which the fault acts."""
-    effectiveness: float | None
-    """``loss``: the remaining fraction of the servo's gain and torque limit, in [0, 1)."""
-
-
-class SensorFaultSettings(Protocol):
-    """One sensor fault (``[[faults.sensor]]``, :mod:`ftc_mj.plant.sensor_faults`)."""
-
-    sensor: str
-    """``"speed"`` or ``"yaw_rate"``."""
-    kind: str
-    """``"bias"``, ``"drift"`` or ``"dropout"``."""
-    onset: float
-    """Time (s) from which the fault acts."""
-    size: float | None
-    """Bias (m/s or rad/s) or drift rate (m/s² or rad/s²); ``None`` for a dropout."""
-    duration: float
-    """Time (s) the fault lasts."""
-
-
-class FaultSettings(Protocol):
-    """The faults (``[faults]``): ``[t, radius]`` breakpoints (s, m) of each wheel's radius, the servo faults
-    and the sensor faults."""
-
-    right: Sequence[Sequence[float]]
-    left: Sequence[Sequence[float]]
-    actuator: Sequence[ActuatorFaultSettings]
-    sensor: Sequence[SensorFaultSettings]
-
-
-class SensorSettings(Protocol):
-    """The sensors (``[sensors]``): noise standard deviations in SI units, ``None`` = sensor absent."""
-
-    speed_sigma: float
-    """Speed noise (m/s)."""
-    yaw_rate_sigma: float | None
-    """Gyro noise (rad/s)."""
-    position_sigma: float | None
-    """Position-fix noise (m) on x and y."""
-    position_rate: float
-    """Rate of position fixes (Hz)."""
-    encoder_sigma: float
-    """Wheel-encoder rate noise (rad/s)."""
-    pose_sigma: float
-    """Noise on the pose handed to the controller (m and rad)."""
+    half_track: Length | None = None
+    wheel_radius: Length | None = None
 
 
 def plant_geometry(plant: PlantSettings, robot: RobotSettings) -> tuple[float, float]:

@@ -44,9 +44,7 @@ from ..estimation.decision import DecisionState, FaultDecision
 from ..estimation.pcrb import pcrb_columns
 from ..metrics.record import RunRecord
 from ..plant import SensorReading, Sensors, Truth
-from ..plant.actuator_faults import ACTUATOR_COLUMNS
-from ..plant.faults import fault_list
-from ..plant.sensor_faults import SENSOR_COLUMNS
+from ..plant.faults import SENSOR_COLUMNS, fault_class, fault_list
 from ..reconfiguration.degraded import DegradedMode
 from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
@@ -173,7 +171,7 @@ def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any]
     ``plants``: the caller's own plant store instead of the per-process cache (:func:`.cache.plant_for`).
     The run's record (:func:`.record.build_record`) is built here, once, from the reference and the filter."""
     plant = plant_for(cfg, plants)
-    sensors = Sensors(cfg.sensors, cfg.seed, cfg.faults.sensor)
+    sensors = Sensors(cfg.sensors, cfg.seed, cfg.faults)
     reference = build_reference(cfg)
     controller = controller_for(cfg, reference) if with_controller else None
     estimator = build_estimator(cfg)
@@ -194,9 +192,9 @@ def present(value: float | None) -> float | None:
 
 
 def fault_columns(parts: Components) -> tuple[str, ...]:
-    """The ``fault_*`` truth columns of a run (:data:`~ftc_mj.plant.actuator_faults.ACTUATOR_COLUMNS` with
-    servo faults, :data:`~ftc_mj.plant.sensor_faults.SENSOR_COLUMNS` of each faulty sensor); none without."""
-    cols: tuple[str, ...] = ACTUATOR_COLUMNS if parts.plant.actuator_faults else ()
+    """The ``fault_*`` truth columns of a run (the plant faults' effects', e.g. the servo's, and
+    :data:`~ftc_mj.plant.faults.sensor.SENSOR_COLUMNS` of each faulty sensor); none without."""
+    cols: tuple[str, ...] = parts.plant.plant_faults.columns
     for s in parts.sensors.faults.sensors:
         cols += SENSOR_COLUMNS[s]
     return cols
@@ -207,7 +205,7 @@ def fault_events(cfg: RunConfig) -> list[Event]:
     at the end of a sensor fault that ends within the run (the punctures' events are the schedules')."""
     events = []
     for spec in fault_list(cfg.faults, cfg.plant_wheel_radius):
-        if spec.fault_class != "puncture":
+        if not fault_class(spec.fault_class).radius_fault:
             events.append(Event(spec.onset, "warn", f"fault injected: {spec.describe()}"))
     for f in cfg.faults.sensor:
         if f.onset + f.duration < cfg.duration:
@@ -300,7 +298,7 @@ class ClosedLoop:
         u_meas = np.array([rd.omega_R, rd.omega_L])
         self.trace.truth(k, t, tr, rd, u_meas)
         if self.fault_columns:
-            self.trace.fault_truth(k, {**(plant.fault_truth() if plant.actuator_faults else {}),
+            self.trace.fault_truth(k, {**(plant.fault_truth() if plant.plant_faults else {}),
                                        **self.parts.sensors.faults.truth(t)})
         new = tr.flags & ~self.flags_seen
         if new:

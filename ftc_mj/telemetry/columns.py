@@ -31,8 +31,7 @@ from __future__ import annotations
 from ..estimation.change import WHEEL_CODES
 from ..estimation.pcrb import PCRB_COLUMNS
 from ..estimation.rule_statistics import STAT_COLUMNS
-from ..plant.actuator_faults import ACTUATOR_COLUMNS
-from ..plant.sensor_faults import SENSOR_COLUMNS
+from ..plant.faults import ACTUATOR_COLUMNS, SENSOR_COLUMNS
 from ..plant.truth import FLAG_NAMES
 
 STATE = ("x", "y", "psi", "R_R", "R_L")

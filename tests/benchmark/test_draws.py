@@ -13,12 +13,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ftc_mj.benchmark.definition import FAULT_CLASSES, PATH_KINDS, load_definition
-from ftc_mj.benchmark.draws import TARGETS, draw
+from ftc_mj.benchmark.definition import PATH_KINDS, load_definition
+from ftc_mj.benchmark.draws import draw
 from ftc_mj.config import validate_config
 from ftc_mj.errors import BadInput
 from ftc_mj.identity import canonical_hash
-from ftc_mj.plant.faults import fault_list
+from ftc_mj.plant.faults import drawn_classes, fault_list
 
 N = 1000
 """Draws per split for the distribution checks."""
@@ -76,14 +76,14 @@ def test_fault_class_and_path_frequencies_match_the_definition(draws):
     d = load_definition()
     for ds in draws.values():
         n = len(ds)
-        for c in FAULT_CLASSES:
+        for c in d.fault.classes:
             k = sum(x.fault_class == c for x in ds)
             assert within_binomial(k, n, d.fault.classes[c]), (c, k, n)
         for kind in PATH_KINDS:
             assert within_binomial(sum(x.path == kind for x in ds), n, d.path.kinds[kind]), kind
         faulted = [x for x in ds if x.faults]
         assert within_binomial(sum(len(x.faults) == 2 for x in faulted), len(faulted), d.fault.double)
-        p_gyro_fault = sum(d.fault.classes[c] for c in FAULT_CLASSES if c.startswith("gyro"))
+        p_gyro_fault = sum(d.fault.classes[c] for c in d.fault.classes if c.startswith("gyro"))
         p_gyro = p_gyro_fault + (1 - p_gyro_fault) * d.sensors.gyro  # a second gyro fault adds < 1 %: not modelled
         k = sum(x.gyro_sigma is not None for x in ds)
         assert within_binomial(k, n, p_gyro) or abs(k / n - p_gyro) < 0.02
@@ -115,7 +115,7 @@ def test_factor_ranges_match_the_definition(draws):
         cap = math.sqrt(d.path.max_lateral_accel * x.path_radius)
         assert d.path.speed.low <= x.speed <= min(d.path.speed.high, cap) + 1e-3
         for f in x.faults:
-            assert f.target in TARGETS[f.fault_class]
+            assert f.target in drawn_classes()[f.fault_class].targets
         if len(x.faults) == 2:
             a, b = x.faults
             assert a.target != b.target and b.onset - a.onset >= d.fault.second_delay.low - 0.01
@@ -135,7 +135,7 @@ def test_draws_are_valid_scenarios_with_their_faults(draws):
         cfg = validate_config(x.scenario())
         assert cfg.seed == x.seed and cfg.reference.kind == x.path
         got = sorted((f.fault_class, f.target, f.onset) for f in fault_list(cfg.faults, cfg.plant_wheel_radius))
-        want = sorted(("puncture" if f.family == "tyre" else f.fault_class, f.target, f.onset) for f in x.faults)
+        want = sorted((drawn_classes()[f.fault_class].name, f.target, f.onset) for f in x.faults)
         assert got == want, x.index
         classes |= {f.fault_class for f in x.faults}
         healthy = validate_config(x.scenario(with_faults=False))

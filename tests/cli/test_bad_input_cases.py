@@ -28,9 +28,10 @@ from ftc_mj import resources
 from ftc_mj.cli import app
 from ftc_mj.config import load_config
 from ftc_mj.errors import EXIT_UNSTABLE, BadInput
-from ftc_mj.plant import NAN, PHYSICS_WARNING, UNSTABLE, build_plant
+from ftc_mj.plant import NAN, PHYSICS_WARNING, UNSTABLE
 from ftc_mj.study.plan import plan_study
 from ftc_mj.study.runner import run_study
+from ftc_mj.wiring.plant import build_plant
 from tests.support.fake_runs import FakeOutcome, FakeResult
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -1,26 +1,26 @@
 """The fault library on the plants and sensors: each fault changes the physics or the reading as its
-docstring states (:mod:`ftc_mj.plant.actuator_faults`, :mod:`ftc_mj.plant.sensor_faults`), and
-:func:`~ftc_mj.plant.faults.fault_list` reports every configured fault."""
+docstring states (:mod:`ftc_mj.plant.faults.servo`, :mod:`ftc_mj.plant.faults.sensor`), and
+:func:`~ftc_mj.plant.faults.records.fault_list` reports every configured fault."""
 
 from __future__ import annotations
 
 import math
-from types import SimpleNamespace
 
 import mujoco
 import numpy as np
 import pytest
 
-from ftc_mj.config import FaultConfig, PlantConfig, RobotConfig, SensorSettings
+from ftc_mj.config import FaultSettings, PlantSettings, RobotSettings, SensorSettings
 from ftc_mj.plant import KinematicPlant, Plant, Sensors, Truth
-from ftc_mj.plant.faults import FAULT_UNITS, FaultSpec, fault_list
+from ftc_mj.plant.faults import FaultSpec, fault_list
+from ftc_mj.registry import fault_classes
 
 KV, TAU_MAX = 10_000.0, 1500.0
 """The shipped robot's servo gain (N m s/rad) and torque limit (N m) (ftc_mj/data/models/diffdrive.xml)."""
 
 
 def _plant(actuator: list[dict], **plant: object) -> Plant:
-    return Plant(PlantConfig(**plant), RobotConfig(), FaultConfig(actuator=actuator))
+    return Plant(PlantSettings(**plant), RobotSettings(), FaultSettings(actuator=actuator))
 
 
 def _servo(p: Plant, i: int) -> tuple[float, float, float]:
@@ -78,7 +78,7 @@ def test_an_unresponsive_servo_gives_no_torque_and_its_wheel_rolls_free() -> Non
         tr = p.truth()
         p.forward()
         assert p.data.actuator_force[p.layout.actuators[1]] == 0.0
-    b = RobotConfig().half_track
+    b = RobotSettings().half_track
     assert tr.omega_L == pytest.approx((tr.v - b * tr.yaw_rate) / tr.R_L, rel=0.1) and abs(tr.omega_L) > 0.5
     assert abs(tr.omega_R) < 0.2
 
@@ -105,8 +105,8 @@ def test_a_locked_wheel_stays_put() -> None:
 def test_a_locked_wheel_on_the_kinematic_plant_pivots_the_robot() -> None:
     """Kinematic plant, left wheel locked at 0.5 s: its rate is 0 whatever the command and the robot
     pivots about it, yaw rate R ω_R / (2 b) (exact to 1e-12)."""
-    faults = FaultConfig(actuator=[{"wheel": "left", "kind": "lock", "onset": 0.5}])
-    p = KinematicPlant(PlantConfig(kind="kinematic"), RobotConfig(), faults)
+    faults = FaultSettings(actuator=[{"wheel": "left", "kind": "lock", "onset": 0.5}])
+    p = KinematicPlant(PlantSettings(kind="kinematic"), RobotSettings(), faults)
     p.set_command(3.0, 3.0)
     p.advance(400)
     assert p.truth().omega_L == 3.0
@@ -126,7 +126,7 @@ def _truth(v: float = 10.0, yaw: float = 0.2) -> Truth:
 
 def _readings(faults: list[dict], n: int, gyro: float = 0.01) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t, speed, yaw rate) of ``n`` readings at 100 Hz of a constant truth (10 m/s, 0.2 rad/s)."""
-    s = Sensors(SensorSettings(yaw_rate_sigma=gyro), 7, FaultConfig(sensor=faults).sensor)
+    s = Sensors(SensorSettings(yaw_rate_sigma=gyro), 7, FaultSettings(sensor=faults))
     t = np.arange(n) * 0.01
     rd = [s.read(_truth(), ti) for ti in t]
     return t, np.array([r.speed for r in rd]), np.array([r.yaw_rate for r in rd])
@@ -178,7 +178,7 @@ def test_a_dropout_misses_its_samples_and_leaves_the_others(sensor: str) -> None
 def test_fault_list_reports_every_configured_fault() -> None:
     """Step and ramp punctures on either wheel (size = radius lost, m), servo and sensor faults (size in
     the class's unit), in configuration order; a schedule that never leaves nominal is no fault."""
-    faults = FaultConfig(
+    faults = FaultSettings(
         right=[[5.0, 2.0], [5.0, 1.4]], left=[[10.0, 2.0], [29.0, 0.1]],
         actuator=[{"wheel": "left", "kind": "loss", "onset": 3.0, "effectiveness": 0.25},
                   {"wheel": "right", "kind": "lock", "onset": 4.0},
@@ -192,10 +192,10 @@ def test_fault_list_reports_every_configured_fault() -> None:
         ("wheel_lock", "right", 4.0), ("actuator_unresponsive", "left", 6.0), ("speed_bias", "speed", 1.0),
         ("gyro_drift", "yaw_rate", 2.0), ("gyro_dropout", "yaw_rate", 7.0)]
     assert [s.size for s in specs] == pytest.approx([0.6, 1.9, 0.75, 1.0, 1.0, -0.3, 0.002, 1.5])
-    assert {s.fault_class for s in specs} <= set(FAULT_UNITS)
-    assert fault_list(FaultConfig(left=[[3.0, 2.0], [9.0, 2.0]]), 2.0) == []
+    assert {s.fault_class for s in specs} <= set(fault_classes.names())
+    assert fault_list(FaultSettings(left=[[3.0, 2.0], [9.0, 2.0]]), 2.0) == []
     assert FaultSpec("gyro_bias", "yaw_rate", 1.0, 0.05).describe() == "gyro_bias on yaw_rate, size 0.05 rad/s"
-    both = SimpleNamespace(right=[[8.0, 2.0], [8.0, 1.0]], left=[[8.0, 2.0], [8.0, 1.0]], actuator=[], sensor=[])
+    both = FaultSettings(right=[[8.0, 2.0], [8.0, 1.0]], left=[[8.0, 2.0], [8.0, 1.0]])
     assert [(s.target, s.size) for s in fault_list(both, 2.0)] == [("right", 1.0), ("left", 1.0)]
 
 
@@ -210,3 +210,21 @@ def test_servo_faults_leave_the_physics_step_untouched_without_them() -> None:
     p.advance(250)
     mujoco.mj_step(m, d, 250)
     np.testing.assert_array_equal(p.data.qpos, d.qpos)
+
+
+def test_the_docs_fault_table_is_the_classes_and_each_class_is_one_registered_object() -> None:
+    """docs/scenarios.md's table is generated from the registered classes; every class names its targets,
+    truth columns of each target and the measurements that observe it (a gyro fault: the gyro alone)."""
+    from pathlib import Path
+
+    from ftc_mj.plant.faults import all_classes, fault_class
+    from ftc_mj.plant.faults.base import markdown_table
+
+    builtin = [c for c in all_classes() if fault_classes.get(c.name).origin == "built-in"]
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "scenarios.md").read_text()
+    assert markdown_table(builtin) in doc
+    assert {c.name for c in builtin} == {"puncture", "actuator_loss", "wheel_lock", "actuator_unresponsive",
+                                         *(f"{s}_{m}" for s in ("speed", "gyro") for m in ("bias", "drift", "dropout"))}
+    for c in builtin:
+        assert c.targets and all(c.columns(t) for t in c.targets) and c.observed_by, c.name
+    assert fault_class("gyro_bias").observed_by == ("yaw_rate",) and fault_class("speed_drift").unit == "m/s²"

@@ -9,7 +9,8 @@ import pytest
 
 from ftc_mj.config import RunConfig
 from ftc_mj.model.kinematics import inverse_rates
-from ftc_mj.plant import KinematicPlant, build_plant
+from ftc_mj.plant import KinematicPlant
+from ftc_mj.wiring.plant import build_plant
 
 
 def kcfg() -> RunConfig:

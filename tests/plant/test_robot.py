@@ -27,10 +27,9 @@ from ftc_mj.plant import (
     TIPPED,
     Plant,
     Truth,
-    build_plant,
     flag_names,
-    plant_from_settings,
 )
+from ftc_mj.wiring.plant import build_plant, plant_from_settings
 from tests.plant.helpers import make_cfg, mujoco_plant
 
 B = 1.0

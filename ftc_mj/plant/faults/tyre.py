@@ -1,5 +1,5 @@
-"""Tyre-puncture fault profiles (piecewise-linear wheel radius against time), and every configured fault as a
-record (:func:`fault_list`: punctures, servo faults, sensor faults), the truth a scorer judges FDI against.
+"""Tyre punctures: piecewise-linear wheel-radius profiles against time (:class:`RadiusSchedule`), their
+configuration (``[faults] right/left``: :data:`Breakpoints`) and the fault class :class:`Puncture`.
 
 A schedule is a list of ``(t, r)`` breakpoints (s, m). Before the first breakpoint the radius is the nominal one;
 between breakpoints it is interpolated linearly; after the last it is held. Two breakpoints at the same time make a
@@ -10,18 +10,23 @@ Scenario 4's ramp ``R_L(t) = 2 - 0.1 (t - 10)`` down to 0.1 m is ``[(10, 2.0), (
 
 Evaluation is pure Python on scalars (a ``bisect`` plus one interpolation, well under 1 µs), and
 :meth:`RadiusSchedule.changing` tells the plant whether the radius can differ between two times, so the plant can
-step the physics in one call when nothing changes.
+step the physics in one call when nothing changes (the plants apply the schedules themselves: a radius is
+their state, not an effect on top of it).
 """
 
 from __future__ import annotations
 
 import math
 from bisect import bisect_right
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Annotated, Any, Literal
 
-from ..errors import BadInput
-from .settings import FaultSettings
+from pydantic import Field
+
+from ... import registry
+from ...errors import BadInput
+from ...fields import FiniteFloat, StrictModel
+from .base import WHEELS, FaultClass, Param, Sample
 
 EPS_T = 1e-9
 """Tolerance (s): schedules are looked up at ``k * dt + EPS_T`` so that breakpoints on step times are hit
@@ -154,56 +159,97 @@ class RadiusSchedule:
         return f"RadiusSchedule({self.breakpoints!r}, nominal={self.nominal})"
 
 
-def wheel_schedules(faults: FaultSettings, nominal: float) -> tuple[RadiusSchedule, RadiusSchedule]:
-    """The radius schedules ``(right, left)`` of the fault settings around the ``nominal`` radius (m)."""
-    return (RadiusSchedule(faults.right, nominal, "faults.right"),
-            RadiusSchedule(faults.left, nominal, "faults.left"))
+Breakpoints = Annotated[list[tuple[FiniteFloat, FiniteFloat]], Field(max_length=10_000)]
+"""One wheel's radius schedule in the configuration: ``[t, radius]`` breakpoints (s, m)."""
 
 
-FAULT_UNITS: dict[str, str] = {
-    "puncture": "m", "actuator_loss": "", "wheel_lock": "", "actuator_unresponsive": "",
-    "speed_bias": "m/s", "speed_drift": "m/s²", "speed_dropout": "s",
-    "gyro_bias": "rad/s", "gyro_drift": "rad/s²", "gyro_dropout": "s",
-}
-"""Every fault class and the unit of its :attr:`FaultSpec.size` (``""``: a fraction)."""
-
-_ACTUATOR_CLASS = {"loss": "actuator_loss", "lock": "wheel_lock", "unresponsive": "actuator_unresponsive"}
-_SENSOR_PREFIX = {"speed": "speed", "yaw_rate": "gyro"}
-
-
-@dataclass(frozen=True)
-class FaultSpec:
-    """One configured fault: its class (a key of :data:`FAULT_UNITS`), what it hits (``"right"``/``"left"``
-    wheel, ``"speed"``/``"yaw_rate"`` sensor), its onset (s) and its size in the class's unit: the radius
-    lost (m, nominal minus the radius farthest from it; positive = deflated) of a puncture; the fraction of
-    the servo lost (1 − effectiveness; 1 for a lock or an unresponsive servo); the bias (m/s, rad/s), the
-    drift rate (m/s², rad/s²) or the dropout's duration (s) of a sensor fault."""
-
-    fault_class: str
-    target: str
-    onset: float
-    size: float
-
-    def describe(self) -> str:
-        """``actuator_loss on left, size 0.5`` (with the unit when the size has one)."""
-        unit = FAULT_UNITS[self.fault_class]
-        return f"{self.fault_class} on {self.target}, size {self.size:g}{' ' + unit if unit else ''}"
+def check_schedule(v: Breakpoints) -> Breakpoints:
+    """``v`` if its times (s) are finite, non-negative and non-decreasing with at most two breakpoints at
+    one time (a step), and its radii (m) finite and positive; else ``ValueError`` saying which."""
+    last = -math.inf
+    for t, r in v:
+        if not (math.isfinite(t) and math.isfinite(r)):
+            raise ValueError("breakpoints must be finite")
+        if t < 0:
+            raise ValueError(f"breakpoint time {t} is negative")
+        if r <= 0:
+            raise ValueError(f"radius {r} must be > 0")
+        if t < last:
+            raise ValueError(f"breakpoint times must be non-decreasing ({t} after {last})")
+        last = t
+    times = [t for t, _ in v]
+    for i in range(len(times) - 2):
+        if times[i] == times[i + 1] == times[i + 2]:
+            raise ValueError(f"more than two breakpoints at t={times[i]}")
+    return v
 
 
-def fault_list(faults: FaultSettings, nominal_radius: float) -> list[FaultSpec]:
-    """Every fault of the settings (``[faults]``) around the plant's ``nominal_radius`` (m): the punctures
-    (right, then left; a wheel whose schedule never departs from nominal has none), then the servo faults
-    and the sensor faults in the order they are configured."""
-    out: list[FaultSpec] = []
-    for wheel, bps in (("right", faults.right), ("left", faults.left)):
-        onset = schedule_onset(bps, nominal_radius)
-        if onset is not None:
-            farthest = max((float(r) for _, r in bps), key=lambda r: abs(r - nominal_radius))
-            out.append(FaultSpec("puncture", wheel, onset, nominal_radius - farthest))
-    for a in faults.actuator:
-        lost = 1.0 - float(a.effectiveness) if a.kind == "loss" else 1.0  # type: ignore[arg-type]
-        out.append(FaultSpec(_ACTUATOR_CLASS[a.kind], a.wheel, float(a.onset), lost))
-    for f in faults.sensor:
-        size = float(f.duration) if f.kind == "dropout" else float(f.size)  # type: ignore[arg-type]
-        out.append(FaultSpec(f"{_SENSOR_PREFIX[f.sensor]}_{f.kind}", f.sensor, float(f.onset), size))
-    return out
+class WheelSchedule(StrictModel):
+    """One wheel's configured schedule: the wheel, its breakpoints (s, m) and the nominal radius (m)."""
+
+    wheel: Literal["right", "left"]
+    breakpoints: Breakpoints
+    nominal: FiniteFloat
+
+
+class Puncture(FaultClass):
+    """A tyre losing radius: a step (a blow-out) or a ramp (a slow leak) of the wheel's radius schedule.
+    Its size is the radius lost (m, nominal minus the radius farthest from it; positive = deflated)."""
+
+    name = "puncture"
+    component = "tyre"
+    mode = "puncture"
+    targets = WHEELS
+    unit = "m"
+    params: Mapping[str, Param] = {
+        "radius_lost": Param("m", -100.0, 100.0, "nominal minus the radius farthest from it"),
+        "remaining_fraction": Param("", 0.0, 1.0, "benchmark: remaining radius over nominal", low_open=True),
+        "ramp_rate": Param("m/s", 0.0, 100.0, "benchmark: radius lost per second by a ramp", low_open=True)}
+    observed_by = ("speed", "yaw_rate", "position")
+    radius_fault = True
+    drawn_as: Mapping[str, tuple[str, ...]] = {"puncture_step": ("puncture_fraction",),
+                                               "puncture_ramp": ("ramp_final_fraction", "ramp_rate")}
+    Settings = WheelSchedule
+    config = "`faults.right` / `faults.left` breakpoints"
+
+    @property
+    def target(self) -> str:
+        return str(self.settings.wheel)
+
+    @property
+    def onset(self) -> float:
+        return schedule_onset(self.settings.breakpoints, self.settings.nominal)  # type: ignore[return-value]
+
+    @property
+    def size(self) -> float:
+        R0 = self.settings.nominal
+        return R0 - max((float(r) for _, r in self.settings.breakpoints), key=lambda r: abs(r - R0))
+
+    @classmethod
+    def columns(cls, target: str) -> tuple[str, ...]:
+        return ("R_R",) if target == "right" else ("R_L",)
+
+    @classmethod
+    def draw(cls, kind: str, sample: Sample, sign: float) -> dict[str, float]:
+        """A step: the remaining radius fraction; a ramp: the final fraction and the rate (m/s)."""
+        if kind == "puncture_step":
+            return {"size": round(sample("puncture_fraction"), 4)}
+        size = round(sample("ramp_final_fraction"), 4)
+        return {"size": size, "rate": round(sample("ramp_rate"), 4)}
+
+    @classmethod
+    def add_to(cls, faults: dict[str, Any], kind: str, target: str, onset: float, drawn: Mapping[str, float],
+               nominal: float) -> None:
+        """The wheel's schedule: a step to ``size`` × nominal at the onset, or a ramp down to it at ``rate``."""
+        f, R0 = drawn["size"], nominal
+        end = onset if kind == "puncture_step" else onset + (1.0 - f) * R0 / drawn["rate"]
+        faults[target] = [[onset, R0], [end, f * R0]]
+
+    @classmethod
+    def check_range(cls, name: str, low: float, high: float) -> None:
+        """Remaining radius fractions must be > 0."""
+        if name != "ramp_rate" and low <= 0:
+            raise ValueError("puncture_fraction: remaining radius fractions must be > 0")
+
+
+registry.fault_classes.register(Puncture.name, Puncture, origin=registry.BUILTIN)

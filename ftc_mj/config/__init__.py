@@ -52,20 +52,18 @@ from .sections import (
     HypothesisConfig,
     ModelConfig,
     OutputConfig,
-    PathFollowingConfig,
     PlantConfig,
     ReconfigurationConfig,
     ReferenceConfig,
     RobotConfig,
-    RobustConfig,
 )
 
 __all__ = [
     "BUILTIN_SCENARIOS", "DEFAULT_MODEL_FILE", "FLOAT_BOUND", "MAX_TOML_BYTES", "NAME_RE", "OMEGA_MAX",
     "ControllerConfig", "DecisionConfig", "DegradedConfig", "EstimatorConfig", "ExcitationConfig", "FaultConfig",
     "FiniteFloat",
-    "Flag", "Fraction", "HypothesisConfig", "ModelConfig", "NonNegFloat", "OutputConfig", "PathFollowingConfig",
-    "PlantConfig", "PosFloat", "ReconfigurationConfig", "ReferenceConfig", "RobotConfig", "RobustConfig",
+    "Flag", "Fraction", "HypothesisConfig", "ModelConfig", "NonNegFloat", "OutputConfig",
+    "PlantConfig", "PosFloat", "ReconfigurationConfig", "ReferenceConfig", "RobotConfig",
     "RunConfig", "SafeName", "SensorSettings", "config_to_toml_dict", "existing_file", "from_sections",
     "load_config", "one_line", "parse_override", "parse_toml", "ranged", "ranged_int", "read_toml",
     "run_context", "scenario_path", "section", "set_dotted", "shown_value", "validate_config",

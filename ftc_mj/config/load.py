@@ -7,11 +7,13 @@ own, and the resolved config as TOML data.
 from __future__ import annotations
 
 import tomllib
+import types
+import typing
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, TypeAdapter, ValidationError
 
 from ..errors import BadInput
 from ..fields import NAME_RE
@@ -38,18 +40,31 @@ def unknown_key_hint(err: ValidationError) -> str:
     loc = [p for p in e["loc"] if isinstance(p, str)]
     if e["type"] != "extra_forbidden" or len(loc) != len(e["loc"]):
         return ""
+    loc = [p for i, p in enumerate(loc) if p.isidentifier() or i == len(loc) - 1]  # union tags left out
     parts = [*loc, *first_leaf(e.get("input"))]
     key = suggest_key(RunConfig, parts, len(loc) - 1)
     return f"; did you mean {key}?" if key else ""
 
 
-def section(model: type[BaseModel], value: Any, where: str) -> Any:
-    """One config section from an instance of ``model``, a plain table or ``None`` (the defaults), for
-    components built without a run config; :class:`BadInput` naming ``<where>.<field>``."""
-    if isinstance(value, model):
+def _is_section(annotation: Any) -> bool:
+    """Whether a :class:`RunConfig` field holds a section: a settings model, or a union of settings models
+    discriminated by ``kind`` (each member ``Annotated`` with its tag)."""
+    if isinstance(annotation, type):
+        return issubclass(annotation, BaseModel)
+    if typing.get_origin(annotation) is typing.Annotated:
+        return _is_section(typing.get_args(annotation)[0])
+    members = typing.get_args(annotation) if typing.get_origin(annotation) in (typing.Union, types.UnionType) else ()
+    return bool(members) and all(_is_section(m) for m in members)
+
+
+def section(model: Any, value: Any, where: str) -> Any:
+    """One config section from an instance of ``model`` (a settings model or a discriminated union of them), a
+    plain table or ``None`` (the defaults), for components built without a run config; :class:`BadInput`
+    naming ``<where>.<field>``."""
+    if isinstance(value, model if isinstance(model, type) else BaseModel):
         return value
     try:
-        return model.model_validate({} if value is None else dict(value))
+        return TypeAdapter(model).validate_python({} if value is None else dict(value))
     except ValidationError as err:
         line = one_line(err)
         raise BadInput(f"{where}: {line.removeprefix('<root>: ')}" if line.startswith("<root>")
@@ -62,8 +77,8 @@ def from_sections(**sections: Any) -> RunConfig:
     """A run config holding the given sections (instances, plain tables or ``None``; the rest the
     defaults), for a component built from its own settings: ``from_sections(plant={"kind":
     "kinematic"}, robot=None)``. :class:`BadInput` naming ``<section>.<field>``."""
-    models = {name: f.annotation for name, f in RunConfig.model_fields.items()
-              if isinstance(f.annotation, type) and issubclass(f.annotation, BaseModel)}
+    models = {name: typing.Annotated[(f.annotation, *f.metadata)] if f.metadata else f.annotation
+              for name, f in RunConfig.model_fields.items() if _is_section(f.annotation)}
     data = {}
     for name, value in sections.items():
         if name not in models:

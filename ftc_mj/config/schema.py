@@ -13,6 +13,7 @@ from pydantic import Field, Strict, model_validator
 
 from .. import registry
 from ..context import RunContext
+from ..control.nmpc import NMPCSettings
 from ..fields import SafeName, StrictModel, ranged, ranged_int
 from ..model.sensors import SensorSettings
 from .sections import (
@@ -48,7 +49,7 @@ class RunConfig(StrictModel):
     faults: FaultConfig = Field(default_factory=FaultConfig)
     sensors: SensorSettings = Field(default_factory=SensorSettings)
     estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
-    controller: ControllerConfig = Field(default_factory=ControllerConfig)
+    controller: ControllerConfig = Field(default_factory=NMPCSettings)
     reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
     reference: ReferenceConfig = Field(default_factory=ReferenceConfig)
     output: OutputConfig = Field(default_factory=OutputConfig)

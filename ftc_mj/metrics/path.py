@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from ..config import RunConfig
-from ..control import build_reference
 from ..model.kinematics import max_path_speed
+from ..wiring.control import build_reference
 
 RECOVERED_AFTER_S = 5.0
 """``contouring_*_recovered`` start this long (s) after the *last* fault onset (a fault-free run: after

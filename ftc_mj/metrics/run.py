@@ -185,11 +185,12 @@ def actuation_metrics(cfg: RunConfig, trace: dict[str, np.ndarray], dt: float) -
     m["command_total_variation_per_s"] = float(tv / dur)
     # command steps between controller samples (the trace holds each command): largest, and time (s) in
     # controller periods that began with a step at (or, with the first input free, beyond) the MPC's
-    # rate bound omega_rate_max / rate
+    # rate bound omega_rate_max / rate (NaN for a controller without one, the open loop)
     steps = np.fmax(np.abs(np.diff(cmdR)), np.abs(np.diff(cmdL)))
-    step_lim = cfg.controller.omega_rate_max / cfg.controller.rate
+    rate_max = getattr(cfg.controller, "omega_rate_max", None)
     m["command_step_max"] = nanstat(steps, np.max)
-    m["command_at_rate_limit_s"] = float(np.sum(steps >= step_lim * (1 - LIMIT_TOL)) / cfg.controller.rate)
+    m["command_at_rate_limit_s"] = (float("nan") if rate_max is None else float(
+        np.sum(steps >= rate_max / cfg.controller.rate * (1 - LIMIT_TOL)) / cfg.controller.rate))
     return m
 
 

@@ -37,7 +37,6 @@ import numpy as np
 from ..config import RunConfig
 from ..control.base import ControlOutput
 from ..control.excitation import dither_wheel_rates, yaw_dither
-from ..control.factory import build_reference
 from ..estimation.base import FilterOutput, Measurement
 from ..estimation.decision import DecisionState, FaultDecision
 from ..estimation.decision_factory import build_fault_decision
@@ -53,6 +52,7 @@ from ..reconfiguration.factory import build_degraded_mode, build_policy, build_s
 from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
+from ..wiring.control import build_reference
 from .cache import controller_for, plant_for
 from .trace import TraceWriter
 

@@ -7,20 +7,19 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig, run_context
+from ftc_mj.config.sections import CONTROLLER_KINDS
 from ftc_mj.control import (
     NMPC,
     CircleReference,
     LinearMPC,
     OpenLoopController,
-    ProblemSpec,
-    build_controller,
-    build_reference,
-    controller_from_settings,
-    problem_spec,
+    OpenLoopSettings,
+    ReferenceSettings,
     tracking_problem,
 )
 from ftc_mj.registry import controllers, references
-from tests.control.common import NOMINAL, cfg_with
+from ftc_mj.wiring.control import build_controller, build_reference, controller_from_settings, problem_spec
+from tests.control.common import NOMINAL, cfg_with, problem
 
 
 def test_factory_kinds() -> None:
@@ -30,7 +29,7 @@ def test_factory_kinds() -> None:
     np.testing.assert_allclose(ctl.solve(0.0, np.zeros(3), np.array(NOMINAL)).omega, [3.0, 4.0])
     assert isinstance(build_controller(cfg_with(kind="lmpc"), build_reference(cfg)), LinearMPC)
     with pytest.raises(ValueError):
-        NMPC(ProblemSpec(), build_reference(cfg), solver="bogus")
+        NMPC(problem(), build_reference(cfg), solver="bogus")
 
 
 def test_factories_take_their_own_settings_and_the_run_context() -> None:
@@ -50,8 +49,22 @@ def test_factories_take_their_own_settings_and_the_run_context() -> None:
                                                                                 ctx.controller_dt)
     ref = references.create("circle", cfg.reference, ctx)
     assert isinstance(ref, CircleReference) and ref.speed == cfg.reference.speed
-    ctl = controllers.create("open-loop", cfg.controller, ctx, ref)
+    ctl = controllers.create("open-loop", OpenLoopSettings(), ctx, ref)
     assert isinstance(ctl, OpenLoopController)
+
+
+def test_each_builtin_is_registered_with_its_settings_model() -> None:
+    """Every built-in controller is registered with the settings model of its kind (``section``), the model the
+    config's ``[controller]`` union picks for that kind; every built-in reference with the reference model."""
+    for name in controllers.names():
+        entry = controllers.get(name)
+        if entry.origin == "built-in":
+            model = entry.meta["section"]
+            assert CONTROLLER_KINDS[name] is model and model().kind == name
+            assert type(RunConfig(controller={"kind": name}).controller) is model
+    for name in references.names():
+        if references.get(name).origin == "built-in":
+            assert references.get(name).meta["section"] is ReferenceSettings
 
 
 def test_controller_from_settings_alone() -> None:
@@ -73,8 +86,8 @@ def test_an_old_controller_plugin_still_builds_with_a_warning() -> None:
 
     controllers.register("probe-old-controller", old)
     try:
-        cfg = RunConfig()
-        cfg.controller.kind = "probe-old-controller"
+        cfg = RunConfig(controller={"kind": "probe-old-controller"})
+        assert cfg.controller.options == {} and cfg.controller.nodes == 50  # a plug-in's section: the MPC's
         ref = build_reference(cfg)
         with pytest.warns(DeprecationWarning, match="old contract"):
             ctl = build_controller(cfg, ref)

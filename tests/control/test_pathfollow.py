@@ -13,7 +13,6 @@ from ftc_mj.control.pathfollow import PathFollowingNMPC
 from ftc_mj.control.pathfollow_spec import (
     PathFollowingSpec,
     RadiusInterval,
-    RobotLimits,
     compliance_offset,
     wheel_bounds,
 )
@@ -208,7 +207,6 @@ def test_factory_and_sim_hand_over_the_robot_limits() -> None:
     ctl = build_controller(cfg, CIRCLE)
     assert ctl.spec.problem.max_lateral_accel == 2.5 and ctl.spec.braking_trade == 0.0
     assert ctl.spec.problem.rate_penalty == 0.25
-    assert RobotLimits(3.0).yaw_compliance == 0.0
 
 
 def test_mujoco_run_writes_the_telemetry_and_rerun_entities(tmp_path) -> None:

@@ -19,6 +19,8 @@ from pydantic import (
     SerializerFunctionWrapHandler,
     Strict,
     Tag,
+    TypeAdapter,
+    ValidationError,
     field_validator,
     model_serializer,
     model_validator,
@@ -422,18 +424,36 @@ def _controller_tag(value: Any) -> str:
     return f"kind={kind}" if isinstance(kind, str) and kind in CONTROLLER_KINDS else "kind=plug-in"
 
 
+def _is_default(model: type[ControllerSettings], key: str, value: Any) -> bool:
+    """Whether ``value`` is ``model``'s default of its setting ``key`` (as validated by the field)."""
+    f = model.model_fields[key]
+    field_type = Annotated[(f.annotation, *f.metadata)] if f.metadata else f.annotation
+    try:
+        given = TypeAdapter(field_type).validate_python(value)
+    except ValidationError:
+        return False
+    return bool(given == f.get_default(call_default_factory=True))
+
+
 def _other_kinds_keys(value: Any) -> Any:
     """A ``[controller]`` table of a built-in kind holding a key of another kind only: a one-line error naming the
-    key and the kinds that have it (``controller.nodes: not a setting of controller 'open-loop' …``)."""
+    key and the kinds that have it (``controller.nodes: not a setting of controller 'open-loop' …``). Such a key
+    at that kind's default is dropped: a resolved config written when the section was one flat table (every
+    kind's settings, the others' at their defaults) still reads as the run it was."""
     if not isinstance(value, dict):
         return value
     kind = value.get("kind", "nmpc")
     model = CONTROLLER_KINDS.get(kind) if isinstance(kind, str) else None
+    out = dict(value)
     for key in value if model is not None else ():
-        owners = [k for k, m in CONTROLLER_KINDS.items() if key in m.model_fields]
-        if key not in model.model_fields and owners:
-            raise ValueError(f"{key}: not a setting of controller {kind!r} (a setting of {', '.join(owners)})")
-    return value
+        owners = [m for m in CONTROLLER_KINDS.values() if key in m.model_fields]
+        if key in model.model_fields or not owners:
+            continue
+        if not _is_default(owners[0], key, value[key]):
+            names = ", ".join(k for k, m in CONTROLLER_KINDS.items() if m in owners)
+            raise ValueError(f"{key}: not a setting of controller {kind!r} (a setting of {names})")
+        del out[key]
+    return out
 
 
 ControllerConfig = Annotated[

@@ -6,17 +6,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.config import RunConfig, run_context
+from ftc_mj.config import RunConfig, run_context, validate_config
 from ftc_mj.config.sections import CONTROLLER_KINDS
 from ftc_mj.control import (
     NMPC,
     CircleReference,
     LinearMPC,
+    NMPCSettings,
     OpenLoopController,
     OpenLoopSettings,
+    PathFollowingSettings,
     ReferenceSettings,
+    RobustSettings,
     tracking_problem,
 )
+from ftc_mj.errors import BadInput
 from ftc_mj.registry import controllers, references
 from ftc_mj.wiring.control import build_controller, build_reference, controller_from_settings, problem_spec
 from tests.control.common import NOMINAL, cfg_with, problem
@@ -94,3 +98,19 @@ def test_an_old_controller_plugin_still_builds_with_a_warning() -> None:
         assert isinstance(ctl, OpenLoopController) and seen == [(cfg, ref)]
     finally:
         controllers.unregister("probe-old-controller")
+
+
+def test_a_flat_controller_table_of_defaults_still_reads() -> None:
+    """A resolved config written when ``[controller]`` was one flat table (every kind's settings, the other
+    kinds' at their defaults) reads as the same run; another kind's setting away from its default is a one-line
+    error naming it and the kinds that have it."""
+    flat = {"kind": "nmpc", "nodes": 20, "open_loop_omega": [5.0, 5.0], "open_loop_schedule": [],
+            "lmpc_qpsol": "daqp", "options": {}, "path_following": PathFollowingSettings().model_dump(),
+            "robust": {**RobustSettings().model_dump(), "scenarios": [[1.0, 1.0], [0.5, 1.0], [1.0, 0.5], [0.5, 0.5]]}}
+    cfg = validate_config({"controller": flat})
+    assert cfg.controller == NMPCSettings(nodes=20)
+    with pytest.raises(BadInput, match=r"^controller.lmpc_qpsol: not a setting of controller 'nmpc' \(a setting "
+                                       r"of lmpc\)$"):
+        validate_config({"controller": {**flat, "lmpc_qpsol": "osqp"}})
+    with pytest.raises(BadInput, match=r"^controller.robust: not a setting of controller 'nmpc'"):
+        validate_config({"controller": {**flat, "robust": {"objective": "worst"}}})

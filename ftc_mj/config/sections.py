@@ -3,7 +3,10 @@
 each, with the paper's values as defaults. SI units and radians throughout; the only
 degree-valued fields end in ``_deg``.
 
-A component's factory receives its own section (``estimator``, ``controller``, …) as its settings.
+A component's factory receives its own section (``estimator``, ``controller``, …) as its settings. The
+control settings are declared beside their components and only composed here: ``controller`` is the union of
+the controller kinds' models discriminated by ``kind`` (:data:`ControllerConfig`), ``reference`` the reference
+path's model.
 """
 
 from __future__ import annotations

@@ -131,6 +131,18 @@ class RobustNMPCSettings(NMPCSettings):
     robust: RobustSettings = Field(default_factory=RobustSettings)
     """Settings of the robust multi-stage NMPC (its scenarios and their weighting)."""
 
+    @model_validator(mode="after")
+    def _solvable(self) -> RobustNMPCSettings:
+        """Its solver (IPOPT or the RTI on daqp), the ``worst`` objective (IPOPT only), the robust horizon (at
+        most ``nodes``)."""
+        if self.solver not in ROBUST_SOLVERS:
+            raise ValueError(f"solver: robust-nmpc is solved by 'ipopt' or 'rti-daqp', not {self.solver!r}")
+        if self.robust.objective == "worst" and self.solver != "ipopt":
+            raise ValueError("robust.objective: 'worst' is not a QP; it needs controller.solver = 'ipopt'")
+        if self.robust.robust_horizon_nodes is not None and self.robust.robust_horizon_nodes > self.nodes:
+            raise ValueError(f"robust.robust_horizon_nodes: at most controller.nodes = {self.nodes}")
+        return self
+
 
 def scenario_radii(fractions: np.ndarray, radii: np.ndarray) -> np.ndarray:
     """Radii (S, 2) [R_R, R_L] (m) of the scenarios: ``fractions`` (S, 2) of the model ``radii`` (2,) (m)."""

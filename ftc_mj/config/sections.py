@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, Union
 
 from pydantic import (
     BeforeValidator,
@@ -460,9 +460,8 @@ def _other_kinds_keys(value: Any) -> Any:
 
 
 ControllerConfig = Annotated[
-    Annotated[NMPCSettings, Tag("kind=nmpc")] | Annotated[LinearMPCSettings, Tag("kind=lmpc")]
-    | Annotated[PathFollowingNMPCSettings, Tag("kind=pf-nmpc")] | Annotated[RobustNMPCSettings, Tag("kind=robust-nmpc")]
-    | Annotated[OpenLoopSettings, Tag("kind=open-loop")] | Annotated[PluginControllerSettings, Tag("kind=plug-in")],
+    Union[tuple(Annotated[m, Tag(f"kind={k}")] for k, m in  # noqa: UP007 - built from the table of kinds
+                [*CONTROLLER_KINDS.items(), ("plug-in", PluginControllerSettings)])],
     Discriminator(_controller_tag), BeforeValidator(_other_kinds_keys)]
 """The trajectory-tracking controller (paper §3), discriminated by ``kind``: the built-in kinds' models
 (:data:`CONTROLLER_KINDS`) or a plug-in's (its ``options``)."""

@@ -21,8 +21,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 import ftc_mj  # noqa: E402
-from ftc_mj.control.factory import build_controller, build_reference  # noqa: E402
 from ftc_mj.envs import DiffDriveEnv  # noqa: E402
+from ftc_mj.wiring.control import build_controller, build_reference  # noqa: E402
 
 
 def constant_episode(env: DiffDriveEnv) -> int:

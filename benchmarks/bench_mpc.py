@@ -65,12 +65,13 @@ from collections.abc import Iterator  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ftc_mj.config import RunConfig  # noqa: E402
-from ftc_mj.control import NMPC, LinearMPC, build_reference, problem_spec  # noqa: E402
+from ftc_mj.control import NMPC, LinearMPC  # noqa: E402
 from ftc_mj.control.base import ControlOutput  # noqa: E402
 from ftc_mj.control.condensed_qp import CondensedQP  # noqa: E402
 from ftc_mj.control.robust import RobustNMPC  # noqa: E402
 from ftc_mj.control.tracking import reference_at_nodes  # noqa: E402
 from ftc_mj.control.transcription import Collocation  # noqa: E402
+from ftc_mj.wiring.control import build_reference, problem_spec  # noqa: E402
 from tests.support.kinsim import simulate  # noqa: E402
 from tests.support.opti_nmpc import OptiNMPC  # noqa: E402
 
@@ -354,11 +355,13 @@ def rate_bound_table(repeats: int) -> None:
 def pathfollow_rows(cfg: RunConfig, ref, duration: float) -> list[str]:
     """The path-following NMPC (its first-step bound is part of its problem) on the same loop, RTI and IPOPT,
     with the robot's limits the sim layer derives from the MJCF (kinematic plant: no yaw compliance)."""
-    from ftc_mj.control import build_controller
+    from ftc_mj.control import PathFollowingNMPCSettings
     from ftc_mj.sim.cache import robot_limits
+    from ftc_mj.wiring.control import build_controller
 
     pf = cfg.model_copy(deep=True)
-    pf.controller.kind, pf.controller.rate_penalty, pf.plant.kind = "pf-nmpc", 1.0, "kinematic"
+    pf.controller = PathFollowingNMPCSettings(**{**cfg.controller.model_dump(exclude={"kind"}), "rate_penalty": 1.0})
+    pf.plant.kind = "kinematic"
     out = []
     for solver in ("rti-daqp", "ipopt"):
         pf.controller.solver = solver
@@ -385,12 +388,11 @@ class FromOnset:
 
 def degraded_table(duration: float) -> None:
     """Solve times of the path-following NMPC with the degraded mode's interval rows against without them."""
-    from ftc_mj.control import build_controller
     from ftc_mj.control.pathfollow_spec import RadiusInterval
     from ftc_mj.sim.cache import robot_limits
+    from ftc_mj.wiring.control import build_controller
 
-    cfg = RunConfig()
-    cfg.controller.kind, cfg.plant.kind, cfg.controller.time_budget = "pf-nmpc", "kinematic", 10.0
+    cfg = RunConfig(controller={"kind": "pf-nmpc", "time_budget": 10.0}, plant={"kind": "kinematic"})
     ref = build_reference(cfg)
     r_min = cfg.reconfiguration.degraded.min_radius
     interval = RadiusInterval(np.array([2.0, r_min]), np.array([2.0, 2.0]))

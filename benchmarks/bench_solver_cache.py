@@ -17,10 +17,10 @@ import tempfile
 import time
 
 from ftc_mj.config import load_config
-from ftc_mj.control.factory import build_controller
 from ftc_mj.control.solver_cache import CACHE_ENV, SWITCH_ENV
 from ftc_mj.sim.cache import robot_limits
 from ftc_mj.sim.loop import build_reference
+from ftc_mj.wiring.control import build_controller
 
 KINDS = ("nmpc", "pf-nmpc", "robust-nmpc")
 

@@ -190,8 +190,9 @@ decision_rules = Registry("decision rule", "ftc_mj.decision_rules", "ftc_mj.wiri
 detector's calibrated threshold (LLR units) as a third argument; meta ``detectors=True``: and with the
 run's :class:`~ftc_mj.estimation.residual.ChangeDetectors` (the no-fault residual generator with its
 CUSUM and GLR) as a fourth."""
-controllers = Registry("controller", "ftc_mj.controllers", "ftc_mj.control.factory", "controller.kind")
-"""``factory(settings: ControllerConfig, context: RunContext, reference: Reference) -> Controller``;
+controllers = Registry("controller", "ftc_mj.controllers", "ftc_mj.wiring.control", "controller.kind")
+"""``factory(settings, context: RunContext, reference: Reference) -> Controller`` (``settings``: the
+``[controller]`` section, the settings model of its kind — a built-in's registered as meta ``section``);
 meta ``reusable=True``: the controller has ``reset()`` and is cached per process and structure (MPC solvers);
 ``rate_bounded=True``: its first input stays within ``controller.omega_rate_max / rate`` of the
 command in force (the loop clips a dither to that bound)."""
@@ -199,8 +200,8 @@ policies = Registry("policy", "ftc_mj.policies", "ftc_mj.reconfiguration.policie
 """``factory(settings: ReconfigurationSettings, context: RunContext) -> ReconfigurationPolicy``
 (``settings``: the ``[reconfiguration]`` section, a plug-in's ``options`` in ``settings.options``);
 meta ``needs_estimator=False``: used even in runs without a filter (otherwise such runs use ``none``)."""
-references = Registry("reference", "ftc_mj.references", "ftc_mj.control.factory", "reference.kind")
-"""``factory(settings: ReferenceConfig, context: RunContext) -> Reference`` (``settings``: the ``[reference]``
+references = Registry("reference", "ftc_mj.references", "ftc_mj.wiring.control", "reference.kind")
+"""``factory(settings: ReferenceSettings, context: RunContext) -> Reference`` (``settings``: the ``[reference]``
 section; the path starts at ``context.initial_pose``)."""
 
 fault_classes = Registry("fault class", "ftc_mj.fault_classes", "ftc_mj.plant.faults", "faults.plugin.fault_class")

@@ -31,38 +31,51 @@ def did_you_mean(word: str, candidates: Iterable[str]) -> str:
     return f" (did you mean {match!r}?)" if match else ""
 
 
-def _submodel(annotation: Any) -> type | None:
-    """The pydantic model a field annotation holds (through ``Annotated`` and ``X | None``), else ``None``."""
+def submodels(annotation: Any) -> list[type]:
+    """The pydantic models a field annotation holds (through ``Annotated`` and ``X | None``; every member of a
+    union of models, as a section discriminated by ``kind``), else ``[]``."""
     if typing.get_origin(annotation) is typing.Annotated:
         annotation = typing.get_args(annotation)[0]
     if typing.get_origin(annotation) in (typing.Union, types.UnionType):
-        models = [a for a in typing.get_args(annotation) if _submodel(a) is not None]
-        return _submodel(models[0]) if len(models) == 1 else None
-    return annotation if isinstance(annotation, type) and hasattr(annotation, "model_fields") else None
+        return [m for a in typing.get_args(annotation) for m in submodels(a)]
+    return [annotation] if isinstance(annotation, type) and hasattr(annotation, "model_fields") else []
+
+
+def section_fields(models: list[type]) -> dict[str, Any]:
+    """The fields of ``models`` (a section's union members) by name, the first model's declaration of each."""
+    out: dict[str, Any] = {}
+    for m in models:
+        for name, field in m.model_fields.items():  # type: ignore[attr-defined]
+            out.setdefault(name, field)
+    return out
 
 
 def config_keys(model: type, prefix: str = "") -> list[str]:
     """Every dotted key of the pydantic ``model``: its tables and its values (``estimator``,
-    ``estimator.decision``, ``estimator.decision.rule``, …)."""
+    ``estimator.decision``, ``estimator.decision.rule``, …; a section discriminated by ``kind``: every kind's)."""
+    return _keys([model], prefix)
+
+
+def _keys(models: list[type], prefix: str) -> list[str]:
     out = []
-    for name, field in model.model_fields.items():  # type: ignore[attr-defined]
+    for name, field in section_fields(models).items():
         key = f"{prefix}{name}"
         out.append(key)
-        sub = _submodel(field.annotation)
-        if sub is not None:
-            out.extend(config_keys(sub, key + "."))
+        subs = submodels(field.annotation)
+        if subs:
+            out.extend(_keys(subs, key + "."))
     return out
 
 
 def _fields_at(model: type, parts: list[str]) -> list[str]:
     """The field names of the table ``parts`` of ``model`` (``[]`` if it is not a table)."""
+    models = [model]
     for part in parts:
-        field = model.model_fields.get(part)  # type: ignore[attr-defined]
-        sub = _submodel(field.annotation) if field is not None else None
-        if sub is None:
+        field = section_fields(models).get(part)
+        models = submodels(field.annotation) if field is not None else []
+        if not models:
             return []
-        model = sub
-    return list(model.model_fields)  # type: ignore[attr-defined]
+    return list(section_fields(models))
 
 
 def first_leaf(value: Any) -> list[str]:

@@ -123,7 +123,8 @@ def test_plant_and_controller_from_their_own_settings() -> None:
     counter-clockwise circle commands the reference's speed (mean wheel rate ``V / R`` = 5 rad/s; the
     cost has no reason to change speed on the path, 0.05 rad/s = 1 % allowed) turning left
     (``ω_R > ω_L``)."""
-    from ftc_mj.control import CircleReference, controller_from_settings
+    from ftc_mj.control import CircleReference
+    from ftc_mj.wiring.control import controller_from_settings
     from ftc_mj.wiring.plant import plant_from_settings
 
     plant = plant_from_settings({"kind": "kinematic"}, robot={"wheel_radius": 2.0})

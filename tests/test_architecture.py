@@ -6,8 +6,8 @@
   file graph collapsed to packages has no cycle (two packages of one layer may import each other's
   modules in one direction only);
 - the components (``estimation``, ``control``, ``plant``, ``reconfiguration``) are built from their
-  own settings: none of their modules imports the application config ``ftc_mj.config`` except
-  their factory modules (``factory.py``, ``<what>_factory.py``);
+  own settings: none of their modules imports the application config ``ftc_mj.config`` or the wiring
+  ``ftc_mj.wiring`` (the one layer that reads the config and builds them);
 - no function longer than 80 lines outside generated code.
 """
 
@@ -112,21 +112,14 @@ def package_of(module: str) -> str:
     return parts[1] if len(parts) > 1 else parts[0]
 
 
-def exempt(module: str, target: str) -> bool:
-    """A component's factory module importing the application config: allowed until the factories have moved
-    to ``ftc_mj/wiring`` (the same exemption as :func:`test_components_do_not_read_the_application_config`)."""
-    return (package_of(module) in COMPONENT_PACKAGES and module.rsplit(".", 1)[-1].endswith("factory")
-            and package_of(target) == "config")
-
-
 def package_graph(graph: dict[str, set[str]]) -> dict[str, dict[str, str]]:
     """The module graph collapsed to packages: ``{package: {imported package: one module-level import that
-    makes the edge}}`` (imports inside a package and the exempt ones left out)."""
+    makes the edge}}`` (imports inside a package left out)."""
     out: dict[str, dict[str, str]] = {}
     for module in sorted(graph):
         edges = out.setdefault(package_of(module), {})
         for target in sorted(graph[module]):
-            if package_of(target) != package_of(module) and not exempt(module, target):
+            if package_of(target) != package_of(module):
                 edges.setdefault(package_of(target), f"{module} -> {target}")
     return out
 
@@ -163,10 +156,11 @@ def test_the_package_checks_find_planted_faults():
              "ftc_mj.control.factory": {"ftc_mj.config.x"}, "ftc_mj.config.x": set()}
     packages = package_graph(graph)
     assert packages["study"] == {"paper": "ftc_mj.study.a -> ftc_mj.paper.b"}
-    assert packages["control"] == {}, "the factory exemption covers only the config import"
+    assert packages["control"] == {"config": "ftc_mj.control.factory -> ftc_mj.config.x"}, "no module is exempt"
     assert find_cycle({p: set(e) for p, e in packages.items()}) == ["paper", "study", "paper"]
-    assert layer_violations(packages, (("config", "control"), ("study",), ("paper",))) == [
-        "ftc_mj.study.a -> ftc_mj.paper.b (layer 1 imports layer 2)"]
+    assert layer_violations(packages, (("control",), ("config",), ("study",), ("paper",))) == [
+        "ftc_mj.control.factory -> ftc_mj.config.x (layer 0 imports layer 1)",
+        "ftc_mj.study.a -> ftc_mj.paper.b (layer 2 imports layer 3)"]
 
 
 def test_no_import_cycle_inside_ftc_mj():
@@ -181,17 +175,14 @@ def test_find_cycle_finds_a_planted_cycle():
 
 @pytest.mark.parametrize("package", COMPONENT_PACKAGES)
 def test_components_do_not_read_the_application_config(package):
+    """No module of a component package imports the application config or the wiring above it (lazy imports
+    included): a component receives its own settings model and the run context."""
     folder = ROOT / package
     assert folder.is_dir(), f"ftc_mj/{package} is missing"
+    above = ("ftc_mj.config", "ftc_mj.wiring")
     offenders = [str(p.relative_to(ROOT)) for p in sorted(folder.rglob("*.py"))
-                 if not is_factory(p)
-                 and any(m == "ftc_mj.config" or m.startswith("ftc_mj.config.") for m in imported_modules(p))]
-    assert not offenders, f"import ftc_mj.config outside a factory module: {offenders}"
-
-
-def is_factory(path: Path) -> bool:
-    """A factory module: the one place of a package that reads the application config."""
-    return path.stem == "factory" or path.stem.endswith("_factory")
+                 if any(m == a or m.startswith(a + ".") for m in imported_modules(p) for a in above)]
+    assert not offenders, f"a component imports ftc_mj.config or ftc_mj.wiring: {offenders}"
 
 
 def long_functions(path: Path) -> list[str]:

@@ -52,20 +52,18 @@ from .sections import (
     HypothesisConfig,
     ModelSettings,
     OutputConfig,
-    PathFollowingConfig,
     PlantSettings,
     ReconfigurationConfig,
     ReferenceConfig,
     RobotSettings,
-    RobustConfig,
 )
 
 __all__ = [
     "BUILTIN_SCENARIOS", "DEFAULT_MODEL_FILE", "FLOAT_BOUND", "MAX_TOML_BYTES", "NAME_RE", "OMEGA_MAX",
     "ControllerConfig", "DecisionConfig", "DegradedConfig", "EstimatorConfig", "ExcitationConfig", "FaultSettings",
     "FiniteFloat",
-    "Flag", "Fraction", "HypothesisConfig", "ModelSettings", "NonNegFloat", "OutputConfig", "PathFollowingConfig",
-    "PlantSettings", "PosFloat", "ReconfigurationConfig", "ReferenceConfig", "RobotSettings", "RobustConfig",
+    "Flag", "Fraction", "HypothesisConfig", "ModelSettings", "NonNegFloat", "OutputConfig",
+    "PlantSettings", "PosFloat", "ReconfigurationConfig", "ReferenceConfig", "RobotSettings",
     "RunConfig", "SafeName", "SensorSettings", "config_to_toml_dict", "existing_file", "from_sections",
     "load_config", "one_line", "parse_override", "parse_toml", "ranged", "ranged_int", "read_toml",
     "run_context", "scenario_path", "section", "set_dotted", "shown_value", "validate_config",

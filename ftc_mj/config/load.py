@@ -7,6 +7,8 @@ own, and the resolved config as TOML data.
 from __future__ import annotations
 
 import tomllib
+import types
+import typing
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -38,17 +40,29 @@ def unknown_key_hint(err: ValidationError) -> str:
     loc = [p for p in e["loc"] if isinstance(p, str)]
     if e["type"] != "extra_forbidden" or len(loc) != len(e["loc"]):
         return ""
+    loc = [p for i, p in enumerate(loc) if p.isidentifier() or i == len(loc) - 1]  # union tags left out
     parts = [*loc, *first_leaf(e.get("input"))]
     key = suggest_key(RunConfig, parts, len(loc) - 1)
     return f"; did you mean {key}?" if key else ""
+
+
+def _is_section(annotation: Any) -> bool:
+    """Whether a :class:`RunConfig` field holds a section: a settings model, or a union of settings models
+    discriminated by ``kind`` (each member ``Annotated`` with its tag)."""
+    if isinstance(annotation, type):
+        return issubclass(annotation, BaseModel)
+    if typing.get_origin(annotation) is typing.Annotated:
+        return _is_section(typing.get_args(annotation)[0])
+    members = typing.get_args(annotation) if typing.get_origin(annotation) in (typing.Union, types.UnionType) else ()
+    return bool(members) and all(_is_section(m) for m in members)
 
 
 def from_sections(**sections: Any) -> RunConfig:
     """A run config holding the given sections (instances, plain tables or ``None``; the rest the
     defaults), for a component built from its own settings: ``from_sections(plant={"kind":
     "kinematic"}, robot=None)``. :class:`BadInput` naming ``<section>.<field>``."""
-    models = {name: f.annotation for name, f in RunConfig.model_fields.items()
-              if isinstance(f.annotation, type) and issubclass(f.annotation, BaseModel)}
+    models = {name: typing.Annotated[(f.annotation, *f.metadata)] if f.metadata else f.annotation
+              for name, f in RunConfig.model_fields.items() if _is_section(f.annotation)}
     data = {}
     for name, value in sections.items():
         if name not in models:

@@ -13,6 +13,7 @@ from pydantic import Field, Strict, model_validator
 
 from .. import registry
 from ..context import RunContext
+from ..control.nmpc import NMPCSettings
 from ..fields import SafeName, StrictModel, ranged, ranged_int
 from ..model.sensors import SensorSettings
 from ..plant.faults import SERVO_CLASSES, PlantFault, fault_class
@@ -49,7 +50,7 @@ class RunConfig(StrictModel):
     faults: FaultSettings = Field(default_factory=FaultSettings)
     sensors: SensorSettings = Field(default_factory=SensorSettings)
     estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
-    controller: ControllerConfig = Field(default_factory=ControllerConfig)
+    controller: ControllerConfig = Field(default_factory=NMPCSettings)
     reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
     reference: ReferenceConfig = Field(default_factory=ReferenceConfig)
     output: OutputConfig = Field(default_factory=OutputConfig)
@@ -106,18 +107,10 @@ class RunConfig(StrictModel):
 
     @model_validator(mode="after")
     def _robust(self) -> RunConfig:
-        """The robust NMPC's settings that depend on other sections: its solver, the ``worst`` objective
-        (IPOPT only), the robust horizon (at most ``controller.nodes``), ``posterior`` weights (need a filter)."""
+        """The robust NMPC's setting that depends on another section: ``posterior`` weights need a filter (its
+        checks within the section are its model's, :class:`~ftc_mj.control.robust.RobustNMPCSettings`)."""
         c = self.controller
-        if c.kind != "robust-nmpc":
-            return self
-        if c.solver not in ("ipopt", "rti-daqp"):
-            raise ValueError(f"controller.solver: robust-nmpc is solved by 'ipopt' or 'rti-daqp', not {c.solver!r}")
-        if c.robust.objective == "worst" and c.solver != "ipopt":
-            raise ValueError("controller.robust.objective: 'worst' is not a QP; it needs controller.solver = 'ipopt'")
-        if c.robust.robust_horizon_nodes is not None and c.robust.robust_horizon_nodes > c.nodes:
-            raise ValueError(f"controller.robust.robust_horizon_nodes: at most controller.nodes = {c.nodes}")
-        if c.robust.weighting == "posterior" and self.estimator.kind == "none":
+        if c.kind == "robust-nmpc" and c.robust.weighting == "posterior" and self.estimator.kind == "none":
             raise ValueError("controller.robust.weighting: 'posterior' needs an estimator (estimator.kind is 'none')")
         return self
 

@@ -1,11 +1,38 @@
-"""What every controller returns at each solve, and the interface the simulation loop relies on."""
+"""What every controller returns at each solve, the interface the simulation loop relies on, and the one
+setting every controller kind has (its rate)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
+from pydantic import model_validator
+
+from ..fields import StrictModel, ranged
+
+
+class ControllerSettings(StrictModel):
+    """The settings every controller kind shares (the ``[controller]`` section's common part; each kind's
+    model, beside its controller, adds its own and fixes ``kind``)."""
+
+    rate: ranged(0.0, 1.0e3, lo_open=True, unit="Hz") = 10.0
+    """Control rate (Hz); commands are held (zero-order hold) between solves."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_options(cls, data: Any) -> Any:
+        """A built-in kind takes no plug-in ``options``: an empty table is dropped, any other is an error
+        naming ``options`` (a model with an ``options`` field, a plug-in's, keeps it)."""
+        if not isinstance(data, dict) or "options" not in data or "options" in cls.model_fields:
+            return data
+        data = dict(data)
+        opts = data.pop("options")
+        if opts != {}:
+            kind = data.get("kind", cls.model_fields["kind"].default if "kind" in cls.model_fields else "?")
+            got = ", ".join(map(str, opts)) if isinstance(opts, dict) else repr(opts)
+            raise ValueError(f"options: controller {kind!r} takes no options (got {got})")
+        return data
 
 
 @dataclass

@@ -13,12 +13,23 @@ the reference (heading errors of tens of degrees) are predicted less accurately.
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 
 from .base import ControlOutput
 from .condensed_qp import CondensedQP
-from .spec import ProblemSpec
+from .spec import MPCSettings, ProblemSpec
 from .tracking import PlanController
+
+
+class LinearMPCSettings(MPCSettings):
+    """Settings of the linear MPC (``controller.kind = "lmpc"``): the MPC settings and its QP solver."""
+
+    kind: Literal["lmpc"] = "lmpc"
+    """The linear MPC (a registered controller, :data:`ftc_mj.registry.controllers`)."""
+    lmpc_qpsol: Literal["daqp", "qpoases", "osqp"] = "daqp"
+    """QP solver of the linear MPC (CasADi conic plugin)."""
 
 
 class LinearMPC(PlanController):

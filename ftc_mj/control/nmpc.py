@@ -31,16 +31,38 @@ first-step bound.
 
 from __future__ import annotations
 
+from typing import Literal
+
 import casadi as ca
 import numpy as np
 
+from ..fields import PosFloat, ranged_int
 from .base import ControlOutput
 from .condensed_qp import CondensedQP
 from .mpc import SOLVERS
 from .solver_cache import ipopt_solver
 from .solvers import ipopt_options, warm_started_solve
-from .spec import ProblemSpec, first_step_penalty
+from .spec import MPCSettings, ProblemSpec, first_step_penalty
 from .tracking import PlanController
+
+
+class NMPCSettings(MPCSettings):
+    """Settings of the LGL pseudospectral NMPC (``controller.kind = "nmpc"``, paper §3): the MPC settings and
+    its NLP solver's."""
+
+    kind: Literal["nmpc"] = "nmpc"
+    """The tracking NMPC (a registered controller, :data:`ftc_mj.registry.controllers`)."""
+    solver: Literal["ipopt", "rti-daqp", "rti-qpoases", "rti-osqp"] = "rti-daqp"
+    """NMPC solver. ``ipopt``: full NLP solve each sample (warm-started). ``rti-<qp>``: real-time
+    iteration — one Gauss–Newton SQP step per sample on the state-condensed QP, solved by the named
+    CasADi QP plugin (daqp measured fastest, osqp slowest on this dense QP); the first solve, and a
+    re-seed after repeated failures, is done by IPOPT."""
+    cold_time_budget: PosFloat | None = None
+    """Wall-time budget (s) of a cold (first or re-seeding) solve; ``None`` = not enforced."""
+    max_iter: ranged_int(0, 10_000) = 30
+    """Iteration limit of the NLP solver (IPOPT); 0 forces a failure (used in tests). 30 is above what
+    every successful solve of the paper's runs needed and bounds the time lost on a failing re-seed
+    (docs/config-defaults.md)."""
 
 
 class NMPC(PlanController):

@@ -2,9 +2,25 @@
 
 from __future__ import annotations
 
-import numpy as np
+from typing import Annotated, Literal
 
-from .base import ControlOutput
+import numpy as np
+from pydantic import Field
+
+from ..fields import FiniteFloat
+from .base import ControllerSettings, ControlOutput
+
+
+class OpenLoopSettings(ControllerSettings):
+    """Settings of the open-loop controller (``controller.kind = "open-loop"``)."""
+
+    kind: Literal["open-loop"] = "open-loop"
+    """Open-loop wheel-rate commands (a registered controller, :data:`ftc_mj.registry.controllers`)."""
+    open_loop_omega: tuple[FiniteFloat, FiniteFloat] = (5.0, 5.0)
+    """Constant wheel rates (rad/s) of the open-loop controller."""
+    open_loop_schedule: Annotated[list[tuple[FiniteFloat, FiniteFloat, FiniteFloat]], Field(max_length=10_000)] = Field(
+        default_factory=list)
+    """Optional ``[t, omega_R, omega_L]`` breakpoints (piecewise-linear) for the open-loop controller."""
 
 
 class OpenLoopController:

@@ -80,16 +80,30 @@ The spec and the robot's limits are in :mod:`~ftc_mj.control.pathfollow_spec`, t
 
 from __future__ import annotations
 
-import numpy as np
+from typing import Literal
 
+import numpy as np
+from pydantic import Field
+
+from ..context import RunContext
 from ..model.kinematics import inverse_rates
 from .base import ControlOutput
 from .lgl import interpolation_matrix
 from .mpc import SOLVERS, MPCLifecycle, sanitize_pose, sanitize_radii
+from .nmpc import NMPCSettings
 from .pathfollow_nlp import PathNLP
 from .pathfollow_qp import PathQP
-from .pathfollow_spec import PathFollowingSpec, RadiusInterval, compliance_offset, wheel_bounds
+from .pathfollow_spec import (
+    PathFollowingSettings,
+    PathFollowingSpec,
+    RadiusInterval,
+    RobotLimits,
+    compliance_offset,
+    path_following_problem,
+    wheel_bounds,
+)
 from .reference import Path, path_errors, project
+from .spec import tracking_problem
 
 TWO_PI = 2.0 * np.pi
 
@@ -111,6 +125,25 @@ tyre's interval reaches down to 0.05 m) and needed 144 iterations on the kinemat
 ``benchmarks/bench_mpc.py --degraded`` (13–18 once warm). Within the NMPC's default 30 it fails, its
 failure leaves no multipliers to warm-start from, and every later solve fails too: IPOPT would never honour
 the interval. The wall-time budgets still bound each solve."""
+
+
+class PathFollowingNMPCSettings(NMPCSettings):
+    """Settings of the path-following NMPC (``controller.kind = "pf-nmpc"``): the NMPC's grid, solver and budgets
+    (its tracking weights and ``rate_penalty`` are not read) and its own cost terms and bounds in
+    ``path_following``."""
+
+    kind: Literal["pf-nmpc"] = "pf-nmpc"  # type: ignore[assignment]
+    """Path following on the geometric path (a registered controller, :data:`ftc_mj.registry.controllers`)."""
+    path_following: PathFollowingSettings = Field(default_factory=PathFollowingSettings)
+    """The path-following problem's own settings."""
+
+
+def path_following_spec(settings: PathFollowingNMPCSettings, context: RunContext, desired_speed: float,
+                        limits: RobotLimits | None = None) -> PathFollowingSpec:
+    """The path-following problem (:func:`~ftc_mj.control.pathfollow_spec.path_following_problem`) of the
+    ``pf-nmpc`` settings at ``desired_speed`` (m/s) on the grid of their tracking problem and the run context."""
+    return path_following_problem(tracking_problem(settings, context), settings.path_following, desired_speed,
+                                  limits)
 
 
 class PathFollowingNMPC(MPCLifecycle):

@@ -1,21 +1,79 @@
-"""The numbers of the path-following problem and the robot-derived pieces of its constraints.
+"""The settings and numbers of the path-following problem and the robot-derived pieces of its constraints.
 
+:class:`PathFollowingSettings` declares the path-following NMPC's own settings (``controller.path_following``);
 :class:`PathFollowingSpec` holds the weights and bounds of the problem described in
-:mod:`ftc_mj.control.pathfollow`; :class:`RobotLimits` the physical robot's limits the sim layer derives
-from the plant model. The free functions compute, per sample, the servo-compliance offset of the wheel
-rates, the signs of the traction rows and the wheel-rate box.
+:mod:`ftc_mj.control.pathfollow`, built by :func:`path_following_problem` from those settings (it declares no
+defaults of its own); :class:`RobotLimits` the physical robot's limits the sim layer derives from the plant
+model. The free functions compute, per sample, the servo-compliance offset of the wheel rates, the signs of
+the traction rows and the wheel-rate box.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..fields import Flag, NonNegFloat, PosFloat, StrictModel, ranged
 from .spec import ProblemSpec
 
 SLACK_MAX = 100.0
 """Upper bound of the lateral-acceleration slack (m/s²; any violation the applied command can cause)."""
+
+
+class PathFollowingSettings(StrictModel):
+    """Settings of the path-following NMPC (``controller.kind = "pf-nmpc"``, :mod:`ftc_mj.control.pathfollow`;
+    the ``controller.path_following`` table). It shares ``nodes``, ``horizon``, ``omega_rate_max``, ``solver``,
+    ``max_iter`` and the budgets with the NMPC, but carries every cost term it needs as its own setting (the
+    actuation-rate weight included: ``controller.rate_penalty`` is the tracking NMPC's and is not read here);
+    its desired speed is ``reference.speed``. Cost weights are per second of horizon (Gauss–Lobatto
+    quadrature)."""
+
+    q_contour: NonNegFloat = 30.0
+    """Weight (1/(m² s)) on the squared contouring error (distance from the path, normal to it)."""
+    q_lag: NonNegFloat = 10.0
+    """Weight (1/(m² s)) on the squared lag error (position along the tangent relative to the progress point)."""
+    q_heading: NonNegFloat = 10.0
+    """Weight (1/(rad² s)) on the squared heading error to the path tangent."""
+    q_progress: NonNegFloat = 1.0
+    """Weight (s/m²) on the squared deviation of the progress speed from ``reference.speed``."""
+    rate_penalty: NonNegFloat = 1.0
+    """Weight (s³, per (rad/s²)²) on the squared wheel accelerations ``‖d omega/dt‖²`` (the actuation-rate term).
+    Without it the controller is not usable on the MuJoCo robot: the wheel-rate plans chatter between their
+    bounds, the servos cannot follow and the robot leaves the path (27.6 m off and 361 solver failures on
+    scenario 2 in one run with 0; docs/findings.md)."""
+    progress_rate_penalty: NonNegFloat = 0.1
+    """Weight (s³/m²) on the squared rate of the progress speed."""
+    max_lag: ranged(0.0, 100.0, unit="m") = 0.0
+    """Progress feedback: the progress is carried from plan to plan (the previous plan's prediction for now) and
+    only pulled back to within this distance (m) of the path point nearest the robot, so the lag error at ``t0``
+    is the progress the robot failed (or exceeded) to make and the lag cost feeds it back; 0 = the progress is
+    re-projected onto the nearest path point at every sample (no feedback of the progress made)."""
+    max_progress_speed: PosFloat | None = None
+    """Upper bound (m/s) of the progress speed; ``None`` = twice ``reference.speed``."""
+    lateral_accel_margin: ranged(0.0, 1.0, lo_open=True) = 0.9
+    """The bound on the robot's lateral acceleration as a fraction of its lift-off limit, which the sim layer
+    derives from the MJCF (:func:`ftc_mj.plant.limits.lateral_accel_limits`: 3.92 m/s² for
+    the built-in ``diffdrive.xml``, where the inner tyre reaches its friction circle; measured onset of lift-off
+    4.1–4.2 m/s², docs/findings.md)."""
+    max_lateral_accel: ranged(0.0, 20.0, lo_open=True, unit="m/s²") | None = None
+    """Explicit bound (m/s²) on the robot's lateral acceleration; ``None`` = ``lateral_accel_margin`` × the
+    derived lift-off limit."""
+    compensate_yaw_compliance: Flag = True
+    """Bound the robot's lateral acceleration, not the kinematic model's: on the MuJoCo plant the velocity servos
+    yield under the tyres' yaw couple, so the model's ``V psidot`` (from the commanded rates) is ``1 + c V``
+    times the robot's, with ``c`` derived from the MJCF (0.0375 s/m: 1.375 at 10 m/s). ``False`` (and the
+    kinematic plant) bounds the model's ``V psidot``."""
+    braking_trade: Flag = True
+    """Bound ``|a_lat| + β |dV/dt|`` instead of ``|a_lat|``: braking loads the inner tyre too, so its lift-off limit
+    falls by β (0.75 for the built-in ``diffdrive.xml``, derived from the MJCF) per m/s² of braking."""
+    max_longitudinal_accel: ranged(0.0, 20.0, lo_open=True, unit="m/s²") | None = 3.0
+    """Bound (m/s²) on ``dV/dt`` at every node and on the change of the speed from the applied command's within
+    one control period; ``None`` = no bound. The motors' torque limit allows about 4 m/s² (built-in model)."""
+    slack_penalty: PosFloat = 1.0e4
+    """Exact-penalty weight on the slack of the lateral bound (per m/s²); it must exceed the bound's multiplier
+    for the slack to stay 0 whenever the bound can be met."""
 
 
 @dataclass(frozen=True)
@@ -25,9 +83,9 @@ class RobotLimits:
 
     liftoff_accel: float
     """Lateral acceleration (m/s²) at which the robot starts to lift its inner wheel, without braking."""
-    yaw_compliance: float = 0.0
+    yaw_compliance: float
     """Commanded minus actual yaw rate (rad/s) per m/s² of lateral acceleration with the nominal tyres (s/m)."""
-    braking_trade: float = 0.0
+    braking_trade: float
     """Loss of the lift-off limit per m/s² of braking (dimensionless)."""
 
 
@@ -52,7 +110,8 @@ class RadiusInterval:
 
 @dataclass(frozen=True)
 class PathFollowingSpec:
-    """Numbers of the path-following problem (units in the field comments).
+    """Numbers of the path-following problem (units in the field comments); built by
+    :func:`path_following_problem` from :class:`PathFollowingSettings` (whose docstrings explain each).
 
     ``problem`` supplies the grid and the robot (``nodes``, ``horizon``, ``half_track``,
     ``omega_max``, ``omega_rate_max``, ``rate_penalty``, ``max_lateral_accel`` — the bound on the
@@ -60,19 +119,47 @@ class PathFollowingSpec:
     """
 
     problem: ProblemSpec
-    desired_speed: float = 10.0  # m/s
-    q_contour: float = 30.0  # 1/m² s
-    q_lag: float = 10.0  # 1/m² s
-    q_heading: float = 10.0  # 1/rad² s
-    q_progress: float = 1.0  # s/m²
-    progress_rate_penalty: float = 0.1  # s³/m²
-    max_progress_speed: float = 20.0  # m/s
-    yaw_compliance: float = 0.0  # s/m
-    braking_trade: float = 0.0  # lateral bound lost per m/s² of longitudinal acceleration
-    sample_time: float = 0.1  # s
-    slack_penalty: float = 1.0e4  # per m/s² of slack
-    max_lag: float = 0.0  # m, largest |lag| of the carried progress at t0 (0: re-projected at every sample)
+    desired_speed: float  # m/s
+    q_contour: float  # 1/m² s
+    q_lag: float  # 1/m² s
+    q_heading: float  # 1/rad² s
+    q_progress: float  # s/m²
+    progress_rate_penalty: float  # s³/m²
+    max_progress_speed: float  # m/s
+    yaw_compliance: float  # s/m
+    braking_trade: float  # lateral bound lost per m/s² of longitudinal acceleration
+    sample_time: float  # s
+    slack_penalty: float  # per m/s² of slack
+    max_lag: float  # m, largest |lag| of the carried progress at t0 (0: re-projected at every sample)
 
+
+def path_following_problem(problem: ProblemSpec, settings: PathFollowingSettings, desired_speed: float,
+                           limits: RobotLimits | None = None) -> PathFollowingSpec:
+    """The path-following problem of ``settings`` at ``desired_speed`` (m/s, the reference's) on the grid and
+    robot of ``problem`` (the MPC settings' tracking problem), with the cost terms of ``settings`` (its own
+    actuation-rate weight, not the tracking problem's): the bound on the robot's lateral acceleration is
+    ``settings.max_lateral_accel`` if set, else ``lateral_accel_margin`` × the robot's lift-off limit in
+    ``limits`` (which the sim layer derives from the plant model); the yaw compliance and the braking trade-off
+    of ``limits`` are used when switched on. ``ValueError`` when neither bound nor limits are given."""
+    pf = settings
+    bound = pf.max_lateral_accel
+    if bound is None:
+        if limits is None:
+            raise ValueError("controller.path_following: the pf-nmpc needs the robot's lift-off limit "
+                             "(derived by the sim layer) or an explicit max_lateral_accel")
+        bound = pf.lateral_accel_margin * float(limits.liftoff_accel)
+    lim = limits or RobotLimits(liftoff_accel=bound, yaw_compliance=0.0, braking_trade=0.0)
+    V = desired_speed
+    own = dataclasses.replace(problem, max_lateral_accel=bound, max_longitudinal_accel=pf.max_longitudinal_accel,
+                              rate_penalty=pf.rate_penalty)
+    return PathFollowingSpec(
+        problem=own, desired_speed=V, q_contour=pf.q_contour, q_lag=pf.q_lag, q_heading=pf.q_heading,
+        q_progress=pf.q_progress, progress_rate_penalty=pf.progress_rate_penalty,
+        max_progress_speed=pf.max_progress_speed or 2.0 * V,
+        yaw_compliance=lim.yaw_compliance if pf.compensate_yaw_compliance else 0.0,
+        braking_trade=lim.braking_trade if pf.braking_trade else 0.0,
+        sample_time=problem.sample_time, slack_penalty=pf.slack_penalty, max_lag=pf.max_lag,
+    )
 
 
 def compliance_offset(spec: PathFollowingSpec, u_applied: np.ndarray | None, radii: np.ndarray,

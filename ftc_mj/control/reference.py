@@ -24,10 +24,31 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from types import ModuleType
-from typing import Any, NamedTuple, Protocol
+from typing import Any, Literal, NamedTuple, Protocol
 
 import casadi as ca
 import numpy as np
+from pydantic import Field
+
+from ..fields import Options, PosFloat, StrictModel, component, options_of
+
+
+class ReferenceSettings(StrictModel):
+    """The reference path and its time law (the ``[reference]`` section): one model for every path kind —
+    the built-in paths read the fields their geometry has (``line`` no ``radius``), a plug-in its ``options``."""
+
+    kind: component("references") = "circle"
+    """A registered reference path (:data:`ftc_mj.registry.references`). Built-in: ``circle``, ``line``,
+    ``figure8``."""
+    radius: PosFloat = 50.0
+    """Circle radius (m) (figure-eight: lobe radius)."""
+    speed: PosFloat = 10.0
+    """Speed along the path (m/s)."""
+    direction: Literal["ccw", "cw"] = "ccw"
+    options: Options = Field(default_factory=dict, validate_default=True)
+    """Settings of a plug-in reference (its registered settings model); built-in references take none."""
+
+    _options = options_of("references", "kind")
 
 
 class RefSample(NamedTuple):

@@ -54,12 +54,16 @@ solution for the exact weights.
 
 from __future__ import annotations
 
+from typing import Literal
+
 import casadi as ca
 import numpy as np
+from pydantic import Field, model_validator
 
+from ..fields import NonNegFloat, StrictModel, ranged, ranged_int
 from .base import ControlOutput
 from .multistage_qp import MultiStageQP
-from .nmpc import NMPC
+from .nmpc import NMPC, NMPCSettings
 from .solver_cache import ipopt_solver
 from .solvers import warm_started_solve
 from .spec import ProblemSpec, first_step_penalty
@@ -67,6 +71,77 @@ from .transcription import Collocation
 
 OBJECTIVES = ("expected", "worst")
 ROBUST_SOLVERS = ("ipopt", "rti-daqp")
+
+
+ScenarioFraction = ranged(0.0, 2.0, lo_open=True)
+"""A scenario radius as a fraction of the model radius, in (0, 2]."""
+
+
+class RobustSettings(StrictModel):
+    """The scenarios and weighting of the multi-stage robust NMPC (the ``controller.robust`` table): one
+    state trajectory per radius scenario, shared inputs over the robust horizon, all constraints in
+    every scenario."""
+
+    scenarios: list[tuple[ScenarioFraction, ScenarioFraction]] = Field(
+        default_factory=lambda: [(1.0, 1.0), (0.5, 1.0), (1.0, 0.5), (0.5, 0.5)], min_length=1, max_length=16)
+    """Scenario radii ``[R_R, R_L]`` as fractions of the model radii the reconfiguration policy hands over
+    (the nominal radii under policy ``none``). Default: no fault, right at 50 %, left at 50 %, both at
+    50 % (the 4-model IMM bank, in its order)."""
+    weights: list[NonNegFloat] | None = None
+    """Scenario weights (one per scenario, not all zero; normalised); unset = uniform."""
+    robust_horizon_nodes: ranged_int(1, 200) | None = None
+    """Input nodes shared by all scenarios (non-anticipativity); unset = every node inside the first
+    control period (5 of the default 50). More shared nodes make the NLP harder
+    (docs/config-defaults.md)."""
+    objective: Literal["expected", "worst"] = "expected"
+    """``expected``: the weighted mean of the scenario costs; ``worst``: their maximum over the
+    scenarios of positive weight (an epigraph; needs ``controller.solver = "ipopt"``)."""
+    weighting: Literal["fixed", "posterior"] = "fixed"
+    """``fixed``: the configured weights (passive FTC). ``posterior``: at every solve the weights are
+    the filter's posterior probabilities of the scenario radii (:mod:`~ftc_mj.reconfiguration.scenario_weights`;
+    needs an estimator): a hybrid of passive and active FTC."""
+    posterior_tolerance: ranged(0.0, 10.0, lo_open=True, unit="m") = 0.25
+    """``posterior`` weighting: standard deviation (m) added to the filter's radius σ in every direction
+    — how far the true radii may lie from a scenario and still count as that scenario."""
+    posterior_floor: ranged(0.0, 1.0, hi_open=True) = 0.01
+    """``posterior`` weighting: share of the weight spread uniformly over all scenarios whatever the
+    filter says (no scenario is dismissed outright)."""
+    prune_below: ranged(0.0, 1.0, hi_open=True) = 0.0
+    """A scenario whose (normalised) weight is below this leaves the problem, cost and constraints (the
+    one of largest weight never does); 0 = never. The default (floor 0.01, no pruning) was chosen by the
+    rule of the development study ``robust_hybrid_dev`` (docs/findings.md)."""
+
+    @model_validator(mode="after")
+    def _weights_match(self) -> RobustSettings:
+        """One weight per scenario, not all zero."""
+        if self.weights is not None:
+            if len(self.weights) != len(self.scenarios):
+                raise ValueError(f"weights: {len(self.weights)} weights for {len(self.scenarios)} scenarios")
+            if sum(self.weights) <= 0:
+                raise ValueError("weights: must not all be zero")
+        return self
+
+
+class RobustNMPCSettings(NMPCSettings):
+    """Settings of the multi-stage robust NMPC (``controller.kind = "robust-nmpc"``): the NMPC's and the
+    scenarios in ``robust``."""
+
+    kind: Literal["robust-nmpc"] = "robust-nmpc"  # type: ignore[assignment]
+    """The robust NMPC over radius scenarios (a registered controller, :data:`ftc_mj.registry.controllers`)."""
+    robust: RobustSettings = Field(default_factory=RobustSettings)
+    """Settings of the robust multi-stage NMPC (its scenarios and their weighting)."""
+
+    @model_validator(mode="after")
+    def _solvable(self) -> RobustNMPCSettings:
+        """Its solver (IPOPT or the RTI on daqp), the ``worst`` objective (IPOPT only), the robust horizon (at
+        most ``nodes``)."""
+        if self.solver not in ROBUST_SOLVERS:
+            raise ValueError(f"solver: robust-nmpc is solved by 'ipopt' or 'rti-daqp', not {self.solver!r}")
+        if self.robust.objective == "worst" and self.solver != "ipopt":
+            raise ValueError("robust.objective: 'worst' is not a QP; it needs controller.solver = 'ipopt'")
+        if self.robust.robust_horizon_nodes is not None and self.robust.robust_horizon_nodes > self.nodes:
+            raise ValueError(f"robust.robust_horizon_nodes: at most controller.nodes = {self.nodes}")
+        return self
 
 
 def scenario_radii(fractions: np.ndarray, radii: np.ndarray) -> np.ndarray:

@@ -186,7 +186,7 @@ def actuation_metrics(record: RunRecord, trace: dict[str, np.ndarray], dt: float
     m["command_total_variation_per_s"] = float(tv / dur)
     # command steps between controller samples (the trace holds each command): largest, and time (s) in
     # controller periods that began with a step at (or, with the first input free, beyond) the MPC's
-    # rate bound omega_rate_max / rate
+    # rate bound omega_rate_max / rate (NaN for a controller without one, the open loop)
     steps = np.fmax(np.abs(np.diff(cmdR)), np.abs(np.diff(cmdL)))
     step_lim = record.omega_rate_max / rate
     m["command_step_max"] = nanstat(steps, np.max)

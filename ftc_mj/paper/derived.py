@@ -336,7 +336,7 @@ def reference_feasibility(cfg: RunConfig, trace: Mapping[str, Any], t_from: floa
     every sample from ``t_from`` (s) on: ``reference_omega_required_recovered`` (rad/s, the largest
     rate :func:`required_wheel_rate` asks for) and ``reference_feasible_recovered`` (bool); empty when
     ``t_from`` is None or after the end."""
-    from ..control.factory import build_reference
+    from ..wiring.control import build_reference
 
     t = _col(trace, "t")
     R_R, R_L = _col(trace, "R_R"), _col(trace, "R_L")

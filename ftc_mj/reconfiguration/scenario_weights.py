@@ -23,12 +23,9 @@ it receives the weights through :meth:`~ftc_mj.control.robust.RobustNMPC.set_sce
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Protocol
-
 import numpy as np
 
-from ..control.robust import scenario_radii
+from ..control.robust import RobustSettings, scenario_radii
 from ..estimation.base import FilterOutput
 
 
@@ -61,22 +58,11 @@ def posterior_weights(mean: np.ndarray, cov: np.ndarray, radii_s: np.ndarray, to
     return (1.0 - floor) * p + floor / len(p)
 
 
-class WeightingSettings(Protocol):
-    """What the weighting reads of the robust NMPC's settings (``controller.robust``)."""
-
-    scenarios: Sequence[Sequence[float]]
-    """Scenario radii as fractions of the model radii, (S, 2)."""
-    posterior_tolerance: float
-    """σ_t (m)."""
-    posterior_floor: float
-    """ε in [0, 1)."""
-
-
 class ScenarioWeighting:
     """Weights for the robust NMPC at each controller sample (``weighting = "posterior"``), from the robust
     NMPC's settings (its scenarios, ``posterior_tolerance`` and ``posterior_floor``)."""
 
-    def __init__(self, settings: WeightingSettings) -> None:
+    def __init__(self, settings: RobustSettings) -> None:
         self.fractions = np.asarray(settings.scenarios, dtype=float)
         self.tolerance = settings.posterior_tolerance
         self.floor = settings.posterior_floor

@@ -101,7 +101,7 @@ def _reference_of(d: Path) -> np.ndarray | None:
     import tomllib
 
     try:
-        from ftc_mj.control import build_reference
+        from ftc_mj.wiring.control import build_reference
 
         return np.asarray(build_reference(read_config(d)).path_points(720), dtype=np.float64)
     except (OSError, ValueError, KeyError, tomllib.TOMLDecodeError):

@@ -15,12 +15,12 @@ from collections.abc import Callable
 from typing import Any
 
 from ..config import RunConfig
-from ..control.factory import build_controller
 from ..control.pathfollow_spec import RobotLimits
 from ..identity import run_identity
 from ..plant import build_model
 from ..plant.limits import lateral_accel_limits
 from ..registry import controllers
+from ..wiring.control import build_controller
 from ..wiring.plant import build_plant
 
 _MAX_ENTRIES = 16

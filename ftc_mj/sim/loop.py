@@ -37,7 +37,6 @@ import numpy as np
 from ..config import RunConfig
 from ..control.base import ControlOutput
 from ..control.excitation import dither_wheel_rates, yaw_dither
-from ..control.factory import build_reference
 from ..errors import BadInput
 from ..estimation.base import FilterOutput, Measurement
 from ..estimation.decision import DecisionState, FaultDecision
@@ -49,6 +48,7 @@ from ..reconfiguration.degraded import DegradedMode
 from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
+from ..wiring.control import build_reference
 from ..wiring.decision import build_fault_decision
 from ..wiring.estimation import build_estimator
 from ..wiring.reconfiguration import build_degraded_mode, build_policy, build_scenario_weighting

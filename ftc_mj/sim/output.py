@@ -17,7 +17,7 @@ def output_bytes(cfg: RunConfig, rrd: bool) -> int:
     the predicted paths of the solves and 1 MB of headroom."""
     rows = cfg.n_estimator_steps
     cells = rows * 64
-    solves = round(cfg.duration * cfg.controller.rate) * cfg.controller.nodes * 3 * 4
+    solves = round(cfg.duration * cfg.controller.rate) * getattr(cfg.controller, "nodes", 0) * 3 * 4  # no plan: 0
     return cells * 8 * (2 if rrd else 1) + (solves if rrd else 0) + 2**20
 
 

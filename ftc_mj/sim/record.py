@@ -17,12 +17,12 @@ from typing import Any
 import numpy as np
 
 from ..config import RunConfig, run_context
-from ..control.factory import build_reference
 from ..estimation.setup import FilterSetup
 from ..identity import run_id
 from ..io import write_json
 from ..metrics.record import RunRecord
 from ..plant.faults import schedule_onset
+from ..wiring.control import build_reference
 from ..wiring.decision import reference_rates
 from ..wiring.estimation import setup_from_config
 

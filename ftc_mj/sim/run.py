@@ -76,7 +76,7 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "policy": cfg.reconfiguration.policy,
         "sensing": "+".join(["speed"] + (["yaw"] if cfg.sensors.yaw_rate_sigma is not None else [])
                             + (["position"] if cfg.sensors.position_sigma is not None else [])),
-        "rate_penalty": cfg.controller.rate_penalty,
+        "rate_penalty": getattr(cfg.controller, "rate_penalty", None),  # None: the open loop has none
         "seed": cfg.seed,
         "status": "failed" if res.error else "ok",
         "error": res.error,

@@ -62,7 +62,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from ..config import RunConfig, SafeName, one_line, read_toml
 from ..errors import BadInput
-from ..suggest import suggest_key
+from ..suggest import section_fields, submodels, suggest_key
 
 Scalar = str | int | float | bool
 HELD_OUT_START = 1000
@@ -281,25 +281,25 @@ def key_error(key: str) -> str | None:
     """Why ``key`` is not a settable leaf of RunConfig (None if it is)."""
     if key == "feedback":  # the paper's switch, an alias of reconfiguration.policy (none/direct)
         return None
-    model: type[BaseModel] = RunConfig
+    models: list[type] = [RunConfig]  # a section discriminated by kind: every kind's model
     parts = key.split(".")
     for i, part in enumerate(parts):
-        fields = model.model_fields
+        fields = section_fields(models)
         if part not in fields:
             where = ".".join(parts[:i]) or "the config"
             near = suggest_key(RunConfig, parts, i)
             return f"unknown key {part!r} in {where}" + (f" (did you mean {near}?)" if near else "")
         ann = fields[part].annotation
-        sub = ann if isinstance(ann, type) and issubclass(ann, BaseModel) else None
+        subs = submodels(ann)  # a section discriminated by kind: every member
         if typing.get_origin(ann) is typing.Annotated:
             ann = typing.get_args(ann)[0]
         if typing.get_origin(ann) is dict:  # a component's options: its own settings check the keys
             return None
         if i < len(parts) - 1:
-            if sub is None:
+            if not subs:
                 return f"{'.'.join(parts[: i + 1])} is not a table"
-            model = sub
-        elif sub is not None:
+            models = subs
+        elif subs:
             return f"{key} is a table, not a value (set its keys)"
     return None
 

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel
+from pydantic_core import PydanticUndefined
 
 from ftc_mj.config import RunConfig
 
@@ -26,17 +27,64 @@ def _base(ann: Any) -> Any:
     return ann
 
 
-def leaves(model: type[BaseModel] = RunConfig, prefix: str = "") -> list[tuple[str, Any]]:
-    """``(dotted key, leaf type)`` of every settable config value."""
+def _members(ann: Any) -> list[type[BaseModel]]:
+    """The settings models of a section discriminated by ``kind`` (a union of models), else ``[]``."""
+    args = typing.get_args(ann) if typing.get_origin(ann) in (typing.Union, types.UnionType) else ()
+    models = [_base(a) for a in args]
+    return models if models and all(isinstance(m, type) and issubclass(m, BaseModel) for m in models) else []
+
+
+def _walk(model: type[BaseModel] = RunConfig, prefix: str = "") -> list[tuple[str, Any, str | None]]:
+    """``(dotted key, leaf type, kind)`` of every settable config value; ``kind``: the ``kind`` a section
+    discriminated by kind must be given for the key to exist (``None``: the default kind has it)."""
     out = []
     for name, f in model.model_fields.items():
         t = _base(f.annotation)
         key = f"{prefix}{name}"
-        if isinstance(t, type) and issubclass(t, BaseModel):
-            out += leaves(t, key + ".")
+        members = _members(f.annotation)
+        if members:
+            default = type(f.get_default(call_default_factory=True))
+            seen: dict[str, tuple[Any, str | None]] = {}
+            for m in [default, *(m for m in members if m is not default)]:
+                own = m.model_fields["kind"].default if m is not default else None
+                for k, lt, _ in _walk(m, key + "."):
+                    plugin_only = own is PydanticUndefined  # a plug-in's `options`: a built-in refuses it by name
+                    seen.setdefault(k, (lt, None if plugin_only else own))
+            out += [(k, lt, kind) for k, (lt, kind) in seen.items()]
+        elif isinstance(t, type) and issubclass(t, BaseModel):
+            out += _walk(t, key + ".")
         else:
-            out.append((key, t))
+            out.append((key, t, None))
     return out
+
+
+def leaves(model: type[BaseModel] = RunConfig, prefix: str = "") -> list[tuple[str, Any]]:
+    """``(dotted key, leaf type)`` of every settable config value (every kind's, for a section discriminated
+    by ``kind``)."""
+    return [(k, t) for k, t, _ in _walk(model, prefix)]
+
+
+def _inline(parts: list[str], value: str) -> str:
+    """``a = { b = value }`` for ``parts`` ``["a", "b"]``: a TOML inline table holding ``value``."""
+    return f"{parts[0]} = {value}" if len(parts) == 1 else f"{parts[0]} = {{ {_inline(parts[1:], value)} }}"
+
+
+def _set_item(key: str, value: str, kind: str | None) -> str:
+    """The ``--set`` of ``key = value``; for a key of a kind other than the section's default, the whole section
+    as an inline table naming that kind."""
+    if kind is None:
+        return f"{key}={value}"
+    sec, *rest = key.split(".")
+    return f'{sec}={{ kind = "{kind}", {_inline(rest, value)} }}'
+
+
+def _file_body(key: str, value: str, kind: str | None) -> str:
+    """A scenario file setting ``key = value`` (and the section's ``kind`` when the key belongs to another)."""
+    *sec, leaf = key.split(".")
+    head = f'[{sec[0]}]\nkind = "{kind}"\n' if kind is not None else ""
+    if kind is not None and len(sec) == 1:
+        return head + f"{leaf} = {value}\n"
+    return head + (f"[{'.'.join(sec)}]\n" if sec else "") + f"{leaf} = {value}\n"
 
 
 def kind_of(t: Any) -> str:
@@ -83,7 +131,7 @@ BAD_VALUES: dict[str, list[str]] = {
 def schema_cases() -> list[tuple[str, str, str]]:
     """``(case id, "key=value" of a --set, the key the error must name)`` for every leaf and bad value."""
     cases = []
-    for key, t in leaves():
+    for key, t, ctx in _walk():
         kind = kind_of(t)
         values = list(BAD_VALUES[kind])
         if key == "output.dir":
@@ -98,7 +146,7 @@ def schema_cases() -> list[tuple[str, str, str]]:
             values = ['"../../../x"', '"/abs/x"', '".hidden"', '"a/b"', '""', '"' + "n" * 101 + '"', "1",
                       '"a\\u0000b"']
         for v in values:
-            cases.append((f"set:{key}={v[:30]}", f"{key}={v}", key))
+            cases.append((f"set:{key}={v[:30]}", _set_item(key, v, ctx), key))
     return cases
 
 
@@ -106,11 +154,9 @@ def file_cases() -> list[tuple[str, str, str]]:
     """``(case id, scenario file body, the key the error must name)``: the same values through a
     scenario file (a table per section), two per leaf."""
     out = []
-    for key, t in leaves():
+    for key, t, ctx in _walk():
         kind = kind_of(t)
         values = BAD_VALUES[kind][:2] if key not in ("output.dir", "name", "description") else ["true"]
         for v in values:
-            *sec, leaf = key.split(".")
-            body = (f"[{'.'.join(sec)}]\n" if sec else "") + f"{leaf} = {v}\n"
-            out.append((f"file:{key}={v[:20]}", body, key))
+            out.append((f"file:{key}={v[:20]}", _file_body(key, v, ctx), key))
     return out

@@ -12,7 +12,7 @@ from collections.abc import Callable
 import pytest
 
 from ftc_mj.config import RunConfig
-from ftc_mj.control import build_reference
+from ftc_mj.wiring.control import build_reference
 
 
 @pytest.fixture(scope="session")

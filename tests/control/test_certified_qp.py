@@ -6,7 +6,7 @@ import pytest
 
 from ftc_mj.control import NMPC, ProblemSpec
 from ftc_mj.control.certified_qp import CertifiedQP
-from tests.control.common import NOMINAL
+from tests.control.common import NOMINAL, problem
 from tests.support.kinsim import simulate
 
 DAQP_ITERATION_LIMIT = -4  # DAQP's exit flag when it stops at its iteration limit
@@ -29,7 +29,7 @@ def test_saturated_loop_is_bitwise_repeatable_in_one_process(built, circle) -> N
     """The same closed loop twice in one process gives bitwise the same QPs, whatever the thread
     environment: with CasADi's bundled OpenBLAS multithreaded, IPOPT's seed differed by up to 3e-12
     from one call to the next and the saturated loop turned that into other trajectories."""
-    spec = ProblemSpec(max_lateral_accel=1.5)
+    spec = problem(max_lateral_accel=1.5)
     runs = [_record_qps(built, circle, spec, lambda t: (1.0, 2.0), lambda t: (2.0, 1.0), duration=3.0, tag=tag)[1]
             for tag in ("a", "b")]  # two builds
     assert len(runs[0]) == len(runs[1]) > 20
@@ -45,8 +45,8 @@ def test_certified_qp_equals_plugin_on_saturated_loop(case: str, built, circle) 
     told the wrong radii, so the plan keeps hitting the rate and wheel-rate bounds (up to ~97 of the
     100 inputs' constraints active), and the first-step bound from the command in force (the two
     first inputs' box, tightened to ±2 rad/s about it) is active in most of them."""
-    spec = {"lateral": ProblemSpec(max_lateral_accel=1.5),
-            "longitudinal": ProblemSpec(max_longitudinal_accel=1.0)}.get(case, ProblemSpec())
+    spec = {"lateral": problem(max_lateral_accel=1.5),
+            "longitudinal": problem(max_longitudinal_accel=1.0)}.get(case, problem())
     if case == "wrong-radii":
         ctl, rec = _record_qps(built, circle, spec, lambda t: (2.0, 0.5), lambda t: NOMINAL)
     else:

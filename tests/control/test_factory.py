@@ -6,21 +6,24 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.config import RunConfig, run_context
+from ftc_mj.config import RunConfig, run_context, validate_config
+from ftc_mj.config.sections import CONTROLLER_KINDS
 from ftc_mj.control import (
     NMPC,
     CircleReference,
     LinearMPC,
+    NMPCSettings,
     OpenLoopController,
-    ProblemSpec,
-    build_controller,
-    build_reference,
-    controller_from_settings,
-    problem_spec,
+    OpenLoopSettings,
+    PathFollowingSettings,
+    ReferenceSettings,
+    RobustSettings,
     tracking_problem,
 )
+from ftc_mj.errors import BadInput
 from ftc_mj.registry import controllers, references
-from tests.control.common import NOMINAL, cfg_with
+from ftc_mj.wiring.control import build_controller, build_reference, controller_from_settings, problem_spec
+from tests.control.common import NOMINAL, cfg_with, problem
 
 
 def test_factory_kinds() -> None:
@@ -30,7 +33,7 @@ def test_factory_kinds() -> None:
     np.testing.assert_allclose(ctl.solve(0.0, np.zeros(3), np.array(NOMINAL)).omega, [3.0, 4.0])
     assert isinstance(build_controller(cfg_with(kind="lmpc"), build_reference(cfg)), LinearMPC)
     with pytest.raises(ValueError):
-        NMPC(ProblemSpec(), build_reference(cfg), solver="bogus")
+        NMPC(problem(), build_reference(cfg), solver="bogus")
 
 
 def test_factories_take_their_own_settings_and_the_run_context() -> None:
@@ -50,8 +53,22 @@ def test_factories_take_their_own_settings_and_the_run_context() -> None:
                                                                                 ctx.controller_dt)
     ref = references.create("circle", cfg.reference, ctx)
     assert isinstance(ref, CircleReference) and ref.speed == cfg.reference.speed
-    ctl = controllers.create("open-loop", cfg.controller, ctx, ref)
+    ctl = controllers.create("open-loop", OpenLoopSettings(), ctx, ref)
     assert isinstance(ctl, OpenLoopController)
+
+
+def test_each_builtin_is_registered_with_its_settings_model() -> None:
+    """Every built-in controller is registered with the settings model of its kind (``section``), the model the
+    config's ``[controller]`` union picks for that kind; every built-in reference with the reference model."""
+    for name in controllers.names():
+        entry = controllers.get(name)
+        if entry.origin == "built-in":
+            model = entry.meta["section"]
+            assert CONTROLLER_KINDS[name] is model and model().kind == name
+            assert type(RunConfig(controller={"kind": name}).controller) is model
+    for name in references.names():
+        if references.get(name).origin == "built-in":
+            assert references.get(name).meta["section"] is ReferenceSettings
 
 
 def test_controller_from_settings_alone() -> None:
@@ -73,11 +90,27 @@ def test_an_old_controller_plugin_still_builds_with_a_warning() -> None:
 
     controllers.register("probe-old-controller", old)
     try:
-        cfg = RunConfig()
-        cfg.controller.kind = "probe-old-controller"
+        cfg = RunConfig(controller={"kind": "probe-old-controller"})
+        assert cfg.controller.options == {} and cfg.controller.nodes == 50  # a plug-in's section: the MPC's
         ref = build_reference(cfg)
         with pytest.warns(DeprecationWarning, match="old contract"):
             ctl = build_controller(cfg, ref)
         assert isinstance(ctl, OpenLoopController) and seen == [(cfg, ref)]
     finally:
         controllers.unregister("probe-old-controller")
+
+
+def test_a_flat_controller_table_of_defaults_still_reads() -> None:
+    """A resolved config written when ``[controller]`` was one flat table (every kind's settings, the other
+    kinds' at their defaults) reads as the same run; another kind's setting away from its default is a one-line
+    error naming it and the kinds that have it."""
+    flat = {"kind": "nmpc", "nodes": 20, "open_loop_omega": [5.0, 5.0], "open_loop_schedule": [],
+            "lmpc_qpsol": "daqp", "options": {}, "path_following": PathFollowingSettings().model_dump(),
+            "robust": {**RobustSettings().model_dump(), "scenarios": [[1.0, 1.0], [0.5, 1.0], [1.0, 0.5], [0.5, 0.5]]}}
+    cfg = validate_config({"controller": flat})
+    assert cfg.controller == NMPCSettings(nodes=20)
+    with pytest.raises(BadInput, match=r"^controller.lmpc_qpsol: not a setting of controller 'nmpc' \(a setting "
+                                       r"of lmpc\)$"):
+        validate_config({"controller": {**flat, "lmpc_qpsol": "osqp"}})
+    with pytest.raises(BadInput, match=r"^controller.robust: not a setting of controller 'nmpc'"):
+        validate_config({"controller": {**flat, "robust": {"objective": "worst"}}})

@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from ftc_mj.control import LinearMPC, build_controller
+from ftc_mj.control import LinearMPC
+from ftc_mj.wiring.control import build_controller
 from tests.control.common import NOMINAL, OFFSET_POSE, cfg_with, check_bounds, left_step
 from tests.support.kinsim import simulate
 

@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig
-from ftc_mj.control import NMPC, ProblemSpec, barycentric_interpolate, build_controller
+from ftc_mj.control import NMPC, barycentric_interpolate
 from ftc_mj.control.tracking import reference_at_nodes
 from ftc_mj.control.transcription import Collocation
-from tests.control.common import NOMINAL, OFFSET_POSE, cfg_with, check_bounds, left_step
+from ftc_mj.wiring.control import build_controller
+from tests.control.common import NOMINAL, OFFSET_POSE, cfg_with, check_bounds, left_step, problem
 from tests.support.kinsim import simulate
 from tests.support.opti_nmpc import OptiNMPC
 
@@ -82,7 +83,7 @@ def test_nmpc_rti_converges_to_ipopt(rate_penalty: float, first_step: str, built
     bound ``|U(t0) − u_applied| ≤ omega_rate_max T_s`` = 2 rad/s allows, so it is active (with the
     rate penalty, the penalty on that step acts too)."""
     ref = circle
-    spec = ProblemSpec(rate_penalty=rate_penalty, rate_penalty_first_step=True)
+    spec = problem(rate_penalty=rate_penalty, rate_penalty_first_step=True)
     # no wall-clock rules: a loaded machine must not matter
     rti = built(NMPC, spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)
     ip = built(NMPC, spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None)
@@ -175,7 +176,7 @@ def test_injected_nan_radii_and_pose(solver: str, built, circle) -> None:
 
 def test_over_budget_falls_back(circle) -> None:
     ref = circle
-    ctl = NMPC(ProblemSpec(), ref, solver="rti-daqp", time_budget=1e-9)
+    ctl = NMPC(problem(), ref, solver="rti-daqp", time_budget=1e-9)
     ctl.solve(0.0, np.zeros(3), np.array(NOMINAL))  # cold IPOPT seed: its own budget
     o = ctl.solve(0.1, np.array([1.0, 0.0, 0.02]), np.array(NOMINAL))
     assert o.fallback and "over budget" in o.status and ctl.failures == 1
@@ -185,7 +186,7 @@ def test_heading_wrap(built, circle) -> None:
     """A measured heading off by 2π k is the same pose (one build, reset between the two cold solves: a reset
     NMPC is a new one, ``test_reset_controller_repeats_a_new_ones_loop``)."""
     ref = circle
-    a = built(NMPC, ProblemSpec(), ref, solver="ipopt", time_budget=None, cold_time_budget=None)
+    a = built(NMPC, problem(), ref, solver="ipopt", time_budget=None, cold_time_budget=None)
     pose = np.array([0.0, -1.0, 0.1])
     oa = a.solve(0.0, pose, np.array(NOMINAL))
     a.reset()
@@ -223,7 +224,7 @@ def test_lateral_acceleration_bound_is_respected_and_rti_converges_to_it(built, 
     plan meets the bound at every node (active somewhere), and RTI iterates on the linearised bound
     converge to the same plan."""
     ref = circle
-    spec = ProblemSpec(max_lateral_accel=1.5)
+    spec = problem(max_lateral_accel=1.5)
     # a cold solve towards an infeasible reference: more iterations
     ip = built(NMPC, spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None, max_iter=100)
     rti = built(NMPC, spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None, max_iter=100)
@@ -244,7 +245,7 @@ def test_lateral_acceleration_bound_is_respected_and_rti_converges_to_it(built, 
     np.testing.assert_allclose(Ug, o.predicted_omega, atol=1e-3)
     assert np.max(np.abs(_lateral(Ug))) <= 1.5 + 1e-4
     # without the bound the same plan asks for the circle's 2 m/s²
-    free = built(NMPC, ProblemSpec(), ref, solver="ipopt", time_budget=None, cold_time_budget=None).solve(0.0, pose, R)
+    free = built(NMPC, problem(), ref, solver="ipopt", time_budget=None, cold_time_budget=None).solve(0.0, pose, R)
     assert np.max(np.abs(_lateral(free.predicted_omega))) > 1.9
 
 
@@ -253,7 +254,7 @@ def test_longitudinal_acceleration_bound_is_respected_and_rti_meets_it(built, ci
     acceleration; with ``max_longitudinal_accel`` = 1 m/s² IPOPT's plan keeps |dV/dt| ≤ 1 m/s² at every
     node (active somewhere) and the RTI QP (the rows are linear in the inputs, so exact) converges to it."""
     ref = circle
-    spec = ProblemSpec(max_longitudinal_accel=1.0)
+    spec = problem(max_longitudinal_accel=1.0)
     ip = built(NMPC, spec, ref, solver="ipopt", time_budget=None, cold_time_budget=None, max_iter=100)
     rti = built(NMPC, spec, ref, solver="rti-daqp", time_budget=None, cold_time_budget=None, max_iter=100)
     R = np.array(NOMINAL)
@@ -277,7 +278,7 @@ def test_longitudinal_acceleration_bound_is_respected_and_rti_meets_it(built, ci
         assert ok
         assert np.abs(accel(Ug)).max() <= 1.0 + 1e-5
     np.testing.assert_allclose(Ug, o.predicted_omega, atol=1e-3)
-    free = built(NMPC, ProblemSpec(), ref, solver="ipopt", time_budget=None, cold_time_budget=None).solve(0.0, pose, R)
+    free = built(NMPC, problem(), ref, solver="ipopt", time_budget=None, cold_time_budget=None).solve(0.0, pose, R)
     assert np.abs(accel(free.predicted_omega)).max() > 2.0
 
 

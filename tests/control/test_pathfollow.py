@@ -9,17 +9,16 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig, load_config
-from ftc_mj.control import build_controller, build_reference
 from ftc_mj.control.pathfollow import PathFollowingNMPC
 from ftc_mj.control.pathfollow_spec import (
     PathFollowingSpec,
     RadiusInterval,
-    RobotLimits,
     compliance_offset,
     wheel_bounds,
 )
 from ftc_mj.control.reference import FigureEightReference, LineReference
-from ftc_mj.control.spec import ProblemSpec
+from ftc_mj.wiring.control import build_controller, build_reference
+from tests.control.common import pf_spec, problem
 from tests.support.kinsim import simulate
 
 OMEGA_MAX = math.radians(1000.0)
@@ -27,7 +26,7 @@ CIRCLE = build_reference(RunConfig())  # 50 m, 10 m/s, from the origin heading +
 
 
 def _spec(A: float = 3.0, beta: float = 0.75, speed: float = 10.0, **kw) -> PathFollowingSpec:
-    return PathFollowingSpec(ProblemSpec(rate_penalty=1.0, max_lateral_accel=A, max_longitudinal_accel=3.0),
+    return pf_spec(problem(rate_penalty=1.0, max_lateral_accel=A, max_longitudinal_accel=3.0),
                              desired_speed=speed, braking_trade=beta, **kw)
 
 
@@ -208,7 +207,6 @@ def test_factory_and_sim_hand_over_the_robot_limits() -> None:
     ctl = build_controller(cfg, CIRCLE)
     assert ctl.spec.problem.max_lateral_accel == 2.5 and ctl.spec.braking_trade == 0.0
     assert ctl.spec.problem.rate_penalty == 0.25
-    assert RobotLimits(3.0).yaw_compliance == 0.0
 
 
 def test_mujoco_run_writes_the_telemetry_and_rerun_entities(tmp_path) -> None:
@@ -237,7 +235,7 @@ def test_first_command_stays_within_one_step_of_the_applied_command(solver: str,
     ~5 rad/s the circle needs. ``wheel rate``: without the longitudinal bound and the braking trade-off the new
     command may move each wheel by at most omega_rate_max T_s = 2 rad/s; ``speed``: with them, the speed by at
     most max_longitudinal_accel T_s = 0.3 m/s."""
-    spec = (PathFollowingSpec(ProblemSpec(rate_penalty=1.0, max_lateral_accel=3.0)) if row == "wheel rate"
+    spec = (pf_spec(problem(rate_penalty=1.0, max_lateral_accel=3.0)) if row == "wheel rate"
             else _spec())
     ctl = built(PathFollowingNMPC, spec, CIRCLE, solver=solver)
     R = np.array([2.0, 2.0])
@@ -330,7 +328,7 @@ def test_progress_feedback_closes_the_loop_on_the_progress_made(max_lag: float) 
     point, which the weak progress term (1 s/m² against the lag's 10 /(m² s)) lets it do, and the lag is clipped
     at 2 m (measured 6.85 m/s with 10 m). On the path within 5 cm; no lateral bound (the model's V psidot at
     twice the speed would cap it)."""
-    spec = PathFollowingSpec(ProblemSpec(rate_penalty=1.0, max_lateral_accel=None, max_longitudinal_accel=3.0),
+    spec = pf_spec(problem(rate_penalty=1.0, max_lateral_accel=None, max_longitudinal_accel=3.0),
                              max_lag=max_lag)
     ctl = PathFollowingNMPC(spec, CIRCLE)
     res = simulate(ctl, CIRCLE, 15.0, (0.0, 0.0, 0.0), true_radii=lambda t: (1.0, 1.0),

@@ -14,16 +14,17 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from ftc_mj.config import load_config
-from ftc_mj.control import NMPC, LinearMPC, ProblemSpec, build_controller
+from ftc_mj.control import NMPC, LinearMPC
 from ftc_mj.control.excitation import dither_wheel_rates
 from ftc_mj.control.spec import first_input_bounds, first_step_penalty
 from ftc_mj.control.tracking import reference_at_nodes
 from ftc_mj.sim.loop import simulate
-from tests.control.common import cfg_with
+from ftc_mj.wiring.control import build_controller
+from tests.control.common import cfg_with, problem
 from tests.support.kinsim import simulate as kin_simulate
 
 STEP = 20.0 * 0.1  # rad/s: omega_rate_max (rad/s²) x controller period (s)
-OMEGA_MAX = ProblemSpec().omega_max
+OMEGA_MAX = problem().omega_max
 TOL = 1e-6  # rad/s: the acceptance tolerance; solver tolerances (~1e-7) are clipped away in _accept
 
 
@@ -33,7 +34,7 @@ def _steps(omega: np.ndarray) -> np.ndarray:
 
 
 def test_first_input_bounds(built, circle) -> None:
-    spec = ProblemSpec()
+    spec = problem()
     lo, hi = first_input_bounds(spec, None)
     np.testing.assert_array_equal(lo, [-OMEGA_MAX] * 2)
     np.testing.assert_array_equal(hi, [OMEGA_MAX] * 2)
@@ -48,9 +49,9 @@ def test_first_input_bounds(built, circle) -> None:
             first_input_bounds(spec, bad)
     # the step penalty rate_penalty T_s |Δ/T_s|² = (rate_penalty / T_s) |Δ|²: 1 / 0.1 s = 10 per (rad/s)²
     u = np.array([1.0, 2.0])
-    on = ProblemSpec(rate_penalty=1.0, rate_penalty_first_step=True)
+    on = problem(rate_penalty=1.0, rate_penalty_first_step=True)
     assert first_step_penalty(on, u) == pytest.approx(10.0)
-    assert first_step_penalty(ProblemSpec(rate_penalty=1.0), u) == 0.0  # off by default
+    assert first_step_penalty(problem(rate_penalty=1.0), u) == 0.0  # off by default
     assert first_step_penalty(on, None) == 0.0 == first_step_penalty(spec, u)
     ctl = built(NMPC, spec, circle, solver="rti-daqp", time_budget=None, cold_time_budget=None)
     with pytest.raises(ValueError, match="u_applied"):  # a caller's bug fails the run, it is no fallback
@@ -87,7 +88,7 @@ def test_fallback_and_warm_start_meet_the_bound(built, circle) -> None:
     assert o.fallback and np.all(np.abs(o.omega - ua) <= STEP + 1e-12)
     np.testing.assert_array_equal(o.predicted_omega[0], o.omega)
 
-    ctl = built(NMPC, ProblemSpec(), ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)
+    ctl = built(NMPC, problem(), ref, solver="rti-daqp", time_budget=None, cold_time_budget=None)
     first = ctl.solve(0.0, np.zeros(3), R)
     ua = first.omega + np.array([4.0, -4.0])
     o = ctl.solve(0.1, np.array([np.nan, 0.0, 0.0]), R, ua)  # invalid pose: the shifted plan
@@ -107,7 +108,7 @@ def test_saturated_kinematic_loop_meets_the_bound(kind: str, duration: float, bu
     ref = circle
     worst = {}
     for bound in (True, False):
-        spec = ProblemSpec(rate_bound_from_applied=bound)
+        spec = problem(rate_bound_from_applied=bound)
         ctl = (built(LinearMPC, spec, ref, time_budget=None) if kind == "lmpc"
                else built(NMPC, spec, ref, solver=kind, time_budget=None, cold_time_budget=None))
         res = kin_simulate(ctl, ref, duration, true_radii=lambda t: (1.0, 2.0), model_radii=lambda t: (2.0, 1.0))

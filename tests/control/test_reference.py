@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig
-from ftc_mj.control import build_reference
 from ftc_mj.control.reference import CircleReference, FigureEightReference, LineReference, path_errors, project
+from ftc_mj.wiring.control import build_reference
 
 
 def test_default_circle() -> None:

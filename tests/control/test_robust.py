@@ -10,13 +10,15 @@ import numpy as np
 import pytest
 
 from ftc_mj.config import RunConfig, load_config
-from ftc_mj.control import NMPC, ProblemSpec, problem_spec
+from ftc_mj.control import NMPC
 from ftc_mj.control.robust import RobustNMPC, normalised_weights, scenario_radii
 from ftc_mj.control.tracking import reference_at_nodes
 from ftc_mj.errors import BadInput
 from ftc_mj.model.kinematics import pose_rates
 from ftc_mj.reconfiguration.scenario_weights import posterior_weights
 from ftc_mj.sim.loop import simulate as simulate_loop
+from ftc_mj.wiring.control import problem_spec
+from tests.control.common import problem
 from tests.support.kinsim import simulate
 
 NOMINAL = np.array([2.0, 2.0])
@@ -35,9 +37,9 @@ def left_step(t: float) -> tuple[float, float]:
 
 @pytest.fixture(scope="module")
 def setup(circle):
-    """The default problem and the default circle. ``ProblemSpec()`` equals the config's problem (checked here) and
+    """The default problem and the default circle. ``problem()`` equals the config's problem (checked here) and
     is the spec the other control tests build their nominal NMPCs with, so ``built`` hands out those builds."""
-    spec = ProblemSpec()
+    spec = problem()
     assert spec == problem_spec(RunConfig())
     return spec, circle
 

@@ -7,15 +7,14 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ftc_mj.control import ProblemSpec
 from ftc_mj.control.transcription import Collocation
-from tests.control.common import NOMINAL, OMEGA_MAX
+from tests.control.common import NOMINAL, OMEGA_MAX, problem
 
 STEP = 20.0 * 0.1  # rad/s: omega_rate_max (rad/s²) x controller period (s)
 
 
 def test_shift_exact_for_polynomials() -> None:
-    col = Collocation(ProblemSpec(nodes=12))
+    col = Collocation(problem(nodes=12))
     t = col.times(0.0)
     X = np.stack([t**3, t**2, t], axis=1)
     U = np.stack([t**4, 1 + t], axis=1)
@@ -34,7 +33,7 @@ def test_shift_exact_for_polynomials() -> None:
 def test_project_first_moves_only_the_start_of_the_plan(u0: list[float], centre: list[float], slope: float) -> None:
     """The first input lands in the box; the correction is at most |δ| and fades at omega_rate_max, so it
     adds at most that to the plan's rate (checked between nodes) and is zero after |δ| / omega_rate_max."""
-    col = Collocation(ProblemSpec())
+    col = Collocation(problem())
     dt = col.times(0.0)
     U = np.asarray(u0)[None, :] + slope * dt[:, None]
     U = np.clip(U, -OMEGA_MAX + 3.0, OMEGA_MAX - 3.0)  # away from ±omega_max, where the result is clipped

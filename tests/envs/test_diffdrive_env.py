@@ -15,10 +15,10 @@ from ftc_mj.benchmark.draws import draw
 from ftc_mj.benchmark.score import SCORE_COLUMNS, score_run
 from ftc_mj.benchmark.stats import paired
 from ftc_mj.config import load_config, validate_config
-from ftc_mj.control.factory import build_controller, build_reference
 from ftc_mj.envs import ENV_ID, DiffDriveEnv
 from ftc_mj.errors import BadInput
 from ftc_mj.plant import TIPPED
+from ftc_mj.wiring.control import build_controller, build_reference
 from tests.support.shared_runs import SHARED_RUNS
 
 KINEMATIC = {"plant.kind": "kinematic", "duration": 2.0}

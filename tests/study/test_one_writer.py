@@ -5,11 +5,9 @@ full disk) end the command with one line and exit 1, the rows persisted before k
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 import textwrap
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -19,6 +17,7 @@ from typer.testing import CliRunner
 from ftc_mj.cli import app
 from ftc_mj.errors import BadInput
 from ftc_mj.io import writer_lock
+from tests.support.processes import second_while_first_runs
 from tests.support.small_disk import fill, small_tmpfs
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -90,20 +89,10 @@ def test_two_studies_on_one_folder_one_computes_the_other_refuses(tmp_path: Path
     """Two real processes: the second, started while the first computes, exits 2 with one line and
     writes nothing; every run is computed and logged exactly once."""
     study, out = study_file(tmp_path, 10, 4.0, "mujoco"), tmp_path / "out"  # about 10 s: the second comes in
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "OMP_NUM_THREADS": "1"}
-    cmd = [sys.executable, "-m", "ftc_mj.cli", "study", str(study), "--serial", "--out", str(out), "-q"]
-    first = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 120
-        while not (out / "log.jsonl").is_file() and first.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.05)
-        second = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
-        still_running = first.poll() is None
-        out1, err1 = first.communicate(timeout=300)
-    finally:
-        first.kill()
-    assert first.returncode == 0, err1
-    assert still_running, "the first study ended before the second asked: nothing was tested"
+    race = second_while_first_runs(["study", str(study), "--serial", "--out", str(out), "-q"], out / "log.jsonl", 120)
+    first, second = race.first, race.second
+    assert first.returncode == 0, first.stderr
+    assert race.overlapped, "the first study ended before the second asked: nothing was tested"
     assert second.returncode == 2 and second.stdout == ""
     assert second.stderr.count("\n") == 1 and "is being written by another ftc-mj process" in second.stderr
     log = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]

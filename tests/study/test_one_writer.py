@@ -20,7 +20,6 @@ from ftc_mj.io import writer_lock
 from tests.support.processes import second_while_first_runs
 from tests.support.small_disk import fill, small_tmpfs
 
-ROOT = Path(__file__).resolve().parents[2]
 STUDY = textwrap.dedent("""
     name = "lock"
     scenario = "scenario2"

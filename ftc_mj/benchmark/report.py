@@ -200,9 +200,10 @@ def answers(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
              "other method on the better side, **not shown** otherwise. Success: difference of the rates with an "
              "interval that holds with few discordant draws (Clopper–Pearson for the split of the discordant draws "
              "and for their share, at 97.5 % each); contouring error: median of the paired differences with its "
-             f"order-statistic interval. Power: the exact McNemar test's power to find a {100 * POWER_DIFFERENCE:g}-"
-             f"point success difference on these draws at the discordance the question showed, at {ALPHA:g}/{k} "
-             "(Holm's first step).", ""]
+             "order-statistic interval (equal values count there; the sign test leaves them out, so with many "
+             "ties the interval may touch 0 where the test rejects). Power: the exact McNemar test's power to find "
+             f"a {100 * POWER_DIFFERENCE:g}-point success difference on these draws at the discordance the question "
+             f"showed, at {ALPHA:g}/{k} (Holm's first step).", ""]
     for a, b, q, ((ps, s_adj), (pc, c_adj)) in found:
         power = achieved_power(ps.n, ps.a_larger, ps.b_larger, k)
         lines.append(f"- **{q[0].upper() + q[1:]}?** Success: **{verdict(ps, True, s_adj)}** ({a} − {b} "

@@ -686,14 +686,28 @@ def components(plugin: Plugins = None) -> None:
 class BenchSplit(StrEnum):
     dev = "dev"
     test = "test"
+    private = "private"
+
+
+def private_key(split: str, key_file: str | None) -> bytes | None:
+    """The private split's key (:func:`~ftc_mj.benchmark.private.read_key`), ``None`` on the other splits (where
+    ``--key-file`` is refused: it would be ignored)."""
+    from .benchmark.private import read_key
+
+    if split == "private":
+        return read_key(key_file)
+    if key_file is not None:
+        raise BadInput("--key-file: only the private split takes a key")
+    return None
 
 
 @app.command()
 def bench(
     methods: Annotated[list[str], typer.Argument(metavar="METHOD...", help="Built-in methods (paper, safe, pathfollow, "
                                                  "hybrid, passive, feedback-off) or method TOML files.")],
-    split: Annotated[BenchSplit, typer.Option(help="dev (develop and tune there) or test (sealed: the leaderboard)."
-                                              )] = BenchSplit.dev,
+    split: Annotated[BenchSplit, typer.Option(help="dev (develop and tune there), test (public leaderboard) or "
+                                              "private (draws from a key given at run time: FTC_MJ_PRIVATE_KEY or "
+                                              "--key-file).")] = BenchSplit.dev,
     draws: Annotated[int, typer.Option(help="Number of draws (from --start).")] = 8,
     start: Annotated[int, typer.Option(help="Index of the first draw (replay one draw: --start I --draws 1).")] = 0,
     out: Annotated[str | None, typer.Option(help="Output folder (default runs/out/bench/<version>-<split>-<first>-"
@@ -711,6 +725,9 @@ def bench(
                                                 "its distributions and this report) and DOCS/figures/benchmark/; "
                                                 "DOCS must be an existing folder (e.g. docs).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    key_file: Annotated[str | None, typer.Option(help="File holding the private split's key (else the "
+                                                 "FTC_MJ_PRIVATE_KEY variable); never written to the outputs.")
+                        ] = None,
 ) -> None:
     """Score methods on draws of the benchmark (faults, conditions, paths, noise from a versioned definition) on
     Dask: OUT/draws.parquet, OUT/scores.parquet, the report (leaderboard.md on the test split), figures and
@@ -734,7 +751,9 @@ def bench(
         docs = _folder(publish, "--publish")
         if docs is not None and not docs.is_dir():
             raise BadInput(f"--publish: {docs} is not an existing folder")
-        bp = plan_bench(load_methods(methods), split.value, draws, version=version, start=start, healthy=healthy)
+        key = private_key(split.value, key_file)
+        bp = plan_bench(load_methods(methods), split.value, draws, version=version, start=start, healthy=healthy,
+                        private_key=key)
         report, path = run_bench(bp, out_dir, workers=workers, address=address, compare=compare,
                                  progress=not quiet and sys.stderr.isatty(),
                                  echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True))

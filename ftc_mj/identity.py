@@ -75,3 +75,31 @@ def source_revision() -> str | None:
     except (OSError, subprocess.SubprocessError):
         return None
     return head.stdout.strip() + ("+modified" if dirty.stdout.strip() else "")
+
+
+def sources_digest() -> str:
+    """16 hex digits of the SHA-256 of every ``ftc_mj`` Python source (relative path and bytes, in path
+    order): the package's code when no clean git revision names it."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for f in sorted(root.rglob("*.py")):
+        h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
+
+_SOURCE: list[str] = []
+
+
+def source_identity() -> str:
+    """What names the ftc_mj code a built-in component runs: ``git <revision>`` for a clean checkout, else
+    ``<package version>+sources <digest>`` (:func:`sources_digest`; an install, or a checkout with
+    uncommitted changes, which a revision alone would not name). Computed once per process."""
+    if not _SOURCE:
+        from . import __version__
+
+        rev = source_revision()
+        clean = rev is not None and not rev.endswith("+modified")
+        _SOURCE.append(f"git {rev}" if clean else f"{__version__}+sources {sources_digest()}")
+    return _SOURCE[0]

@@ -30,7 +30,13 @@ from ..study.spec import HELD_OUT_START
 PATH_KINDS = ("circle", "figure8", "line")
 """The reference paths a draw can name (``reference.kind``)."""
 SPLITS = ("dev", "test")
-"""The splits: ``dev`` (development: tune and explore there) and ``test`` (sealed: judged, never tuned on)."""
+"""The splits whose entropy the definition holds: ``dev`` (development: tune and explore there) and ``test``
+(public, judged, never tuned on)."""
+PRIVATE = "private"
+"""The split whose draws derive from a key given at run time (:mod:`ftc_mj.benchmark.private`): nothing in the
+repository or in the outputs lets anyone reproduce them. Its run seeds lie in the test split's range."""
+RUN_SPLITS = (*SPLITS, PRIVATE)
+"""Every split a bench can run."""
 
 Prob = Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)]
 Finite = Annotated[float, Field(allow_inf_nan=False)]
@@ -160,6 +166,12 @@ class BenchmarkDefinition(StrictModel):
     """Modules registering the plug-in fault classes the draws name (imported before the rest is read, and
     named in every drawn run's ``plugins``, so every method and every worker meets the same classes)."""
     duration: Annotated[float, Field(gt=0, le=3600)]
+    leaderboard_draws: Annotated[int, Field(ge=1, le=2000)] | None = None
+    """The draw count of the version's leaderboard (test and private splits), fixed in advance from a power
+    analysis (:func:`~ftc_mj.benchmark.stats.draws_for_power`), never from the results; a report of another
+    count says it is not the leaderboard's. ``ftc-v1``: 200, fixed before this rule and kept (published); its
+    power for a 5-point paired success difference after Holm over its 12 verdicts is 2–67 % at the
+    discordances its questions showed (docs/benchmark.md, "Draw count and power")."""
     splits: dict[str, Annotated[int, Field(ge=0)]]
     seeds: SeedRanges
     fault: FaultDistribution

@@ -6,6 +6,9 @@ The random stream of draw ``index`` of ``split`` is numpy's PCG64 seeded by
 splits' streams are disjoint (different entropies), a draw never depends on another, and its values
 are drawn in one fixed order (:func:`draw`). The run's sensor-noise seed is part of the draw: dev
 seeds lie in 0–999, test seeds from 1000 on (the project's seed policy, ``[seeds]`` of the definition).
+The ``private`` split's stream is seeded by a keyed hash of the version and index instead
+(:func:`~ftc_mj.benchmark.private.private_entropy`; its seeds in the test range): a pure function of
+(version, index, key), reproducible only with the key.
 
 A draw becomes a scenario (:meth:`Draw.scenario`) in the scenario-file format: the tyre faults as radius
 schedules (``[faults] right/left``), the actuator and sensor faults as ``[[faults.actuator]]`` /
@@ -25,7 +28,8 @@ import numpy as np
 from ..config import RobotSettings
 from ..errors import BadInput
 from ..plant.faults import drawn_classes
-from .definition import PATH_KINDS, SPLITS, BenchmarkDefinition, Range, load_definition
+from .definition import PATH_KINDS, PRIVATE, RUN_SPLITS, BenchmarkDefinition, Range, load_definition
+from .private import private_entropy
 
 MAX_INDEX = 10**9
 """Largest draw index (a draw's index is part of its random stream's key)."""
@@ -138,8 +142,12 @@ def version_tag(version: str) -> int:
     return int.from_bytes(hashlib.sha256(version.encode()).digest()[:4], "big")
 
 
-def generator(d: BenchmarkDefinition, split: str, index: int) -> np.random.Generator:
-    """The random stream of draw ``index`` of ``split`` (module docstring)."""
+def generator(d: BenchmarkDefinition, split: str, index: int, key: bytes | None = None) -> np.random.Generator:
+    """The random stream of draw ``index`` of ``split`` (module docstring; ``key`` only for ``private``)."""
+    if split == PRIVATE:
+        if key is None:
+            raise BadInput("--split private: needs a key: set FTC_MJ_PRIVATE_KEY or give --key-file")
+        return np.random.Generator(np.random.PCG64(np.random.SeedSequence(private_entropy(key, d.version, index))))
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence(
         entropy=d.splits[split], spawn_key=(version_tag(d.version), index))))
 
@@ -201,15 +209,16 @@ def draw_path(rng: np.random.Generator, d: BenchmarkDefinition) -> tuple[str, fl
     return kind, radius, direction, speed
 
 
-def draw(split: str, index: int, version: str = "ftc-v1") -> Draw:
-    """Draw ``index`` of ``split`` of benchmark ``version`` (a pure function; module docstring)."""
-    if split not in SPLITS:
-        raise BadInput(f"--split: expected {' or '.join(SPLITS)}, got {split!r}")
+def draw(split: str, index: int, version: str = "ftc-v1", key: bytes | None = None) -> Draw:
+    """Draw ``index`` of ``split`` of benchmark ``version`` (a pure function; module docstring); the
+    ``private`` split needs its ``key``."""
+    if split not in RUN_SPLITS:
+        raise BadInput(f"--split: expected {', '.join(RUN_SPLITS)}, got {split!r}")
     if not (isinstance(index, int) and 0 <= index < MAX_INDEX):
         raise BadInput(f"index: must be an integer in [0, {MAX_INDEX}), got {index!r}")
     d = load_definition(version)
-    rng = generator(d, split, index)
-    seeds = getattr(d.seeds, split)
+    rng = generator(d, split, index, key)
+    seeds = getattr(d.seeds, "test" if split == PRIVATE else split)
     seed = int(rng.integers(int(seeds.low), int(seeds.high)))
     faults = draw_faults(rng, d)
     kind, radius, direction, speed = draw_path(rng, d)

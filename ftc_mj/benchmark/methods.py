@@ -12,7 +12,9 @@ plant, sensors, path, duration, seed). A method file::
     "reconfiguration.policy" = "safe"
 
 Its *digest* hashes its resolved settings (those sections after validation, defaults filled in, plus
-the plug-in modules): a test-split result records it, so a leaderboard entry names exactly what was run.
+the plug-in modules) and its code (:func:`code_identity`: the ftc-mj version and source revision, and the
+contents of each plug-in module): a test-split result records it, so a leaderboard entry names exactly what
+was run, and a changed method — settings or code — is a new entry, never a silent replacement.
 """
 
 from __future__ import annotations
@@ -72,6 +74,8 @@ class Method:
     plugins: tuple[str, ...] = ()
     source: str = "built-in"
     digest: str = field(default="", compare=False)
+    code: dict[str, Any] = field(default_factory=dict, compare=False)
+    """:func:`code_identity` (recorded in ``bench.json``)."""
 
     def apply(self, scenario: dict[str, Any]) -> RunConfig:
         """The run config of a draw's ``scenario`` run by this method (validated; :class:`BadInput`); its
@@ -100,12 +104,48 @@ def check_settings(settings: dict[str, Any], where: str) -> dict[str, Any]:
     return flat
 
 
+def module_digest(name: str) -> str:
+    """16 hex digits of the SHA-256 of an imported plug-in module's source: its file, or for a package every
+    ``.py`` file below it (relative path and bytes); :class:`BadInput` naming ``plugins`` if it has no source
+    file."""
+    import hashlib
+    import importlib.util
+    import sys
+
+    mod = sys.modules.get(name)
+    origin = getattr(mod, "__file__", None)
+    if origin is None:
+        spec = importlib.util.find_spec(name)
+        origin = spec.origin if spec is not None else None
+    if origin is None or not Path(origin).is_file():
+        raise BadInput(f"plugins: {name!r} has no source file to identify the method's code by")
+    path = Path(origin)
+    files = sorted(path.parent.rglob("*.py")) if path.name == "__init__.py" else [path]
+    h = hashlib.sha256()
+    for f in files:
+        h.update(str(f.relative_to(path.parent)).encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
+
+def code_identity(method: Method) -> dict[str, Any]:
+    """The code a method runs: the ftc-mj version and source (:func:`~ftc_mj.identity.source_identity`: the git
+    revision of a clean checkout, else a hash of the package's sources) — every method runs built-in
+    components — and the content hash of each of its plug-in modules (imported by then: the digest validates
+    the method's config first)."""
+    from .. import __version__
+    from ..identity import source_identity
+
+    return {"ftc_mj": __version__, "source": source_identity(),
+            "plugins": {p: module_digest(p) for p in method.plugins}}
+
+
 def resolved_digest(method: Method) -> str:
     """16 hex digits of the method's resolved settings (:data:`METHOD_SECTIONS` of a validated config with its
-    settings, defaults filled in) and plug-in modules."""
+    settings, defaults filled in), plug-in modules and code (:func:`code_identity`)."""
     cfg = method.apply({"name": "digest"})
     dump = cfg.model_dump(mode="json")
-    return canonical_hash({"sections": {s: dump[s] for s in METHOD_SECTIONS}, "plugins": list(method.plugins)})[:16]
+    return canonical_hash({"sections": {s: dump[s] for s in METHOD_SECTIONS}, "plugins": list(method.plugins),
+                           "code": code_identity(method)})[:16]
 
 
 def load_method(spec: str) -> Method:
@@ -121,7 +161,7 @@ def load_method(spec: str) -> Method:
             raise BadInput(f"method {path}: {one_line(err)}") from None
         m = Method(f.name, f.description, check_settings(f.settings, f"method {path}"), tuple(f.plugins),
                    str(Path(path).resolve()))
-    return Method(m.name, m.description, m.settings, m.plugins, m.source, resolved_digest(m))
+    return Method(m.name, m.description, m.settings, m.plugins, m.source, resolved_digest(m), code_identity(m))
 
 
 def load_methods(specs: list[str]) -> list[Method]:

@@ -20,7 +20,19 @@ from ..markdown import row, table
 from ..metrics.outcome import OFF_PATH_M
 from ..study.stats import Estimate
 from ..study.store import StudyStore
-from .stats import CONTINUOUS, RATES, Paired, aggregate, paired
+from .stats import (
+    ALPHA,
+    CONTINUOUS,
+    MIN_EFFECT_PAIRS,
+    POWER_DIFFERENCE,
+    RATES,
+    TAILS,
+    Paired,
+    achieved_power,
+    aggregate,
+    holm,
+    paired,
+)
 
 QUESTIONS = (("paper", "safe", "does the paper's loop generalise (against the safe loop)"),
              ("safe", "feedback-off", "does the safe policy beat feedback off"),
@@ -31,9 +43,16 @@ QUESTIONS = (("paper", "safe", "does the paper's loop generalise (against the sa
 """The project's questions as (method a, method b, question), asked when both methods were run."""
 
 
+LEADERBOARD_SPLITS = ("test", "private")
+"""The splits whose report is a leaderboard."""
+VERDICT_SCORES = (("success", True), ("contouring_max", False))
+"""The scores each question gets a verdict on, with whether larger is better."""
+
+
 def report_name(split: str, healthy: bool) -> str:
-    """``leaderboard.md`` (test), ``dev-report.md`` (dev) or ``healthy-check.md`` (draws without faults)."""
-    return "healthy-check.md" if healthy else "leaderboard.md" if split == "test" else "dev-report.md"
+    """``leaderboard.md`` (test, private), ``dev-report.md`` (dev) or ``healthy-check.md`` (draws without
+    faults)."""
+    return "healthy-check.md" if healthy else "leaderboard.md" if split in LEADERBOARD_SPLITS else "dev-report.md"
 
 
 def write_outputs(bp: Any, results: pl.DataFrame, out: Path, *, compare: int = 1, echo: Any = None) -> Path:
@@ -45,9 +64,11 @@ def write_outputs(bp: Any, results: pl.DataFrame, out: Path, *, compare: int = 1
     with atomic_path(out / "scores.parquet") as tmp:
         scores.write_parquet(tmp)
     rows = scores.to_dicts()
+    log_scoring(bp, out)
     figures = draw_figures(rows, [m.name for m in bp.methods], out / "figures", bp.classes)
     compared = write_comparisons(bp, rows, out / "compare", compare) if compare > 0 else []
-    text = render(bp, rows, figures, compared, computed_line(out))
+    history = scoring_history(bp, out) if bp.split in LEADERBOARD_SPLITS else []
+    text = render(bp, rows, figures, compared, computed_line(out), history)
     path = out / report_name(bp.split, bp.healthy)
     with atomic_path(path) as tmp:
         tmp.write_text(text)
@@ -71,16 +92,26 @@ def _pct(e: Estimate) -> str:
     return e.fmt(pct=True) + f" (n={e.n})" if e.n else "—"
 
 
+def _median(e: Estimate, unit: str) -> str:
+    """``median [lo, hi] unit (n=…)``; ``—`` without data; the interval left out below 6 values."""
+    if not e.n:
+        return "—"
+    ci = f" [{e.lo:.3g}, {e.hi:.3g}]" if math.isfinite(e.lo) else ""
+    return f"{e.mean:.3g}{ci} {unit} (n={e.n})"
+
+
 def overall_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
-    """One line per method: every aggregate (rates: % [Wilson 95 %]; continuous: mean ± half the bootstrap
-    95 % interval)."""
+    """One line per method: every aggregate (rates: % [Wilson 95 %]; continuous: median [order-statistic
+    95 %]; tail fractions: % of runs above the threshold [Wilson 95 %])."""
+    tails = [(k, t) for k, ts in TAILS.items() for t in ts]
     head = ["method", *RATES.values(), "isolation correct", "isolation wrong",
-            *(f"{k} ({u})" for k, u in CONTINUOUS.items())]
+            *(f"{k} median ({u})" for k, u in CONTINUOUS.items()), *(f"{k} > {t:g} {CONTINUOUS[k]}" for k, t in tails)]
     body = []
     for m in methods:
         a = aggregate([r for r in rows if r["method"] == m])
         cells = [_pct(a[k]) for k in RATES] + [_pct(a["isolation_correct"]), _pct(a["isolation_wrong"])]
-        cells += [a[k].fmt(u) + f" (n={a[k].n})" if a[k].n else "—" for k, u in CONTINUOUS.items()]
+        cells += [_median(a[k], u) for k, u in CONTINUOUS.items()]
+        cells += [_pct(a[f"{k}>{t:g}"]) for k, t in tails]
         body.append([m, *cells])
     return table(head, body)
 
@@ -105,13 +136,19 @@ def pairs_asked(methods: list[str]) -> list[tuple[str, str, str]]:
     return asked or [(a, b, f"{a} against {b}") for a, b in itertools.combinations(methods, 2)]
 
 
+def _interval(p: Paired, unit: str) -> str:
+    if not p.n:
+        return "—"
+    ci = f" [{p.lo:+.3g}, {p.hi:+.3g}]" if math.isfinite(p.lo) else ""
+    return f"{p.estimate:+.3g}{ci}{unit}"
+
+
 def _paired_line(p: Paired, unit: str) -> str:
-    d = p.diff
-    ci = f"{d.mean:+.3g} [{d.lo:+.3g}, {d.hi:+.3g}]{unit}" if d.n > 1 and math.isfinite(d.lo) else (
-        f"{d.mean:+.3g}{unit}" if d.n else "—")
     pv = f"{p.p_value:.2g}" if math.isfinite(p.p_value) else "—"
-    eff = f"{p.effect:+.2f}" if math.isfinite(p.effect) else "—"
-    return row([f"{p.a} − {p.b}", p.score, d.n, ci, f"{p.a_larger} / {p.b_larger}", pv, eff])
+    eff = f"{p.effect:+.2f}" if math.isfinite(p.effect) else f"— (< {MIN_EFFECT_PAIRS} discordant)"
+    kind = "difference of rates" if p.binary else "median difference"
+    return row([f"{p.a} − {p.b}", p.score, p.n, f"{_interval(p, unit)} ({kind})", f"{p.a_larger} / {p.b_larger}",
+                pv, eff])
 
 
 def paired_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
@@ -119,39 +156,60 @@ def paired_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
     lines = []
     for a, b, q in pairs_asked(methods):
         lines += [f"**{q}** ({a} against {b}, same draws):", "",
-                  *table(["pair", "score", "pairs", "mean difference [paired bootstrap 95 %]", "a larger / b larger",
-                          "Wilcoxon p", "rank-biserial r"])]
+                  *table(["pair", "score", "pairs", "estimate [95 %]", "a larger / b larger",
+                          "exact p (McNemar / sign test)", "rank-biserial r"])]
         for score, unit in (("success", ""), ("contouring_max", " m"), ("detection_delay", " s")):
             lines.append(_paired_line(paired(rows, score, a, b), unit))
         lines.append("")
     return lines
 
 
-def verdict(p: Paired, larger_is_better: bool) -> str:
-    """``yes`` when the paired-bootstrap 95 % interval of ``a − b`` lies wholly on ``a``'s better side, ``no``
-    when wholly on ``b``'s, ``not shown`` when it contains 0 (or there is no interval)."""
-    d = p.diff
-    if d.n < 2 or not (math.isfinite(d.lo) and math.isfinite(d.hi)):
+def verdict(p: Paired, larger_is_better: bool, adjusted: float | None = None) -> str:
+    """``yes`` when the exact test (McNemar for success, the sign test otherwise) rejects equality at
+    :data:`~ftc_mj.benchmark.stats.ALPHA` — with the ``adjusted`` (Holm) p when given, else the question's own —
+    and ``a`` is on the better side (more draws won than lost; lower values for a score where lower is
+    better), ``no`` when it rejects with ``b`` on the better side, ``not shown`` otherwise."""
+    q = p.p_value if adjusted is None else adjusted
+    if not (p.n and math.isfinite(q) and q < ALPHA):
         return "not shown"
-    better, worse = (d.lo > 0, d.hi < 0) if larger_is_better else (d.hi < 0, d.lo > 0)
-    return "yes" if better else "no" if worse else "not shown"
+    a_better = (p.a_larger > p.b_larger) == larger_is_better
+    return "yes" if a_better else "no"
+
+
+def verdicts(rows: list[dict[str, Any]], methods: list[str]) -> list[tuple[str, str, str, list[tuple[Paired, float]]]]:
+    """Every asked question with its :data:`VERDICT_SCORES` comparisons and their p-values adjusted by Holm over
+    all the verdicts of the page."""
+    asked = pairs_asked(methods)
+    ps = [paired(rows, score, a, b) for a, b, _q in asked for score, _ in VERDICT_SCORES]
+    adj = holm([p.p_value for p in ps])
+    k = len(VERDICT_SCORES)
+    return [(a, b, q, list(zip(ps[i * k:(i + 1) * k], adj[i * k:(i + 1) * k], strict=True)))
+            for i, (a, b, q) in enumerate(asked)]
 
 
 def answers(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
-    """One line per asked question: the verdict on success and on the largest contouring error, by the rule of
-    :func:`verdict`."""
+    """One line per asked question: the verdicts on success and on the largest contouring error (rule of
+    :func:`verdict`, Holm over the page's verdicts) and the question's achieved power."""
     if not any(q[0] in methods and q[1] in methods for q in QUESTIONS):
         return []
-    lines = ["Rule: **yes** when the paired-bootstrap 95 % interval of the difference lies wholly on the first "
-             "method's better side (success higher, largest contouring error lower), **no** when wholly on the "
-             "other's, **not shown** when it contains 0. Success is the primary score; the contouring error says how "
-             "far off the runs end, failed ones included.", ""]
-    for a, b, q in pairs_asked(methods):
-        ps, pc = paired(rows, "success", a, b), paired(rows, "contouring_max", a, b)
-        lines.append(f"- **{q[0].upper() + q[1:]}?** Success: **{verdict(ps, True)}** ({a} − {b} "
-                     f"{ps.diff.mean:+.3g} [{ps.diff.lo:+.3g}, {ps.diff.hi:+.3g}], {ps.a_larger} draws won / "
-                     f"{ps.b_larger} lost of {ps.diff.n}); largest contouring error: **{verdict(pc, False)}** "
-                     f"({pc.diff.mean:+.3g} [{pc.diff.lo:+.3g}, {pc.diff.hi:+.3g}] m).")
+    found = verdicts(rows, methods)
+    k = sum(len(v) for *_, v in found)
+    lines = [f"Rule: **yes** when the exact test rejects equality at {ALPHA:g} after Holm's correction over the page's "
+             f"{k} verdicts and the first method is on the better side (success: exact McNemar test of the draws won "
+             "and lost; largest contouring error: exact sign test, lower is better), **no** when it rejects with the "
+             "other method on the better side, **not shown** otherwise. Success: difference of the rates with an "
+             "interval that holds with few discordant draws (Clopper–Pearson for the split of the discordant draws "
+             "and for their share, at 97.5 % each); contouring error: median of the paired differences with its "
+             "order-statistic interval (equal values count there; the sign test leaves them out, so with many "
+             "ties the interval may touch 0 where the test rejects). Power: the exact McNemar test's power to find "
+             f"a {100 * POWER_DIFFERENCE:g}-point success difference on these draws at the discordance the question "
+             f"showed, at {ALPHA:g}/{k} (Holm's first step).", ""]
+    for a, b, q, ((ps, s_adj), (pc, c_adj)) in found:
+        power = achieved_power(ps.n, ps.a_larger, ps.b_larger, k)
+        lines.append(f"- **{q[0].upper() + q[1:]}?** Success: **{verdict(ps, True, s_adj)}** ({a} − {b} "
+                     f"{_interval(ps, '')}, {ps.a_larger} draws won / {ps.b_larger} lost of {ps.n}, p = "
+                     f"{ps.p_value:.2g}, Holm {s_adj:.2g}; power {100 * power:.0f} %); largest contouring error: "
+                     f"**{verdict(pc, False, c_adj)}** ({_interval(pc, ' m')}, Holm p = {c_adj:.2g}).")
     return [*lines, ""]
 
 
@@ -198,8 +256,55 @@ def computed_line(out: Path) -> str:
             else "No run was computed in this output folder's log.")
 
 
-def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: list[Path], computed: str = "") -> str:
-    """The report's Markdown; ``computed`` says which invocations computed the runs (:func:`computed_line`)."""
+def log_scoring(bp: Any, out: Path) -> None:
+    """Append a ``scored`` line to ``OUT/log.jsonl``: the split, the draws and each method's identity (name →
+    digest, which covers its settings and code) — what :func:`scoring_history` counts."""
+    StudyStore(out).log("scored", split=bp.split, draws=list(bp.meta["draws"]),
+                        methods={m.name: m.digest for m in bp.methods})
+
+
+def scoring_history(bp: Any, out: Path) -> list[str]:
+    """Per method identity (name and digest) ever scored in ``out``: the date (UTC) of its first run there (its
+    earliest persisted run, else its first scoring) and how many times it has been scored (``scored`` lines of
+    the log). A changed method — settings or code — has another digest: a row of its own."""
+    log = StudyStore(out).read_log()
+    method_of = {r.key: r.labels["method"] for r in bp.plan.runs}
+    first_run: dict[str, float] = {}
+    for e in log:
+        m = method_of.get(e.get("run_key")) if e.get("event") == "run" else None
+        if m is not None:
+            first_run[m] = min(first_run.get(m, e["time"]), e["time"])
+    seen: dict[tuple[str, str], list[float]] = {}
+    for e in log:
+        if e.get("event") == "scored" and e.get("split") == bp.split:
+            for name, digest in e.get("methods", {}).items():
+                seen.setdefault((name, digest), []).append(e["time"])
+    current = {(m.name, m.digest) for m in bp.methods}
+    day = lambda t: time.strftime("%Y-%m-%d", time.gmtime(t))  # noqa: E731
+    body = [[name, f"`{digest}`", day(first_run[name] if (name, digest) in current and name in first_run
+                                      else min(times)), len(times), "yes" if (name, digest) in current else "no"]
+            for (name, digest), times in sorted(seen.items(), key=lambda kv: min(kv[1]))]
+    return table(["method", "digest", f"first run on {bp.split}", "times scored", "on this page"], body)
+
+
+def draw_count_line(bp: Any) -> str:
+    """Whether this report's draw count is the one the version fixed in advance for its leaderboard."""
+    from .definition import load_definition
+
+    fixed = load_definition(bp.meta.get("definition_file", bp.version)).leaderboard_draws
+    lo, hi = bp.meta["draws"]
+    if fixed is None:
+        return f"Benchmark {bp.version} fixes no leaderboard draw count (`leaderboard_draws`)."
+    if (lo, hi) == (0, fixed):
+        return f"Draws 0–{fixed - 1}: the leaderboard's draw count, fixed in advance for {bp.version}."
+    return (f"**Not the leaderboard's draws**: {bp.version} fixes draws 0–{fixed - 1} in advance "
+            f"(`leaderboard_draws = {fixed}`); these are draws {lo}–{hi - 1}.")
+
+
+def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: list[Path], computed: str = "",
+           history: Sequence[str] = ()) -> str:
+    """The report's Markdown; ``computed`` says which invocations computed the runs (:func:`computed_line`),
+    ``history`` the scoring history of a leaderboard (:func:`scoring_history`)."""
     methods = [m.name for m in bp.methods]
     lo, hi = bp.meta["draws"]
     kind = {"healthy-check.md": "Healthy-path check (every draw without its faults)",
@@ -208,17 +313,24 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
            f"Draws {lo}–{hi - 1} of the {bp.split} split ({hi - lo} draws), {len(rows)} runs; ftc-mj "
            f"{bp.meta['package_version']}. Success: the run completed, did not tip over and its largest |contouring "
            f"error| from 5 s after the last fault onset is ≤ {OFF_PATH_M:g} m. Rates: % [Wilson 95 %] (n runs); "
-           "continuous scores: mean ± half the percentile-bootstrap 95 % interval (n runs with a value).",
-           *([] if not computed else ["", computed]), "",
+           "continuous scores: median [distribution-free order-statistic 95 %] (n runs with a value) and the share "
+           "of runs beyond thresholds.",
+           *([] if not computed else ["", computed]),
+           *(["", draw_count_line(bp)] if bp.split in LEADERBOARD_SPLITS and not bp.healthy else []), "",
            *table(["method", "settings digest", "description"],
                   ([m.name, f"`{m.digest}`", m.description] for m in bp.methods))]
+    if history:
+        out += ["", f"Scoring history on the {bp.split} split (this output folder's log):", "", *history]
     out += ["", "## Overall", "", *overall_table(rows, methods), "", "## Success by fault class", "",
             *class_table(rows, methods, bp.classes), ""]
     if len(methods) > 1:
         ans = answers(rows, methods)
         out += ["## The project's questions", "", *ans] if ans else []
-        out += ["## Paired comparisons", "", "Differences a − b on the same draws (booleans as 0/1); Wilcoxon "
-                "signed-rank test (zero differences dropped) and the matched-pairs rank-biserial correlation.", "",
+        out += ["## Paired comparisons", "", "Differences a − b on the same draws: success as the difference of the "
+                "rates (interval of the rule above) with the exact McNemar p, continuous scores as the median of the "
+                "paired differences (order-statistic interval) with the exact sign-test p; the matched-pairs "
+                f"rank-biserial correlation only from {MIN_EFFECT_PAIRS} discordant pairs on. p-values here are not "
+                "adjusted (the verdicts are).", "",
                 *paired_table(rows, methods)]
     out += ["## Bounds", "", "Detection delay over Lorden's bound at the rule's ARL0 (`estimator.decision.arl0`) "
             "for the draw's first change; the filter's final radius error over the PCRB for constant radii since "

@@ -22,9 +22,10 @@ from ..io import atomic_path, writer_lock
 from ..study.plan import PlannedRun, StudyPlan, run_key
 from ..study.spec import AnalysisSpec, StudySpec
 from ..study.store import StudyStore
-from .definition import SPLITS, load_definition
+from .definition import PRIVATE, RUN_SPLITS, load_definition
 from .draws import MAX_INDEX, Draw, draw
 from .methods import Method
+from .private import private_key_id
 from .score import score_run
 
 KEPT_METRICS = ("run_id", "status", "error", "outcome", "wall_time_s", "realtime_factor")
@@ -63,8 +64,8 @@ class BenchPlan:
 
 def check_request(split: str, n_draws: int, start: int) -> None:
     """The split and draw range (:class:`BadInput` naming the option)."""
-    if split not in SPLITS:
-        raise BadInput(f"--split: expected {' or '.join(SPLITS)}, got {split!r}")
+    if split not in RUN_SPLITS:
+        raise BadInput(f"--split: expected {', '.join(RUN_SPLITS)}, got {split!r}")
     if not 1 <= n_draws <= MAX_DRAWS:
         raise BadInput(f"--draws: must be in [1, {MAX_DRAWS}], got {n_draws}")
     if start < 0:
@@ -75,13 +76,14 @@ def check_request(split: str, n_draws: int, start: int) -> None:
 
 
 def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str = "ftc-v1", start: int = 0,
-               healthy: bool = False) -> BenchPlan:
-    """Every (method, draw) run of draws ``start … start + n_draws - 1`` (validated; :class:`BadInput`)."""
+               healthy: bool = False, private_key: bytes | None = None) -> BenchPlan:
+    """Every (method, draw) run of draws ``start … start + n_draws - 1`` (validated; :class:`BadInput`); the
+    private split's draws need its ``private_key`` (:mod:`.private`), of which the plan keeps only the id."""
     from .. import __version__
 
     check_request(split, n_draws, start)
     definition = load_definition(version)
-    draws = [draw(split, i, version) for i in range(start, start + n_draws)]
+    draws = [draw(split, i, version, private_key) for i in range(start, start + n_draws)]
     runs: list[PlannedRun] = []
     seen: dict[str, str] = {}
     for m in methods:
@@ -96,8 +98,11 @@ def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str 
                                    cfg.model_dump(mode="json")))
     meta = {"benchmark": definition.version, "split": split, "draws": [start, start + n_draws], "healthy": healthy,
             "methods": {m.name: {"digest": m.digest, "source": m.source, "description": m.description,
-                                 "settings": m.settings, "plugins": list(m.plugins)} for m in methods},
+                                 "settings": m.settings, "plugins": list(m.plugins), "code": m.code}
+                        for m in methods},
             "package_version": __version__}
+    if split == PRIVATE:
+        meta.update(private_key_id(private_key))
     if definition.plugins:  # a definition with plug-in fault classes: its file and modules are part of the bench
         meta.update(definition_file=version, fault_plugins=list(definition.plugins))
     identity = {k: v for k, v in meta.items() if k != "package_version"}

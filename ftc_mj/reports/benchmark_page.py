@@ -65,6 +65,37 @@ def definition_tables(d: BenchmarkDefinition) -> list[str]:
     return lines + table(["factor", "distribution"], factors)
 
 
+POWER_DISCORDANCES = (0.05, 0.1, 0.2, 0.3)
+"""Shares of draws on which two methods disagree that the page's power table covers (ftc-v1's questions
+showed 1–58 %)."""
+
+
+def power_section(d: BenchmarkDefinition) -> list[str]:
+    """The analysis that fixes a version's leaderboard draw count (``leaderboard_draws``): for a 5-point paired
+    success difference at 80 % power after Holm over the page's verdicts, the draws needed at several
+    discordances, and the power of the version's fixed count there (exact conditional binomial test,
+    :func:`~ftc_mj.benchmark.stats.mcnemar_power`)."""
+    from ..benchmark.report import QUESTIONS, VERDICT_SCORES
+    from ..benchmark.stats import ALPHA, POWER_DIFFERENCE, POWER_TARGET, draws_for_power, mcnemar_power
+
+    k = len(QUESTIONS) * len(VERDICT_SCORES)
+    n = d.leaderboard_draws
+    body = [[f"{100 * psi:g} %", draws_for_power(POWER_DIFFERENCE, psi, k),
+             "—" if n is None else f"{100 * mcnemar_power(n, POWER_DIFFERENCE, psi, ALPHA, k):.0f} %"]
+            for psi in POWER_DISCORDANCES]
+    fixed = (f"`{d.version}` fixes `leaderboard_draws = {n}`" if n is not None
+             else f"`{d.version}` fixes no leaderboard draw count")
+    return [f"A version's leaderboard draw count is fixed in advance in its definition, never chosen from its "
+            f"results. The analysis: the exact McNemar test at {ALPHA:g}/{k} (Holm's first step over the page's {k} "
+            f"verdicts) should find a {100 * POWER_DIFFERENCE:g}-point paired success difference with "
+            f"{100 * POWER_TARGET:g} % power; its exact power sums the conditional binomial test over the "
+            "discordant count. " + fixed + (" (set before this rule and kept: it is published), which resolves only "
+                                             "large differences; every question on the page prints its achieved "
+                                             "power." if n is not None else "."), "",
+            *table(["draws on which two methods disagree", f"draws for {100 * POWER_TARGET:g} % power",
+                    f"power of {n} draws" if n is not None else "power of the fixed count"], body)]
+
+
 def publish(docs: Path, report: Path, out: Path, argv: list[str], version: str) -> Path:
     """Write ``docs/benchmark.md`` (module docstring) from the finished bench in ``out``; returns its path."""
     if not docs.is_dir():
@@ -89,7 +120,14 @@ def publish(docs: Path, report: Path, out: Path, argv: list[str], version: str) 
         f"split's from {int(d.seeds.test.low)} "
         "(different entropies in the definition: disjoint streams). Develop and tune on `dev`; a study flagged "
         "`tuning = true` (tune_dwell, tune_growth, robust_hybrid_dev) refuses seeds ≥ 1000, and the leaderboard "
-        "shows test-split results only, each with its method's settings digest and the package version.", "",
+        "shows test-split results only, each with its method's digest (its resolved settings and its code: the "
+        "ftc-mj version and source revision, each plug-in module's content) and the package version.", "",
+        "The `private` split's draws come from a key given at run time (`FTC_MJ_PRIVATE_KEY` or `--key-file`): "
+        "each draw's stream is seeded by HMAC-SHA256 of the version and index under the key, so neither this "
+        "repository nor a bench's outputs (which keep only the key's SHA-256 id) reproduce them; without a key "
+        "`--split private` exits 2. A test or private leaderboard lists, per method identity, the date of its "
+        "first run on the split and how many times it has been scored there (the output folder's log).", "",
+        "## Draw count and power", "", *power_section(d), "",
         "## Distributions", "", *definition_tables(d), "", HEALTHY_CHECK, "",
         *([] if "--split test" in " ".join(argv) and "--healthy" not in argv else
           ["**Leaderboard.** Not generated yet: the leaderboard shows test-split results only; "

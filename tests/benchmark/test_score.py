@@ -93,11 +93,15 @@ def test_sensor_bias_information_is_half_the_squared_snr_per_row():
 
 
 def test_paired_statistics_on_constructed_pairs():
+    """Differences +0.5 on 15 draws, −0.5 on 5: the median +0.5 with its order-statistic interval [x(6), x(15)]
+    of the sorted differences (both +0.5), the exact sign-test p = 2·P(Bin(20, ½) ≥ 15) = 2·21700/2²⁰, and the
+    rank-biserial r of equal |d| (all ranks tied): (15 − 5)/20; from fewer than 10 non-zero pairs no r."""
     rows = [{"method": m, "draw": d, "x": v} for d in range(20)
             for m, v in (("a", d + 1.0), ("b", d + (0.5 if d < 15 else 1.5)))]
     p = paired(rows, "x", "a", "b")
-    assert p.diff.mean == pytest.approx((15 * 0.5 - 5 * 0.5) / 20) and p.diff.n == 20
+    assert p.estimate == pytest.approx(0.5) and p.n == 20 and not p.binary
     assert (p.a_larger, p.b_larger) == (15, 5)
-    assert p.diff.lo <= p.diff.mean <= p.diff.hi
-    assert rank_biserial(np.array([1.0, 1.0, -1.0, 0.0])) == pytest.approx((2 * 2.0 - 2.0) / 6.0)
-    assert 0.0 < p.p_value < 0.05  # normal approximation with the tie correction: z = 52.5 / 23.5, p ≈ 0.025
+    assert p.lo == pytest.approx(0.5) and p.hi == pytest.approx(0.5)
+    assert p.p_value == pytest.approx(2 * 21700 / 2**20, rel=1e-9) and p.effect == pytest.approx(0.5)
+    assert math.isnan(rank_biserial(np.array([1.0, 1.0, -1.0, 0.0])))
+    assert rank_biserial(np.array([1.0] * 8 + [-1.0] * 2 + [0.0])) == pytest.approx((8 - 2) / 10)

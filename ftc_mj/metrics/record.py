@@ -52,8 +52,9 @@ class RunRecord:
     what the speed the robot can still reach depends on (:func:`ftc_mj.metrics.path.feasible_speed`)."""
     plant_half_track: float
     """The true robot's half track (m)."""
-    omega_rate_max: float
-    """The controller's bound on the wheel-rate change (rad/s per s)."""
+    omega_rate_max: float | None
+    """The controller's bound on the wheel-rate change (rad/s per s); ``None`` for a controller without one
+    (the open loop)."""
     max_split_sigma: float
     """The sigma rule's isolation limit on the radius split σ (m)."""
     arl0: float

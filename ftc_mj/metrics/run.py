@@ -188,7 +188,7 @@ def actuation_metrics(record: RunRecord, trace: dict[str, np.ndarray], dt: float
     # controller periods that began with a step at (or, with the first input free, beyond) the MPC's
     # rate bound omega_rate_max / rate (NaN for a controller without one, the open loop)
     steps = np.fmax(np.abs(np.diff(cmdR)), np.abs(np.diff(cmdL)))
-    step_lim = record.omega_rate_max / rate
+    step_lim = np.nan if record.omega_rate_max is None else record.omega_rate_max / rate
     m["command_step_max"] = nanstat(steps, np.max)
     m["command_at_rate_limit_s"] = float(np.sum(steps >= step_lim * (1 - LIMIT_TOL)) / rate)
     return m

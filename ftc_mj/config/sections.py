@@ -99,16 +99,16 @@ def _is_default(model: type[BaseModel], key: str, value: Any) -> bool:
     return bool(given == f.get_default(call_default_factory=True))
 
 
-def _other_kinds_keys(section: str, kinds: dict[str, type[BaseModel]], default: str) -> Any:
-    """A section's table of a built-in kind holding a key of another kind only: a one-line error naming the key
-    and the kinds that have it (``controller.nodes: not a setting of controller 'open-loop' …``). Such a key
-    at that kind's default is dropped: a resolved config written when the section was one flat table (every
-    kind's settings, the others' at their defaults) still reads as the run it was."""
+def _other_kinds_keys(section: str, kinds: dict[str, type[BaseModel]], plugin: type[BaseModel], default: str) -> Any:
+    """A section's table (of a built-in kind, or a plug-in's: ``plugin``) holding a key of another kind only: a
+    one-line error naming the key and the kinds that have it (``controller.nodes: not a setting of controller
+    'open-loop' …``). Such a key at that kind's default is dropped: a resolved config written when the section
+    was one flat table (every kind's settings, the others' at their defaults) still reads as the run it was."""
     def drop(value: Any) -> Any:
         if not isinstance(value, dict):
             return value
         kind = value.get("kind", default)
-        model = kinds.get(kind) if isinstance(kind, str) else None
+        model = kinds.get(kind, plugin) if isinstance(kind, str) else None
         out = dict(value)
         for key in value if model is not None else ():
             owners = [m for m in kinds.values() if key in m.model_fields]
@@ -128,7 +128,7 @@ def kind_union(section: str, kinds: dict[str, type[BaseModel]], plugin: type[Bas
     for any other registered name; a table without ``kind`` is ``default``'s."""
     members = [Annotated[m, Tag(f"kind={k}")] for k, m in [*kinds.items(), ("plug-in", plugin)]]
     return Annotated[Union[tuple(members)], Discriminator(_kind_tag(kinds, default)),  # noqa: UP007
-                     BeforeValidator(_other_kinds_keys(section, kinds, default))]
+                     BeforeValidator(_other_kinds_keys(section, kinds, plugin, default))]
 
 
 EstimatorConfig = kind_union("estimator", ESTIMATOR_KINDS, PluginEstimatorSettings, "ukf")

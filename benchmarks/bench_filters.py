@@ -168,10 +168,10 @@ def main() -> None:
         compile_times()
         return
     cfg4 = RunConfig()
-    cfg5 = RunConfig.model_validate({"estimator": {"imm_models": 5}})
+    cfg5 = RunConfig.model_validate({"estimator": {"kind": "imm-ukf", "imm_models": 5}})
     yaw = {"sensors": {"yaw_rate_sigma": 0.01}}
     cfg4y = RunConfig.model_validate(yaw)
-    cfg5y = RunConfig.model_validate(yaw | {"estimator": {"imm_models": 5}})
+    cfg5y = RunConfig.model_validate(yaw | {"estimator": {"kind": "imm-ukf", "imm_models": 5}})
     setup = setup_from_config(cfg4)
     u, z, zy = scenario(args.steps)
     filters: dict[str, tuple[Callable[[RunConfig, str], object], RunConfig, RunConfig]] = {

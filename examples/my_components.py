@@ -16,8 +16,9 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 import ftc_mj
-from ftc_mj.config import EstimatorConfig, ReconfigurationConfig
+from ftc_mj.config import ReconfigurationConfig
 from ftc_mj.context import RunContext
+from ftc_mj.estimation.settings import PluginEstimatorSettings
 from ftc_mj.model.kinematics import KinematicModel
 
 
@@ -33,7 +34,7 @@ class TextbookEKF:
     """A plain EKF over ``[x, y, psi, R_R, R_L]``: Euler prediction through the kinematic model, the
     speed (and yaw-rate, if the config has a gyro) measurement, no gating or resets."""
 
-    def __init__(self, settings: EstimatorConfig, context: RunContext) -> None:
+    def __init__(self, settings: PluginEstimatorSettings, context: RunContext) -> None:
         dt = context.estimator_dt
         self.model = KinematicModel(b=context.half_track, dt=dt)
         self.x = np.array([*context.initial_pose, *context.nominal_radii], dtype=float)

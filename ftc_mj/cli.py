@@ -146,6 +146,13 @@ def _defaults() -> Any:
 _D = _defaults()
 
 
+def _imm_default(key: str) -> Any:
+    """The default of an IMM bank's setting ``key`` (the ``[estimator]`` section of an IMM kind only)."""
+    from .estimation.imm import IMMSettings
+
+    return IMMSettings.model_fields[key].default
+
+
 def _named_by_flag(err: BadInput, flags: list[tuple[str, str, Any]]) -> BadInput:
     """``err`` about a config key that a given flag set, reworded to name the flag."""
     msg = str(err)
@@ -175,9 +182,9 @@ def run(
         metavar="NAME", help="FDI filter, a registered estimator: {estimators} (or a plug-in's, with --plugin). "
              f"[default: the scenario's estimator.kind, else {_D.estimator.kind}]")] = None,
     imm_models: Annotated[ImmModels | None, typer.Option(
-        help=f"IMM bank size (imm-ekf/imm-ukf only). [default: {_D.estimator.imm_models}]")] = None,
+        help=f"IMM bank size (imm-ekf/imm-ukf only). [default: {_imm_default('imm_models')}]")] = None,
     imm_variant: Annotated[ImmVariant | None, typer.Option(
-        help=f"IMM variant (imm-ekf/imm-ukf only). [default: {_D.estimator.imm_variant}]")] = None,
+        help=f"IMM variant (imm-ekf/imm-ukf only). [default: {_imm_default('imm_variant')}]")] = None,
     reconfig: Annotated[str | None, typer.Option(
         metavar="NAME", help="Reconfiguration policy, registered: {policies} (none: nominal radii; direct: "
              "the latest estimate, the paper's feedback; safe: gated, clamped, rate-limited hand-over; truth: "
@@ -257,8 +264,8 @@ def _run_config(scenario: str, ov: dict[str, Any], flags: list[tuple[str, str, A
     if not cfg.estimator.kind.startswith("imm"):
         for flag, key in (("--imm-models", "estimator.imm_models"), ("--imm-variant", "estimator.imm_variant")):
             if key in ov:
-                raise BadInput(f"{flag}: only for the imm-ekf and imm-ukf estimators (estimator.kind is "
-                               f"{cfg.estimator.kind!r})")
+                raise BadInput(f"{flag}: not a setting of estimator {cfg.estimator.kind!r} (a setting of imm-ekf, "
+                               "imm-ukf)")  # as the config words it for a value away from the default
     return cfg
 
 

@@ -141,6 +141,21 @@ def options_of(registry_name: str, kind_field: str) -> Any:
     return field_validator("options")(classmethod(check))  # type: ignore[arg-type]
 
 
+def drop_empty_options(model: type[BaseModel], data: Any, what: str) -> Any:
+    """``data`` (a table for ``model``, a built-in ``what`` kind's settings) without plug-in ``options``: an
+    empty table is dropped (an older resolved config wrote one for every kind), any other is an error naming
+    ``options``; a model with an ``options`` field (a plug-in's) keeps it."""
+    if not isinstance(data, dict) or "options" not in data or "options" in model.model_fields:
+        return data
+    data = dict(data)
+    opts = data.pop("options")
+    if opts != {}:
+        kind = data.get("kind", model.model_fields["kind"].default if "kind" in model.model_fields else "?")
+        got = ", ".join(map(str, opts)) if isinstance(opts, dict) else repr(opts)
+        raise ValueError(f"options: {what} {kind!r} takes no options (got {got})")
+    return data
+
+
 class StrictModel(BaseModel):
     """Base: unknown keys are errors, assignments are validated."""
 

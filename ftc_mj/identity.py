@@ -22,6 +22,7 @@ import json
 from typing import Any
 
 from .config import RunConfig, config_to_toml_dict
+from .estimation.imm import IMMSettings
 from .resources import model_digest
 
 
@@ -49,10 +50,10 @@ def run_id(cfg: RunConfig) -> str:
     """``<name>_<estimator>[M[c][p]]_<controller>_<policy>_s<seed>_<digest>``: readable settings and 8
     hex digits of :func:`run_digest` (``M`` the IMM bank size, ``c`` a custom bank, ``p`` the paper
     variant)."""
-    est = cfg.estimator.kind
-    if est.startswith("imm"):
-        est += f"{cfg.estimator.bank_size}" + ("c" if cfg.estimator.imm_bank is not None else "")
-        if cfg.estimator.imm_variant == "paper":
+    est, settings = cfg.estimator.kind, cfg.estimator
+    if isinstance(settings, IMMSettings):
+        est += f"{settings.bank_size}" + ("c" if settings.imm_bank is not None else "")
+        if settings.imm_variant == "paper":
             est += "p"
     return f"{cfg.name}_{est}_{cfg.controller.kind}_{cfg.reconfiguration.policy}_s{cfg.seed}_{run_digest(cfg, 8)}"
 

@@ -181,8 +181,9 @@ class Registry:
 
 
 estimators = Registry("estimator", "ftc_mj.estimators", "ftc_mj.wiring.estimation", "estimator.kind")
-"""``factory(settings: EstimatorConfig, context: RunContext) -> Estimator | None`` (``settings``: the
-``[estimator]`` section; ``None``: the run has no filter); meta ``section``: a built-in's settings model."""
+"""``factory(settings: EstimatorSettings, context: RunContext) -> Estimator | None`` (``settings``: the
+``[estimator]`` section, the model of its ``kind`` — a plug-in's ``PluginEstimatorSettings``; ``None``: the run
+has no filter); meta ``section``: a built-in's settings model."""
 decision_rules = Registry("decision rule", "ftc_mj.decision_rules", "ftc_mj.wiring.decision",
                           "estimator.decision.rule")
 """``factory(settings: DecisionSettings, context: RunContext) -> DecisionRule`` (``settings``: the

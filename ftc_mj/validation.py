@@ -11,7 +11,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, TypeAdapter, ValidationError
 
 from .errors import BadInput
 
@@ -67,13 +67,14 @@ def one_line(err: ValidationError) -> str:
     return f"{loc}: {msg}{extra}"
 
 
-def section(model: type[BaseModel], value: Any, where: str) -> Any:
-    """A settings model from an instance of ``model``, a plain table or ``None`` (the defaults), for
-    components built without a run config; :class:`~ftc_mj.errors.BadInput` naming ``<where>.<field>``."""
-    if isinstance(value, model):
+def section(model: Any, value: Any, where: str) -> Any:
+    """A settings model from an instance of ``model`` (a settings model or a section's union of them,
+    discriminated by ``kind``), a plain table or ``None`` (the defaults), for components built without a run
+    config; :class:`~ftc_mj.errors.BadInput` naming ``<where>.<field>``."""
+    if isinstance(value, model if isinstance(model, type) else BaseModel):
         return value
     try:
-        return model.model_validate({} if value is None else dict(value))
+        return TypeAdapter(model).validate_python({} if value is None else dict(value))
     except ValidationError as err:
         line = one_line(err)
         raise BadInput(f"{where}: {line.removeprefix('<root>: ')}" if line.startswith("<root>")

@@ -10,8 +10,9 @@ builds them and in the config sections that compose them:
 - no ``Protocol`` mirrors settings (a Protocol of data attributes only; the interface Protocols
   ``Estimator`` and ``DecisionRule`` declare methods);
 - no component or registered factory takes its ``settings`` as ``Any`` (or unannotated);
-- the config sections of these components add no field of their own besides the composition
-  (``kind``, ``decision``, ``options``, ``excitation``, ``degraded``);
+- the ``[reconfiguration]`` section adds no field of its own besides the composition (``excitation``,
+  ``degraded``); ``[estimator]`` is the union of the estimator kinds' models, each declared in the
+  estimation package;
 - the components import neither the application config nor the wiring.
 
 A planted duplicate shows that the first check finds one.
@@ -38,7 +39,7 @@ EXTRA_MODULES = ("ftc_mj.control.excitation", "ftc_mj.wiring.estimation", "ftc_m
                  "ftc_mj.wiring.reconfiguration", "ftc_mj.config.sections")
 NOT_OURS = {"ftc_mj.reconfiguration.scenario_weights"}
 """Its ``WeightingSettings`` mirrors the robust controller's settings: the control side removes it."""
-COMPOSITION = {"EstimatorConfig": {"kind", "decision", "options"}, "ReconfigurationConfig": {"excitation", "degraded"}}
+COMPOSITION = {"ReconfigurationConfig": {"excitation", "degraded"}}
 """The fields a config section may add to the component models it composes."""
 
 
@@ -102,7 +103,14 @@ def redeclared_defaults(source: str, where: str, defaults: dict[str, list[object
 def test_the_walk_sees_the_models() -> None:
     names = {m.__name__ for m in settings_models()}
     assert {"FilterSettings", "IMMSettings", "HypothesisSettings", "DecisionSettings", "ReconfigurationSettings",
-            "DegradedSettings", "ExcitationSettings"} <= names
+            "DegradedSettings", "ExcitationSettings", "EKFSettings", "UKFSettings", "IMMEKFSettings",
+            "IMMUKFSettings", "NoFilterSettings", "PluginEstimatorSettings"} <= names
+
+
+def test_the_estimator_section_only_composes() -> None:
+    """``[estimator]`` is the union of the kinds' models, each declared in the estimation package."""
+    for model in (*sections.ESTIMATOR_KINDS.values(), sections.PluginEstimatorSettings):
+        assert model.__module__.startswith("ftc_mj.estimation."), model
 
 
 def test_no_default_is_declared_twice() -> None:

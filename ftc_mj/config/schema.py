@@ -14,6 +14,7 @@ from pydantic import Field, Strict, model_validator
 from .. import registry
 from ..context import RunContext
 from ..control.nmpc import NMPCSettings
+from ..estimation.ukf import UKFSettings
 from ..fields import SafeName, StrictModel, ranged, ranged_int
 from ..model.sensors import SensorSettings
 from ..plant.faults import SERVO_CLASSES, PlantFault, fault_class
@@ -49,7 +50,7 @@ class RunConfig(StrictModel):
     model: ModelSettings = Field(default_factory=ModelSettings)
     faults: FaultSettings = Field(default_factory=FaultSettings)
     sensors: SensorSettings = Field(default_factory=SensorSettings)
-    estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
+    estimator: EstimatorConfig = Field(default_factory=UKFSettings)
     controller: ControllerConfig = Field(default_factory=NMPCSettings)
     reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
     reference: ReferenceConfig = Field(default_factory=ReferenceConfig)

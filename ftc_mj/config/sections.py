@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Annotated, Any, Union
 
 from pydantic import (
+    BaseModel,
     BeforeValidator,
     Discriminator,
     Field,
@@ -38,15 +39,15 @@ from ..control.pathfollow import PathFollowingNMPCSettings
 from ..control.reference import ReferenceSettings
 from ..control.robust import RobustNMPCSettings
 from ..control.spec import PluginControllerSettings
-from ..estimation.imm import HypothesisSettings, IMMSettings
-from ..estimation.rule_statistics import DecisionSettings
+from ..estimation.decision_settings import DecisionSettings
+from ..estimation.ekf import EKFSettings
+from ..estimation.imm import HypothesisSettings, IMMEKFSettings, IMMUKFSettings
+from ..estimation.settings import EstimatorSettings, NoFilterSettings, PluginEstimatorSettings
+from ..estimation.ukf import UKFSettings
 from ..fields import (
     Flag,
-    Options,
     PathText,
     StrictModel,
-    component,
-    options_of,
 )
 from ..plant.settings import FaultSettings as FaultSettings  # the plant's sections, composed by RunConfig
 from ..plant.settings import ModelSettings as ModelSettings
@@ -56,7 +57,7 @@ from ..reconfiguration.degraded import DegradedSettings
 from ..reconfiguration.policies import ReconfigurationSettings
 
 DecisionConfig = DecisionSettings
-"""The ``[estimator.decision]`` section: :class:`~ftc_mj.estimation.rule_statistics.DecisionSettings`."""
+"""The ``[estimator.decision]`` section: :class:`~ftc_mj.estimation.decision_settings.DecisionSettings`."""
 HypothesisConfig = HypothesisSettings
 """One member of ``estimator.imm_bank``: :class:`~ftc_mj.estimation.imm.HypothesisSettings`."""
 DegradedConfig = DegradedSettings
@@ -65,21 +66,10 @@ ExcitationConfig = ExcitationSettings
 """``[reconfiguration.excitation]``: :class:`~ftc_mj.control.excitation.ExcitationSettings`."""
 
 
-class EstimatorConfig(IMMSettings):
-    """The ``[estimator]`` section: the FDI filter (paper §3) named by ``kind``, with the settings of the filters
-    (:class:`~ftc_mj.estimation.setup.FilterSettings`) and of an IMM bank
-    (:class:`~ftc_mj.estimation.imm.IMMSettings`), and the fault decision. Defaults are exactly the paper's
-    values."""
-
-    kind: component("estimators") = "ukf"
-    """A registered estimator (:data:`ftc_mj.registry.estimators`). Built-in: ``ekf``, ``ukf``,
-    ``imm-ekf``, ``imm-ukf`` (IMM banks of EKF/UKF members), ``none`` (no filter)."""
-    decision: DecisionSettings = Field(default_factory=DecisionSettings)
-    options: Options = Field(default_factory=dict, validate_default=True)
-    """Settings of a plug-in estimator (its registered settings model); built-in estimators take none."""
-
-    _options = options_of("estimators", "kind")
-
+ESTIMATOR_KINDS: dict[str, type[EstimatorSettings]] = {
+    "ekf": EKFSettings, "ukf": UKFSettings, "imm-ekf": IMMEKFSettings, "imm-ukf": IMMUKFSettings,
+    "none": NoFilterSettings}
+"""The built-in estimator kinds and their settings models (each declared beside its filter)."""
 
 CONTROLLER_KINDS: dict[str, type[ControllerSettings]] = {
     "nmpc": NMPCSettings, "lmpc": LinearMPCSettings, "pf-nmpc": PathFollowingNMPCSettings,
@@ -87,15 +77,18 @@ CONTROLLER_KINDS: dict[str, type[ControllerSettings]] = {
 """The built-in controller kinds and their settings models (each declared beside its controller)."""
 
 
-def _controller_tag(value: Any) -> str:
-    """The union member of a ``[controller]`` table: its ``kind``'s model (``nmpc`` when not given), a plug-in's
+def _kind_tag(kinds: dict[str, type[BaseModel]], default: str) -> Any:
+    """The union member of a section's table: its ``kind``'s model (``default`` when not given), a plug-in's
     for any other name (checked against the registry there). Tags are not identifiers, so error messages name
     the field as the user wrote it (``controller.nodes``)."""
-    kind = value.get("kind", "nmpc") if isinstance(value, dict) else getattr(value, "kind", None)
-    return f"kind={kind}" if isinstance(kind, str) and kind in CONTROLLER_KINDS else "kind=plug-in"
+    def tag(value: Any) -> str:
+        kind = value.get("kind", default) if isinstance(value, dict) else getattr(value, "kind", None)
+        return f"kind={kind}" if isinstance(kind, str) and kind in kinds else "kind=plug-in"
+
+    return tag
 
 
-def _is_default(model: type[ControllerSettings], key: str, value: Any) -> bool:
+def _is_default(model: type[BaseModel], key: str, value: Any) -> bool:
     """Whether ``value`` is ``model``'s default of its setting ``key`` (as validated by the field)."""
     f = model.model_fields[key]
     field_type = Annotated[(f.annotation, *f.metadata)] if f.metadata else f.annotation
@@ -106,31 +99,44 @@ def _is_default(model: type[ControllerSettings], key: str, value: Any) -> bool:
     return bool(given == f.get_default(call_default_factory=True))
 
 
-def _other_kinds_keys(value: Any) -> Any:
-    """A ``[controller]`` table of a built-in kind holding a key of another kind only: a one-line error naming the
-    key and the kinds that have it (``controller.nodes: not a setting of controller 'open-loop' …``). Such a key
-    at that kind's default is dropped: a resolved config written when the section was one flat table (every
-    kind's settings, the others' at their defaults) still reads as the run it was."""
-    if not isinstance(value, dict):
-        return value
-    kind = value.get("kind", "nmpc")
-    model = CONTROLLER_KINDS.get(kind) if isinstance(kind, str) else None
-    out = dict(value)
-    for key in value if model is not None else ():
-        owners = [m for m in CONTROLLER_KINDS.values() if key in m.model_fields]
-        if key in model.model_fields or not owners:
-            continue
-        if not _is_default(owners[0], key, value[key]):
-            names = ", ".join(k for k, m in CONTROLLER_KINDS.items() if m in owners)
-            raise ValueError(f"{key}: not a setting of controller {kind!r} (a setting of {names})")
-        del out[key]
-    return out
+def _other_kinds_keys(section: str, kinds: dict[str, type[BaseModel]], plugin: type[BaseModel], default: str) -> Any:
+    """A section's table (of a built-in kind, or a plug-in's: ``plugin``) holding a key of another kind only: a
+    one-line error naming the key and the kinds that have it (``controller.nodes: not a setting of controller
+    'open-loop' …``). Such a key at that kind's default is dropped: a resolved config written when the section
+    was one flat table (every kind's settings, the others' at their defaults) still reads as the run it was."""
+    def drop(value: Any) -> Any:
+        if not isinstance(value, dict):
+            return value
+        kind = value.get("kind", default)
+        model = kinds.get(kind, plugin) if isinstance(kind, str) else None
+        out = dict(value)
+        for key in value if model is not None else ():
+            owners = [m for m in kinds.values() if key in m.model_fields]
+            if key in model.model_fields or not owners:
+                continue
+            if not _is_default(owners[0], key, value[key]):
+                names = ", ".join(k for k, m in kinds.items() if m in owners)
+                raise ValueError(f"{key}: not a setting of {section} {kind!r} (a setting of {names})")
+            del out[key]
+        return out
+
+    return drop
 
 
-ControllerConfig = Annotated[
-    Union[tuple(Annotated[m, Tag(f"kind={k}")] for k, m in  # noqa: UP007 - built from the table of kinds
-                [*CONTROLLER_KINDS.items(), ("plug-in", PluginControllerSettings)])],
-    Discriminator(_controller_tag), BeforeValidator(_other_kinds_keys)]
+def kind_union(section: str, kinds: dict[str, type[BaseModel]], plugin: type[BaseModel], default: str) -> Any:
+    """The type of a section discriminated by ``kind``: the built-in ``kinds``' models or the ``plugin`` model
+    for any other registered name; a table without ``kind`` is ``default``'s."""
+    members = [Annotated[m, Tag(f"kind={k}")] for k, m in [*kinds.items(), ("plug-in", plugin)]]
+    return Annotated[Union[tuple(members)], Discriminator(_kind_tag(kinds, default)),  # noqa: UP007
+                     BeforeValidator(_other_kinds_keys(section, kinds, plugin, default))]
+
+
+EstimatorConfig = kind_union("estimator", ESTIMATOR_KINDS, PluginEstimatorSettings, "ukf")
+"""The FDI filter (paper §3), discriminated by ``kind``: the built-in kinds' models (:data:`ESTIMATOR_KINDS`:
+the filter model's settings, a UKF's sigma points, an IMM bank's, the fault decision) or a plug-in's (its
+``options``). Defaults are exactly the paper's values."""
+
+ControllerConfig = kind_union("controller", CONTROLLER_KINDS, PluginControllerSettings, "nmpc")
 """The trajectory-tracking controller (paper §3), discriminated by ``kind``: the built-in kinds' models
 (:data:`CONTROLLER_KINDS`) or a plug-in's (its ``options``)."""
 

@@ -9,7 +9,7 @@ from typing import Any, Protocol
 import numpy as np
 from pydantic import model_validator
 
-from ..fields import StrictModel, ranged
+from ..fields import StrictModel, drop_empty_options, ranged
 
 
 class ControllerSettings(StrictModel):
@@ -24,15 +24,7 @@ class ControllerSettings(StrictModel):
     def _no_options(cls, data: Any) -> Any:
         """A built-in kind takes no plug-in ``options``: an empty table is dropped, any other is an error
         naming ``options`` (a model with an ``options`` field, a plug-in's, keeps it)."""
-        if not isinstance(data, dict) or "options" not in data or "options" in cls.model_fields:
-            return data
-        data = dict(data)
-        opts = data.pop("options")
-        if opts != {}:
-            kind = data.get("kind", cls.model_fields["kind"].default if "kind" in cls.model_fields else "?")
-            got = ", ".join(map(str, opts)) if isinstance(opts, dict) else repr(opts)
-            raise ValueError(f"options: controller {kind!r} takes no options (got {got})")
-        return data
+        return drop_empty_options(cls, data, "controller")
 
 
 @dataclass

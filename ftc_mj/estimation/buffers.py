@@ -69,7 +69,8 @@ class FilterBuffers:
                             (POS_X, setup.position_sigma), (POS_Y, setup.position_sigma)):
             self.rvar[code] = math.nan if sigma is None else sigma * sigma
         prm = self.prm
-        prm[P_DT], prm[P_B], prm[P_KAPPA] = setup.dt, setup.model.b, setup.kappa
+        prm[P_DT], prm[P_B] = setup.dt, setup.model.b
+        prm[P_KAPPA] = math.nan if setup.kappa is None else setup.kappa  # read by sigma-point steps only
         prm[P_GATE], prm[P_DIV_NIS] = setup.nis_gate, setup.divergence_nis
         prm[P_INFLATION], prm[P_MIN_RADIUS], prm[P_R0] = setup.reset_inflation, setup.min_radius, setup.nominal_radius
         self.cnt[C_DIV_STEPS] = setup.divergence_steps

@@ -69,7 +69,9 @@ from .buffers import BufferView, FilterBuffers, HealthCounters
 from .kernels.imm import imm_combine, imm_step_ekf, imm_step_ukf, impose_hypotheses
 from .kernels.layout import C_HYP, P_RAMP_STEP
 from .measurements import kernel_inputs
+from .settings import EstimatorSettings
 from .setup import FilterSettings, FilterSetup, setup_from_settings
+from .ukf import SigmaPointSettings
 
 BANK_4: tuple[Hypothesis, ...] = (
     Hypothesis("no fault", 1.0, 1.0, False),
@@ -136,6 +138,21 @@ class IMMSettings(FilterSettings):
         return len(self.imm_bank) if self.imm_bank is not None else self.imm_models
 
 
+class IMMEKFSettings(IMMSettings, EstimatorSettings):
+    """Settings of an IMM bank of EKF members (``estimator.kind = "imm-ekf"``): the bank's and the decision's."""
+
+    kind: Literal["imm-ekf"] = "imm-ekf"
+    """An IMM bank of EKFs (a registered estimator, :data:`ftc_mj.registry.estimators`)."""
+
+
+class IMMUKFSettings(IMMSettings, EstimatorSettings, SigmaPointSettings):
+    """Settings of an IMM bank of UKF members (``estimator.kind = "imm-ukf"``): the bank's, the members' sigma
+    points and the decision's."""
+
+    kind: Literal["imm-ukf"] = "imm-ukf"
+    """An IMM bank of UKFs (a registered estimator, :data:`ftc_mj.registry.estimators`)."""
+
+
 def transition_matrix(n: int, p_stay: float) -> np.ndarray:
     """``n × n`` matrix with ``p_stay`` on the diagonal and ``(1 - p_stay)/(n - 1)`` elsewhere."""
     off = (1.0 - p_stay) / (n - 1)
@@ -171,7 +188,9 @@ class IMM(HealthCounters):
     """
 
     Settings = IMMSettings
-    """The bank's settings model (the ``[estimator]`` section composes it)."""
+    """The bank's settings model (each member kind's, :attr:`MEMBER_SETTINGS`, adds its own)."""
+    MEMBER_SETTINGS: dict[str, type[IMMSettings]] = {"ekf": IMMEKFSettings, "ukf": IMMUKFSettings}
+    """The settings model of a bank of each member kind (``estimator.kind`` ``imm-ekf`` / ``imm-ukf``)."""
 
     def __init__(self, setup: FilterSetup, settings: IMMSettings, member: str = "ukf", *,
                  hypotheses: tuple[Hypothesis, ...] | None = None, transition: np.ndarray | None = None,
@@ -200,7 +219,7 @@ class IMM(HealthCounters):
                       **geometry: Any) -> IMM:
         """The bank built from its own settings, without a run config (models or plain tables, one-line
         errors; ``geometry`` as :func:`.setup.setup_from_settings`)."""
-        est, setup = setup_from_settings(settings, sensors, model=cls.Settings, **geometry)
+        est, setup = setup_from_settings(settings, sensors, model=cls.MEMBER_SETTINGS[member], **geometry)
         return cls(setup, est, member)
 
     def _init_constants(self, settings: IMMSettings) -> None:

@@ -17,20 +17,19 @@ import numpy as np
 from pydantic import model_validator
 
 from ..context import RunContext
-from ..fields import NonNegFloat, PosFloat, Rate, StrictModel, ranged
+from ..fields import NonNegFloat, PosFloat, Rate, StrictModel
 from ..model.kinematics import KinematicModel
 from ..model.sensors import SensorSettings
 from ..validation import section
 
 
 class FilterSettings(StrictModel):
-    """The settings of one Kalman filter (EKF, UKF, and each member of an IMM bank; SI units). The
-    defaults are exactly the paper's values."""
+    """The settings every Kalman filter has (EKF, UKF, and each member of an IMM bank; SI units): the filter
+    model's. A filter kind's model adds its own (the UKF's sigma points, :class:`~.ukf.SigmaPointSettings`).
+    The defaults are exactly the paper's values."""
 
     rate: Rate = 100.0
     """Filter rate (Hz); dt = 1/rate."""
-    kappa: ranged(-5.0, 1.0e3, lo_open=True) = 0.001
-    """Julier sigma-point parameter."""
     p0_sigma: tuple[PosFloat, PosFloat, PosFloat, PosFloat, PosFloat] = (0.5, 0.5, math.radians(1.0), 0.5, 0.5)
     """Initial standard deviations of [x, y, psi, R_R, R_L] (m, m, rad, m, m)."""
     q_diffusion: tuple[NonNegFloat, NonNegFloat, NonNegFloat, NonNegFloat, NonNegFloat] = (0.25, 0.25, 1e-4, 0.04, 0.04)
@@ -84,8 +83,8 @@ class FilterSetup:
     """Yaw-rate noise σ (rad/s); ``None`` = no gyro."""
     position_sigma: float | None
     """Position-fix noise σ (m); ``None`` = no fixes."""
-    kappa: float
-    """Julier sigma-point parameter κ."""
+    kappa: float | None
+    """Julier sigma-point parameter κ of a filter with sigma points (UKF members); ``None`` for one without."""
     nis_gate: float
     """NIS above which an update is rejected."""
     divergence_nis: float
@@ -115,6 +114,7 @@ class FilterSetup:
             nominal_radius=R0,
             divergence_steps=max(1, int(round(est.divergence_dwell * est.rate))),
             **{name: getattr(sen, name) for name in _SENSOR_FIELDS},
+            kappa=getattr(est, "kappa", None),  # the sigma-point filters' setting only
             **{name: getattr(est, name) for name in _ESTIMATOR_FIELDS},
         )
 
@@ -154,5 +154,5 @@ def process_noise(diffusion: Sequence[float], dt: float) -> np.ndarray:
 
 _SENSOR_FIELDS = ("speed_sigma", "yaw_rate_sigma", "position_sigma")
 """Fields of :class:`FilterSetup` taken as they are from the sensors' settings."""
-_ESTIMATOR_FIELDS = ("kappa", "nis_gate", "divergence_nis", "reset_inflation", "min_radius")
+_ESTIMATOR_FIELDS = ("nis_gate", "divergence_nis", "reset_inflation", "min_radius")
 """Fields of :class:`FilterSetup` taken as they are from the ``[estimator]`` settings."""

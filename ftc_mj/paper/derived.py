@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..estimation.imm import IMMSettings
 from ..plant.faults import schedule_onset
 
 if TYPE_CHECKING:
@@ -355,8 +356,7 @@ def report_metrics(cfg: RunConfig, trace: Mapping[str, Any]) -> dict[str, Any]:
     from ..metrics.run import RECOVERY_S
     from ..sim.record import fault_onsets
 
-    est = cfg.estimator.kind
-    n_modes = cfg.estimator.bank_size if est.startswith("imm") else 0
+    n_modes = cfg.estimator.bank_size if isinstance(cfg.estimator, IMMSettings) else 0
     onsets = fault_onsets(cfg)
     m = derived_metrics(trace, cfg.name, onsets, n_modes, cfg.robot.omega_max)
     first = min((o for o in onsets.values() if o is not None), default=None)

@@ -62,7 +62,8 @@ def build_record(cfg: RunConfig, *, reference: Any = None, estimator: Any = None
         run_id=run_id(cfg), context=run_context(cfg), setup=setup, estimator=cfg.estimator.kind,
         onsets=fault_onsets(cfg), reference_rates=reference_rates(cfg), reference_speed=cfg.reference.speed,
         path_curvatures=path_curvatures(ref), plant_half_track=cfg.plant_half_track,
-        omega_rate_max=getattr(cfg.controller, "omega_rate_max", None), max_split_sigma=d.max_split_sigma, arl0=d.arl0)
+        omega_rate_max=getattr(cfg.controller, "omega_rate_max", None),  # the open loop has no rate bound
+        max_split_sigma=d.max_split_sigma, arl0=d.arl0)
 
 
 def write_record(run_dir: Path, record: RunRecord) -> None:

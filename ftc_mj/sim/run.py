@@ -30,6 +30,7 @@ import numpy as np
 
 from ..config import RunConfig, config_to_toml_dict
 from ..errors import OutputError
+from ..estimation.imm import IMMSettings
 from ..identity import run_id
 from ..io import atomic_dir, remove_stale_temporaries, unique_dir, write_json, write_parquet, write_toml
 from ..metrics.fdi import fdi_sweep_metrics
@@ -70,7 +71,7 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "scenario": cfg.name,
         "estimator": cfg.estimator.kind,
         "imm_models": res.n_modes or None,
-        "imm_variant": cfg.estimator.imm_variant if cfg.estimator.kind.startswith("imm") else None,
+        "imm_variant": cfg.estimator.imm_variant if isinstance(cfg.estimator, IMMSettings) else None,
         "controller": cfg.controller.kind,
         "feedback": cfg.feedback,
         "policy": cfg.reconfiguration.policy,

@@ -1,5 +1,5 @@
 """The built-in decision rules, registered by name (:data:`ftc_mj.registry.decision_rules`) with their
-settings model (:class:`~ftc_mj.estimation.rule_statistics.DecisionSettings`), and the fault-decision layer
+settings model (:class:`~ftc_mj.estimation.decision_settings.DecisionSettings`), and the fault-decision layer
 of a run from the application config.
 
 A registered factory takes the rule's own settings (the ``[estimator.decision]`` section) and the

@@ -1,39 +1,45 @@
 """The built-in estimators, registered by name (:data:`ftc_mj.registry.estimators`), and the filter of a run
 from the application config.
 
-Every registered factory takes the filter's own settings (the ``[estimator]`` section, which composes the
-filters' :class:`~ftc_mj.estimation.setup.FilterSettings` and the IMM's
-:class:`~ftc_mj.estimation.imm.IMMSettings`) and the :class:`~ftc_mj.context.RunContext` (sensors' noise,
-nominal wheel radius, half track, initial pose) and returns an :class:`~ftc_mj.estimation.base.Estimator`
-(``None`` for ``none``: the run has no filter). A built-in registers its class's ``from_context`` with its
-settings model as ``section`` (listed by ``ftc-mj components``): a new built-in estimator is its module
-under :mod:`ftc_mj.estimation` (the class, its ``Settings``) plus one ``estimators.register`` line here.
+Every registered factory takes the filter's own settings (the ``[estimator]`` section: the model of its
+``kind``, :data:`ftc_mj.config.sections.ESTIMATOR_KINDS`, or a plug-in's
+:class:`~ftc_mj.estimation.settings.PluginEstimatorSettings`) and the :class:`~ftc_mj.context.RunContext`
+(sensors' noise, nominal wheel radius, half track, initial pose) and returns an
+:class:`~ftc_mj.estimation.base.Estimator` (``None`` for ``none``: the run has no filter). A built-in
+registers its class's ``from_context`` with its settings model as ``section`` (listed by ``ftc-mj
+components``): a new built-in estimator is its module under :mod:`ftc_mj.estimation` (the class, its
+``Settings`` with its ``kind``) plus one ``estimators.register`` line here and its model's line in
+:data:`~ftc_mj.config.sections.ESTIMATOR_KINDS` (without that line its table validates as a plug-in's: the
+filter model's settings, the decision, ``options``).
 """
 
 from __future__ import annotations
 
 import functools
 
-from ..config import EstimatorConfig, RunConfig, run_context
+from ..config import RunConfig, run_context
 from ..context import RunContext
 from ..estimation.base import Estimator
 from ..estimation.ekf import EKF
 from ..estimation.imm import IMM
+from ..estimation.settings import NoFilterSettings
 from ..estimation.setup import FilterSetup
 from ..estimation.ukf import UKF
 from ..registry import BUILTIN, estimators
 
 
-def _none(settings: EstimatorConfig, context: RunContext) -> None:
+def _none(settings: NoFilterSettings, context: RunContext) -> None:
     """No filter: the run has no estimator (nor a decision, nor a policy that needs one)."""
     return None
 
 
 estimators.register("ekf", EKF.from_context, origin=BUILTIN, section=EKF.Settings)
 estimators.register("ukf", UKF.from_context, origin=BUILTIN, section=UKF.Settings)
-estimators.register("imm-ekf", functools.partial(IMM.from_context, member="ekf"), origin=BUILTIN, section=IMM.Settings)
-estimators.register("imm-ukf", functools.partial(IMM.from_context, member="ukf"), origin=BUILTIN, section=IMM.Settings)
-estimators.register("none", _none, origin=BUILTIN)
+estimators.register("imm-ekf", functools.partial(IMM.from_context, member="ekf"), origin=BUILTIN,
+                    section=IMM.MEMBER_SETTINGS["ekf"])
+estimators.register("imm-ukf", functools.partial(IMM.from_context, member="ukf"), origin=BUILTIN,
+                    section=IMM.MEMBER_SETTINGS["ukf"])
+estimators.register("none", _none, origin=BUILTIN, section=NoFilterSettings)
 
 
 def setup_from_config(cfg: RunConfig) -> FilterSetup:

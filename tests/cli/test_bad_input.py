@@ -140,9 +140,10 @@ HAND_CASES: list[tuple[str, list[str], str]] = [
     ("cli:duration-zero", [*RUN, "--duration", "0"], "duration"),
     ("cli:duration-huge", [*RUN, "--duration", "1e15"], "duration"),
     ("cli:imm-models", [*RUN, "--imm-models", "7"], "--imm-models"),
-    ("cli:imm-non-imm", [*RUN, "--imm-models", "5"], "--imm-models: only for the imm-ekf and imm-ukf"),
+    ("cli:imm-non-imm", [*RUN, "--imm-models", "5"], "--imm-models: not a setting of estimator 'ukf' (a setting of"),
     ("cli:imm-variant-non-imm", [*RUN, "--imm-variant", "paper", "--estimator", "ekf"], "--imm-variant"),
-    ("cli:imm-set-non-imm", [*RUN, "--set", "estimator.imm_models=5"], "--imm-models"),
+    ("cli:imm-set-non-imm", [*RUN, "--set", "estimator.imm_models=5"],
+     "estimator.imm_models: not a setting of estimator 'ukf'"),  # the key as the user wrote it
     ("cli:flag-vs-set", [*RUN, "--duration", "3", "--set", "duration=4"], "--duration: 3.0 contradicts --set"),
     ("cli:estimator-vs-set", [*RUN, "--estimator", "ekf", "--set", "estimator.kind=ukf"], "--estimator"),
     ("cli:seed-vs-set", [*RUN, "--seed", "1", "--set", "seed=2"], "--seed"),

@@ -289,8 +289,10 @@ def test_usage_errors_are_one_line_exit_2() -> None:
 
 
 def test_imm_flags_and_contradicting_sets_are_errors(tmp_path: Path) -> None:
-    for args, msg in ((["--imm-models", "5"], "--imm-models: only for the imm-ekf and imm-ukf estimators"),
-                      (["--estimator", "ukf", "--imm-variant", "paper"], "--imm-variant: only for"),
+    imm_only = "not a setting of estimator 'ukf' (a setting of imm-ekf, imm-ukf)"
+    for args, msg in ((["--imm-models", "5"], f"--imm-models: {imm_only}"),
+                      (["--imm-models", "4"], f"--imm-models: {imm_only}"),  # the default: the CLI's own check
+                      (["--estimator", "ukf", "--imm-variant", "paper"], f"--imm-variant: {imm_only}"),
                       (["--duration", "2", "--set", "duration=3"], "--duration: 2.0 contradicts --set duration=3"),
                       (["--controller", "lmpc", "--set", "controller.kind='nmpc'"], "--controller: 'lmpc'")):
         res = CliRunner().invoke(app, ["run", "scenario1", "--out", str(tmp_path / "o"), *args])

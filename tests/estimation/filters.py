@@ -6,8 +6,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from pydantic import TypeAdapter
 
-from ftc_mj.config import RunConfig
+from ftc_mj.config import EstimatorConfig, RunConfig
 from ftc_mj.estimation import EKF, IMM, UKF
 from ftc_mj.model.kinematics import KinematicModel
 from ftc_mj.wiring.estimation import setup_from_config
@@ -17,10 +18,20 @@ Filter = EKF | UKF | IMM
 KINDS = ("ekf", "ukf", "imm-ekf", "imm-ukf")
 
 
+def of_kind(cfg: RunConfig, kind: str) -> RunConfig:
+    """``cfg`` with its ``[estimator]`` section read as ``kind``'s (validated through the section's union:
+    the other kind's settings at their defaults are dropped, the new kind's own take their defaults)."""
+    if cfg.estimator.kind == kind:
+        return cfg
+    data = {**cfg.estimator.model_dump(), "kind": kind}
+    return cfg.model_copy(update={"estimator": TypeAdapter(EstimatorConfig).validate_python(data)})
+
+
 def make_filter(kind: str, cfg: RunConfig, *, reference: bool = False, **imm: Any) -> Filter:
-    """The filter ``kind`` (``ekf``, ``ukf``, ``imm-ekf``, ``imm-ukf``) of ``cfg``; ``reference``: the
-    numpy reference instead of the compiled one; ``imm``: IMM overrides (``hypotheses``, ``transition``,
-    ``variant``)."""
+    """The filter ``kind`` (``ekf``, ``ukf``, ``imm-ekf``, ``imm-ukf``) of ``cfg`` (its ``[estimator]`` section
+    read as ``kind``'s, :func:`of_kind`); ``reference``: the numpy reference instead of the compiled one;
+    ``imm``: IMM overrides (``hypotheses``, ``transition``, ``variant``)."""
+    cfg = of_kind(cfg, kind)
     setup = setup_from_config(cfg)
     if kind in ("ekf", "ukf"):
         cls = {"ekf": (EKF, NumpyEKF), "ukf": (UKF, NumpyUKF)}[kind][reference]

@@ -122,7 +122,8 @@ def test_paper_variant_collapses_hypothesis_does_not(models: int) -> None:
     u, z = excited(1000)
     spreads = {}
     for variant in ("paper", "hypothesis"):
-        cfg = RunConfig.model_validate({"estimator": {"imm_models": models, "imm_variant": variant}})
+        cfg = RunConfig.model_validate({"estimator": {"kind": "imm-ukf", "imm_models": models,
+                                                        "imm_variant": variant}})
         imm = make_filter("imm-ukf", cfg)
         for k in range(1000):
             out = imm.step(u[k], Measurement(float(z[k])))
@@ -171,7 +172,8 @@ def test_scenario3_both_wheels() -> None:
 
 
 def test_scenario4_ramp_needs_fifth_model() -> None:
-    cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01}, "estimator": {"imm_models": 5}})
+    cfg = RunConfig.model_validate({"sensors": {"yaw_rate_sigma": 0.01},
+                                    "estimator": {"kind": "imm-ukf", "imm_models": 5}})
     imm = make_filter("imm-ukf", cfg)
     ramp = [(10.0, 2.0), (29.0, 0.1)]
     t, outs = circle_run(imm, left=ramp, right=[], n=2500)

@@ -17,14 +17,15 @@ RUN = {"duration": 6.0, "plant.kind": "kinematic", "sensors.yaw_rate_sigma": 0.0
 
 
 def test_bank_config_is_validated() -> None:
+    IMM = {"estimator.kind": "imm-ukf"}  # the bank's settings are an IMM kind's
     with pytest.raises(BadInput, match=r"^estimator.imm_models: give either imm_models"):
-        ftc_mj.load_config("scenario2", {"estimator.imm_models": 5, "estimator.imm_bank": BANK3})
+        ftc_mj.load_config("scenario2", {**IMM, "estimator.imm_models": 5, "estimator.imm_bank": BANK3})
     with pytest.raises(BadInput, match=r"^estimator.imm_bank: hypothesis names must differ"):
-        ftc_mj.load_config("scenario2", {"estimator.imm_bank": [{"name": "a"}, {"name": "a"}]})
+        ftc_mj.load_config("scenario2", {**IMM, "estimator.imm_bank": [{"name": "a"}, {"name": "a"}]})
     with pytest.raises(BadInput, match=r"^estimator.imm_bank\[1\].frac_L: must be a finite number in \(0, 1\]"):
-        ftc_mj.load_config("scenario2", {"estimator.imm_bank": [{"name": "a"}, {"name": "b", "frac_L": 1.5}]})
+        ftc_mj.load_config("scenario2", {**IMM, "estimator.imm_bank": [{"name": "a"}, {"name": "b", "frac_L": 1.5}]})
     with pytest.raises(BadInput, match=r"^estimator.imm_bank: List should have at least 2 items"):
-        ftc_mj.load_config("scenario2", {"estimator.imm_bank": [{"name": "a"}]})
+        ftc_mj.load_config("scenario2", {**IMM, "estimator.imm_bank": [{"name": "a"}]})
 
 
 @pytest.mark.parametrize(("bank", "tag"), [(BANK4, "imm-ukf4c"), (BANK3, "imm-ukf3c")])

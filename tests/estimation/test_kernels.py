@@ -96,8 +96,8 @@ def test_numba_matches_numpy(kind: str, models: int, variant: str | None, sensor
     the gate, a non-finite gyro reading, non-finite wheel rates and (``pos``) a position fix every 50 steps."""
     n = 300
     u, zs, zy = excited_data(n, yaw_sigma=0.01)
-    est = {"imm_models": models} | ({"imm_variant": variant} if variant else {})
-    cfg = sensor_cfg(sensors, **est)
+    est = {"kind": kind} | ({"imm_models": models} if kind.startswith("imm") else {})
+    cfg = sensor_cfg(sensors, **est | ({"imm_variant": variant} if variant else {}))
 
     def steps(k: int, ref: Filter) -> tuple[np.ndarray, Measurement]:
         speed = {40: math.nan, 70: float(zs[k]) + 1e3}.get(k, float(zs[k]))
@@ -155,7 +155,7 @@ def test_numba_matches_numpy_through_repairs(kind: str) -> None:
 
 def test_numba_step_is_deterministic() -> None:
     u, zs, zy = excited_data(200, yaw_sigma=0.01)
-    cfg = sensor_cfg("yaw", imm_models=5)
+    cfg = sensor_cfg("yaw", kind="imm-ukf", imm_models=5)
     outs = []
     for _ in range(2):
         f = make_filter("imm-ukf", cfg)

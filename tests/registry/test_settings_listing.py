@@ -6,7 +6,9 @@ from __future__ import annotations
 from typer.testing import CliRunner
 
 from ftc_mj.cli import app
-from ftc_mj.estimation import DecisionSettings, FilterSettings, IMMSettings
+from ftc_mj.estimation import DecisionSettings, IMMSettings
+from ftc_mj.estimation.ekf import EKFSettings
+from ftc_mj.estimation.imm import IMMUKFSettings
 from ftc_mj.fields import describe_settings
 from ftc_mj.reconfiguration import ReconfigurationSettings
 
@@ -15,11 +17,11 @@ def test_components_lists_the_builtins_settings() -> None:
     res = CliRunner().invoke(app, ["components"])
     assert res.exit_code == 0, res.output
     out = res.output
-    assert "  ekf, ukf — [estimator] FilterSettings:" in out
-    assert "  imm-ekf, imm-ukf — [estimator] IMMSettings:" in out
+    assert "  ekf — [estimator] EKFSettings:" in out  # each kind its own model: the EKF has no sigma points
+    assert "  imm-ukf — [estimator] IMMUKFSettings:" in out
     assert "  auto, cusum, glr, mode, sigma — [estimator.decision] DecisionSettings:" in out
     assert "  safe — [reconfiguration] ReconfigurationSettings:" in out
-    for model in (FilterSettings, IMMSettings, DecisionSettings, ReconfigurationSettings):
+    for model in (EKFSettings, IMMUKFSettings, DecisionSettings, ReconfigurationSettings):
         for row in describe_settings(model):
             assert f"    {row}\n" in out
 

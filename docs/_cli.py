@@ -8,10 +8,8 @@ terminal prints (``ftc-mj COMMAND --help``), at a fixed width of 100 columns.
 from __future__ import annotations
 
 from docutils import nodes
-from docutils.statemachine import StringList
 from sphinx.application import Sphinx
 from sphinx.util.docutils import SphinxDirective
-from sphinx.util.nodes import nested_parse_with_titles
 
 WIDTH = 100
 """Columns of the rendered help texts."""
@@ -34,27 +32,22 @@ def help_texts() -> dict[str, str]:
     return texts
 
 
-def reference_rst(texts: dict[str, str]) -> list[str]:
-    """The reference as reStructuredText: one section per command, its help text a literal block."""
-    lines: list[str] = []
-    for name, text in texts.items():
-        title = f"ftc-mj {name}".strip()
-        lines += [title, "-" * len(title), "", "::", ""]
-        lines += [("   " + ln).rstrip() for ln in text.splitlines()]
-        lines.append("")
-    return lines
-
-
 class CLIReference(SphinxDirective):
-    """``.. cli-reference::``: the help of ``ftc-mj`` and of each of its commands."""
+    """``cli-reference``: the help of ``ftc-mj`` and of each of its commands, one section each with the help
+    text as a literal block (built as nodes: the directive may sit in a Markdown page)."""
 
     has_content = False
 
     def run(self) -> list[nodes.Node]:
-        container = nodes.section()
-        nested_parse_with_titles(self.state, StringList(reference_rst(help_texts()), source="ftc-mj --help"),
-                                 container)
-        return container.children
+        sections = []
+        for name, text in help_texts().items():
+            title = f"ftc-mj {name}".strip()
+            section = nodes.section(ids=[nodes.make_id(title)], names=[nodes.fully_normalize_name(title)])
+            section += nodes.title(title, title)
+            section += nodes.literal_block(text, text, language="none")
+            self.state.document.note_implicit_target(section)
+            sections.append(section)
+        return sections
 
 
 def setup(app: Sphinx) -> dict[str, bool]:

@@ -30,7 +30,6 @@ root_doc = "index"
 exclude_patterns = ["_build", "figures/README.md"]
 myst_enable_extensions = ["dollarmath", "colon_fence"]
 myst_heading_anchors = 3
-suppress_warnings = ["myst.header"]
 
 autodoc_default_options = {"members": True, "ignore-module-all": True}  # each object once: where it is defined
 autodoc_member_order = "bysource"

@@ -25,11 +25,12 @@ DOCS = ROOT / "docs"
 @pytest.fixture(scope="module")
 def conf():
     """``docs/conf.py`` as a module (its docstring helpers)."""
+    saved = list(sys.path)
     sys.path.insert(0, str(DOCS))
     try:
         yield importlib.import_module("conf")
     finally:
-        sys.path.remove(str(DOCS))
+        sys.path[:] = saved  # conf.py puts the checkout and docs/ first
 
 
 def test_the_site_builds_with_warnings_as_errors(tmp_path: Path) -> None:

@@ -84,6 +84,15 @@ def test_every_relative_role_in_the_docstrings_names_a_real_object(conf) -> None
     assert not missing, missing
 
 
+def test_no_role_is_split_across_lines() -> None:
+    """A target broken at a line end after a dot (``:func:`~a.b.`` / ``c```) names nothing: Sphinx reads ``a.b.``
+    and ``c`` as two words (a title with ``<target>`` may wrap)."""
+    split = [f"{path.relative_to(ROOT)}:{i}" for path in sorted((ROOT / "ftc_mj").rglob("*.py"))
+             for i, line in enumerate(path.read_text().splitlines(), 1)
+             if re.search(r":(?:mod|func|class|meth|data|attr|exc|obj):`~?[\w.]*\.$", line)]
+    assert not split
+
+
 def _resolves(dotted: str) -> bool:
     """``dotted`` names a module, or an attribute (class member included) of one."""
     parts = dotted.split(".")

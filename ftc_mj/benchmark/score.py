@@ -35,6 +35,7 @@ Bounds
     :func:`~ftc_mj.estimation.pcrb.data_model_bound`), as the run recorded it once (the trace's
     ``R_*_pcrb_const_std``, from the run record's filter setup; ``None`` for a trace without it), beside the
     filter's final error ``radius_error_R/L`` (m).
+
 The scorer reads the run's resolved record (:class:`~ftc_mj.metrics.record.RunRecord`: filter setup, reference
 path, rates) instead of rebuilding those facts from the config.
 """

@@ -142,8 +142,8 @@ ControllerConfig = kind_union("controller", CONTROLLER_KINDS, PluginControllerSe
 
 
 class ReconfigurationConfig(ReconfigurationSettings):
-    """The ``[reconfiguration]`` section: the policy's settings (:class:`~ftc_mj.reconfiguration.policies.
-    ReconfigurationSettings`), the excitation and the degraded mode."""
+    """The ``[reconfiguration]`` section: the policy's settings
+    (:class:`~ftc_mj.reconfiguration.policies.ReconfigurationSettings`), the excitation and the degraded mode."""
 
     excitation: ExcitationSettings = Field(default_factory=ExcitationSettings)
     degraded: DegradedSettings = Field(default_factory=DegradedSettings)

@@ -69,6 +69,9 @@ def sanitize_radii(radii: np.ndarray, min_radius: float = 1e-3) -> np.ndarray | 
 class MPCLifecycle:
     """Solve, fall back, re-seed and reset: the sample logic of every MPC (module docstring).
 
+    A subclass defines :meth:`_solve` (one sample of its problem) and :meth:`_fallback_plan`, and may
+    extend :meth:`_begin` (what it keeps of the command in force) and :meth:`_reset_solvers`.
+
     Parameters
     ----------
     problem
@@ -80,9 +83,6 @@ class MPCLifecycle:
         failed one. ``None``: no budget.
     single_thread_blas
         Set numpy's BLAS to one thread (:func:`~ftc_mj.control.blas.limit_blas_threads`).
-
-    A subclass defines :meth:`_solve` (one sample of its problem) and :meth:`_fallback_plan`, and may
-    extend :meth:`_begin` (what it keeps of the command in force) and :meth:`_reset_solvers`.
     """
 
     telemetry_columns: tuple[str, ...] = ()

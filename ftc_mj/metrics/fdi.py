@@ -23,8 +23,9 @@ The list stops once ``K`` exceeds :data:`KL_CAP` or after :data:`KL_PROFILE_S` s
 PCRB ratios: ``radius_pcrb_rms_R/L`` is the root-mean-square of the bound's σ (m) for the filters' own
 random-walk model and ``radius_rmse_over_pcrb_R/L`` the radius RMSE over it;
 ``radius_pcrb_const_rms_R/L`` and ``radius_rmse_over_pcrb_const_R/L`` the same for the bound of the
-model that made the data (radii constant between the truth's changes, :func:`~ftc_mj.estimation.pcrb.
-data_model_bound`), the one no estimator can beat on these data; all from ``settle_time`` seconds on.
+model that made the data (radii constant between the truth's changes,
+:func:`~ftc_mj.estimation.pcrb.data_model_bound`), the one no estimator can beat on these data; all from
+``settle_time`` seconds on.
 """
 
 from __future__ import annotations

@@ -121,7 +121,7 @@ def build_decision_rule(cfg: RunConfig, setup: FilterSetup | None = None) -> Dec
 
 
 def build_change_detectors(cfg: RunConfig, setup: FilterSetup | None = None) -> ChangeDetectors:
-    """The run's residual generator with its CUSUM and GLR (:mod:`.residual`)."""
+    """The run's residual generator with its CUSUM and GLR (:mod:`~ftc_mj.estimation.residual`)."""
     d = cfg.estimator.decision
     return ChangeDetectors(_setup(cfg, setup), d.cusum_shift, d.isolation_llr, glr_window_of(cfg))
 

@@ -150,8 +150,8 @@ def test_trace_documents_its_coded_columns(tmp_path: Path) -> None:
     cols = json.loads(meta[b"ftc_mj.columns"])
     assert "128 UNSTABLE" in cols["plant_flags"] and "1 LIFTOFF" in cols["plant_flags"]
     assert "2 handed over" in cols["reconfig_state"]
-    readme = (ROOT / "README.md").read_text()
-    assert "plant_flags" in readme and "128 UNSTABLE" in readme and "3 reverted" in readme
+    outputs = (ROOT / "docs" / "usage.md").read_text()  # the outputs reference
+    assert "plant_flags" in outputs and "128 UNSTABLE" in outputs and "3 reverted" in outputs
 
 
 def test_feedback_and_handover_delay_for_direct() -> None:

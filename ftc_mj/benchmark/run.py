@@ -5,8 +5,10 @@ resumable; :mod:`ftc_mj.study.runner`), each run scored in its worker by
 The runs of a bench form a :class:`~ftc_mj.study.plan.StudyPlan` built here instead of from a study file:
 one run per (method, draw), keyed by its resolved config (:func:`~ftc_mj.study.plan.run_key`), labelled
 ``method``, ``draw`` and ``fault_class``. The plan's identity is the benchmark version, the split, the
-draw indices, the methods' digests and the ``healthy`` flag, so a rerun of the same command into the same
-folder computes only the missing runs, and a different bench is refused there.
+draw indices and the ``healthy`` flag — not the methods: a run's key already hashes its method's resolved
+settings, so a rerun of the same command into the same folder computes only the missing runs, a method added
+to a folder computes only that method's runs (the others' rows are reused), and a bench of other draws is
+refused there.
 """
 
 from __future__ import annotations
@@ -59,6 +61,8 @@ class BenchPlan:
     meta: dict[str, Any] = field(default_factory=dict)
     classes: tuple[str, ...] = ()
     """The drawn fault classes in the definition's order (the report's rows)."""
+    replay: dict[str, str] = field(default_factory=dict)
+    """How a replay command names the definition: ``definition_file`` (absolute) for a definition file."""
 
 
 def check_request(split: str, n_draws: int, start: int) -> None:
@@ -100,20 +104,21 @@ def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str 
             "package_version": __version__}
     if definition.plugins:  # a definition with plug-in fault classes: its file and modules are part of the bench
         meta.update(definition_file=version, fault_plugins=list(definition.plugins))
-    identity = {k: v for k, v in meta.items() if k != "package_version"}
-    identity["methods"] = {m.name: m.digest for m in methods}
+    replay = {"definition_file": str(Path(version).resolve())} if version.endswith(".toml") else {}
+    identity = {k: v for k, v in meta.items() if k not in ("package_version", "methods")}
     name = f"bench-{definition.version}-{split}" + ("-healthy" if healthy else "")
     spec = StudySpec(name=name, description=f"ftc-mj bench {definition.version} {split}", scenario="scenario1",
                      analysis=AnalysisSpec(figures=False))
     plan = StudyPlan(spec, Path("bench.json"), canonical_hash(identity), runs, ["method", "draw", "fault_class"], {},
                      json.loads(json.dumps(identity, default=str)))
-    return BenchPlan(plan, draws, methods, split, definition.version, healthy, meta, tuple(definition.fault.classes))
+    return BenchPlan(plan, draws, methods, split, definition.version, healthy, meta, tuple(definition.fault.classes),
+                     replay)
 
 
 def prepare_output(bp: BenchPlan, out: Path) -> None:
     """Refuse an output folder that cannot take this bench (another bench's results, unwritable: the study
-    store's checks), then write ``OUT/bench.json`` (the bench's definition: version, split, draws, methods
-    with their settings and digests, package version)."""
+    store's checks), then write ``OUT/bench.json`` (the bench's definition: version, split, draws, this
+    invocation's methods with their settings and digests, package version)."""
     StudyStore(out).check(bp.plan)
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "bench.json") as tmp:

@@ -195,6 +195,10 @@ def run(
                                             show_default=False)] = None,
     set_: Annotated[list[str] | None, typer.Option("--set", help="Override any config key: dotted.key=value "
                                                    "(the value is read as TOML, else as a string).")] = None,
+    name: Annotated[str | None, typer.Option(
+        metavar="NAME", help="Name of the run (config key name): its folder, the run id, is NAME_<estimator>_"
+                             "<controller>_<policy>_s<seed>_<hash>, so name what differs between runs, e.g. "
+                             "--name gyro-0.05. [default: the scenario's name]")] = None,
     plugin: Plugins = None,
     no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write the Rerun recording.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary table (the run folder "
@@ -218,7 +222,7 @@ def run(
         ("--feedback/--no-feedback", "feedback", feedback),
         ("--reconfig", "reconfiguration.policy", reconfig),
         ("--controller", "controller.kind", controller),
-        ("--seed", "seed", seed), ("--duration", "duration", duration)]
+        ("--seed", "seed", seed), ("--duration", "duration", duration), ("--name", "name", name)]
     try:
         ov = _overrides(set_ or [])
         if reconfig is not None and feedback is not None:

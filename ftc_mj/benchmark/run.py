@@ -20,7 +20,7 @@ from typing import Any
 
 from ..errors import BadInput
 from ..identity import canonical_hash
-from ..io import atomic_path, writer_lock
+from ..io import atomic_path, write_json, writer_lock
 from ..study.plan import PlannedRun, StudyPlan, run_key
 from ..study.spec import AnalysisSpec, StudySpec
 from ..study.store import StudyStore
@@ -115,6 +115,24 @@ def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str 
                      replay)
 
 
+def adopt_earlier_bench(bp: BenchPlan, out: Path) -> bool:
+    """Let a folder written before a bench's identity left out the methods take this bench: when its
+    ``plan.json`` identity is this bench's plus a ``methods`` table, its hash and identity are rewritten to
+    this bench's (its rows stay: each is keyed by its run's config). Returns whether it did."""
+    pj = out / "plan.json"
+    try:
+        old = json.loads(pj.read_text()) if pj.is_file() else {}
+    except (OSError, json.JSONDecodeError):
+        return False  # the store's check names the unreadable file
+    ident = old.get("identity") if isinstance(old, dict) else None
+    if not isinstance(ident, dict) or "methods" not in ident or old.get("study_hash") == bp.plan.study_hash:
+        return False
+    if {k: v for k, v in ident.items() if k != "methods"} != bp.plan.identity:
+        return False
+    write_json(pj, {**old, "study_hash": bp.plan.study_hash, "identity": bp.plan.identity})
+    return True
+
+
 def prepare_output(bp: BenchPlan, out: Path) -> None:
     """Refuse an output folder that cannot take this bench (another bench's results, unwritable: the study
     store's checks), then write ``OUT/bench.json`` (the bench's definition: version, split, draws, this
@@ -139,6 +157,7 @@ def run_bench(bp: BenchPlan, out: Path, *, workers: int = 2, address: str | None
     from ..study.runner import run_study
     from .report import write_outputs
 
+    adopt_earlier_bench(bp, out)
     StudyStore(out).check(bp.plan)
     remote = open_client(workers, address) if address is not None else contextlib.nullcontext(None)
     with remote as client, writer_lock(out):

@@ -734,6 +734,7 @@ def bench(
         "reconfiguration.options.weight" = 0.5 # faults, plant, sensors, path, duration, seed)
     """
     from .benchmark.methods import load_methods
+    from .benchmark.report import summary_lines
     from .benchmark.run import plan_bench, run_bench
     from .study.cluster import validate_address
     from .study.runner import StudyInterruptedError
@@ -769,8 +770,6 @@ def bench(
     except Exception as err:  # noqa: BLE001 - re-raised unless the results could not be written
         _output_failed(err)
     done = report.already_done + len(report.computed)
-    from .benchmark.report import summary_lines
-
     typer.echo("\n".join(summary_lines(bp, report.results)))
     typer.echo(f"bench: computed {len(report.computed)} runs ({len(report.failed)} not ok) in "
                f"{report.wall_time_s:.1f} s; {done} of {report.planned} done; report {path}")

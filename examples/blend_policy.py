@@ -12,6 +12,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 import ftc_mj
+from ftc_mj.reconfiguration import ReconfigurationSettings
 
 
 class BlendSettings(BaseModel):
@@ -26,11 +27,12 @@ class Blend(ftc_mj.ReconfigurationPolicy):
     """Nominal radii until a declared, isolated fault; then nominal + ``weight`` (estimate − nominal) on the
     isolated wheels (m)."""
 
-    def __init__(self, settings, context) -> None:
+    def __init__(self, settings: ReconfigurationSettings, context: ftc_mj.RunContext) -> None:
         super().__init__(settings, context)
         self.weight = BlendSettings.model_validate(settings.options).weight
 
-    def radii(self, t, out, decision, filter_reset, omega, truth) -> np.ndarray:
+    def radii(self, t: float, out: ftc_mj.FilterOutput | None, decision: ftc_mj.DecisionState | None,
+              filter_reset: bool, omega: np.ndarray, truth: tuple[float, float]) -> np.ndarray:
         wheels = {"right": (True, False), "left": (False, True), "both": (True, True)}
         if out is None or decision is None or decision.wheel not in wheels:
             self.state = 0  # nominal radii

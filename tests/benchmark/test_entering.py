@@ -66,3 +66,12 @@ def test_the_terminal_summary_gives_success_with_its_interval() -> None:
     assert lines[0].startswith("success per method")
     assert lines[1].split() == ["safe", "100", "%", "[34,", "100]", "(n=2)"]
     assert lines[2].split()[:3] == ["feedback-off", "0", "%"] and lines[2].endswith("(n=2)")
+
+
+def test_the_benchmark_page_documents_method_files_and_the_builtins_settings() -> None:
+    """docs/benchmark.md holds what the generator writes: the method-file paragraph and each built-in method's
+    settings (the page is regenerated only with the leaderboard)."""
+    from ftc_mj.reports.benchmark_page import METHOD_FILE, builtin_settings
+
+    page = (ROOT / "docs" / "benchmark.md").read_text()
+    assert "\n".join([*METHOD_FILE, "", *builtin_settings()]) in page

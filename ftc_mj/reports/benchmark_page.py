@@ -67,13 +67,13 @@ def definition_tables(d: BenchmarkDefinition) -> list[str]:
 
 
 METHOD_FILE = (
-    "**Your own method** (`docs/tutorial-benchmark.md` scores one step by step): a method file, e.g. "
-    "`examples/blend_policy.toml`, is TOML with `name`, an optional `description`, optional `plugins` (modules "
-    "registering plug-in components, found in the method file's folder or installed) and a `[settings]` table of "
-    "run-config keys (dotted or nested) of the sections estimator, controller, reconfiguration and model only — the "
-    "draw sets the faults, plant, sensors, path, duration and seed. `ftc-mj bench FILE feedback-off --out OUT` "
-    "scores it beside a built-in; naming another method with the same `--out` later computes only that method's "
-    "runs.",
+    "**Your own method** (`docs/tutorial-benchmark.md` of the source repository scores one step by step): a "
+    "method file, e.g. `examples/blend_policy.toml`, is TOML with `name`, an optional `description`, optional "
+    "`plugins` (modules registering plug-in components, found in the method file's folder or installed) and a "
+    "`[settings]` table of run-config keys (dotted or nested) of the sections estimator, controller, "
+    "reconfiguration and model only — the draw sets the faults, plant, sensors, path, duration and seed. "
+    "`ftc-mj bench FILE feedback-off --out OUT` scores it beside a built-in; naming another method with the same "
+    "`--out` later computes only that method's runs.",
 )
 """The method-file paragraph of the page (also in ``ftc-mj bench --help``)."""
 

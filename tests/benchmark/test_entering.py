@@ -12,6 +12,7 @@ import polars as pl
 import pytest
 from typer.testing import CliRunner
 
+from ftc_mj import registry
 from ftc_mj.benchmark.methods import MethodFile, load_method
 from ftc_mj.benchmark.report import replay_command, summary_lines
 from ftc_mj.benchmark.run import plan_bench
@@ -40,7 +41,12 @@ def test_a_method_files_plugins_are_found_beside_it(tmp_path: Path, monkeypatch:
     monkeypatch.setattr(sys, "path", [p for p in sys.path if p not in ("", str(tmp_path))])
     monkeypatch.setenv("PYTHONPATH", "")
     monkeypatch.delitem(sys.modules, "blend_policy", raising=False)
-    m = load_method(str(ROOT / "examples" / "blend_policy.toml"))
+    try:
+        m = load_method(str(ROOT / "examples" / "blend_policy.toml"))
+    finally:  # the rest of the session's registry as it was
+        if "blend" in registry.policies.names():
+            registry.policies.unregister("blend")
+        registry._loaded_plugins.discard("blend_policy")
     assert m.name == "blend-half" and m.plugins == ("blend_policy",)
     assert str(ROOT / "examples") in sys.path and str(ROOT / "examples") in os.environ["PYTHONPATH"]
     assert m.argument == str((ROOT / "examples" / "blend_policy.toml").resolve())

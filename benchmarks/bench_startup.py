@@ -37,6 +37,7 @@ def commands(out: str) -> list[tuple[str, list[str], float | None]]:
     return [("ftc-mj --version", ["-c", CLI, "--version"], None),
             ("ftc-mj --help", ["-c", CLI, "--help"], 1.5),
             ("ftc-mj scenarios", ["-c", CLI, "scenarios"], 1.5),
+            ("ftc-mj studies", ["-c", CLI, "studies"], None),
             ("ftc-mj run scenario2 --duration 0.1 --no-rrd -q", ["-c", CLI, *run], 3.0)]
 
 

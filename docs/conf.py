@@ -71,9 +71,19 @@ def absolute_roles(text: str, package: str) -> str:
     return _RELATIVE.sub(lambda m: f"{m[1]}~{package}.{m[3]}", text)
 
 
+def click_literal(lines: list[str]) -> list[str]:
+    """Click's no-rewrap marker (a line holding only ``\\b``, which keeps a CLI command's help example as
+    written) as reStructuredText's ``::`` and a blank line: the indented block after it is a literal block on the
+    page too."""
+    out: list[str] = []
+    for ln in lines:
+        out += ["::", ""] if ln.strip() == "\b" else [ln]
+    return out
+
+
 def _process_docstring(app, what, name, obj, options, lines: list[str]) -> None:  # noqa: ANN001
     package = package_of(name)
-    lines[:] = [absolute_roles(escape_bars(ln), package) for ln in lines]
+    lines[:] = [absolute_roles(escape_bars(ln), package) for ln in click_literal(lines)]
 
 
 def _napoleon_except_attributes(app, what, name, obj, options, lines: list[str]) -> None:  # noqa: ANN001

@@ -2,7 +2,7 @@
 law (no MPC), each episode scored like a run: by ``ftc-mj bench``'s scorer (``success``: on the path from
 5 s after the fault, not tipped) and by the run metrics (``ftc-mj run``'s metrics.json keys).
 
-    python examples/gym_random_policy.py [--duration 15] [--seed 0] [--out DIR]
+    python examples/gym_random_policy.py [--duration 20] [--seed 0] [--out DIR]
 
 Scenario 2 (left tyre to 50 % at 10 s) with a yaw-rate gyro. The law is Kanayama's kinematic tracking
 law on the observed pose and reference point, turned into wheel rates with the radii the reconfiguration
@@ -22,7 +22,7 @@ import numpy as np
 import ftc_mj.envs  # noqa: F401 - registers ftc_mj/DiffDrive-v1
 
 parser = argparse.ArgumentParser()
-parser.add_argument("--duration", type=float, default=15.0)
+parser.add_argument("--duration", type=float, default=20.0)  # s: docs/gym.md quotes this run
 parser.add_argument("--seed", type=int, default=0)
 parser.add_argument("--out", default=None)
 args = parser.parse_args()

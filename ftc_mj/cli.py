@@ -202,6 +202,10 @@ def run(
                                             show_default=False)] = None,
     set_: Annotated[list[str] | None, typer.Option("--set", help="Override any config key: dotted.key=value "
                                                    "(the value is read as TOML, else as a string).")] = None,
+    name: Annotated[str | None, typer.Option(
+        metavar="NAME", help="Name of the run (config key name): its folder, the run id, is NAME_<estimator>_"
+                             "<controller>_<policy>_s<seed>_<hash>, so name what differs between runs, e.g. "
+                             "--name gyro-0.05. [default: the scenario's name]")] = None,
     plugin: Plugins = None,
     no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write the Rerun recording.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary table (the run folder "
@@ -225,7 +229,7 @@ def run(
         ("--feedback/--no-feedback", "feedback", feedback),
         ("--reconfig", "reconfiguration.policy", reconfig),
         ("--controller", "controller.kind", controller),
-        ("--seed", "seed", seed), ("--duration", "duration", duration)]
+        ("--seed", "seed", seed), ("--duration", "duration", duration), ("--name", "name", name)]
     try:
         ov = _overrides(set_ or [])
         if reconfig is not None and feedback is not None:
@@ -738,9 +742,23 @@ def bench(
 ) -> None:
     """Score methods on draws of the benchmark (faults, conditions, paths, noise from a versioned definition) on
     Dask: OUT/draws.parquet, OUT/scores.parquet, the report (leaderboard.md on the test split), figures and
-    Rerun comparisons. Every run is persisted as it finishes; re-running the command computes only the rest.
-    One process writes an output folder at a time: a second bench or study on it exits 2 at once."""
+    Rerun comparisons. Every run is persisted as it finishes; re-running the command computes only the rest,
+    and a method added to the same --out computes only its own runs. One process writes an output folder at a
+    time: a second bench or study on it exits 2 at once. When it ends it prints the success rate per method.
+
+    A method file (TOML; examples/blend_policy.toml, docs/tutorial-benchmark.md):
+
+    \b
+        name = "blend-half"                    # the method's name in the report
+        description = "UKF, NMPC, my policy"   # optional
+        plugins = ["blend_policy"]             # optional: modules registering plug-in components,
+                                               # found beside the method file (or installed)
+        [settings]                             # run-config keys of estimator, controller,
+        "reconfiguration.policy" = "blend"     # reconfiguration and model only (the draw sets
+        "reconfiguration.options.weight" = 0.5 # faults, plant, sensors, path, duration, seed)
+    """
     from .benchmark.methods import load_methods
+    from .benchmark.report import summary_lines
     from .benchmark.run import plan_bench, run_bench
     from .study.cluster import validate_address
     from .study.runner import StudyInterruptedError
@@ -778,6 +796,7 @@ def bench(
     except Exception as err:  # noqa: BLE001 - re-raised unless the results could not be written
         _output_failed(err)
     done = report.already_done + len(report.computed)
+    typer.echo("\n".join(summary_lines(bp, report.results)))
     typer.echo(f"bench: computed {len(report.computed)} runs ({len(report.failed)} not ok) in "
                f"{report.wall_time_s:.1f} s; {done} of {report.planned} done; report {path}")
 
@@ -803,12 +822,12 @@ def studies() -> None:
     from .reports.doc_tables import doc_table_studies
     from .resources import builtin_studies
     from .study.listing import study_entry
-    from .study.plan import plan_study
+    from .study.plan import outline_study
 
     width = max(60, min(100, shutil.get_terminal_size((100, 24)).columns))
     published = doc_table_studies()
     for name in builtin_studies():
-        plan = plan_study(name)
+        plan = outline_study(name)  # the runs unresolved: listing does not validate thousands of configs
         typer.echo("\n".join(study_entry(name, plan, width, Path("runs/out/studies") / plan.spec.name, published)))
 
 

@@ -242,6 +242,18 @@ def current_directory_on_path() -> None:
         importlib.invalidate_caches()
 
 
+def plugin_folder_on_path(folder: str) -> None:
+    """Make the plug-in modules of ``folder`` (absolute; a method file's folder) importable here and in the
+    local Dask workers started afterwards (appended to ``sys.path`` and to ``PYTHONPATH``, which those worker
+    processes inherit); an installed package of the same name still wins."""
+    if folder not in sys.path:
+        sys.path.append(folder)
+        importlib.invalidate_caches()
+    parts = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    if folder not in parts:
+        os.environ["PYTHONPATH"] = os.pathsep.join([*parts, folder])
+
+
 def load_plugins(modules: Iterable[str]) -> None:
     """Import each plug-in module once (importing registers its components), the current directory
     searched too (:func:`current_directory_on_path`). :class:`BadInput` naming ``plugins`` if a name is

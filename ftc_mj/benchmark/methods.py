@@ -6,7 +6,8 @@ plant, sensors, path, duration, seed). A method file::
 
     name = "my-ukf-safe"
     description = "..."
-    plugins = ["my_pkg.filters"]       # optional: modules registering plug-in components
+    plugins = ["my_policy"]            # optional: modules registering plug-in components, found in
+                                       # the method file's folder (or installed)
     [settings]                         # dotted keys or nested tables
     "estimator.kind" = "ukf"
     "reconfiguration.policy" = "safe"
@@ -15,6 +16,7 @@ Its *digest* hashes its resolved settings (those sections after validation, defa
 the plug-in modules) and its code (:func:`code_identity`: the ftc-mj version and source revision, and the
 contents of each plug-in module): a test-split result records it, so a leaderboard entry names exactly what
 was run, and a changed method — settings or code — is a new entry, never a silent replacement.
+``examples/blend_policy.toml`` is one, and ``docs/tutorial-benchmark.md`` scores it step by step.
 """
 
 from __future__ import annotations
@@ -29,7 +31,9 @@ from ..config import RunConfig, SafeName, existing_file, one_line, read_toml, se
 from ..errors import BadInput
 from ..fields import StrictModel
 from ..identity import canonical_hash
+from ..registry import plugin_folder_on_path
 from ..study.spec import flatten_dotted, key_error
+from ..suggest import did_you_mean
 
 METHOD_SECTIONS = ("estimator", "controller", "reconfiguration", "model")
 """The run-config sections a method may set (what it is); the draw sets the rest (what it faces)."""
@@ -76,6 +80,12 @@ class Method:
     digest: str = field(default="", compare=False)
     code: dict[str, Any] = field(default_factory=dict, compare=False)
     """:func:`code_identity` (recorded in ``bench.json``)."""
+
+    @property
+    def argument(self) -> str:
+        """How ``ftc-mj bench`` names this method: the built-in's name, else the method file's absolute path
+        (a replay command works from any folder)."""
+        return self.name if self.source == "built-in" else self.source
 
     def apply(self, scenario: dict[str, Any]) -> RunConfig:
         """The run config of a draw's ``scenario`` run by this method (validated; :class:`BadInput`); its
@@ -154,11 +164,14 @@ def load_method(spec: str) -> Method:
         desc, settings = BUILTIN[spec]
         m = Method(spec, desc, dict(settings))
     else:
-        path = existing_file(spec, "METHOD", f"no such built-in method ({', '.join(BUILTIN)}) or file")
+        path = existing_file(spec, "METHOD", f"no such built-in method ({', '.join(BUILTIN)}) or file",
+                             did_you_mean(spec, BUILTIN))
         try:
             f = MethodFile.model_validate(read_toml(path, "method"))
         except ValidationError as err:
             raise BadInput(f"method {path}: {one_line(err)}") from None
+        if f.plugins:  # the plug-in modules beside the method file, wherever ftc-mj is run from
+            plugin_folder_on_path(str(Path(path).resolve().parent))
         m = Method(f.name, f.description, check_settings(f.settings, f"method {path}"), tuple(f.plugins),
                    str(Path(path).resolve()))
     return Method(m.name, m.description, m.settings, m.plugins, m.source, resolved_digest(m), code_identity(m))

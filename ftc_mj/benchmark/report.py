@@ -230,13 +230,35 @@ def bounds_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
                   "median radius error / PCRB"], body)
 
 
+def replay_command(bp: Any, method: str, draw_index: int) -> str:
+    """The ``ftc-mj bench`` command that runs ``method`` (a built-in's name, a method file's absolute path) on
+    the one draw ``draw_index`` of the bench ``bp`` again, from any folder."""
+    import shlex
+
+    arg = next((m.argument for m in bp.methods if m.name == method), method)
+    definition = getattr(bp, "replay", {}).get("definition_file") or (None if bp.version == "ftc-v1" else bp.version)
+    extra = f" --benchmark {shlex.quote(definition)}" if definition else ""
+    return (f"ftc-mj bench {shlex.quote(arg)} --split {bp.split} --start {draw_index} --draws 1{extra}"
+            + (" --healthy" if bp.healthy else ""))
+
+
+def summary_lines(bp: Any, results: pl.DataFrame) -> list[str]:
+    """What ``ftc-mj bench`` prints when it ends: per method, the success rate with its Wilson 95 % interval
+    and the number of runs (the report's first column)."""
+    rows = score_table(bp, results).to_dicts()
+    width = max(len(m.name) for m in bp.methods)
+    return ["success per method, % [Wilson 95 %] (n runs):",
+            *(f"  {m.name:<{width}}  {_pct(aggregate([r for r in rows if r['method'] == m.name])['success'])}"
+              for m in bp.methods)]
+
+
 def failures(rows: list[dict[str, Any]], bp: Any, limit: int = 30) -> list[str]:
     """The runs that did not succeed, named so anyone can replay them (draw index, method, what happened)."""
     bad = sorted((r for r in rows if not r.get("success")), key=lambda r: (r["draw"], r["method"]))
     body = []
     for r in bad[:limit]:
         cm = r.get("contouring_max")
-        replay = f"`ftc-mj bench {r['method']} --split {bp.split} --start {r['draw']} --draws 1`"
+        replay = f"`{replay_command(bp, r['method'], r['draw'])}`"
         body.append([r["draw"], r["fault_class"], r["method"], r.get("outcome") or r.get("status"),
                      "—" if cm is None else f"{cm:.2f}", r.get("tipped"), replay])
     lines = table(["draw", "fault class", "method", "outcome", "contouring max (m)", "tipped", "replay"], body)
@@ -317,8 +339,9 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
            "of runs beyond thresholds.",
            *([] if not computed else ["", computed]),
            *(["", draw_count_line(bp)] if bp.split in LEADERBOARD_SPLITS and not bp.healthy else []), "",
-           *table(["method", "settings digest", "description"],
-                  ([m.name, f"`{m.digest}`", m.description] for m in bp.methods))]
+           *table(["method", "settings digest", "description", f"replay draw {lo}"],
+                  ([m.name, f"`{m.digest}`", m.description, f"`{replay_command(bp, m.name, lo)}`"]
+                   for m in bp.methods))]
     if history:
         out += ["", f"Scoring history on the {bp.split} split (this output folder's log):", "", *history]
     out += ["", "## Overall", "", *overall_table(rows, methods), "", "## Success by fault class", "",

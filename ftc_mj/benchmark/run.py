@@ -3,10 +3,12 @@ resumable; :mod:`ftc_mj.study.runner`), each run scored in its worker by
 :func:`~ftc_mj.benchmark.score.score_run`, then the outputs (:mod:`.report`).
 
 The runs of a bench form a :class:`~ftc_mj.study.plan.StudyPlan` built here instead of from a study file:
-one run per (method, draw), keyed by its resolved config (:func:`~ftc_mj.study.plan.run_key`), labelled
+one run per (method, draw), keyed by its resolved config and the method's code (:func:`bench_run_key`), labelled
 ``method``, ``draw`` and ``fault_class``. The plan's identity is the benchmark version, the split, the
-draw indices, the methods' digests and the ``healthy`` flag, so a rerun of the same command into the same
-folder computes only the missing runs, and a different bench is refused there.
+draw indices and the ``healthy`` flag — not the methods: a run's key already hashes its method's resolved
+settings, so a rerun of the same command into the same folder computes only the missing runs, a method added
+to a folder computes only that method's runs (the others' rows are reused), and a bench of other draws is
+refused there.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from typing import Any
 
 from ..errors import BadInput
 from ..identity import canonical_hash
-from ..io import atomic_path, writer_lock
+from ..io import atomic_path, write_json, writer_lock
 from ..study.plan import PlannedRun, StudyPlan, run_key
 from ..study.spec import AnalysisSpec, StudySpec
 from ..study.store import StudyStore
@@ -60,6 +62,8 @@ class BenchPlan:
     meta: dict[str, Any] = field(default_factory=dict)
     classes: tuple[str, ...] = ()
     """The drawn fault classes in the definition's order (the report's rows)."""
+    replay: dict[str, str] = field(default_factory=dict)
+    """How a replay command names the definition: ``definition_file`` (absolute) for a definition file."""
 
 
 def check_request(split: str, n_draws: int, start: int) -> None:
@@ -73,6 +77,13 @@ def check_request(split: str, n_draws: int, start: int) -> None:
     if start + n_draws > MAX_INDEX:
         raise BadInput(f"--start: the draws {start}..{start + n_draws - 1} go beyond the last draw index "
                        f"{MAX_INDEX - 1}")
+
+
+def bench_run_key(cfg: Any, method: Method) -> str:
+    """The key of one (method, draw) run: its resolved config's (:func:`~ftc_mj.study.plan.run_key`) and the
+    method's code (:attr:`Method.code`: the ftc-mj source and each plug-in module's contents), so a run of an
+    edited method is a new run beside the old one in the same folder, never a silent reuse of its results."""
+    return canonical_hash({"config": run_key(cfg), "code": method.code})[:16]
 
 
 def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str = "ftc-v1", start: int = 0,
@@ -89,7 +100,7 @@ def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str 
     for m in methods:
         for d in draws:
             cfg = m.apply(d.scenario(with_faults=not healthy))
-            key = run_key(cfg)
+            key = bench_run_key(cfg, m)
             if key in seen:
                 raise BadInput(f"METHOD: {m.name} and {seen[key]} resolve to the same runs")
             seen[key] = m.name
@@ -105,20 +116,39 @@ def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str 
         meta.update(private_key_id(private_key))
     if definition.plugins:  # a definition with plug-in fault classes: its file and modules are part of the bench
         meta.update(definition_file=version, fault_plugins=list(definition.plugins))
-    identity = {k: v for k, v in meta.items() if k != "package_version"}
-    identity["methods"] = {m.name: m.digest for m in methods}
+    replay = {"definition_file": str(Path(version).resolve())} if version.endswith(".toml") else {}
+    identity = {k: v for k, v in meta.items() if k not in ("package_version", "methods")}
     name = f"bench-{definition.version}-{split}" + ("-healthy" if healthy else "")
     spec = StudySpec(name=name, description=f"ftc-mj bench {definition.version} {split}", scenario="scenario1",
                      analysis=AnalysisSpec(figures=False))
     plan = StudyPlan(spec, Path("bench.json"), canonical_hash(identity), runs, ["method", "draw", "fault_class"], {},
                      json.loads(json.dumps(identity, default=str)))
-    return BenchPlan(plan, draws, methods, split, definition.version, healthy, meta, tuple(definition.fault.classes))
+    return BenchPlan(plan, draws, methods, split, definition.version, healthy, meta, tuple(definition.fault.classes),
+                     replay)
+
+
+def adopt_earlier_bench(bp: BenchPlan, out: Path) -> bool:
+    """Let a folder written before a bench's identity left out the methods take this bench: when its
+    ``plan.json`` identity is this bench's plus a ``methods`` table, its hash and identity are rewritten to
+    this bench's (its rows stay: each is keyed by its run's config). Returns whether it did."""
+    pj = out / "plan.json"
+    try:
+        old = json.loads(pj.read_text()) if pj.is_file() else {}
+    except (OSError, json.JSONDecodeError):
+        return False  # the store's check names the unreadable file
+    ident = old.get("identity") if isinstance(old, dict) else None
+    if not isinstance(ident, dict) or "methods" not in ident or old.get("study_hash") == bp.plan.study_hash:
+        return False
+    if {k: v for k, v in ident.items() if k != "methods"} != bp.plan.identity:
+        return False
+    write_json(pj, {**old, "study_hash": bp.plan.study_hash, "identity": bp.plan.identity})
+    return True
 
 
 def prepare_output(bp: BenchPlan, out: Path) -> None:
     """Refuse an output folder that cannot take this bench (another bench's results, unwritable: the study
-    store's checks), then write ``OUT/bench.json`` (the bench's definition: version, split, draws, methods
-    with their settings and digests, package version)."""
+    store's checks), then write ``OUT/bench.json`` (the bench's definition: version, split, draws, this
+    invocation's methods with their settings and digests, package version)."""
     StudyStore(out).check(bp.plan)
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "bench.json") as tmp:
@@ -139,6 +169,7 @@ def run_bench(bp: BenchPlan, out: Path, *, workers: int = 2, address: str | None
     from ..study.runner import run_study
     from .report import write_outputs
 
+    adopt_earlier_bench(bp, out)
     StudyStore(out).check(bp.plan)
     remote = open_client(workers, address) if address is not None else contextlib.nullcontext(None)
     with remote as client, writer_lock(out):

@@ -5,8 +5,9 @@ experimental result of a completed run, so the outcome is what says whether the 
 Keys added to ``metrics.json`` (:func:`physical_outcome`):
 
 ``outcome``
-    ``on the path``, ``off the path``, ``tipped over`` or ``not judged`` (status ``failed`` or
-    ``unstable``: the run did not complete, or its physics blew up).
+    ``on the path``, ``off the path``, ``tipped over`` or ``not judged`` (:data:`NOT_JUDGED`: status
+    ``failed`` or ``unstable`` — the run did not complete, or its physics blew up — or a completed run that
+    ended before the window it is judged on, e.g. a 15 s run of a fault at 10 s).
 ``outcome_rule``
     The rule that decided it, in words with its numbers (m, s).
 ``outcome_cross_track_m``
@@ -29,6 +30,10 @@ OFF_PATH_M = 0.5
 """A run is off the path when its |cross-track error| exceeds this (m) after the fault's recovery window."""
 OUTCOMES = ("on the path", "off the path", "tipped over", "not judged")
 """Every value of ``outcome``, best first."""
+NOT_JUDGED = (f"not judged: the run did not complete (status not ok), or it ended before the window its outcome "
+              f"is judged on (from {RECOVERY_S:g} s after the first fault onset; without a fault, from the settling "
+              "time) — a longer duration judges it")
+"""What ``not judged`` means (printed in the run summary beside the outcome)."""
 
 
 def _finite(v: Any) -> float | None:
@@ -52,7 +57,7 @@ def physical_outcome(m: dict[str, Any]) -> dict[str, Any]:
         out["outcome_rule"] = "the chassis rolled or pitched past plant.tipped_limit_deg"
     elif ct is None:
         out["outcome"] = "not judged"
-        out["outcome_rule"] = f"no cross-track error {window}: the run ended before"
+        out["outcome_rule"] = f"no cross-track error {window}: the run ended before; a longer duration judges it"
     else:
         off = ct > OFF_PATH_M
         out["outcome"] = "off the path" if off else "on the path"

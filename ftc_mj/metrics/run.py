@@ -213,14 +213,17 @@ def solver_metrics(trace: dict[str, np.ndarray], counters: dict[str, float], rat
 
 def plant_metrics(trace: dict[str, np.ndarray], counters: dict[str, float], onsets_in_run: dict[str, float | None],
                   dt: float) -> dict[str, Any]:
-    """Time outside the kinematic model's domain, the flags seen, tipping and lift-off time (s; also
-    without the :data:`FAULT_TRANSIENT_S` after each onset in the run); ``dt`` is the estimator period (s)."""
+    """Time outside the kinematic model's domain, the flags seen, tipping (and the first time tipped, s) and
+    lift-off time (s; also without the :data:`FAULT_TRANSIENT_S` after each onset in the run); ``dt`` is the
+    estimator period (s)."""
     m: dict[str, Any] = {}
     t = trace["t"]
     flags = np.nan_to_num(trace["plant_flags"]).astype(np.int64)
     m["plant_out_of_domain_fraction"] = float(np.mean(flags != 0)) if flags.size else 0.0
     m["plant_flags"] = int(counters.get("plant_flags", 0))
-    m["tipped"] = bool(np.any(flags & TIPPED))
+    tipped = (flags & TIPPED) != 0
+    m["tipped"] = bool(np.any(tipped))
+    m["tip_time_s"] = float(t[np.argmax(tipped)]) if m["tipped"] else None
     lift = (flags & LIFTOFF) != 0
     m["liftoff_time_s"] = float(np.sum(lift) * dt)
     transient = np.zeros_like(lift)

@@ -4,6 +4,7 @@ leaderboard on the test split), with its figures copied to ``DOCS/figures/benchm
 
 from __future__ import annotations
 
+import json
 import shlex
 import shutil
 from pathlib import Path
@@ -96,6 +97,25 @@ def power_section(d: BenchmarkDefinition) -> list[str]:
                     f"power of {n} draws" if n is not None else "power of the fixed count"], body)]
 
 
+METHOD_FILE = (
+    "**Your own method** (`docs/tutorial-benchmark.md` of the source repository scores one step by step): a "
+    "method file, e.g. `examples/blend_policy.toml`, is TOML with `name`, an optional `description`, optional "
+    "`plugins` (modules registering plug-in components, found in the method file's folder or installed) and a "
+    "`[settings]` table of run-config keys (dotted or nested) of the sections estimator, controller, "
+    "reconfiguration and model only — the draw sets the faults, plant, sensors, path, duration and seed. "
+    "`ftc-mj bench FILE feedback-off --out OUT` scores it beside a built-in; naming another method with the same "
+    "`--out` later computes only that method's runs.",
+)
+"""The method-file paragraph of the page (also in ``ftc-mj bench --help``)."""
+
+
+def builtin_settings() -> list[str]:
+    """The built-in methods' settings (the ``[settings]`` of an equivalent method file), one row each."""
+    return table(["built-in method", "settings"],
+                 ([k, ", ".join(f"`{key} = {json.dumps(v)}`" for key, v in settings.items())]
+                  for k, (_desc, settings) in BUILTIN.items()))
+
+
 def publish(docs: Path, report: Path, out: Path, argv: list[str], version: str) -> Path:
     """Write ``docs/benchmark.md`` (module docstring) from the finished bench in ``out``; returns its path."""
     if not docs.is_dir():
@@ -115,6 +135,7 @@ def publish(docs: Path, report: Path, out: Path, argv: list[str], version: str) 
         "draws of faults and conditions. A draw is a pure function of (version, split, index): "
         "`ftc_mj.benchmark.draws.draw(split, index)`. Built-in methods: "
         + "; ".join(f"`{k}`: {v[0]}" for k, v in BUILTIN.items()) + ".", "",
+        *METHOD_FILE, "", *builtin_settings(), "",
         "## Seeds", "",
         f"The `dev` split's run seeds lie in {int(d.seeds.dev.low)}–{int(d.seeds.dev.high) - 1} and the `test` "
         f"split's from {int(d.seeds.test.low)} "

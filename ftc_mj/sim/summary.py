@@ -15,6 +15,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from ..metrics.outcome import NOT_JUDGED
 from .run import RunOutcome
 
 SUMMARY_ROWS: tuple[tuple[str, str, str], ...] = (
@@ -174,6 +175,8 @@ def outcome_lines(m: dict[str, Any]) -> list[tuple[str, str]]:
         return []
     out = m["outcome"]
     lines = [(f"OUTCOME: {out.upper()} ({m.get('outcome_rule')})", OUTCOME_STYLE.get(out, "bold"))]
+    if out == "not judged":
+        lines.append((NOT_JUDGED, "yellow"))
     if m.get("wheel_lifted"):
         lines.append((f"a wheel lifted off the ground for {_fmt(m.get('liftoff_time_post_transient_s'))} s "
                       "(outside the first second after each fault onset)", "yellow"))

@@ -307,9 +307,38 @@ def _combinations(spec: StudySpec, path: Path,
     return group_rows, seed_list
 
 
+def outline_study(path: Path | str) -> StudyPlan:
+    """A built-in study's runs as :func:`plan_study` lists them, without resolving a run: each run's config is
+    the base scenario's data with its overrides (not validated, defaults not filled in) and its key its index —
+    what ``ftc-mj studies`` needs (run count, durations, faults, logged statistics) at a small part of the cost
+    of validating and hashing thousands of configs. Not for running: :func:`plan_study` checks every run."""
+    path = study_path(path)
+    spec = read_study_spec(path, None)
+    base_data, base_ov = _base(spec, path, {})
+    axis_vals = [expand_axis(i, ax) for i, ax in enumerate(spec.axes)]
+    label_axes = _check_placeholders(spec, path, base_ov, axis_vals)
+    group_rows, seed_list = _combinations(spec, path, axis_vals)
+    runs = _expand(spec, path, base_data, base_ov, label_axes, group_rows, seed_list, resolve=False)
+    return StudyPlan(spec, path, "", runs, [ax.column for ax in spec.axes])
+
+
+def _outline_run(index: int, base_data: dict[str, Any], ov: dict[str, Any], labels: dict[str, Scalar]
+                 ) -> PlannedRun:
+    """One run of :func:`outline_study`: the base data with ``ov`` set (unvalidated), the default duration
+    and seed where the data has none."""
+    data = json.loads(json.dumps(base_data))
+    for k, v in ov.items():
+        set_dotted(data, k, v)
+    for k in ("duration", "seed"):
+        data.setdefault(k, RunConfig.model_fields[k].default)
+    return PlannedRun(index, str(index), labels, int(data["seed"]), data)
+
+
 def _expand(spec: StudySpec, path: Path, base_data: dict[str, Any], base_ov: dict[str, Any], label_axes: set[str],
-            group_rows: list[list[dict[int, AxisValue]]], seed_list: list[int | None]) -> list[PlannedRun]:
-    """Every combination of the groups' rows and the seeds as a planned run (distinct configs required)."""
+            group_rows: list[list[dict[int, AxisValue]]], seed_list: list[int | None], resolve: bool = True
+            ) -> list[PlannedRun]:
+    """Every combination of the groups' rows and the seeds as a planned run (distinct configs required);
+    ``resolve=False``: unvalidated outlines (:func:`outline_study`)."""
     runs: list[PlannedRun] = []
     keys: dict[str, int] = {}
     combos = list(itertools.product(*group_rows)) if group_rows else [()]
@@ -326,6 +355,9 @@ def _expand(spec: StudySpec, path: Path, base_data: dict[str, Any], base_ov: dic
                 ov.update(_subst(chosen[i].overrides, env))
             if seed is not None:
                 ov["seed"] = seed
+            if not resolve:
+                runs.append(_outline_run(len(runs), base_data, ov, labels))
+                continue
             cfg = _resolve(path, base_data, ov, labels, seed)
             key = run_key(cfg)
             if key in keys:

@@ -80,7 +80,30 @@ def test_methods_digests_and_the_plan(tmp_path):
     assert all(r.seed >= 1000 and r.config["faults"]["left"] == [] for r in bp.plan.runs)
     assert plan_bench(ms[:2], "test", 3, start=5, healthy=True).plan.study_hash == bp.plan.study_hash
     assert plan_bench(ms[:2], "dev", 3, start=5, healthy=True).plan.study_hash != bp.plan.study_hash
-    assert plan_bench(ms[:1], "test", 3, start=5, healthy=True).plan.study_hash != bp.plan.study_hash
+    # the methods are not the folder's identity: a method added to an --out computes only its own runs
+    assert plan_bench(ms[:1], "test", 3, start=5, healthy=True).plan.study_hash == bp.plan.study_hash
+
+
+def test_a_folder_of_an_earlier_bench_takes_more_methods(tmp_path):
+    """A folder whose plan.json identity still holds the methods (written before they left it) is adopted
+    when the rest is this bench's, and then passes the store's check; a folder of other draws is not."""
+    import json
+
+    from ftc_mj.benchmark.run import adopt_earlier_bench
+    from ftc_mj.study.store import StudyStore
+
+    ms = load_methods(["safe", "feedback-off"])
+    bp = plan_bench(ms, "dev", 2)
+    for folder, draws in (("same", 2), ("other", 3)):
+        old = plan_bench(ms[:1], "dev", draws)
+        ident = {**old.plan.identity, "methods": {"safe": ms[0].digest}}
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "plan.json").write_text(json.dumps({**old.plan.to_json(), "study_hash": "0" * 16,
+                                                                "identity": ident}))
+    assert adopt_earlier_bench(bp, tmp_path / "same") and not adopt_earlier_bench(bp, tmp_path / "other")
+    StudyStore(tmp_path / "same").check(bp.plan)
+    with pytest.raises(BadInput, match="different study"):
+        StudyStore(tmp_path / "other").check(bp.plan)
 
 
 def test_tuning_studies_refuse_held_out_seeds(tmp_path):

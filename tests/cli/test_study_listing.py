@@ -17,21 +17,21 @@ from ftc_mj.study.store import StudyStore
 
 
 def test_studies_lists_counts_whole_descriptions_and_analyses(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Each block states what the study's plan holds: the plans the command made are kept and read
-    back here (planning every built-in study validates thousands of run configs; once is enough)."""
+    """Each block states what the study's plan holds, and listing resolves no run: the command outlines the
+    studies (:func:`~ftc_mj.study.plan.outline_study`) instead of validating and hashing thousands of run
+    configs (a resolved run here fails the command); the plans are made afterwards to check the blocks."""
     import ftc_mj.study.plan as plan_module
 
     monkeypatch.chdir(tmp_path)  # no study folders: no measured durations
-    plans: dict[str, Any] = {}
-    real = plan_module.plan_study
 
-    def planning(name: Any, *args: Any, **kwargs: Any) -> Any:
-        plans[name] = real(name, *args, **kwargs)
-        return plans[name]
+    def resolving(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("ftc-mj studies resolved a run config")
 
-    monkeypatch.setattr(plan_module, "plan_study", planning)
+    monkeypatch.setattr(plan_module, "run_key", resolving)
+    monkeypatch.setattr(plan_module, "validate_config", resolving)
     res = CliRunner().invoke(app, ["studies"])
     monkeypatch.undo()
+    plans = {name: plan_study(name) for name in builtin_studies()}
     assert res.exit_code == 0, res.output
     blocks = {}
     for line in res.stdout.splitlines():

@@ -118,3 +118,10 @@ def _resolves(dotted: str) -> bool:
 ])
 def test_absolute_value_bars_are_not_substitutions(conf, text: str, expected: str) -> None:
     assert conf.escape_bars(text) == expected
+
+
+def test_clicks_no_rewrap_marker_becomes_a_literal_block(conf) -> None:
+    """A CLI command's ``\\b`` line (its help example kept as written) reads as ``::`` and a blank line on the
+    page; other lines pass unchanged."""
+    assert conf.click_literal(["A file:", "", "\b", "    x = 1"]) == ["A file:", "", "::", "", "    x = 1"]
+    assert conf.click_literal(["    \b"]) == ["::", ""] and conf.click_literal(["a b"]) == ["a b"]

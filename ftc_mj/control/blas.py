@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import casadi as ca
+from ..lazy import lazy_module
+
+ca = lazy_module("casadi")
 
 
 def limit_blas_threads(n: int = 1) -> bool:

@@ -44,7 +44,9 @@ import time
 import zlib
 from pathlib import Path
 
-import casadi as ca
+from ..lazy import lazy_module
+
+ca = lazy_module("casadi")
 
 CACHE_ENV = "FTC_MJ_CACHE_DIR"
 """Environment variable naming the cache root (the solvers go to its ``solvers/`` folder)."""

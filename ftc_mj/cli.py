@@ -21,6 +21,9 @@ from typer.core import TyperCommand, TyperGroup
 
 from .errors import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED, EXIT_UNSTABLE, BadInput, RunFailed
 
+# Import laziness (start-up): no command renders, so MuJoCo is imported without its OpenGL context (its glfw
+# bindings, ≈ 0.2 s) unless the user chose one in MUJOCO_GL.
+os.environ.setdefault("MUJOCO_GL", "disable")
 
 class OneLineErrorGroup(TyperGroup):
     """The command group: usage errors (those click detects too) become one line on stderr with exit

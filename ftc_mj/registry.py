@@ -195,6 +195,8 @@ controllers = Registry("controller", "ftc_mj.controllers", "ftc_mj.wiring.contro
 """``factory(settings, context: RunContext, reference: Reference) -> Controller`` (``settings``: the
 ``[controller]`` section, the settings model of its kind — a built-in's registered as meta ``section``);
 meta ``reusable=True``: the controller has ``reset()`` and is cached per process and structure (MPC solvers);
+``retargetable=True``: it also has ``set_reference(reference)`` and its built problem does not depend on the
+reference (the cache then keeps it across references);
 ``rate_bounded=True``: its first input stays within ``controller.omega_rate_max / rate`` of the
 command in force (the loop clips a dither to that bound)."""
 policies = Registry("policy", "ftc_mj.policies", "ftc_mj.reconfiguration.policies", "reconfiguration.policy")

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import casadi as ca
+from ..lazy import lazy_module
+
+ca = lazy_module("casadi")
 
 
 def limit_blas_threads(n: int = 1) -> bool:
@@ -16,7 +18,8 @@ def limit_blas_threads(n: int = 1) -> bool:
     It also makes runs deterministic: CasADi's bundled OpenBLAS (under IPOPT's MUMPS) with two threads
     gives round-off that differs from call to call, which a saturated closed loop amplifies to different
     trajectories. CasADi loads that library lazily with its IPOPT plugin, so it is loaded here first; the
-    plugin then shares this (single-threaded) instance.
+    plugin then shares this (single-threaded) instance. SciPy's OpenBLAS (its LAPACK, which the certified
+    QP calls) is loaded here too for the same reason: :mod:`ftc_mj.lazy` imports SciPy only on first use.
     """
     import ctypes
 
@@ -26,6 +29,10 @@ def limit_blas_threads(n: int = 1) -> bool:
         if bundled.is_file():
             ctypes.CDLL(str(bundled), mode=ctypes.RTLD_GLOBAL)
     except OSError:
+        pass
+    try:  # SciPy's own OpenBLAS (the certified QP's LAPACK; SciPy is imported lazily) is loaded now, so that
+        import scipy.linalg.lapack  # noqa: F401  it is limited too (else dpotrf spins threads: ~1 s a solve)
+    except ImportError:
         pass
     try:
         with open("/proc/self/maps") as fh:

@@ -46,7 +46,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg.lapack import dpotrf, dpotrs, dtrtri
+
+from ..lazy import lazy_module
+
+scipy = lazy_module("scipy")  # imported on first use (ftc_mj.lazy)
 
 try:  # optional at import time: without PIQP only the guessed working set can be certified
     import piqp
@@ -107,10 +110,10 @@ class CertifiedQP:
               lbx: np.ndarray, ubx: np.ndarray, guess: np.ndarray | None = None) -> CertifiedResult:
         """Certified solution of the QP; ``guess`` is a working set (n + m,) to try first."""
         n, m = H.shape[0], A.shape[0]
-        L, info = dpotrf(H, lower=1, clean=1)
+        L, info = scipy.linalg.lapack.dpotrf(H, lower=1, clean=1)
         if info != 0:
             return CertifiedResult("unresolved", "H not positive definite")
-        Linv = dtrtri(L, lower=1)[0]  # explicit L⁻¹: every working-set solve reuses it
+        Linv = scipy.linalg.lapack.dtrtri(L, lower=1)[0]  # explicit L⁻¹: every working-set solve reuses it
         eq = lba == uba
         lo = np.concatenate([lbx, lba])
         hi = np.concatenate([ubx, uba])
@@ -245,10 +248,10 @@ class CertifiedQP:
         Y = np.empty((n, idx.size))
         Y[:, :nb] = Linv[:, bnd]
         Y[:, nb:] = Linv @ Ar.T
-        Ls, info = dpotrf(Y.T @ Y, lower=1)
+        Ls, info = scipy.linalg.lapack.dpotrf(Y.T @ Y, lower=1)
         if info != 0:
             return None
-        lam = dpotrs(Ls, -(b + Y.T @ v), lower=1)[0]
+        lam = scipy.linalg.lapack.dpotrs(Ls, -(b + Y.T @ v), lower=1)[0]
         u = -(Linv.T @ (v + Y @ lam))
         b_scale = 1e-12 * (1.0 + float(np.max(np.abs(b))))
         for _ in range(2):  # refinement: solve the KKT system for its residual with the same factors
@@ -258,7 +261,7 @@ class CertifiedQP:
             r1 = -(g + H @ u + Ar.T @ lam[nb:])
             r1[bnd] -= lam[:nb]
             w = Linv @ r1
-            dlam = dpotrs(Ls, Y.T @ w - r2, lower=1)[0]
+            dlam = scipy.linalg.lapack.dpotrs(Ls, Y.T @ w - r2, lower=1)[0]
             u = u + Linv.T @ (w - Y @ dlam)
             lam = lam + dlam
         if not (np.all(np.isfinite(u)) and np.all(np.isfinite(lam))):

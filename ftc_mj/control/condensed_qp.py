@@ -6,14 +6,16 @@ import contextlib
 from collections import Counter
 from collections.abc import Iterator
 
-import casadi as ca
 import numpy as np
 
+from ..lazy import lazy_module
 from .certified_qp import CertifiedQP
 from .elimination import StateElimination, lateral_accel_linearisation
 from .solvers import BufferedFunction, default_qp_options
 from .spec import first_input_bounds, first_step_penalty
 from .transcription import Collocation
+
+ca = lazy_module("casadi")
 
 
 class CondensedQP:

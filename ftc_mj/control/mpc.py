@@ -20,22 +20,21 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
-import casadi as ca
 import numpy as np
 
+from ..lazy import lazy_module
 from .base import ControlOutput
 from .blas import limit_blas_threads
 from .spec import ProblemSpec
 from .transcription import Collocation
+
+ca = lazy_module("casadi")
 
 SOLVERS = ("ipopt", "rti-daqp", "rti-qpoases", "rti-osqp")
 """Solver names of the NMPCs: the full NLP by IPOPT, or real-time iterations with a CasADi QP plugin."""
 
 RESEED_WAIT = 20
 """Samples (2 s at 10 Hz) without IPOPT re-seeds after a re-seed failed (RTI steps continue meanwhile)."""
-
-_CASADI_DIR = os.path.dirname(os.path.abspath(ca.__file__))
-
 
 def _raised_in(exc: BaseException, directory: str) -> bool:
     """The innermost frame of ``exc``'s traceback is in a file under ``directory``."""
@@ -46,8 +45,9 @@ def _raised_in(exc: BaseException, directory: str) -> bool:
 def solver_error(exc: BaseException) -> bool:
     """``exc`` is a solver error a controller falls back on: a linear-algebra failure, or a ``RuntimeError``
     raised by CasADi (its plugins and IPOPT report through it). Anything else is a bug that fails the run."""
-    return isinstance(exc, np.linalg.LinAlgError) or (isinstance(exc, RuntimeError)
-                                                       and _raised_in(exc, _CASADI_DIR))
+    if isinstance(exc, np.linalg.LinAlgError):
+        return True
+    return isinstance(exc, RuntimeError) and _raised_in(exc, os.path.dirname(os.path.abspath(ca.__file__)))
 
 
 def sanitize_pose(pose: np.ndarray) -> np.ndarray | None:

@@ -5,13 +5,15 @@ from __future__ import annotations
 
 from collections import Counter
 
-import casadi as ca
 import numpy as np
 
+from ..lazy import lazy_module
 from .certified_qp import CertifiedQP
 from .condensed_qp import CondensedQP
 from .solvers import BufferedFunction
 from .spec import first_input_bounds
+
+ca = lazy_module("casadi")
 
 PROXIMAL = 1e-3
 """Weight of the proximal term on each scenario's own inputs in the RTI QP, relative to the mean diagonal

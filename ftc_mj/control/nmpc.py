@@ -33,10 +33,10 @@ from __future__ import annotations
 
 from typing import Literal
 
-import casadi as ca
 import numpy as np
 
 from ..fields import PosFloat, ranged_int
+from ..lazy import lazy_module
 from .base import ControlOutput
 from .condensed_qp import CondensedQP
 from .mpc import SOLVERS
@@ -44,6 +44,8 @@ from .solver_cache import ipopt_solver
 from .solvers import ipopt_options, warm_started_solve
 from .spec import MPCSettings, ProblemSpec, first_step_penalty
 from .tracking import PlanController
+
+ca = lazy_module("casadi")
 
 
 class NMPCSettings(MPCSettings):

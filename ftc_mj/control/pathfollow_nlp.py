@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 
+from ..lazy import lazy_module
 from .pathfollow_spec import SLACK_MAX, PathFollowingSpec, RadiusInterval, lateral_sides
 from .reference import Path
 from .solver_cache import ipopt_solver
 from .solvers import ipopt_options, warm_started_solve
 from .transcription import Collocation
+
+ca = lazy_module("casadi")
 
 
 class PathNLP:

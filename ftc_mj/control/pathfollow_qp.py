@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 
+from ..lazy import lazy_module
 from .certified_qp import CertifiedQP
 from .elimination import StateElimination, lateral_accel_linearisation
 from .pathfollow_spec import SLACK_MAX, PathFollowingSpec, RadiusInterval, lateral_sides
 from .reference import Path, path_errors
 from .solvers import BufferedFunction, default_qp_options
 from .transcription import Collocation
+
+ca = lazy_module("casadi")
 
 ROW_FAR = 1.0e6
 """Finite stand-in (m/s²) for the open side of a one-sided row in the certified QP path."""

@@ -26,11 +26,13 @@ from collections.abc import Callable
 from types import ModuleType
 from typing import Any, Literal, NamedTuple, Protocol
 
-import casadi as ca
 import numpy as np
 from pydantic import Field
 
 from ..fields import Options, PosFloat, StrictModel, component, options_of
+from ..lazy import lazy_module
+
+ca = lazy_module("casadi")
 
 
 class ReferenceSettings(StrictModel):

@@ -56,11 +56,11 @@ from __future__ import annotations
 
 from typing import Literal
 
-import casadi as ca
 import numpy as np
 from pydantic import Field, model_validator
 
 from ..fields import NonNegFloat, StrictModel, ranged, ranged_int
+from ..lazy import lazy_module
 from .base import ControlOutput
 from .multistage_qp import MultiStageQP
 from .nmpc import NMPC, NMPCSettings
@@ -68,6 +68,8 @@ from .solver_cache import ipopt_solver
 from .solvers import warm_started_solve
 from .spec import ProblemSpec, first_step_penalty
 from .transcription import Collocation
+
+ca = lazy_module("casadi")
 
 OBJECTIVES = ("expected", "worst")
 ROBUST_SOLVERS = ("ipopt", "rti-daqp")

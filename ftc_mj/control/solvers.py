@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
+
+from ..lazy import lazy_module
+
+ca = lazy_module("casadi")
 
 
 class BufferedFunction:

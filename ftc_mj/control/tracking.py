@@ -44,6 +44,12 @@ class PlanController(MPCLifecycle):
         self.reference = reference
         super().__init__(spec, nominal_radii, time_budget, cold_time_budget, single_thread_blas)
 
+    def set_reference(self, reference) -> None:
+        """Track ``reference`` (has ``at(t)``) from the next solve on. The reference enters the problem only
+        as its parameters (sampled at every solve), so a built controller, reset, serves any reference
+        exactly as one built for it (the simulation's cache relies on it: ``retargetable``)."""
+        self.reference = reference
+
     def _clear(self) -> None:
         super()._clear()
         self._lam: tuple[np.ndarray, np.ndarray] | None = None  # IPOPT multipliers of the last solve

@@ -40,12 +40,14 @@ nearest the (unwrapped) reference heading at t0; predictions are reported in tha
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 
+from ..lazy import lazy_module
 from ..model.kinematics import KinematicModel, pose_rates
 from .lgl import barycentric_weights, lgl
 from .spec import ProblemSpec
+
+ca = lazy_module("casadi")
 
 
 class Collocation:

@@ -37,7 +37,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import gammaincinv
+
+from ..lazy import lazy_module
+
+scipy = lazy_module("scipy")  # imported on first use (ftc_mj.lazy)
 
 SOKAL_WINDOW = 5.0
 """Autocorrelation window: the smallest lag ``M`` with ``M ≥ 5 τ(M)`` (Sokal's automatic window)."""
@@ -90,8 +93,8 @@ def chi2_average_bounds(dof: float | np.ndarray, alpha: float = 0.05) -> tuple[n
     half = np.maximum(d, 1e-300) / 2.0
     with np.errstate(invalid="ignore", divide="ignore"):
         # the χ² quantile, 2 P⁻¹(dof/2, q) (bitwise scipy.stats.chi2.ppf, without importing scipy.stats)
-        lo = np.where(d > 0, 2.0 * gammaincinv(half, alpha / 2.0) / d, np.nan)
-        hi = np.where(d > 0, 2.0 * gammaincinv(half, 1.0 - alpha / 2.0) / d, np.nan)
+        lo = np.where(d > 0, 2.0 * scipy.special.gammaincinv(half, alpha / 2.0) / d, np.nan)
+        hi = np.where(d > 0, 2.0 * scipy.special.gammaincinv(half, 1.0 - alpha / 2.0) / d, np.nan)
     return lo, hi
 
 

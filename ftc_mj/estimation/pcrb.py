@@ -35,11 +35,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg.lapack import dgesv
 
+from ..lazy import lazy_module
 from ..model.kinematics import KinematicModel, numpy_rates_jacobian, numpy_step_jacobian
 from .observability import radius_directions
 from .setup import FilterSetup
+
+scipy = lazy_module("scipy")  # imported on first use (ftc_mj.lazy)
 
 STATE_COLUMNS = ("x", "y", "psi", "R_R", "R_L")
 PCRB_COLUMNS = ("R_R_pcrb_std", "R_L_pcrb_std", "radius_split_pcrb_std", "R_R_pcrb_const_std", "R_L_pcrb_const_std")
@@ -104,7 +106,7 @@ def _riccati(F: np.ndarray, H: np.ndarray, m: np.ndarray, R: np.ndarray, Q: np.n
         if mk > 0:
             PHt = Pm @ HT[k, :, :mk]
             S = H[k, :mk] @ PHt + R[k, :mk, :mk]
-            _, _, gain_t, info = dgesv(S, PHt.T)  # S⁻¹ (P Hᵀ)ᵀ
+            _, _, gain_t, info = scipy.linalg.lapack.dgesv(S, PHt.T)  # S⁻¹ (P Hᵀ)ᵀ
             if info != 0:
                 raise np.linalg.LinAlgError(f"PCRB step {k}: singular innovation covariance (dgesv info {info})")
             B = Pm - PHt @ gain_t

@@ -17,12 +17,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cache, cached_property
 from types import ModuleType
 from typing import Any
 
-import casadi as ca
 import numpy as np
+
+from ..lazy import lazy_module
+
+ca = lazy_module("casadi")
 
 STATE_NAMES: tuple[str, ...] = ("x", "y", "psi", "R_R", "R_L")
 INPUT_NAMES: tuple[str, ...] = ("omega_R", "omega_L")
@@ -181,17 +184,22 @@ class KinematicModel:
 
 
 # ---------------------------------------------------------------------------- numpy code from CasADi
-_NP_UNARY = {
-    ca.OP_NEG: "(-{0})", ca.OP_SIN: "np.sin({0})", ca.OP_COS: "np.cos({0})", ca.OP_TAN: "np.tan({0})",
-    ca.OP_SQRT: "np.sqrt({0})", ca.OP_SQ: "({0}*{0})", ca.OP_TWICE: "(2.0*{0})", ca.OP_INV: "(1.0/{0})",
-    ca.OP_EXP: "np.exp({0})", ca.OP_LOG: "np.log({0})", ca.OP_FABS: "np.abs({0})", ca.OP_ASSIGN: "{0}",
-    ca.OP_ATAN: "np.arctan({0})", ca.OP_TANH: "np.tanh({0})",
-}
-_NP_BINARY = {
-    ca.OP_ADD: "({0}+{1})", ca.OP_SUB: "({0}-{1})", ca.OP_MUL: "({0}*{1})", ca.OP_DIV: "({0}/{1})",
-    ca.OP_POW: "({0}**{1})", ca.OP_CONSTPOW: "({0}**{1})", ca.OP_FMIN: "np.minimum({0},{1})",
-    ca.OP_FMAX: "np.maximum({0},{1})", ca.OP_ATAN2: "np.arctan2({0},{1})",
-}
+@cache
+def _np_operations() -> tuple[dict[int, str], dict[int, str]]:
+    """numpy templates of CasADi's unary and binary operations by operation id (built on first use: the
+    ids are CasADi's, and this module does not import CasADi until it transcribes a function)."""
+    unary = {
+        ca.OP_NEG: "(-{0})", ca.OP_SIN: "np.sin({0})", ca.OP_COS: "np.cos({0})", ca.OP_TAN: "np.tan({0})",
+        ca.OP_SQRT: "np.sqrt({0})", ca.OP_SQ: "({0}*{0})", ca.OP_TWICE: "(2.0*{0})", ca.OP_INV: "(1.0/{0})",
+        ca.OP_EXP: "np.exp({0})", ca.OP_LOG: "np.log({0})", ca.OP_FABS: "np.abs({0})", ca.OP_ASSIGN: "{0}",
+        ca.OP_ATAN: "np.arctan({0})", ca.OP_TANH: "np.tanh({0})",
+    }
+    binary = {
+        ca.OP_ADD: "({0}+{1})", ca.OP_SUB: "({0}-{1})", ca.OP_MUL: "({0}*{1})", ca.OP_DIV: "({0}/{1})",
+        ca.OP_POW: "({0}**{1})", ca.OP_CONSTPOW: "({0}**{1})", ca.OP_FMIN: "np.minimum({0},{1})",
+        ca.OP_FMAX: "np.maximum({0},{1})", ca.OP_ATAN2: "np.arctan2({0},{1})",
+    }
+    return unary, binary
 
 
 def _transcribe(fn: ca.Function, scalar_in: list[bool], vector_src: str) -> tuple[list[str], list[str]]:
@@ -199,6 +207,7 @@ def _transcribe(fn: ca.Function, scalar_in: list[bool], vector_src: str) -> tupl
     non-zeros in sparsity order. A vector input ``i`` element ``j`` is read as ``vector_src.format(i, j)``."""
     lines: list[str] = []
     outs: list[list[str]] = [[] for _ in range(fn.n_out())]
+    unary, binary = _np_operations()
     for k in range(fn.n_instructions()):
         op = fn.instruction_id(k)
         ins = fn.instruction_input(k)
@@ -211,10 +220,10 @@ def _transcribe(fn: ca.Function, scalar_in: list[bool], vector_src: str) -> tupl
         elif op == ca.OP_OUTPUT:
             outs[outk[0]].append(f"o{outk[0]}_{outk[1]}")
             lines.append(f"    o{outk[0]}_{outk[1]} = w{ins[0]}")
-        elif op in _NP_UNARY:
-            lines.append(f"    w{outk[0]} = " + _NP_UNARY[op].format(f"w{ins[0]}"))
-        elif op in _NP_BINARY:
-            lines.append(f"    w{outk[0]} = " + _NP_BINARY[op].format(f"w{ins[0]}", f"w{ins[1]}"))
+        elif op in unary:
+            lines.append(f"    w{outk[0]} = " + unary[op].format(f"w{ins[0]}"))
+        elif op in binary:
+            lines.append(f"    w{outk[0]} = " + binary[op].format(f"w{ins[0]}", f"w{ins[1]}"))
         else:
             raise ValueError(f"casadi code generation: unsupported operation id {op}")
     return lines, [names for names in outs]

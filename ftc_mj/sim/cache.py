@@ -1,10 +1,18 @@
 """Per-process cache of the expensive, reusable parts of a run: the compiled MuJoCo plant, the
 built MPC solvers and the robot's limits the path-following NMPC is given.
 
-Studies and the paper matrix run many simulations in one worker process; CasADi solvers cost
-0.1–0.3 s to build (and do not pickle), so they are built once per worker and per structure, then
-``reset()`` before each run. A reset part behaves exactly like a new one (tests compare traces of a
+Studies, the paper matrix and benchmarks run many simulations in one worker process; CasADi solvers
+cost 0.1–3 s to build or load (and do not pickle), so they are built once per worker and per structure,
+then ``reset()`` before each run. A reset part behaves exactly like a new one (tests compare traces of a
 fresh and a reused build), so caching never changes results.
+
+The cache holds what a next run reuses and nothing else: one part per *slot* (a plant per plant kind, a
+controller per controller section and nominal model: a method), kept with the identity it was built for.
+A run of the same identity resets it; another identity replaces it, so a bench worker, which never sees
+a draw twice, holds one plant and one controller per method, not one per draw. A controller registered
+``retargetable`` (the tracking MPCs: the reference enters their problem as parameters) is keyed without
+its reference and given the run's reference after its reset, so every draw of a method reuses it; the
+IPOPT solvers themselves are kept per process by :func:`~ftc_mj.control.solver_cache.ipopt_solver`.
 """
 
 from __future__ import annotations
@@ -23,9 +31,9 @@ from ..registry import controllers
 from ..wiring.control import build_controller
 from ..wiring.plant import build_plant
 
-_MAX_ENTRIES = 16
-_plants: dict[str, Any] = {}
-_controllers: dict[str, Any] = {}
+_MAX_LIMITS = 16
+_plants: dict[str, tuple[str, Any]] = {}
+_controllers: dict[str, tuple[str, Any]] = {}
 _limits: dict[str, RobotLimits] = {}
 stats = {"plant_builds": 0, "plant_hits": 0, "controller_builds": 0, "controller_hits": 0}
 
@@ -36,23 +44,20 @@ def _key(cfg: RunConfig, sections: tuple[str, ...], extra: tuple[Any, ...] = ())
     return json.dumps([{s: d.get(s) for s in sections}, list(extra)], sort_keys=True, default=str)
 
 
-def _remember(store: dict[str, Any], key: str, value: Any) -> None:
-    if len(store) >= _MAX_ENTRIES:
-        store.pop(next(iter(store)))
-    store[key] = value
-
-
-def _reuse(store: dict[str, Any], key: str, kind: str, build: Callable[[], Any]) -> Any:
-    """The part cached in ``store`` under ``key``, reset, or else a new one from ``build()``, cached;
-    counted in :data:`stats` as a ``<kind>_hits`` or a ``<kind>_builds``."""
-    part = store.get(key)
-    if part is None:
-        part = build()
-        _remember(store, key, part)
-        stats[f"{kind}_builds"] += 1
-    else:
-        part.reset()
+def _reuse(store: dict[str, tuple[str, Any]], slot: str, key: str, kind: str, build: Callable[[], Any]) -> Any:
+    """The part in ``store``'s ``slot`` reset if it was built for ``key``, or else a new one from ``build()``
+    in its place (the old one is dropped first); counted in :data:`stats` as a ``<kind>_hits`` or a
+    ``<kind>_builds``."""
+    kept = store.get(slot)
+    if kept is not None and kept[0] == key:
+        kept[1].reset()
         stats[f"{kind}_hits"] += 1
+        return kept[1]
+    store.pop(slot, None)
+    del kept
+    part = build()
+    store[slot] = (key, part)
+    stats[f"{kind}_builds"] += 1
     return part
 
 
@@ -60,8 +65,8 @@ def plant_for(cfg: RunConfig, store: dict[str, Any] | None = None) -> Any:
     """A plant for ``cfg``, reset to t = 0 (built on first use for this plant/robot/fault setup), from the
     per-process cache or from the caller's own ``store``: an owner that steps its plant while other runs
     of the process step theirs (two Gymnasium environments) keeps its plants apart."""
-    return _reuse(_plants if store is None else store, _key(cfg, ("plant", "robot", "faults")), "plant",
-                  lambda: build_plant(cfg))
+    return _reuse(_plants if store is None else store, cfg.plant.kind, _key(cfg, ("plant", "robot", "faults")),
+                  "plant", lambda: build_plant(cfg))
 
 
 def robot_limits(cfg: RunConfig) -> RobotLimits:
@@ -72,24 +77,35 @@ def robot_limits(cfg: RunConfig) -> RobotLimits:
     key = _key(cfg, ("plant", "robot"))
     if key not in _limits:
         lim = lateral_accel_limits(build_model(cfg.plant, cfg.robot))
-        _remember(_limits, key, RobotLimits(lim.liftoff, lim.yaw_compliance, lim.braking_trade))
+        if len(_limits) >= _MAX_LIMITS:  # three floats each: a bounded memo, not a part
+            _limits.pop(next(iter(_limits)))
+        _limits[key] = RobotLimits(lim.liftoff, lim.yaw_compliance, lim.braking_trade)
     lim = _limits[key]
     return lim if cfg.plant.kind == "mujoco" else dataclasses.replace(lim, yaw_compliance=0.0)
 
 
 def controller_for(cfg: RunConfig, reference: Any) -> Any:
-    """A controller for ``cfg``, reset: one registered ``reusable`` (MPCs) is cached per structure,
-    any other is built anew."""
+    """A controller for ``cfg``, reset: one registered ``reusable`` (MPCs) is cached per method (its
+    controller and model sections) and built again only when its identity changes — with the reference
+    unless it is registered ``retargetable`` (then it is given ``reference`` after its reset); any other
+    controller is built anew."""
     meta = controllers.get(cfg.controller.kind).meta
     limits = robot_limits(cfg) if meta.get("robot_limits", False) else None
     if not meta.get("reusable", False):
         return build_controller(cfg, reference, limits)
-    key = _key(cfg, ("controller", "reference", "robot", "model"), (tuple(cfg.plant.initial_pose), limits))
-    return _reuse(_controllers, key, "controller", lambda: build_controller(cfg, reference, limits))
+    retarget = meta.get("retargetable", False)
+    sections = ("controller", "robot", "model") if retarget else ("controller", "reference", "robot", "model")
+    key = _key(cfg, sections, (tuple(cfg.plant.initial_pose), limits))
+    ctl = _reuse(_controllers, _key(cfg, ("controller", "model")), key, "controller",
+                 lambda: build_controller(cfg, reference, limits))
+    if retarget:
+        ctl.set_reference(reference)
+    return ctl
 
 
 def clear() -> None:
-    """Drop every cached part."""
+    """Drop every cached part (the solvers :func:`~ftc_mj.control.solver_cache.ipopt_solver` keeps stay:
+    a controller built again reuses its solver)."""
     _plants.clear()
     _controllers.clear()
     _limits.clear()

@@ -6,8 +6,10 @@ reference, *extra)``: ``settings`` the ``[controller]`` section (the settings mo
 beside the controller), ``context`` the :class:`~ftc_mj.context.RunContext` (the controller period, the
 model's nominal radii and half track, the robot's input limit) and the reference to track. MPCs are
 registered ``reusable`` (they have ``reset()`` and the simulation keeps one built solver per process and
-structure) and ``rate_bounded`` (their first input stays within ``omega_rate_max / rate`` of the command in
-force, so the loop clips an excitation dither to that bound); ``robot_limits``: the factory also takes the
+structure), the tracking MPCs also ``retargetable`` (they have ``set_reference``: the reference is a
+parameter of their problem, so one built controller serves every reference) and ``rate_bounded`` (their
+first input stays within ``omega_rate_max / rate`` of the command in force, so the loop clips an excitation
+dither to that bound); ``robot_limits``: the factory also takes the
 robot's :class:`~ftc_mj.control.pathfollow_spec.RobotLimits` (derived from the plant model by the sim layer)
 as ``limits``; ``radius_intervals``: the controller has ``set_radius_interval`` (the degraded mode,
 :mod:`ftc_mj.reconfiguration.degraded`). Reference factories take ``(settings, context)``: the
@@ -55,14 +57,16 @@ def open_loop(settings: OpenLoopSettings, context: RunContext, reference: object
     return OpenLoopController(settings.open_loop_omega, settings.open_loop_schedule or None, context.omega_max)
 
 
-@controllers.register("lmpc", origin=BUILTIN, reusable=True, rate_bounded=True, section=LinearMPCSettings)
+@controllers.register("lmpc", origin=BUILTIN, reusable=True, retargetable=True, rate_bounded=True,
+                      section=LinearMPCSettings)
 def linear_mpc(settings: LinearMPCSettings, context: RunContext, reference: object) -> LinearMPC:
     """The linear MPC on the tracking problem (QP solver ``lmpc_qpsol``)."""
     return LinearMPC(tracking_problem(settings, context), reference, qpsol=settings.lmpc_qpsol,
                      time_budget=settings.time_budget, nominal_radii=context.nominal_radii)
 
 
-@controllers.register("nmpc", origin=BUILTIN, reusable=True, rate_bounded=True, section=NMPCSettings)
+@controllers.register("nmpc", origin=BUILTIN, reusable=True, retargetable=True, rate_bounded=True,
+                      section=NMPCSettings)
 def nmpc(settings: NMPCSettings, context: RunContext, reference: object) -> NMPC:
     """The LGL pseudospectral NMPC on the tracking problem (solver ``solver``)."""
     c = settings
@@ -70,7 +74,8 @@ def nmpc(settings: NMPCSettings, context: RunContext, reference: object) -> NMPC
                 time_budget=c.time_budget, nominal_radii=context.nominal_radii, cold_time_budget=c.cold_time_budget)
 
 
-@controllers.register("robust-nmpc", origin=BUILTIN, reusable=True, rate_bounded=True, section=RobustNMPCSettings)
+@controllers.register("robust-nmpc", origin=BUILTIN, reusable=True, retargetable=True, rate_bounded=True,
+                      section=RobustNMPCSettings)
 def robust_nmpc(settings: RobustNMPCSettings, context: RunContext, reference: object) -> RobustNMPC:
     """The multi-stage robust NMPC over the radius scenarios of ``robust`` on the tracking problem."""
     c, rb = settings, settings.robust

@@ -1,5 +1,6 @@
 """The IPOPT solver cache: a loaded solver is bitwise the fresh build; the key follows the problem,
-the options and nothing else; a broken file is rebuilt; the switch turns it off."""
+the options and nothing else; a broken file is rebuilt; the switch turns it off; a process keeps one
+solver per structure in memory and loads it once."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import numpy as np
 import pytest
 
 from ftc_mj.control import solver_cache
-from ftc_mj.control.solver_cache import CACHE_ENV, SWITCH_ENV, ipopt_solver, problem_key, prune
+from ftc_mj.control.solver_cache import CACHE_ENV, SWITCH_ENV, disk_cached_solver, ipopt_solver, problem_key, prune
 from ftc_mj.control.solvers import ipopt_options
 
 OPTS = ipopt_options(30, None, None)
@@ -37,12 +38,45 @@ def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     monkeypatch.setenv(CACHE_ENV, str(tmp_path))
     monkeypatch.delenv(SWITCH_ENV, raising=False)
     monkeypatch.setattr(solver_cache, "stats", {"built": 0, "loaded": 0})
+    monkeypatch.setattr(solver_cache, "_in_memory", {})
     return tmp_path / "solvers"
 
 
+def test_a_process_loads_a_solver_once(cache: Path) -> None:
+    """The second controller of the same problem gets the kept solver (no file read: the file may even be
+    gone); results are those of the disk's copy, bit for bit."""
+    solver_cache.stats["reused"] = 0
+    first = ipopt_solver("t", rosenbrock(), OPTS)
+    for path in cache.glob("t-*.casadi.z"):
+        path.unlink()
+    again = ipopt_solver("t", rosenbrock(), OPTS)
+    assert again is first and solver_cache.stats == {"built": 1, "loaded": 0, "reused": 1}
+    x0, l0, i0 = solve(disk_cached_solver("t", rosenbrock(), OPTS))
+    x1, l1, i1 = solve(again)
+    assert i0 == i1 and np.array_equal(x0, x1) and np.array_equal(l0, l1)
+
+
+def test_one_solver_is_kept_per_structure(cache: Path) -> None:
+    """A problem of the same structure with another constant replaces the kept solver (memory does not grow
+    with the problems seen); another structure is kept beside it; ``forget_solvers`` drops them all."""
+    solver_cache.stats["reused"] = 0
+    a = ipopt_solver("t", rosenbrock(), OPTS)
+    ipopt_solver("t", rosenbrock(a=2.0), OPTS)
+    assert len(solver_cache._in_memory) == 1
+    assert ipopt_solver("t", rosenbrock(), OPTS) is not a  # loaded again from the disk
+    assert solver_cache.stats == {"built": 2, "loaded": 1, "reused": 0}
+    ipopt_solver("u", rosenbrock(), OPTS)
+    assert len(solver_cache._in_memory) == 2
+    ipopt_solver("t", rosenbrock(), OPTS)
+    assert solver_cache.stats["reused"] == 1
+    solver_cache.forget_solvers()
+    ipopt_solver("t", rosenbrock(), OPTS)
+    assert solver_cache.stats == {"built": 3, "loaded": 2, "reused": 1}
+
+
 def test_a_loaded_solver_is_bitwise_the_fresh_build(cache: Path) -> None:
-    fresh = ipopt_solver("t", rosenbrock(), OPTS)
-    loaded = ipopt_solver("t", rosenbrock(), OPTS)
+    fresh = disk_cached_solver("t", rosenbrock(), OPTS)
+    loaded = disk_cached_solver("t", rosenbrock(), OPTS)
     assert solver_cache.stats == {"built": 1, "loaded": 1}
     assert len(list(cache.glob("t-*.casadi.z"))) == 1
     (x0, l0, i0), (x1, l1, i1) = solve(fresh), solve(loaded)
@@ -59,31 +93,31 @@ def test_the_key_follows_the_problem_and_the_options() -> None:
 
 
 def test_a_broken_file_is_rebuilt_and_replaced(cache: Path) -> None:
-    ipopt_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
     (path,) = cache.glob("t-*.casadi.z")
     path.write_bytes(b"not a solver")
-    solver = ipopt_solver("t", rosenbrock(), OPTS)
+    solver = disk_cached_solver("t", rosenbrock(), OPTS)
     assert solver_cache.stats == {"built": 2, "loaded": 0}
     assert solve(solver)[2] > 3
-    ipopt_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
     assert solver_cache.stats["loaded"] == 1  # the replacement is a good file
 
 
 def test_switched_off_writes_nothing(cache: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(SWITCH_ENV, "off")
-    ipopt_solver("t", rosenbrock(), OPTS)
-    ipopt_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
     assert solver_cache.stats == {"built": 2, "loaded": 0} and not cache.exists()
 
 
 def test_a_load_marks_the_entry_used_and_prune_deletes_only_unused_ones(cache: Path) -> None:
-    ipopt_solver("t", rosenbrock(), OPTS)
-    ipopt_solver("u", rosenbrock(a=2.0), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("u", rosenbrock(a=2.0), OPTS)
     (t_path,), (u_path,) = cache.glob("t-*.casadi.z"), cache.glob("u-*.casadi.z")
     old = time.time() - 3600.0
     for path in (t_path, u_path):
         os.utime(path, (old, old))
-    ipopt_solver("t", rosenbrock(), OPTS)  # a load: used now
+    disk_cached_solver("t", rosenbrock(), OPTS)  # a load: used now
     assert solver_cache.stats == {"built": 2, "loaded": 1}
     assert t_path.stat().st_mtime > old + 3000.0
     assert prune(cache, 1800.0) == 1
@@ -99,11 +133,11 @@ def rebuilt_with_one_warning(capsys: pytest.CaptureFixture[str], cache: Path) ->
     """Ask for the solver of the damaged entry: it is rebuilt (not loaded), one warning line names the
     entry, and the replacement loads next time."""
     capsys.readouterr()
-    solver = ipopt_solver("t", rosenbrock(), OPTS)
+    solver = disk_cached_solver("t", rosenbrock(), OPTS)
     assert solver_cache.stats["loaded"] == 0 and solver_cache.stats["built"] == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("ftc-mj: warning: solver cache entry ") and "rebuilding" in err
-    ipopt_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
     assert solver_cache.stats["loaded"] == 1 and capsys.readouterr().err == ""
     assert [p.name for p in cache.iterdir()] == [entry(cache).name]  # no temporary left
     return solver
@@ -111,7 +145,7 @@ def rebuilt_with_one_warning(capsys: pytest.CaptureFixture[str], cache: Path) ->
 
 def test_an_empty_function_under_the_key_is_rebuilt(cache: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The old format's poisoned entry: ``zlib.compress(b"")`` loads as an empty CasADi function."""
-    ipopt_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
     entry(cache).write_bytes(zlib.compress(b""))
     assert solve(rebuilt_with_one_warning(capsys, cache))[2] > 3
 
@@ -119,7 +153,7 @@ def test_an_empty_function_under_the_key_is_rebuilt(cache: Path, capsys: pytest.
 def test_an_empty_function_with_a_forged_header_is_rebuilt(cache: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A header that matches the key, checksum and shapes cannot make an empty function load: the loaded
     function itself must have the name and shapes of the problem's ``nlpsol``."""
-    ipopt_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
     payload = zlib.compress(b"")
     key = problem_key("t", rosenbrock(), OPTS)
     head = json.dumps(solver_cache.header(key, "t", rosenbrock(), payload)).encode()
@@ -133,10 +167,10 @@ def test_another_problems_solver_under_the_key_is_rebuilt(cache: Path, capsys: p
     """A valid entry of another problem (other options; other sizes) copied under this key is refused: its
     header records its own key (and shapes)."""
     if other == "max_iter=1":
-        ipopt_solver("t", rosenbrock(), {**OPTS, "ipopt.max_iter": 1})
+        disk_cached_solver("t", rosenbrock(), {**OPTS, "ipopt.max_iter": 1})
     else:
         x, p = ca.SX.sym("x", 10), ca.SX.sym("p", 2)
-        ipopt_solver("t", {"x": x, "p": p, "f": ca.sumsqr(x - p[0]), "g": x[0] - p[1]}, OPTS)
+        disk_cached_solver("t", {"x": x, "p": p, "f": ca.sumsqr(x - p[0]), "g": x[0] - p[1]}, OPTS)
     stranger = entry(cache)
     stranger.rename(cache / f"t-{problem_key('t', rosenbrock(), OPTS)}.casadi.z")
     solver_cache.stats.update(built=1, loaded=0)
@@ -145,7 +179,7 @@ def test_another_problems_solver_under_the_key_is_rebuilt(cache: Path, capsys: p
 
 @pytest.mark.parametrize("damage", ["bit flip", "truncated", "old format"])
 def test_a_damaged_entry_is_rebuilt(cache: Path, capsys: pytest.CaptureFixture[str], damage: str) -> None:
-    ipopt_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
     path = entry(cache)
     data = bytearray(path.read_bytes())
     if damage == "bit flip":
@@ -170,7 +204,7 @@ def test_a_named_pipe_as_entry_does_not_hang(cache: Path, capsys: pytest.Capture
 
 def test_a_link_out_of_the_cache_is_not_followed(cache: Path, tmp_path: Path,
                                                  capsys: pytest.CaptureFixture[str]) -> None:
-    ipopt_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
     outside = tmp_path / "elsewhere.casadi.z"
     entry(cache).rename(outside)  # a good entry, but outside the folder
     (cache / outside.name.replace("elsewhere", f"t-{problem_key('t', rosenbrock(), OPTS)}")).symlink_to(outside)
@@ -183,7 +217,7 @@ def test_a_folder_in_the_entrys_place_leaves_no_temporary(cache: Path, capsys: p
     cache.mkdir(parents=True)
     (cache / f"t-{problem_key('t', rosenbrock(), OPTS)}.casadi.z").mkdir()
     for _ in range(2):
-        assert solve(ipopt_solver("t", rosenbrock(), OPTS))[2] > 3
+        assert solve(disk_cached_solver("t", rosenbrock(), OPTS))[2] > 3
     assert solver_cache.stats == {"built": 2, "loaded": 0}
     assert [p.name for p in cache.iterdir()] == [entry(cache).name]  # only the folder: no temporary file
     assert capsys.readouterr().err.count("cannot be used (not a regular file)") == 2
@@ -203,17 +237,17 @@ def test_a_full_disk_leaves_no_temporary(tmp_path: Path, monkeypatch: pytest.Mon
         (mnt / "solvers").mkdir()
         fill(mnt)
         for _ in range(2):
-            assert solve(ipopt_solver("t", rosenbrock(), OPTS))[2] > 3
+            assert solve(disk_cached_solver("t", rosenbrock(), OPTS))[2] > 3
         assert solver_cache.stats == {"built": 2, "loaded": 0}
         assert list((mnt / "solvers").iterdir()) == []
 
 
 def test_an_entry_over_the_size_bound_is_not_read(cache: Path, capsys: pytest.CaptureFixture[str],
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
-    ipopt_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
     monkeypatch.setattr(solver_cache, "MAX_ENTRY_BYTES", entry(cache).stat().st_size - 1)
     capsys.readouterr()
-    ipopt_solver("t", rosenbrock(), OPTS)
+    disk_cached_solver("t", rosenbrock(), OPTS)
     assert solver_cache.stats == {"built": 2, "loaded": 0} and "larger than" in capsys.readouterr().err
 
 

@@ -7,14 +7,85 @@ floating-point operations at any level, so the level changes compile time, not r
 quarter (``benchmarks/bench_first_run.py``). numba reads ``NUMBA_OPT`` once, when it is first imported,
 so the level is set here, before that import, and only when the user has not set it: a process that
 imported numba earlier, or sets ``NUMBA_OPT`` itself, compiles at its own level with the same results.
+
+numba itself (≈ 1 s of imports with its lazy parts) is imported when a kernel is first called, not when
+the kernels' modules are: :func:`njit` records each kernel as a :class:`LazyKernel`, and the first call of
+any of them imports numba, hands every recorded kernel to numba's ``njit`` (with the same options: the
+same compiled code, the same on-disk cache) and puts the dispatchers in place of the stand-ins in the
+modules' namespaces, so that compiled kernels see compiled callees and Python callers call numba
+directly from then on. A command that validates a config, lists scenarios or prints its help never
+imports numba.
 """
 
 from __future__ import annotations
 
+import functools
 import os
+import sys
+from collections.abc import Callable
+from typing import Any
 
 os.environ.setdefault("NUMBA_OPT", "2")
 
-from numba import njit  # noqa: E402  (after the level is set)
+__all__ = ["LazyKernel", "njit"]
 
-__all__ = ["njit"]
+_kernels: list[LazyKernel] = []
+"""Every kernel recorded before numba was imported, in definition order."""
+_numba_njit: list[Callable[..., Any]] = []
+"""numba's ``njit`` once imported (one element)."""
+
+
+class LazyKernel:
+    """A function to be compiled by numba's ``njit`` with ``options``: a stand-in until the first call of any
+    kernel, then (:func:`compile_all`) the numba dispatcher that replaced it everywhere it was imported."""
+
+    def __init__(self, fn: Callable[..., Any], options: dict[str, Any]) -> None:
+        functools.update_wrapper(self, fn)
+        self.py_func = fn
+        self.options = options
+        self.dispatcher: Any = None
+
+    def __call__(self, *args: Any) -> Any:
+        if self.dispatcher is None:
+            compile_all()
+        return self.dispatcher(*args)
+
+    def __getattr__(self, name: str) -> Any:  # numba's attributes (``signatures``, ``stats``) of the dispatcher
+        if name in ("dispatcher", "py_func", "options") or name.startswith("__"):
+            raise AttributeError(name)
+        if self.dispatcher is None:
+            compile_all()
+        return getattr(self.dispatcher, name)
+
+
+def compile_all() -> None:
+    """Import numba, make every recorded kernel a numba dispatcher (compiled lazily by numba on its first
+    call, from numba's cache when it has one) and replace the stand-ins by the dispatchers in the
+    namespaces of the package's modules."""
+    if not _numba_njit:
+        from numba import njit as numba_njit
+
+        _numba_njit.append(numba_njit)
+    for k in _kernels:
+        if k.dispatcher is None:
+            k.dispatcher = _numba_njit[0](**k.options)(k.py_func)
+    for name, module in list(sys.modules.items()):
+        if name.startswith("ftc_mj.") and module is not None:
+            space = vars(module)
+            for attr, value in list(space.items()):
+                if isinstance(value, LazyKernel) and value.dispatcher is not None:
+                    space[attr] = value.dispatcher
+
+
+def njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:
+    """numba's ``njit(**options)`` as a decorator that does not import numba: the kernel is compiled on the
+    first call of any kernel (module docstring); once numba is imported, numba's own decorator."""
+
+    def decorate(fn: Callable[..., Any]) -> Any:
+        if _numba_njit:
+            return _numba_njit[0](**options)(fn)
+        kernel = LazyKernel(fn, options)
+        _kernels.append(kernel)
+        return kernel
+
+    return decorate

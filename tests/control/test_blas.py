@@ -1,0 +1,36 @@
+"""One BLAS thread for the MPCs: after ``limit_blas_threads(1)`` every OpenBLAS in the process — numpy's and
+SciPy's (the certified QP's LAPACK, which SciPy loads only when it is first used) — runs one thread."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+PROBE = """
+import ctypes, json
+from ftc_mj.control.blas import limit_blas_threads
+assert limit_blas_threads(1)
+import scipy.linalg.lapack  # the certified QP's first LAPACK call, after the controller was built
+libs = {ln.split()[-1] for ln in open("/proc/self/maps") if "openblas" in ln.lower() and "/" in ln}
+threads = {}
+for path in libs:
+    lib = ctypes.CDLL(path)
+    for name in ("scipy_openblas_get_num_threads64_", "scipy_openblas_get_num_threads",
+                 "openblas_get_num_threads64_", "openblas_get_num_threads"):
+        fn = getattr(lib, name, None)
+        if fn is not None:
+            threads[path] = fn()
+            break
+print(json.dumps(threads))
+"""
+
+
+def test_every_openblas_runs_one_thread() -> None:
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}  # OpenBLAS's own default
+    out = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True, timeout=300, check=True,
+                         env=env)
+    threads = json.loads(out.stdout.strip().splitlines()[-1])
+    assert len(threads) >= 2, threads  # numpy's and SciPy's
+    assert set(threads.values()) == {1}, threads  # (fails on a machine of more than one core without the limit)

@@ -715,6 +715,27 @@ def private_key(split: str, key_file: str | None) -> bytes | None:
     return None
 
 
+def _publish_bench(docs: Path, report: Path, out_dir: Path, options: dict[str, Any], version: str) -> Path:
+    """Write ``docs/benchmark.md`` and its figures from the bench's report (:mod:`ftc_mj.reports.benchmark_page`),
+    naming the command (its ``options``) that made them."""
+    from .reports.benchmark_page import argv_of, publish
+
+    return publish(docs, report, out_dir, argv_of(**options), version)
+
+
+def _bench_folders(out: str | None, publish: str | None, version: str, split: str, start: int, draws: int,
+                   healthy: bool) -> tuple[Path, Path | None]:
+    """The bench's output folder (``--out``, else ``runs/out/bench/<version>-<split>-<first>-<last>[-healthy]``)
+    and the ``--publish`` docs folder (``None`` without; :class:`BadInput` unless it exists)."""
+    label = Path(version).stem if version.endswith(".toml") else version
+    out_dir = _folder(out) or Path("runs/out/bench") / (f"{label}-{split}-{start}-{start + draws - 1}"
+                                                       + ("-healthy" if healthy else ""))
+    docs = _folder(publish, "--publish")
+    if docs is not None and not docs.is_dir():
+        raise BadInput(f"--publish: {docs} is not an existing folder")
+    return out_dir, docs
+
+
 @app.command()
 def bench(
     methods: Annotated[list[str], typer.Argument(metavar="METHOD...", help="Built-in methods (paper, safe, pathfollow, "
@@ -773,12 +794,7 @@ def bench(
             raise BadInput("--compare: must be >= 0")
         if address is not None:
             validate_address(address)
-        label = Path(version).stem if version.endswith(".toml") else version
-        out_dir = _folder(out) or Path("runs/out/bench") / (f"{label}-{split.value}-{start}-{start + draws - 1}"
-                                                           + ("-healthy" if healthy else ""))
-        docs = _folder(publish, "--publish")
-        if docs is not None and not docs.is_dir():
-            raise BadInput(f"--publish: {docs} is not an existing folder")
+        out_dir, docs = _bench_folders(out, publish, version, split.value, start, draws, healthy)
         key = private_key(split.value, key_file)
         bp = plan_bench(load_methods(methods), split.value, draws, version=version, start=start, healthy=healthy,
                         private_key=key)
@@ -786,22 +802,19 @@ def bench(
                                  progress=not quiet and sys.stderr.isatty(),
                                  echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True))
         if docs is not None:
-            from .reports.benchmark_page import argv_of
-            from .reports.benchmark_page import publish as publish_docs
-
-            argv = argv_of(methods=methods, split=split.value, draws=draws, start=start or None, out=out,
-                           workers=workers, benchmark=None if version == "ftc-v1" else version, healthy=healthy,
-                           publish=publish)
-            typer.echo(f"bench: wrote {publish_docs(docs, path, out_dir, argv, version)}")
+            argv = dict(methods=methods, split=split.value, draws=draws, start=start or None, out=out,
+                        workers=workers, benchmark=None if version == "ftc-v1" else version, healthy=healthy,
+                        publish=publish)
+            typer.echo(f"bench: wrote {_publish_bench(docs, path, out_dir, argv, version)}")
     except (BadInput, StudyInterruptedError, KeyboardInterrupt) as err:
         _end_study(err)
         return
     except Exception as err:  # noqa: BLE001 - re-raised unless the results could not be written
         _output_failed(err)
-    done = report.already_done + len(report.computed)
     typer.echo("\n".join(summary_lines(bp, report.results)))
     typer.echo(f"bench: computed {len(report.computed)} runs ({len(report.failed)} not ok) in "
-               f"{report.wall_time_s:.1f} s; {done} of {report.planned} done; report {path}")
+               f"{report.wall_time_s:.1f} s; {report.already_done + len(report.computed)} of {report.planned} done; "
+               f"report {path}")
 
 
 @app.command()

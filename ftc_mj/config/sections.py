@@ -40,10 +40,9 @@ from ..control.reference import ReferenceSettings
 from ..control.robust import RobustNMPCSettings
 from ..control.spec import PluginControllerSettings
 from ..estimation.decision_settings import DecisionSettings
-from ..estimation.ekf import EKFSettings
-from ..estimation.imm import HypothesisSettings, IMMEKFSettings, IMMUKFSettings
-from ..estimation.settings import EstimatorSettings, NoFilterSettings, PluginEstimatorSettings
-from ..estimation.ukf import UKFSettings
+from ..estimation.imm import HypothesisSettings
+from ..estimation.kinds import BUILTIN_ESTIMATORS
+from ..estimation.settings import EstimatorSettings, PluginEstimatorSettings
 from ..fields import (
     Flag,
     PathText,
@@ -66,10 +65,9 @@ ExcitationConfig = ExcitationSettings
 """``[reconfiguration.excitation]``: :class:`~ftc_mj.control.excitation.ExcitationSettings`."""
 
 
-ESTIMATOR_KINDS: dict[str, type[EstimatorSettings]] = {
-    "ekf": EKFSettings, "ukf": UKFSettings, "imm-ekf": IMMEKFSettings, "imm-ukf": IMMUKFSettings,
-    "none": NoFilterSettings}
-"""The built-in estimator kinds and their settings models (each declared beside its filter)."""
+ESTIMATOR_KINDS: dict[str, type[EstimatorSettings]] = {k: kind.settings for k, kind in BUILTIN_ESTIMATORS.items()}
+"""The built-in estimator kinds and their settings models (each declared beside its filter; the one table of
+built-in kinds is :data:`~ftc_mj.estimation.kinds.BUILTIN_ESTIMATORS`)."""
 
 CONTROLLER_KINDS: dict[str, type[ControllerSettings]] = {
     "nmpc": NMPCSettings, "lmpc": LinearMPCSettings, "pf-nmpc": PathFollowingNMPCSettings,

@@ -6,40 +6,22 @@ Every registered factory takes the filter's own settings (the ``[estimator]`` se
 :class:`~ftc_mj.estimation.settings.PluginEstimatorSettings`) and the :class:`~ftc_mj.context.RunContext`
 (sensors' noise, nominal wheel radius, half track, initial pose) and returns an
 :class:`~ftc_mj.estimation.base.Estimator` (``None`` for ``none``: the run has no filter). A built-in
-registers its class's ``from_context`` with its settings model as ``section`` (listed by ``ftc-mj
-components``): a new built-in estimator is its module under :mod:`ftc_mj.estimation` (the class, its
-``Settings`` with its ``kind``) plus one ``estimators.register`` line here and its model's line in
-:data:`~ftc_mj.config.sections.ESTIMATOR_KINDS` (without that line its table validates as a plug-in's: the
-filter model's settings, the decision, ``options``).
+is registered here, from its line of :data:`~ftc_mj.estimation.kinds.BUILTIN_ESTIMATORS`, with its class's
+``from_context`` and its settings model as ``section`` (listed by ``ftc-mj components``): a new built-in
+estimator is its module under :mod:`ftc_mj.estimation` (the class and its ``Settings``) plus its line in
+that table, which also makes its model a member of the ``[estimator]`` section.
 """
 
 from __future__ import annotations
 
-import functools
-
 from ..config import RunConfig, run_context
-from ..context import RunContext
 from ..estimation.base import Estimator
-from ..estimation.ekf import EKF
-from ..estimation.imm import IMM
-from ..estimation.settings import NoFilterSettings
+from ..estimation.kinds import BUILTIN_ESTIMATORS
 from ..estimation.setup import FilterSetup
-from ..estimation.ukf import UKF
 from ..registry import BUILTIN, estimators
 
-
-def _none(settings: NoFilterSettings, context: RunContext) -> None:
-    """No filter: the run has no estimator (nor a decision, nor a policy that needs one)."""
-    return None
-
-
-estimators.register("ekf", EKF.from_context, origin=BUILTIN, section=EKF.Settings)
-estimators.register("ukf", UKF.from_context, origin=BUILTIN, section=UKF.Settings)
-estimators.register("imm-ekf", functools.partial(IMM.from_context, member="ekf"), origin=BUILTIN,
-                    section=IMM.MEMBER_SETTINGS["ekf"])
-estimators.register("imm-ukf", functools.partial(IMM.from_context, member="ukf"), origin=BUILTIN,
-                    section=IMM.MEMBER_SETTINGS["ukf"])
-estimators.register("none", _none, origin=BUILTIN, section=NoFilterSettings)
+for _name, _kind in BUILTIN_ESTIMATORS.items():
+    estimators.register(_name, _kind.factory, origin=BUILTIN, section=_kind.settings)
 
 
 def setup_from_config(cfg: RunConfig) -> FilterSetup:

@@ -1,77 +1,91 @@
 """A new built-in estimator is one module plus one registration (issue 39, acceptance 2).
 
-The module holds the class and names its settings model (``Settings``); the registration is one
-``estimators.register(name, Class.from_context, origin=BUILTIN, section=Class.Settings)`` line in
-:mod:`ftc_mj.wiring.estimation`. Nothing else changes: the config accepts the name, the wiring builds it,
-``ftc-mj components`` lists its settings from the model. (A kind whose model adds settings of its own also
-gives the model its line in ``ftc_mj.config.sections.ESTIMATOR_KINDS``, which makes it a member of the
-``[estimator]`` union; without it, as here, the table validates as a plug-in's: the filter model's settings.)
+The module holds the class and its settings model (``Settings``, with its ``kind``); the registration is its
+line in :data:`ftc_mj.estimation.kinds.BUILTIN_ESTIMATORS`. Nothing else changes: the wiring registers every
+line (:mod:`ftc_mj.wiring.estimation`), the ``[estimator]`` union has a member per line
+(:data:`ftc_mj.config.sections.ESTIMATOR_KINDS`), ``ftc-mj components`` lists the model's settings.
 """
 
 from __future__ import annotations
 
-import ast
-import importlib
+import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
-import numpy as np
+from ftc_mj.config.sections import ESTIMATOR_KINDS
+from ftc_mj.estimation.kinds import BUILTIN_ESTIMATORS
+from ftc_mj.registry import BUILTIN, estimators
 
-import ftc_mj.wiring.estimation as wiring
-from ftc_mj.config import RunConfig
-from ftc_mj.estimation import EKF, Measurement
-from ftc_mj.registry import BUILTIN, estimators, settings_listing
-from ftc_mj.wiring.estimation import build_estimator
+ROOT = Path(__file__).resolve().parents[2]
+MODULE = '''"""A second EKF with a setting of its own, written as a built-in is: the class and its settings model."""
 
-MODULE = '''"""A second EKF, written as a built-in is: the class and its settings model, in one module."""
+from typing import Literal
 
-from ftc_mj.estimation.setup import FilterSettings
+from ftc_mj.estimation.ekf import EKFSettings
 from ftc_mj.estimation.single import SingleFilter
+
+
+class SecondEKFSettings(EKFSettings):
+    """The EKF's settings and one more."""
+
+    kind: Literal["second-ekf"] = "second-ekf"
+    gain: float = 1.0
+    """A setting only this kind has."""
 
 
 class SecondEKF(SingleFilter):
     """The EKF's maths under another name."""
 
     member = "ekf"
-    Settings = FilterSettings
+    Settings = SecondEKFSettings
 '''
+SCRIPT = """
+import numpy as np
+from second_ekf import SecondEKF
+from ftc_mj.estimation.kinds import BUILTIN_ESTIMATORS, Kind
+BUILTIN_ESTIMATORS["second-ekf"] = Kind(SecondEKF.from_context, SecondEKF.Settings)  # the one registration
+from ftc_mj.config import RunConfig
+from ftc_mj.estimation import EKF, Measurement
+from ftc_mj.registry import estimators, settings_listing
+from ftc_mj.wiring.estimation import build_estimator
+cfg = RunConfig.model_validate({"estimator": {"kind": "second-ekf", "rate": 50.0, "gain": 2.0},
+                                "sensors": {"yaw_rate_sigma": 0.01}})
+built, ekf = build_estimator(cfg), build_estimator(RunConfig.model_validate(
+    {"estimator": {"kind": "ekf", "rate": 50.0}, "sensors": {"yaw_rate_sigma": 0.01}}))
+assert type(built) is SecondEKF and isinstance(ekf, EKF) and cfg.estimator.gain == 2.0 and built.setup.dt == 0.02
+for k in range(20):  # the same maths: the same estimates, bit for bit
+    u, z = np.array([5.0, 5.0 + 0.01 * k]), Measurement(10.0 + 0.01 * k, 0.001 * k)
+    np.testing.assert_array_equal(built.step(u, z).x, ekf.step(u, z).x)
+listing = chr(10).join(settings_listing(estimators))
+assert "second-ekf — [estimator] SecondEKFSettings:" in listing and "gain: float" in listing, listing
+try:
+    RunConfig.model_validate({"estimator": {"kind": "ekf", "gain": 2.0}})
+except Exception as err:
+    assert "gain: not a setting of estimator 'ekf' (a setting of second-ekf)" in str(err), err
+else:
+    raise AssertionError("gain accepted for the ekf")
+print("ok")
+"""
 
 
-def test_a_builtin_estimator_is_one_module_and_one_registration(tmp_path: Path, monkeypatch) -> None:
+def test_a_builtin_estimator_is_one_module_and_one_registration(tmp_path: Path) -> None:
+    """In a fresh process (the table is read when the config is imported): the module and its line in the
+    table make a kind the config validates with its own setting, the wiring builds (the EKF's estimates, bit
+    for bit) and ``ftc-mj components`` lists; its setting is another kind's only."""
     (tmp_path / "second_ekf.py").write_text(MODULE)
-    monkeypatch.syspath_prepend(str(tmp_path))
-    cls = importlib.import_module("second_ekf").SecondEKF
-    estimators.register("second-ekf", cls.from_context, origin=BUILTIN, section=cls.Settings)  # the registration
-    try:
-        cfg = RunConfig.model_validate({"estimator": {"kind": "second-ekf", "rate": 50.0},
-                                        "sensors": {"yaw_rate_sigma": 0.01}})
-        built = build_estimator(cfg)
-        assert type(built) is cls and built.setup.dt == 0.02
-        ekf = build_estimator(RunConfig.model_validate({"estimator": {"kind": "ekf", "rate": 50.0},
-                                                        "sensors": {"yaw_rate_sigma": 0.01}}))
-        assert isinstance(ekf, EKF)
-        for k in range(20):  # the same maths: the same estimates, bit for bit
-            u, z = np.array([5.0, 5.0 + 0.01 * k]), Measurement(10.0 + 0.01 * k, 0.001 * k)
-            np.testing.assert_array_equal(built.step(u, z).x, ekf.step(u, z).x)
-        listing = "\n".join(settings_listing(estimators))
-        assert "  second-ekf — [estimator] FilterSettings:" in listing
-        assert "    divergence_dwell: float in (0, 1e+06] = 1.0 — " in listing
-    finally:
-        estimators.unregister("second-ekf")
-        sys.modules.pop("second_ekf", None)
+    res = subprocess.run([sys.executable, "-c", textwrap.dedent(SCRIPT)], cwd=tmp_path, capture_output=True,
+                         text=True, timeout=300, env={"PYTHONPATH": f"{tmp_path}:{ROOT}", "PATH": "/usr/bin:/bin"})
+    assert res.returncode == 0 and res.stdout.strip() == "ok", res.stderr[-3000:]
 
 
-def test_each_builtin_estimator_is_one_registration_line() -> None:
-    """The wiring registers each built-in in one call, naming its class's ``from_context`` and ``Settings``
-    (``none`` has no class); the classes live in their own modules of :mod:`ftc_mj.estimation`."""
-    tree = ast.parse(Path(wiring.__file__).read_text())
-    calls = [n for n in ast.walk(tree) if isinstance(n, ast.Call) and ast.unparse(n.func) == "estimators.register"]
-    names = [n.args[0].value for n in calls]
-    assert sorted(names) == sorted(n for n in estimators.names() if estimators.get(n).origin == BUILTIN)
-    assert len(names) == len(set(names))
-    for name in names:
+def test_the_table_is_what_the_wiring_registers_and_the_config_composes() -> None:
+    """Every line of the table is registered with its factory and model, and is a member of the section."""
+    assert ESTIMATOR_KINDS == {k: kind.settings for k, kind in BUILTIN_ESTIMATORS.items()}
+    builtins = {n for n in estimators.names() if estimators.get(n).origin == BUILTIN}
+    assert builtins == set(BUILTIN_ESTIMATORS)
+    for name, kind in BUILTIN_ESTIMATORS.items():
         entry = estimators.get(name)
-        if name == "none":
-            continue
-        owner = getattr(entry.factory, "__self__", None) or entry.factory.func.__self__  # a partial for the IMMs
-        assert owner.__module__.startswith("ftc_mj.estimation.") and issubclass(entry.meta["section"], owner.Settings)
+        assert entry.factory == kind.factory and entry.meta["section"] is kind.settings
+
+

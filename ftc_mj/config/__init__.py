@@ -44,26 +44,21 @@ from .load import (
 from .schema import RunConfig, run_context
 from .sections import (
     ControllerConfig,
-    DecisionConfig,
-    DegradedConfig,
     EstimatorConfig,
-    ExcitationConfig,
     FaultSettings,
-    HypothesisConfig,
     ModelSettings,
     OutputConfig,
     PlantSettings,
     ReconfigurationConfig,
-    ReferenceConfig,
     RobotSettings,
 )
 
 __all__ = [
     "BUILTIN_SCENARIOS", "DEFAULT_MODEL_FILE", "FLOAT_BOUND", "MAX_TOML_BYTES", "NAME_RE", "OMEGA_MAX",
-    "ControllerConfig", "DecisionConfig", "DegradedConfig", "EstimatorConfig", "ExcitationConfig", "FaultSettings",
+    "ControllerConfig", "EstimatorConfig", "FaultSettings",
     "FiniteFloat",
-    "Flag", "Fraction", "HypothesisConfig", "ModelSettings", "NonNegFloat", "OutputConfig",
-    "PlantSettings", "PosFloat", "ReconfigurationConfig", "ReferenceConfig", "RobotSettings",
+    "Flag", "Fraction", "ModelSettings", "NonNegFloat", "OutputConfig",
+    "PlantSettings", "PosFloat", "ReconfigurationConfig", "RobotSettings",
     "RunConfig", "SafeName", "SensorSettings", "config_to_toml_dict", "existing_file", "from_sections",
     "load_config", "one_line", "parse_override", "parse_toml", "ranged", "ranged_int", "read_toml",
     "run_context", "scenario_path", "section", "set_dotted", "shown_value", "validate_config",

@@ -14,6 +14,7 @@ from pydantic import Field, Strict, model_validator
 from .. import registry
 from ..context import RunContext
 from ..control.nmpc import NMPCSettings
+from ..control.reference import ReferenceSettings
 from ..estimation.ukf import UKFSettings
 from ..fields import SafeName, StrictModel, ranged, ranged_int
 from ..model.sensors import SensorSettings
@@ -26,7 +27,6 @@ from .sections import (
     OutputConfig,
     PlantSettings,
     ReconfigurationConfig,
-    ReferenceConfig,
     RobotSettings,
 )
 
@@ -53,7 +53,7 @@ class RunConfig(StrictModel):
     estimator: EstimatorConfig = Field(default_factory=UKFSettings)
     controller: ControllerConfig = Field(default_factory=NMPCSettings)
     reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
-    reference: ReferenceConfig = Field(default_factory=ReferenceConfig)
+    reference: ReferenceSettings = Field(default_factory=ReferenceSettings)
     output: OutputConfig = Field(default_factory=OutputConfig)
 
     @model_validator(mode="before")

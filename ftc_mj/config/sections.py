@@ -36,11 +36,8 @@ from ..control.lmpc import LinearMPCSettings
 from ..control.nmpc import NMPCSettings
 from ..control.open_loop import OpenLoopSettings
 from ..control.pathfollow import PathFollowingNMPCSettings
-from ..control.reference import ReferenceSettings
 from ..control.robust import RobustNMPCSettings
 from ..control.spec import PluginControllerSettings
-from ..estimation.decision_settings import DecisionSettings
-from ..estimation.imm import HypothesisSettings
 from ..estimation.kinds import BUILTIN_ESTIMATORS
 from ..estimation.settings import EstimatorSettings, PluginEstimatorSettings
 from ..fields import (
@@ -54,16 +51,6 @@ from ..plant.settings import PlantSettings as PlantSettings
 from ..plant.settings import RobotSettings as RobotSettings
 from ..reconfiguration.degraded import DegradedSettings
 from ..reconfiguration.policies import ReconfigurationSettings
-
-DecisionConfig = DecisionSettings
-"""The ``[estimator.decision]`` section: :class:`~ftc_mj.estimation.decision_settings.DecisionSettings`."""
-HypothesisConfig = HypothesisSettings
-"""One member of ``estimator.imm_bank``: :class:`~ftc_mj.estimation.imm.HypothesisSettings`."""
-DegradedConfig = DegradedSettings
-"""``[reconfiguration.degraded]``: :class:`~ftc_mj.reconfiguration.degraded.DegradedSettings`."""
-ExcitationConfig = ExcitationSettings
-"""``[reconfiguration.excitation]``: :class:`~ftc_mj.control.excitation.ExcitationSettings`."""
-
 
 ESTIMATOR_KINDS: dict[str, type[EstimatorSettings]] = {k: kind.settings for k, kind in BUILTIN_ESTIMATORS.items()}
 """The built-in estimator kinds and their settings models (each declared beside its filter; the one table of
@@ -147,8 +134,6 @@ class ReconfigurationConfig(ReconfigurationSettings):
     degraded: DegradedSettings = Field(default_factory=DegradedSettings)
 
 
-ReferenceConfig = ReferenceSettings
-"""The reference path and its time law (:class:`~ftc_mj.control.reference.ReferenceSettings`)."""
 
 
 class OutputConfig(StrictModel):

@@ -9,14 +9,14 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from pydantic import Field, Strict, model_validator
+from pydantic import Field, SerializerFunctionWrapHandler, Strict, model_serializer, model_validator
 
 from .. import registry
 from ..context import RunContext
 from ..control.nmpc import NMPCSettings
 from ..control.reference import ReferenceSettings
 from ..estimation.ukf import UKFSettings
-from ..fields import SafeName, StrictModel, ranged, ranged_int
+from ..fields import Flag, SafeName, StrictModel, ranged, ranged_int
 from ..model.sensors import SensorSettings
 from ..plant.faults import SERVO_CLASSES, PlantFault, fault_class
 from .sections import (
@@ -55,6 +55,20 @@ class RunConfig(StrictModel):
     reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
     reference: ReferenceSettings = Field(default_factory=ReferenceSettings)
     output: OutputConfig = Field(default_factory=OutputConfig)
+    oracle: Flag = False
+    """The run is told the truth: the drawn plant's limits (:func:`~ftc_mj.sim.cache.robot_limits`) and the
+    ``truth`` policy. Set only by the benchmark's ``oracle`` row and by studies that compare against an oracle;
+    without it nothing a method's components receive depends on the drawn plant (docs/benchmark.md,
+    "Information rule")."""
+
+    @model_serializer(mode="wrap")
+    def _omit_no_oracle(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """The fields, without ``oracle`` when it is off: a run that is not an oracle keeps the identity (run
+        id, study key) it had before the flag existed."""
+        data = handler(self)
+        if not data.get("oracle"):
+            data.pop("oracle", None)
+        return data
 
     @model_validator(mode="before")
     @classmethod
@@ -104,6 +118,13 @@ class RunConfig(StrictModel):
         r_ctl = 1.0 / (self.controller.rate * dt)
         if abs(r_ctl / r_est - round(r_ctl / r_est)) > 1e-9:
             raise ValueError("controller.rate: the control period must be a multiple of the estimator period")
+        return self
+
+    @model_validator(mode="after")
+    def _oracle(self) -> RunConfig:
+        """Only an oracle run (``oracle = true``) is told the true radii (policy ``truth``)."""
+        if self.reconfiguration.policy == "truth" and not self.oracle:
+            raise ValueError("oracle: reconfiguration.policy = 'truth' tells the run the true radii; set oracle = true")
         return self
 
     @model_validator(mode="after")

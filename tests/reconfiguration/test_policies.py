@@ -44,7 +44,8 @@ def _dec(wheel: str | None) -> DecisionState:
 
 
 def _fb(policy: str, **kw: object) -> ReconfigurationPolicy:
-    return build_policy(load_config("scenario2", {"reconfiguration.policy": policy,
+    oracle = {"oracle": True} if policy == "truth" else {}  # only an oracle run is told the true radii
+    return build_policy(load_config("scenario2", {"reconfiguration.policy": policy, **oracle,
                                                     **{f"reconfiguration.{k}": v for k, v in kw.items()}}))
 
 
@@ -62,6 +63,16 @@ def test_feedback_alias_and_contradictions() -> None:
         load_config("scenario2", {"feedback": False, "reconfiguration.policy": "safe"})
     with pytest.raises(BadInput, match=r"^reconfiguration.policy: "):
         load_config("scenario2", {"reconfiguration.policy": "sometimes"})
+
+
+def test_truth_policy_needs_the_oracle_flag() -> None:
+    """The true radii reach a run only when it is declared an oracle; the flag stays out of a non-oracle
+    run's identity (its run id is the one it had before the flag existed)."""
+    with pytest.raises(BadInput, match=r"^oracle: reconfiguration.policy = 'truth'"):
+        load_config("scenario2", {"reconfiguration.policy": "truth"})
+    assert load_config("scenario2", {"reconfiguration.policy": "truth", "oracle": True}).oracle
+    assert "oracle" not in load_config("scenario2").model_dump()
+    assert load_config("scenario2", {"oracle": True}).model_dump()["oracle"] is True
 
 
 def test_none_direct_truth() -> None:

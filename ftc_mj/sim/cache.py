@@ -27,7 +27,9 @@ from ..control.pathfollow_spec import RobotLimits
 from ..identity import run_identity
 from ..plant import build_model
 from ..plant.limits import lateral_accel_limits
+from ..plant.settings import PlantSettings
 from ..registry import controllers
+from ..resources import model_digest
 from ..wiring.control import build_controller
 from ..wiring.plant import build_plant
 
@@ -69,19 +71,32 @@ def plant_for(cfg: RunConfig, store: dict[str, Any] | None = None) -> Any:
                   "plant", lambda: build_plant(cfg))
 
 
+def nominal_plant(cfg: RunConfig) -> PlantSettings:
+    """The robot a method may know (docs/benchmark.md, "Information rule"): the MJCF (``plant.model_file``,
+    ``variant``, the design's ``wheel_load_fraction``) with the model's geometry (``model.wheel_radius``,
+    ``model.half_track``) and nothing else of the ``[plant]`` section — never the tyre friction, servo gain,
+    masses or payload of the plant that runs, nor which simulator it is."""
+    p = cfg.plant
+    return PlantSettings(model_file=p.model_file, variant=p.variant, wheel_load_fraction=p.wheel_load_fraction,
+                         wheel_radius=cfg.model_wheel_radius, half_track=cfg.model_half_track)
+
+
 def robot_limits(cfg: RunConfig) -> RobotLimits:
-    """The robot's numbers for the path-following NMPC, derived from the MJCF with the config's edits
-    (:func:`~ftc_mj.plant.limits.lateral_accel_limits`): its lift-off lateral acceleration, the braking
-    trade-off and the servos' yaw compliance — 0 on the kinematic plant, which follows the commanded rates
-    exactly (cached per plant setup)."""
-    key = _key(cfg, ("plant", "robot"))
+    """The robot's numbers for the path-following NMPC (:func:`~ftc_mj.plant.limits.lateral_accel_limits`): its
+    lift-off lateral acceleration, the braking trade-off and the servos' yaw compliance, derived from the
+    nominal robot (:func:`nominal_plant`) — or, in an ``oracle`` run, from the plant that runs (the MJCF with the
+    config's edits; yaw compliance 0 on the kinematic plant, which follows the commanded rates exactly). Cached
+    per robot."""
+    plant = cfg.plant if cfg.oracle else nominal_plant(cfg)
+    ident = {**plant.model_dump(mode="json", exclude={"model_file"}), "model": model_digest(plant.model_file)}
+    key = json.dumps([ident, cfg.robot.model_dump(mode="json")], sort_keys=True, default=str)
     if key not in _limits:
-        lim = lateral_accel_limits(build_model(cfg.plant, cfg.robot))
+        lim = lateral_accel_limits(build_model(plant, cfg.robot))
         if len(_limits) >= _MAX_LIMITS:  # three floats each: a bounded memo, not a part
             _limits.pop(next(iter(_limits)))
         _limits[key] = RobotLimits(lim.liftoff, lim.yaw_compliance, lim.braking_trade)
     lim = _limits[key]
-    return lim if cfg.plant.kind == "mujoco" else dataclasses.replace(lim, yaw_compliance=0.0)
+    return lim if plant.kind == "mujoco" else dataclasses.replace(lim, yaw_compliance=0.0)
 
 
 def controller_for(cfg: RunConfig, reference: Any) -> Any:

@@ -181,7 +181,8 @@ def test_failures_fall_back_and_reset_repeats(built) -> None:
 
 def test_factory_and_sim_hand_over_the_robot_limits() -> None:
     """The factory needs the robot's lift-off limit (or an explicit bound); the sim layer derives it from the
-    MJCF, with the yaw compliance only on the MuJoCo plant. The sim layer's controller cache builds the controller
+    MJCF of the nominal robot (an oracle run's: of the plant that runs, with the yaw compliance only on the MuJoCo
+    plant). The sim layer's controller cache builds the controller
     with those limits (``build_controller(cfg, reference, robot_limits(cfg))``); with the MuJoCo run's controller
     settings below, that run reuses this build instead of making its own."""
     from ftc_mj.sim.cache import controller_for, robot_limits
@@ -198,8 +199,9 @@ def test_factory_and_sim_hand_over_the_robot_limits() -> None:
     assert ctl.spec.braking_trade == pytest.approx(lim.braking_trade) and ctl.spec.desired_speed == 10.0
     # its own actuation-rate weight (default 1), not the tracking NMPC's controller.rate_penalty (default 0)
     assert cfg.controller.rate_penalty == 0.0 and ctl.spec.problem.rate_penalty == 1.0
-    cfg.plant.kind = "kinematic"
-    assert robot_limits(cfg).yaw_compliance == 0.0
+    cfg.plant.kind = "kinematic"  # which simulator runs is not the method's to know; an oracle is told
+    assert robot_limits(cfg) == lim
+    assert robot_limits(cfg.model_copy(update={"oracle": True})).yaw_compliance == 0.0
     cfg.controller.path_following.max_lateral_accel = 2.5
     cfg.controller.path_following.braking_trade = False
     cfg.controller.path_following.rate_penalty = 0.25

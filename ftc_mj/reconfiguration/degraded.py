@@ -36,6 +36,19 @@ deviation of that radius: the allowance for the estimate's own scatter). A flagg
 *identified*: its interval stays open (or reopens), so the policy's hand-over does not end the mode while
 the estimate still moves, and the model keeps following the estimate down.
 
+**Drag evidence** (:class:`DragEvidence`, ``mode = "auto"``). Following the estimate down is right only where
+a tyre can be dragged: the estimate is an upper bound of the radius because the ground pulls the tyre off its
+rolling speed. A dragged tyre pulls on its wheel too, and a velocity servo carries that torque with a rate
+error (``F R / k_v``): the measured wheel rate leaves the command in force. Where the wheels follow their
+commands exactly (the ideal kinematic machine: no force on the tyres moves them) the estimate is the rolling
+radius itself, no bound to follow, and following it made scenarios 2 and 3 worse (docs/config-defaults.md).
+So ``auto`` arms the mode from the first evidence, on the measurements alone, that the wheels yield to the
+ground: a window's mean of measured minus commanded wheel rate (the command clipped to the rate limit)
+beyond :data:`DRAG_FLOOR` plus :data:`DRAG_K_SIGMA` standard errors of the encoder noise, on either wheel. Until
+then the mode hands the policy's radii through and no interval (as if it were off); once armed it stays armed.
+On the MuJoCo robot the servos' yaw couple on a curve (``plant/limits.py``) or the drag of a puncture arms it
+within half a no-slip window; nothing in it asks which simulator runs.
+
 **The mode.** A wheel is suspect from the first alarm: its estimate below nominal by the decision's
 ``k_sigma`` σ and ``min_drop`` (the sigma rule's candidate, before any dwell), the decision suspecting a
 fault it has not isolated (both wheels) or declaring one (the isolated wheels), or a failing no-slip test.
@@ -72,12 +85,14 @@ class DegradedSettings(StrictModel):
 
     mode: Literal["auto", "on", "off"] = "auto"
     """``auto`` (default): on with the ``safe`` policy, a controller registered to take radius intervals
-    (``pf-nmpc``), a sensor that tells the wheels apart (a yaw-rate gyro or position fixes) and a plant whose
-    tyres can slide (MuJoCo; on the kinematic plant the estimate is no upper bound and following it made
-    scenarios 2 and 3 worse, docs/config-defaults.md), else off;
-    ``on``: with any policy but ``none`` and ``truth`` (and such a controller); ``off``: never. From the first
-    alarm the model radius of a suspect wheel follows its estimate down; with it the pf-nmpc's lift-off after
-    a puncture fell from 0.25–1.05 s to 0.03–0.11 s on the development seeds 0–5 (docs/findings.md)."""
+    (``pf-nmpc``) and a sensor that tells the wheels apart (a yaw-rate gyro or position fixes), armed once the
+    measured wheel rates show the tyres can be dragged (:class:`DragEvidence`: where the wheels follow their
+    commands exactly the estimate is no upper bound, and following it made scenarios 2 and 3 worse on the
+    kinematic plant, docs/config-defaults.md), else off;
+    ``on``: with any policy but ``none`` and ``truth`` (and such a controller), armed from the start; ``off``:
+    never. From the first alarm the model radius of a suspect wheel follows its estimate down; with it the
+    pf-nmpc's lift-off after a puncture fell from 0.25–1.05 s to 0.03–0.11 s on the development seeds 0–5
+    (docs/findings.md)."""
     min_radius: PosFloat = 0.05
     """Smallest radius (m) a fault can leave: the floor of a suspect wheel's interval and model radius (the tyre
     down to its rim; scenario 4 deflates to 0.1 m)."""
@@ -130,6 +145,45 @@ class NoSlipCheck:
         self.moved = np.zeros(2)
 
 
+DRAG_FLOOR = 1.0e-3
+"""Smallest mean servo rate error (rad/s) taken as evidence that the wheels yield to ground forces (above the
+round-off of a kinematic plant's exact rates, far below the 0.01–0.2 rad/s of the MuJoCo robot's servos on a
+curve or dragging a punctured tyre)."""
+DRAG_K_SIGMA = 6.0
+"""Allowance of the drag evidence, in standard errors of a window's mean rate error under the encoder noise: the
+evidence latches, so a false one over a run's thousands of windows must be rare (one-sided tail 1e-9 each)."""
+
+
+class DragEvidence:
+    """Whether the measured wheel rates have left the commanded ones (module docstring, "Drag evidence"):
+    ``observe(measured, commanded)`` at every estimator step (rad/s; ``commanded`` ``None`` before the first
+    command); ``seen`` latches.
+
+    Args:
+        window: estimator steps averaged.
+        encoder_sigma: the encoder noise (rad/s) of one measured rate.
+        omega_max: the wheel-rate limit (rad/s) the commands are clipped to.
+    """
+
+    def __init__(self, window: int, encoder_sigma: float, omega_max: float) -> None:
+        self.window = max(1, int(window))
+        self.limit = DRAG_FLOOR + DRAG_K_SIGMA * float(encoder_sigma) / np.sqrt(self.window)
+        self.omega_max = float(omega_max)
+        self._e: deque[np.ndarray] = deque(maxlen=self.window)
+        self.seen = False
+
+    def observe(self, measured: np.ndarray, commanded: np.ndarray | None) -> None:
+        """This step's measured wheel rates against the command in force while they were reached (rad/s)."""
+        if self.seen or commanded is None:
+            return
+        e = np.asarray(measured, float) - np.clip(np.asarray(commanded, float), -self.omega_max, self.omega_max)
+        if not np.all(np.isfinite(e)):
+            return
+        self._e.append(e)
+        if len(self._e) == self.window:
+            self.seen = bool(np.any(np.abs(np.mean(self._e, axis=0)) > self.limit))
+
+
 class DegradedMode:
     """The radius interval from the first alarm and the skid-proof hand-over (module docstring).
 
@@ -139,7 +193,7 @@ class DegradedMode:
     """
 
     def __init__(self, settings: DegradedSettings, context: RunContext, k_sigma: float, min_drop: float,
-                 max_rate: float, max_sigma: float) -> None:
+                 max_rate: float, max_sigma: float, evidence: DragEvidence | None = None) -> None:
         self.settings = settings
         self.nominal = np.array(context.nominal_radii, dtype=float)
         self.min_radius = float(settings.min_radius)
@@ -149,6 +203,9 @@ class DegradedMode:
         self.max_step = max_rate * context.controller_dt
         self.max_sigma = float(max_sigma)
         self.dt = context.controller_dt
+        self.evidence = evidence
+        """``None``: armed from the start (``mode = "on"``); else armed once it has seen a drag."""
+        self._armed_told = False
         self.events: list[Event] = []
         self.active = False
         self._radii = self.nominal.copy()
@@ -157,9 +214,18 @@ class DegradedMode:
         self._identified = np.zeros(2, dtype=bool)  # the wheels whose interval collapsed (reopened by a skid)
         self._quiet = np.zeros(2)  # time (s) each open wheel has been without an alarm
 
-    def observe(self, out: FilterOutput) -> None:
-        """This estimator step's output (fed to the no-slip test)."""
+    def observe(self, out: FilterOutput, measured: np.ndarray | None = None, commanded: np.ndarray | None = None
+                ) -> None:
+        """This estimator step's output (fed to the no-slip test) and, for the drag evidence, the wheel rates
+        measured at it and the command in force while they were reached (rad/s)."""
         self.skid.observe(out)
+        if self.evidence is not None and not self.evidence.seen and measured is not None:
+            self.evidence.observe(measured, commanded)
+
+    @property
+    def armed(self) -> bool:
+        """Whether the mode acts (module docstring, "Drag evidence")."""
+        return self.evidence is None or self.evidence.seen
 
     def suspects(self, out: FilterOutput, decision: DecisionState | None) -> np.ndarray:
         """Per wheel (right, left): may be faulty — first alarm, suspected or declared fault, failing no-slip test."""
@@ -176,8 +242,12 @@ class DegradedMode:
                   policy_state: int) -> tuple[np.ndarray, RadiusInterval | None]:
         """The radii (m) for the controller's model and the interval (or ``None``) at ``t`` (s) from the policy's
         ``radii`` (m) and state, the filter output and the decision."""
-        if out is None:
+        if out is None or not self.armed:
             return np.asarray(radii, float).copy(), None
+        if self.evidence is not None and not self._armed_told:
+            self._armed_told = True
+            self.events.append(Event(t, "info", "degraded mode armed: the measured wheel rates leave their commands "
+                                                "(the tyres yield to ground forces)"))
         skid = np.array(self.skid.slipping)
         est = np.asarray(out.x[3:5], dtype=float)
         isolated = np.array(_WHEELS.get(decision.wheel or "", (False, False))) if (

@@ -246,6 +246,7 @@ class ClosedLoop:
                                     for wheel, t_on in self.run_record.onsets.items() if t_on is not None]
         self.events += fault_events(cfg)
         self.u_prev: np.ndarray | None = None
+        self.u_now: np.ndarray | None = None  # the wheel rates (rad/s) measured at the current step
         self.out: FilterOutput | None = None
         self.z: Measurement | None = None  # the measurement of the latest estimator step
         self.cmd = ControlOutput(omega=np.zeros(2))
@@ -277,6 +278,7 @@ class ClosedLoop:
         and :meth:`finish`, instead of :meth:`step`."""
         t = k * self.dt
         truth, reading, u_meas = self.sense(k, t)
+        self.u_now = u_meas
         if self.parts.estimator is not None:
             out, u_pred = self.estimate(reading, u_meas)
             ds = self.decide(t, out, u_pred)
@@ -328,8 +330,8 @@ class ClosedLoop:
         assert self.parts.decision is not None
         ds = self.parts.decision.update(t, out, u_pred, self.z)
         self.parts.policy.observe(out)
-        if self.parts.degraded is not None:
-            self.parts.degraded.observe(out)
+        if self.parts.degraded is not None:  # its drag evidence: the rates measured at t against the command held
+            self.parts.degraded.observe(out, self.u_now, self.applied)
         self.last_ds = ds
         self.suspected = ds.suspected
         return ds

@@ -5,7 +5,7 @@ config (the built-in policies register themselves with their settings model in
 from __future__ import annotations
 
 from ..config import ReconfigurationConfig, RunConfig, run_context
-from ..reconfiguration.degraded import DegradedMode
+from ..reconfiguration.degraded import DegradedMode, DragEvidence
 from ..reconfiguration.policies import ReconfigurationPolicy
 from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers, policies
@@ -47,20 +47,26 @@ def build_scenario_weighting(cfg: RunConfig) -> ScenarioWeighting | None:
 
 def build_degraded_mode(cfg: RunConfig) -> DegradedMode | None:
     """The degraded robust mode (``reconfiguration.degraded``) or ``None``: it needs a filter and a controller
-    registered with ``radius_intervals``; ``auto`` runs it with the ``safe`` policy, a sensor that tells the
-    wheels apart (a yaw-rate gyro or position fixes: with speed only one wheel's estimate bounds nothing) and a
-    plant whose tyres can slide (not the kinematic plant, where the estimate is no upper bound), ``on``
-    with any policy but ``none`` and ``truth``. The first alarm is the decision's ``k_sigma``/``min_drop``
-    departure."""
+    registered with ``radius_intervals``; ``auto`` runs it with the ``safe`` policy and a sensor that tells the
+    wheels apart (a yaw-rate gyro or position fixes: with speed only one wheel's estimate bounds nothing), armed
+    by the evidence on the measurements that the tyres can be dragged
+    (:class:`~ftc_mj.reconfiguration.degraded.DragEvidence`) — never by which simulator runs; ``on`` with any
+    policy but ``none`` and ``truth``, armed from the start. The first alarm is the decision's
+    ``k_sigma``/``min_drop`` departure."""
     rc = cfg.reconfiguration
     d = rc.degraded
     takes = _takes_intervals(cfg)
     separates = cfg.sensors.yaw_rate_sigma is not None or cfg.sensors.position_sigma is not None
-    if d.mode == "auto":  # the kinematic plant's tyres never slide: its estimate is no upper bound to follow
-        wanted = rc.policy == "safe" and separates and cfg.plant.kind != "kinematic"
+    if d.mode == "auto":
+        wanted = rc.policy == "safe" and separates
     else:
         wanted = d.mode == "on" and rc.policy not in ("none", "truth")
     if not takes or not wanted or cfg.estimator.kind == "none":
         return None
-    return DegradedMode(d, run_context(cfg), cfg.estimator.decision.k_sigma, cfg.estimator.decision.min_drop,
-                        rc.max_rate, rc.max_sigma)
+    ctx = run_context(cfg)
+    evidence = None
+    if d.mode == "auto":
+        window = max(1, round(0.5 * d.skid_window * cfg.estimator.rate))
+        evidence = DragEvidence(window, cfg.sensors.encoder_sigma, ctx.omega_max)
+    return DegradedMode(d, ctx, cfg.estimator.decision.k_sigma, cfg.estimator.decision.min_drop,
+                        rc.max_rate, rc.max_sigma, evidence)

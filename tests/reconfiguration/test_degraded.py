@@ -137,8 +137,9 @@ def test_an_unidentified_radius_block_is_not_followed() -> None:
 
 
 def test_the_mode_needs_a_policy_that_uses_the_filter_an_interval_controller_and_a_sensor_for_the_split() -> None:
-    """``auto`` (the default): on with the safe policy, the pf-nmpc, a gyro or position fixes and the MuJoCo plant —
-    not with speed only (the scenario's sensing), not with ``direct``, not on the kinematic plant; ``on`` needs a
+    """``auto`` (the default): on with the safe policy, the pf-nmpc, a gyro or position fixes, armed by the drag
+    evidence (on any plant: the simulator is not asked) — not with speed only (the scenario's sensing), not with
+    ``direct``; ``on`` (armed from the start) needs a
     controller that takes intervals and a policy that uses the filter, whatever the sensors and plant; ``off``
     never."""
     pf = {"controller.kind": "pf-nmpc"}
@@ -148,14 +149,36 @@ def test_the_mode_needs_a_policy_that_uses_the_filter_an_interval_controller_and
     assert build_degraded_mode(load_config("scenario2", {**pf, "sensors.position_sigma": 0.5})) is not None
     assert build_degraded_mode(load_config("scenario2", {**gyro, "reconfiguration.policy": "direct"})) is None
     assert build_degraded_mode(load_config("scenario2", {**gyro, "reconfiguration.degraded.mode": "off"})) is None
-    assert build_degraded_mode(load_config("scenario2", {**gyro, "plant.kind": "kinematic"})) is None
-    assert build_degraded_mode(load_config("scenario2", {**gyro, "plant.kind": "kinematic",
-                                                          "reconfiguration.degraded.mode": "on"})) is not None
+    kin = build_degraded_mode(load_config("scenario2", {**gyro, "plant.kind": "kinematic"}))
+    assert kin is not None and not kin.armed  # built whatever the simulator; armed by the measurements alone
+    on_kin = build_degraded_mode(load_config("scenario2", {**gyro, "plant.kind": "kinematic",
+                                                          "reconfiguration.degraded.mode": "on"}))
+    assert on_kin is not None and on_kin.armed
     on = {"reconfiguration.degraded.mode": "on"}
     assert build_degraded_mode(load_config("scenario2", {**on, "controller.kind": "nmpc"})) is None
     assert build_degraded_mode(load_config("scenario2", {**on, "controller.kind": "pf-nmpc",
                                                           "reconfiguration.policy": "none"})) is None
     assert build_degraded_mode(load_config("scenario2", {**on, "controller.kind": "pf-nmpc"})) is not None
+
+
+def test_drag_evidence_is_the_servo_rate_error_beyond_the_encoder_noise() -> None:
+    """Wheels that follow their commands exactly (clipped to the rate limit), even under encoder noise, never arm
+    the mode; a mean rate error of 0.02 rad/s on one wheel (the MuJoCo servos' on a curve) arms it once the window
+    is full; a command not yet given is no evidence."""
+    from ftc_mj.reconfiguration.degraded import DragEvidence
+
+    rng = np.random.default_rng(3)
+    exact = DragEvidence(25, 0.05, 10.0)
+    for _ in range(4000):
+        cmd = rng.uniform(-15.0, 15.0, 2)
+        exact.observe(np.clip(cmd, -10.0, 10.0) + 0.05 * rng.standard_normal(2), cmd)
+        exact.observe(np.array([3.0, 3.0]), None)
+    assert not exact.seen
+    dragged = DragEvidence(25, 0.0, 10.0)
+    for i in range(25):
+        assert not dragged.seen, i
+        dragged.observe(np.array([5.0, 4.98]), np.array([5.0, 5.0]))
+    assert dragged.seen
 
 
 def _skid_run(mode: str):
@@ -189,6 +212,8 @@ def test_in_the_loop_the_interval_bounds_the_skidding_tyre_from_above(skid_runs)
     entry = min(t for t, x in texts if x.startswith("degraded mode from the first alarm"))
     declared = min(t for t, x in texts if x.startswith("fault declared"))
     assert 5.0 <= entry < declared
+    armed = min(t for t, x in texts if x.startswith("degraded mode armed"))  # the servos' couple on the curve
+    assert armed < 1.0, armed
 
 
 def test_in_the_loop_the_mode_ends_the_skid_sooner(skid_runs) -> None:

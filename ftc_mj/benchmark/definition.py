@@ -140,6 +140,20 @@ class SensorDistribution(StrictModel):
     gyro: Prob
     gyro_sigma: Range
     pose_sigma: Range
+    pose_fix_sigma: Range | None = None
+    """The pose sensor's σ (m on x and y; its heading's σ is that per metre, rad), uniform: with it every draw has
+    a pose sensor and its controller takes the pose from it (``sensors.pose_source = "sensor"``); without it
+    (``ftc-v1``) the controller gets the true pose + ``pose_sigma`` noise."""
+    pose_fix_rate: Range | None = None
+    """The pose sensor's fix rate (Hz), uniform; given with ``pose_fix_sigma``."""
+
+    @model_validator(mode="after")
+    def _pose_sensor(self) -> SensorDistribution:
+        if (self.pose_fix_sigma is None) != (self.pose_fix_rate is None):
+            raise ValueError("pose_fix_rate: the pose sensor needs both pose_fix_sigma and pose_fix_rate")
+        if self.pose_fix_sigma is not None and (self.pose_fix_sigma.low <= 0 or self.pose_fix_rate.low <= 0):
+            raise ValueError("pose_fix_sigma: the pose sensor's σ and rate must be positive")
+        return self
 
 
 class SeedRanges(StrictModel):
@@ -185,6 +199,15 @@ class BenchmarkDefinition(StrictModel):
         """Import the ``plugins`` modules before the fault classes are checked."""
         registry.load_plugins_of(data)
         return data
+
+    @model_validator(mode="after")
+    def _pose_faults_need_the_sensor(self) -> BenchmarkDefinition:
+        """A pose fault class needs the pose sensor on every draw (``sensors.pose_fix_sigma``)."""
+        drawn = drawn_classes()
+        for kind, p in self.fault.classes.items():
+            if kind != "none" and p > 0 and "pose" in drawn[kind].targets and self.sensors.pose_fix_sigma is None:
+                raise ValueError(f"fault.classes.{kind}: a pose fault needs the pose sensor (sensors.pose_fix_sigma)")
+        return self
 
     @model_validator(mode="after")
     def _splits(self) -> BenchmarkDefinition:

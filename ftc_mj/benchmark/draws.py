@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -72,6 +72,11 @@ class Draw:
     speed_sigma: float
     gyro_sigma: float | None
     pose_sigma: float
+    pose_fix_sigma: float | None = None
+    """The pose sensor's σ (m; its heading's: that per metre, rad); ``None``: no pose sensor, the controller gets the
+    true pose + ``pose_sigma`` noise (``ftc-v1``)."""
+    pose_fix_rate: float | None = None
+    """The pose sensor's fix rate (Hz)."""
     nominal_radius: float = field(default_factory=lambda: float(RobotSettings().wheel_radius))
     plugins: tuple[str, ...] = ()
     """The definition's plug-in modules (its runs name them in ``plugins``)."""
@@ -101,6 +106,8 @@ class Draw:
                    payload_offset_z=self.payload_offset[2], path=self.path, path_radius=self.path_radius,
                    direction=self.direction, speed=self.speed, speed_sigma=self.speed_sigma,
                    gyro=self.gyro_sigma is not None, gyro_sigma=self.gyro_sigma, pose_sigma=self.pose_sigma)
+        if self.pose_fix_sigma is not None:
+            out.update(pose_fix_sigma=self.pose_fix_sigma, pose_fix_rate=self.pose_fix_rate)
         return out
 
     def scenario(self, *, with_faults: bool = True) -> dict[str, Any]:
@@ -112,6 +119,8 @@ class Draw:
         sensors: dict[str, Any] = {"speed_sigma": self.speed_sigma, "pose_sigma": self.pose_sigma}
         if self.gyro_sigma is not None:
             sensors["yaw_rate_sigma"] = self.gyro_sigma
+        if self.pose_fix_sigma is not None:  # the information rule: the controller's pose from the pose sensor
+            sensors.update(position_sigma=self.pose_fix_sigma, position_rate=self.pose_fix_rate, pose_source="sensor")
         plant: dict[str, Any] = {"tyre_friction": self.tyre_friction, "actuator_gain": self.actuator_gain}
         if self.payload_mass > 0:
             plant.update(payload_mass=self.payload_mass, payload_offset=list(self.payload_offset))
@@ -228,10 +237,15 @@ def draw(split: str, index: int, version: str = "ftc-v1", key: bytes | None = No
     gsig = float(math.exp(rng.uniform(math.log(s.gyro_sigma.low), math.log(s.gyro_sigma.high))))
     pl = d.plant
     payload = (uniform(rng, pl.payload_offset_x), uniform(rng, pl.payload_offset_y), uniform(rng, pl.payload_offset_z))
-    return Draw(
+    out = Draw(
         version=d.version, split=split, index=index, seed=seed, duration=d.duration, faults=faults,
         tyre_friction=round(uniform(rng, pl.tyre_friction), 4), actuator_gain=round(uniform(rng, pl.actuator_gain), 1),
         payload_mass=round(uniform(rng, pl.payload_mass), 2), payload_offset=tuple(round(v, 3) for v in payload),
         path=kind, path_radius=radius, direction=direction, speed=speed,
         speed_sigma=round(uniform(rng, s.speed_sigma), 4), gyro_sigma=round(gsig, 5) if gyro else None,
         pose_sigma=round(uniform(rng, s.pose_sigma), 4), plugins=tuple(d.plugins))
+    if s.pose_fix_sigma is None or s.pose_fix_rate is None:
+        return out
+    # drawn last: a version without the pose sensor keeps its streams
+    sigma = round(uniform(rng, s.pose_fix_sigma), 4)
+    return replace(out, pose_fix_sigma=sigma, pose_fix_rate=round(uniform(rng, s.pose_fix_rate), 2))

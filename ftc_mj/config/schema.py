@@ -138,12 +138,16 @@ class RunConfig(StrictModel):
 
     @model_validator(mode="after")
     def _faults_fit_plant(self) -> RunConfig:
-        """A gyro fault needs a gyro (``sensors.yaw_rate_sigma``); a plant fault needs a plant its class acts on
+        """A gyro fault needs a gyro (``sensors.yaw_rate_sigma``), a pose fault the pose sensor
+        (``sensors.position_sigma``); a plant fault needs a plant its class acts on
         (the kinematic plant has no servo, so of the actuator faults it takes only ``lock``: its wheel rates are
         the commands)."""
         for i, f in enumerate(self.faults.sensor):
             if f.sensor == "yaw_rate" and self.sensors.yaw_rate_sigma is None:
                 raise ValueError(f"faults.sensor[{i}].sensor: 'yaw_rate' needs a gyro (set sensors.yaw_rate_sigma)")
+            if f.sensor == "pose" and self.sensors.position_sigma is None:
+                raise ValueError(f"faults.sensor[{i}].sensor: 'pose' needs the pose sensor "
+                                 "(set sensors.position_sigma)")
         for i, f in enumerate(self.faults.actuator):
             if self.plant.kind not in SERVO_CLASSES[f.kind].plants:
                 raise ValueError(f"faults.actuator[{i}].kind: {f.kind!r} needs a servo (plant.kind = 'mujoco'); "

@@ -3,8 +3,12 @@
 Every :meth:`Sensors.read` draws the same fixed block of standard normals, whichever sensors are configured, so
 a run is deterministic for a given config and seed, and switching a sensor on or off does not change the noise
 sequence of the others (e.g. adding a gyro leaves the speed noise identical). Sensor faults
-(:mod:`~ftc_mj.plant.faults.sensor`: bias, drift, dropout of the speed sensor or the gyro, and plug-in
-sensor fault classes) act on top of the noise and draw nothing.
+(:mod:`~ftc_mj.plant.faults.sensor`: bias, drift, dropout of the speed sensor or the gyro, bias, jump,
+dropout of the pose sensor, and plug-in sensor fault classes) act on top of the noise and draw nothing.
+
+The pose sensor's fix ``(x, y, psi)`` is due at ``position_rate``: its ``x, y`` noise are the position fix's
+draws, its heading noise the draw the controller's ``pose_sigma`` noise uses (a run's pose source uses one
+of the two), so the noise of every other sensor is the same with or without it.
 """
 
 from __future__ import annotations
@@ -35,9 +39,13 @@ class SensorReading:
             the sensor drops out.
         yaw_rate: gyro, yaw rate + N(0, yaw_rate_sigma^2) (rad/s), + a fault's offset; NaN while it drops out;
             ``None`` without a gyro.
-        position: ``[x, y]`` + N(0, position_sigma^2 I) (m) when a fix is due at ``position_rate``; else ``None``.
+        position: ``[x, y]`` + N(0, position_sigma^2 I) (m) when a fix is due at ``position_rate``, displaced by a
+            pose fault; else (or while the pose sensor drops out) ``None``.
         omega_R, omega_L: encoder wheel rates + N(0, encoder_sigma^2) (rad/s).
-        pose: ``[x, y, psi]`` handed to the controller (m, m, rad), + N(0, pose_sigma^2 I) when ``pose_sigma > 0``.
+        pose: the true ``[x, y, psi]`` (m, m, rad), + N(0, pose_sigma^2 I) when ``pose_sigma > 0`` (the controller's
+            pose with ``pose_source = "truth"``).
+        pose_fix: the pose sensor's ``[x, y, psi]`` fix (m, m, rad; its ``x, y`` are :attr:`position`, its heading
+            + N(0, heading σ²)) when one is delivered; else ``None``.
     """
 
     t: float
@@ -47,6 +55,7 @@ class SensorReading:
     omega_R: float
     omega_L: float
     pose: np.ndarray
+    pose_fix: np.ndarray | None = None
 
 
 class Sensors:
@@ -65,6 +74,7 @@ class Sensors:
         self.faults = SensorFaults(sensor_faults_of(faults))
         self._faulty = bool(self.faults)  # read at every sample: a plain attribute, not a __bool__ call
         self._fix_period = 1.0 / float(settings.position_rate)
+        self._heading_sigma = settings.fix_heading_sigma
         self.reset()
 
     def reset(self) -> None:
@@ -81,9 +91,13 @@ class Sensors:
         yaw = None if c.yaw_rate_sigma is None else truth.yaw_rate + c.yaw_rate_sigma * e[1]
         if self._faulty:
             speed, yaw = self.faults.apply(t, speed, yaw)
-        position = None
+        position = fix = None
         if c.position_sigma is not None and t + _EPS_T >= self._next_fix:
-            position = np.array([truth.x + c.position_sigma * e[2], truth.y + c.position_sigma * e[3]])
+            fix = np.array([truth.x + c.position_sigma * e[2], truth.y + c.position_sigma * e[3],
+                            truth.psi + self._heading_sigma * e[8]])
+            if self._faulty:
+                fix = self.faults.pose(t, fix)
+            position = None if fix is None else fix[:2].copy()
             # next fix: the first multiple of the period after t
             self._next_fix = (math.floor((t + _EPS_T) / self._fix_period) + 1) * self._fix_period
         s = c.encoder_sigma
@@ -94,4 +108,5 @@ class Sensors:
             pose = np.array([truth.x + ps * e[6], truth.y + ps * e[7], truth.psi + ps * e[8]])
         else:
             pose = np.array([truth.x, truth.y, truth.psi])
-        return SensorReading(t=t, speed=speed, yaw_rate=yaw, position=position, omega_R=wR, omega_L=wL, pose=pose)
+        return SensorReading(t=t, speed=speed, yaw_rate=yaw, position=position, omega_R=wR, omega_L=wL, pose=pose,
+                             pose_fix=fix)

@@ -14,9 +14,10 @@ fixed sequence of named steps:
 3. on a controller sample, ``reconfigure``: the policy chooses the radii (a robust NMPC with
    ``posterior`` weighting is first handed the filter's scenario weights,
    :mod:`ftc_mj.reconfiguration.scenario_weights`);
-   ``control``: the controller solves from the pose the sensors read at ``t_k`` (the true pose, plus
-   ``sensors.pose_sigma`` noise drawn by :class:`~ftc_mj.plant.Sensors`), optionally dithered while a
-   fault is suspected but not isolated; ``apply``: its command is held on the plant from ``t_k``;
+   ``control``: the controller solves from its pose at ``t_k`` (:meth:`ClosedLoop.controller_pose`: with
+   ``sensors.pose_source = "truth"`` the true pose plus ``sensors.pose_sigma`` noise drawn by
+   :class:`~ftc_mj.plant.Sensors`; with ``"sensor"`` the pose sensor's, through the filter), optionally
+   dithered while a fault is suspected but not isolated; ``apply``: its command is held on the plant from ``t_k``;
 4. ``record``: the row is complete; the plant advances to ``t_{k+1}``.
 
 The trace is buffered in preallocated arrays (:class:`~ftc_mj.sim.trace.TraceWriter`); nothing is
@@ -247,6 +248,8 @@ class ClosedLoop:
         self.events += fault_events(cfg)
         self.u_prev: np.ndarray | None = None
         self.u_now: np.ndarray | None = None  # the wheel rates (rad/s) measured at the current step
+        self.last_fix = np.array(cfg.plant.initial_pose, dtype=float)  # the pose sensor's latest fix (m, m, rad)
+        self.pose_from_sensor = cfg.sensors.pose_source == "sensor"
         self.out: FilterOutput | None = None
         self.z: Measurement | None = None  # the measurement of the latest estimator step
         self.cmd = ControlOutput(omega=np.zeros(2))
@@ -279,6 +282,8 @@ class ClosedLoop:
         t = k * self.dt
         truth, reading, u_meas = self.sense(k, t)
         self.u_now = u_meas
+        if reading.pose_fix is not None:
+            self.last_fix = reading.pose_fix
         if self.parts.estimator is not None:
             out, u_pred = self.estimate(reading, u_meas)
             ds = self.decide(t, out, u_pred)
@@ -376,7 +381,7 @@ class ClosedLoop:
         suspected but not isolated (and the excitation is on), a yaw-rate dither is added."""
         cfg = self.cfg
         exc = cfg.reconfiguration.excitation
-        cmd = self.parts.controller.solve(t, rd.pose, radii, self.applied)
+        cmd = self.parts.controller.solve(t, self.controller_pose(rd), radii, self.applied)
         check_command(cmd.omega, t, cfg.controller.kind, self.parts.controller)
         if exc.enabled and self.suspected:
             dither = yaw_dither(t, exc.amplitude, exc.period)
@@ -384,6 +389,18 @@ class ClosedLoop:
                                            cfg.robot.omega_max, *step_bound(cfg, self.applied))
             self.trace.excitation(k, dither)
         return cmd
+
+    def controller_pose(self, rd: SensorReading) -> np.ndarray:
+        """The pose ``[x, y, psi]`` (m, m, rad) the controller is given: ``pose_source = "truth"``: the reading's
+        (true pose + ``pose_sigma`` noise); ``"sensor"``: the filter's pose estimate, which has just taken in
+        this step's fix if one came and carries the last ones forward with the measured wheel rates between
+        fixes and through a dropout (the information a real robot has, fused once) — without a filter, the
+        last fix held."""
+        if not self.pose_from_sensor:
+            return rd.pose
+        if self.out is not None:
+            return np.array(self.out.x[:3], dtype=float)
+        return self.last_fix.copy()
 
     def apply(self, k: int, t: float, cmd: ControlOutput) -> None:
         """Hold ``cmd`` on the plant from ``t`` (s); record the solve (and a fallback event)."""

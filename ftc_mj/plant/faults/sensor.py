@@ -1,4 +1,5 @@
-"""Faults of the speed sensor and the yaw-rate gyro: bias, drift and dropout.
+"""Faults of the speed sensor and the yaw-rate gyro (bias, drift, dropout) and of the pose sensor (bias, jump,
+dropout).
 
 Each fault acts on one sensor's reading from ``onset`` for ``duration`` seconds (s), on top of the
 truth and the sensor's Gaussian noise (the noise draws are the same with or without faults, so a
@@ -12,9 +13,20 @@ faulty run differs from its healthy twin by the fault alone):
 - ``dropout``: the sensor delivers nothing — a loose connector, a bus that drops frames. The reading
   is NaN; the simulation loop hands the filter the channels still present (predict only when none is).
 
+The pose sensor's fix ``(x, y, psi)`` (:mod:`ftc_mj.model.sensors`) takes an offset of ``size`` metres as a
+displacement of its position by ``size`` m along the 45° diagonal (north-east for ``size > 0``: the offset a
+wrong datum or a lever arm gives, in the world frame) with its heading untouched:
+
+- ``bias`` (m): a constant displacement for the whole run — a mis-surveyed base station or antenna offset.
+- ``jump`` (m): a displacement for ``duration`` seconds, then the fix returns — a multipath or re-acquisition
+  step (a GNSS receiver settling on a wrong solution).
+- ``dropout``: no fix is delivered (the filter predicts; the controller's pose is its estimate, or without a
+  filter the last fix held).
+
 Faults on one sensor add (their offsets sum; a dropout hides them). At a sample time ``t`` (s) a fault
 acts when ``onset ≤ t < onset + duration`` (to 1 ns). The classes: ``speed_bias``, ``speed_drift``,
-``speed_dropout``, ``gyro_bias``, ``gyro_drift``, ``gyro_dropout`` (:data:`SENSOR_CLASSES`).
+``speed_dropout``, ``gyro_bias``, ``gyro_drift``, ``gyro_dropout``, ``pose_bias``, ``pose_jump``,
+``pose_dropout`` (:data:`SENSOR_CLASSES`).
 """
 
 from __future__ import annotations
@@ -31,29 +43,38 @@ from ...fields import FiniteFloat, StrictModel, ranged
 from .base import Param, Sample, SensorFault
 from .servo import FaultTime
 
-SENSORS = ("speed", "yaw_rate")
+SENSORS = ("speed", "yaw_rate", "pose")
 """The sensors that can fail (``faults.sensor[i].sensor``)."""
+SENSOR_MODES: dict[str, tuple[str, ...]] = {"speed": ("bias", "drift", "dropout"),
+                                            "yaw_rate": ("bias", "drift", "dropout"),
+                                            "pose": ("bias", "jump", "dropout")}
+"""The fault modes of each sensor."""
+POSE_DIRECTION = (math.sqrt(0.5), math.sqrt(0.5))
+"""The unit vector (world x, y) along which a pose fault's offset displaces the fix."""
 
 SENSOR_COLUMNS: dict[str, tuple[str, str]] = {s: (f"fault_{s}_offset", f"fault_{s}_dropout") for s in SENSORS}
-"""Trace columns of a run with faults of each sensor: the injected offset (m/s or rad/s; 0 without one)
+"""Trace columns of a run with faults of each sensor: the injected offset (m/s, rad/s or m; 0 without one)
 and the dropout flag (1 while the samples are missing, else 0)."""
 
 _EPS_T = 1e-9
-_PREFIX = {"speed": "speed", "yaw_rate": "gyro"}
-_UNIT = {"speed": "m/s", "yaw_rate": "rad/s"}
+_PREFIX = {"speed": "speed", "yaw_rate": "gyro", "pose": "pose"}
+_UNIT = {"speed": "m/s", "yaw_rate": "rad/s", "pose": "m"}
+_COMPONENT = {"speed": "speed sensor", "yaw_rate": "gyro", "pose": "pose sensor"}
+_OBSERVED_BY = {"speed": ("speed",), "yaw_rate": ("yaw_rate",), "pose": ("position",)}
 
 
 class SensorFaultSettings(StrictModel):
     """One fault of a sensor (``[[faults.sensor]]``) from ``onset`` for ``duration`` seconds.
 
-    ``bias``: a constant offset ``size`` (m/s for the speed sensor, rad/s for the gyro); ``drift``: an
-    offset growing at ``size`` per second (m/s², rad/s²) from 0 at the onset; ``dropout``: the samples
-    are missing (NaN in the reading; the filters update with the channels present). The physics of each:
+    ``bias``: a constant offset ``size`` (m/s for the speed sensor, rad/s for the gyro, m for the pose sensor);
+    ``drift``: an offset growing at ``size`` per second (m/s², rad/s²) from 0 at the onset; ``jump`` (pose
+    sensor): a displacement of ``size`` m for ``duration`` s; ``dropout``: the samples are missing (NaN in the
+    reading, no pose fix; the filters update with the channels present). The physics of each:
     :mod:`ftc_mj.plant.faults.sensor`.
     """
 
-    sensor: Literal["speed", "yaw_rate"]
-    kind: Literal["bias", "drift", "dropout"]
+    sensor: Literal["speed", "yaw_rate", "pose"]
+    kind: Literal["bias", "drift", "jump", "dropout"]
     onset: FaultTime
     size: FiniteFloat | None = None
     """``bias``: the offset (m/s or rad/s); ``drift``: its growth rate (m/s² or rad/s²); not for ``dropout``."""
@@ -62,7 +83,10 @@ class SensorFaultSettings(StrictModel):
 
     @model_validator(mode="after")
     def _size_for_offsets(self) -> SensorFaultSettings:
-        """``size`` is given for a ``bias`` or ``drift`` and not for a ``dropout``."""
+        """A mode of the sensor (:data:`SENSOR_MODES`); ``size`` is given for an offset and not for a ``dropout``."""
+        if self.kind not in SENSOR_MODES[self.sensor]:
+            raise ValueError(f"kind: {self.kind!r} is not a fault of the {self.sensor} sensor "
+                             f"({', '.join(SENSOR_MODES[self.sensor])})")
         if self.kind != "dropout" and self.size is None:
             raise ValueError(f"size: a {self.kind!r} needs its size (m/s or rad/s; per second for a drift)")
         if self.kind == "dropout" and self.size is not None:
@@ -128,6 +152,31 @@ class Drift(BuiltinSensorFault):
         return size * elapsed
 
 
+class Jump(BuiltinSensorFault):
+    """A displacement for a while, then the fix returns."""
+
+    mode = "jump"
+
+    def reading(self, elapsed: float) -> tuple[float, bool]:
+        return float(self.settings.size), False
+
+    @classmethod
+    def offset_profile(cls, size: float, elapsed: Any) -> Any:
+        return size * np.ones_like(elapsed)
+
+    @classmethod
+    def draw(cls, kind: str, sample: Sample, sign: float) -> dict[str, float]:
+        """The jump's size (m, random sign) and duration (s)."""
+        return {"size": round(sign * sample(kind), 5), "duration": round(sample(f"{kind}_duration"), 3)}
+
+    @classmethod
+    def add_to(cls, faults: dict[str, Any], kind: str, target: str, onset: float, drawn: Mapping[str, float],
+               nominal: float) -> None:
+        """A ``[[faults.sensor]]`` table with its size and duration."""
+        faults.setdefault("sensor", []).append({"sensor": target, "kind": cls.mode, "onset": onset,
+                                                "size": drawn["size"], "duration": drawn["duration"]})
+
+
 class Dropout(BuiltinSensorFault):
     """The samples are missing (NaN)."""
 
@@ -155,19 +204,22 @@ class Dropout(BuiltinSensorFault):
 def _sensor_class(base: type[BuiltinSensorFault], sensor: str) -> type[BuiltinSensorFault]:
     """``base`` on ``sensor``: its name, component, unit, ranges and drawn name."""
     name = f"{_PREFIX[sensor]}_{base.mode}"
-    unit = {"bias": _UNIT[sensor], "drift": _UNIT[sensor] + "²", "dropout": "s"}[base.mode]
+    unit = {"bias": _UNIT[sensor], "drift": _UNIT[sensor] + "²", "jump": _UNIT[sensor], "dropout": "s"}[base.mode]
     params = getattr(base, "params", None) or {
-        "size": Param(unit, -1.0e6, 1.0e6, "the offset" if base.mode == "bias" else "the offset's growth rate")}
-    ranges = ("dropout_duration",) if base.mode == "dropout" else (name,)
-    attrs = {"name": name, "sensor": sensor, "component": "speed sensor" if sensor == "speed" else "gyro",
-             "targets": (sensor,), "unit": unit, "params": params, "observed_by": (sensor,),
+        "size": Param(unit, -1.0e6, 1.0e6, "the offset's growth rate" if base.mode == "drift" else "the offset")}
+    if base.mode == "jump":
+        params = {**params, "duration": Param("s", 0.0, 1.0e9, "how long the fix is displaced", low_open=True)}
+    ranges = {"dropout": ("dropout_duration",), "jump": (name, f"{name}_duration")}.get(base.mode, (name,))
+    attrs = {"name": name, "sensor": sensor, "component": _COMPONENT[sensor],
+             "targets": (sensor,), "unit": unit, "params": params, "observed_by": _OBSERVED_BY[sensor],
              "drawn_as": {name: ranges}, "__doc__": f"The {sensor} sensor: {base.__doc__[0].lower()}{base.__doc__[1:]}",
              "config": f'`[[faults.sensor]]` `sensor = "{sensor}"`, `kind = "{base.mode}"`'}
     return type("".join(p.capitalize() for p in name.split("_")), (base,), attrs)
 
 
+_MODE_CLASSES = {"bias": Bias, "drift": Drift, "jump": Jump, "dropout": Dropout}
 SENSOR_CLASSES: dict[str, type[BuiltinSensorFault]] = {
-    c.name: c for c in (_sensor_class(b, s) for s in SENSORS for b in (Bias, Drift, Dropout))}
+    c.name: c for c in (_sensor_class(_MODE_CLASSES[m], s) for s in SENSORS for m in SENSOR_MODES[s])}
 """The sensor fault classes by name (the ``fault_class`` of a ``[[faults.sensor]]`` table)."""
 
 for _cls in SENSOR_CLASSES.values():
@@ -213,6 +265,16 @@ class SensorFaults:
             off, missing = self.effect("yaw_rate", t)
             yaw_rate = math.nan if missing else yaw_rate + off
         return speed, yaw_rate
+
+    def pose(self, t: float, fix: np.ndarray) -> np.ndarray | None:
+        """The pose sensor's fix ``[x, y, psi]`` (m, m, rad) at ``t`` (s) with the faults: displaced by the
+        offsets along :data:`POSE_DIRECTION`, ``None`` while it drops out."""
+        off, missing = self.effect("pose", t)
+        if missing:
+            return None
+        if off:
+            fix = fix + np.array([off * POSE_DIRECTION[0], off * POSE_DIRECTION[1], 0.0])
+        return fix
 
     def truth(self, t: float) -> dict[str, float]:
         """The trace values (:data:`SENSOR_COLUMNS` of the faulty sensors) at ``t`` (s)."""

@@ -283,7 +283,7 @@ def _report_run(outcome: Any, cfg: Any, quiet: bool, scenario: str) -> None:
     else:
         from .sim.summary import print_run_summary
 
-        print_run_summary(outcome, cfg.reconfiguration.max_sigma, scenario, 1.0 / cfg.estimator.rate)
+        print_run_summary(outcome, cfg.reconfiguration.max_sigma, scenario, 1.0 / cfg.estimator.rate, cfg.sensors)
     status = outcome.metrics["status"]
     if status == "unstable":
         typer.echo(f"ftc-mj: physics unstable: {outcome.metrics['error']}", err=True)

@@ -16,6 +16,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..metrics.outcome import NOT_JUDGED
+from ..model.sensors import SensorSettings
 from .run import RunOutcome
 
 SUMMARY_ROWS: tuple[tuple[str, str, str], ...] = (
@@ -186,12 +187,22 @@ def outcome_lines(m: dict[str, Any]) -> list[tuple[str, str]]:
     return lines
 
 
+def pose_source_line(sensors: SensorSettings) -> str:
+    """Where the run's controller took its pose from (``sensors.pose_source``), in one line."""
+    if sensors.pose_source == "sensor":
+        return (f"controller pose: the pose sensor (σ {sensors.position_sigma:g} m, {sensors.fix_heading_sigma:g} rad "
+                f"at {sensors.position_rate:g} Hz), through the filter (sensors.pose_source = \"sensor\")")
+    noise = f" + N(0, {sensors.pose_sigma:g}²) noise" if sensors.pose_sigma > 0 else ""
+    return f"controller pose: the true pose{noise} (sensors.pose_source = \"truth\", the paper's)"
+
+
 def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None, scenario: str | None = None,
-                      sample_s: float | None = None) -> None:
+                      sample_s: float | None = None, sensors: SensorSettings | None = None) -> None:
     """Print the key metrics of a run (with units) and where its files are. ``max_sigma`` (m) is the
     safe policy's identification bound, for the note on a nominal hold; ``scenario`` the scenario as the
     user named it (a built-in name or a file), for the command the note suggests; ``sample_s`` the trace's
-    sample period (s), to which times are rounded."""
+    sample period (s), to which times are rounded; ``sensors`` the run's sensors, to say where the
+    controller's pose came from (:func:`pose_source_line`)."""
     m, trace = outcome.metrics, outcome.result.trace
     table = Table(title=f"run {outcome.run_id}", show_header=True)
     table.add_column("metric")
@@ -222,5 +233,7 @@ def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None, scena
     note = nominal_hold_note(m, trace, max_sigma, scenario)
     if note:
         console.print(note, soft_wrap=True)
+    if sensors is not None:
+        console.print(pose_source_line(sensors), soft_wrap=True)
     if outcome.run_dir is not None:
         console.print(f"written: {outcome.run_dir}")

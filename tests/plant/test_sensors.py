@@ -108,3 +108,82 @@ def test_the_loop_hands_the_controller_the_sensors_pose(monkeypatch) -> None:
         np.testing.assert_array_equal(pose, readings[10 * j].pose)
     truth = np.stack([res.trace[c][::10] for c in ("x", "y", "psi")], axis=1)
     assert np.all(np.abs(np.array(poses) - truth) > 0)  # noise on every coordinate
+
+
+def _pose_faulty(*faults: dict) -> Sensors:
+    from ftc_mj.plant.faults import FaultSettings
+
+    cfg = SensorSettings(position_sigma=0.05, position_rate=10.0, pose_source="sensor")
+    return Sensors(cfg, seed=7, faults=FaultSettings(sensor=list(faults)))
+
+
+def test_the_pose_fix_and_its_faults() -> None:
+    """The pose sensor's fix is the filter's position fix plus a heading (σ: position σ per metre unless set); a
+    jump displaces it by its size along the 45° diagonal for its duration and no longer, a dropout delivers no fix;
+    the faults draw nothing (the other readings and the fixes outside the faults are the healthy run's)."""
+    healthy, faulty = _pose_faulty(), _pose_faulty({"sensor": "pose", "kind": "jump", "onset": 1.0, "size": 2.0,
+                                                    "duration": 0.5},
+                                                   {"sensor": "pose", "kind": "dropout", "onset": 2.0, "duration": 0.3})
+    for k in range(300):
+        t = 0.01 * k
+        a, b = healthy.read(truth_at(t)), faulty.read(truth_at(t))
+        assert a.speed == b.speed and a.omega_R == b.omega_R
+        if a.pose_fix is None:
+            assert b.pose_fix is None and a.position is None
+            continue
+        np.testing.assert_array_equal(a.pose_fix[:2], a.position)
+        if 1.0 <= t < 1.5:
+            np.testing.assert_allclose(b.pose_fix - a.pose_fix, [2.0 / np.sqrt(2), 2.0 / np.sqrt(2), 0.0], atol=1e-12)
+        elif 2.0 <= t < 2.3 - 1e-9:
+            assert b.pose_fix is None and b.position is None
+        else:
+            np.testing.assert_array_equal(a.pose_fix, b.pose_fix)
+            np.testing.assert_array_equal(a.position, b.position)
+    fresh = _pose_faulty()
+    heading = np.array([fresh.read(truth_at(0.1 * k)).pose_fix[2] for k in range(4000)]) - 0.5
+    assert heading.std() == pytest.approx(0.05, rel=0.05)
+
+
+def test_pose_settings_need_the_pose_sensor() -> None:
+    """A pose from the sensor or a pose fault without the pose sensor, or a mode the pose sensor has not: one line
+    naming the field."""
+    from ftc_mj.config import load_config
+    from ftc_mj.errors import BadInput
+
+    with pytest.raises(BadInput, match=r"^sensors.*pose_source: 'sensor' needs the pose sensor"):
+        load_config("scenario2", {"sensors.pose_source": "sensor"})
+    with pytest.raises(BadInput, match=r"^faults.sensor\[0\].sensor: 'pose' needs the pose sensor"):
+        load_config("scenario2", {"faults.sensor": [{"sensor": "pose", "kind": "bias", "onset": 1.0, "size": 0.3}]})
+    with pytest.raises(BadInput, match=r"kind: 'drift' is not a fault of the pose sensor"):
+        load_config("scenario2", {"sensors.position_sigma": 0.05,
+                                  "faults.sensor": [{"sensor": "pose", "kind": "drift", "onset": 1.0, "size": 0.3}]})
+
+
+@pytest.mark.parametrize("estimator", ["none", "ukf"])
+def test_with_the_sensor_pose_source_the_controller_gets_the_filters_pose_or_the_last_fix(monkeypatch,
+                                                                                         estimator: str) -> None:
+    """``pose_source = "sensor"``: the controller's pose is the filter's pose estimate at the sample (it has taken
+    in the fixes); without a filter the last fix, held between fixes (2 Hz fixes, 10 Hz controller)."""
+    from ftc_mj.config import load_config
+    from ftc_mj.control.open_loop import OpenLoopController
+    from ftc_mj.sim.loop import simulate
+
+    readings: list[SensorReading] = []
+    poses: list[np.ndarray] = []
+    read = Sensors.read
+    monkeypatch.setattr(Sensors, "read", lambda self, *a: readings.append(read(self, *a)) or readings[-1])
+    solve = OpenLoopController.solve
+    monkeypatch.setattr(OpenLoopController, "solve",
+                        lambda self, t, pose, *a: poses.append(np.array(pose)) or solve(self, t, pose, *a))
+    cfg = load_config("scenario1", {"duration": 2.0, "controller.kind": "open-loop", "sensors.position_sigma": 0.2,
+                                    "sensors.position_rate": 2.0, "sensors.pose_source": "sensor",
+                                    "plant.kind": "kinematic", "estimator.kind": estimator,
+                                    "reconfiguration.policy": "none"})
+    res = simulate(cfg)
+    assert len(poses) == 20
+    if estimator == "none":
+        for j, pose in enumerate(poses):
+            np.testing.assert_array_equal(pose, readings[50 * (j // 5)].pose_fix)
+    else:
+        est = np.stack([res.trace[c][::10] for c in ("x_hat", "y_hat", "psi_hat")], axis=1)
+        np.testing.assert_array_equal(np.array(poses), est)

@@ -63,7 +63,46 @@ def definition_tables(d: BenchmarkDefinition) -> list[str]:
         ("yaw-rate gyro", f"present with probability {s.gyro:g} (always with a gyro fault); σ log-uniform "
          f"{_r(s.gyro_sigma, 'rad/s')}"),
         ("pose noise σ (controller's pose)", f"uniform {_r(s.pose_sigma, 'm (and rad)')}")]
-    return lines + table(["factor", "distribution"], factors)
+    return lines + table(["factor", "distribution"], factors + pose_sensor_rows(d))
+
+
+def pose_sensor_rows(d: BenchmarkDefinition) -> list[tuple[str, str]]:
+    """The pose sensor's and the pose faults' rows of a definition that has them (``ftc-v2`` on)."""
+    s, ranges = d.sensors, d.fault.ranges
+    if s.pose_fix_sigma is None or s.pose_fix_rate is None:
+        return []
+    rows = [("pose sensor (the controller's pose, through the filter; the pose noise above is then unused)",
+             f"σ uniform {_r(s.pose_fix_sigma, 'm')} on x and y (heading: that per metre, rad), fixes at uniform "
+             f"{_r(s.pose_fix_rate, 'Hz')}")]
+    if "pose_bias" in ranges:
+        rows.append(("pose bias", f"± uniform {_r(ranges['pose_bias'], 'm')} along the 45° diagonal, to the end"))
+    if "pose_jump" in ranges:
+        rows.append(("pose jump", f"± uniform {_r(ranges['pose_jump'], 'm')} along the 45° diagonal for uniform "
+                                  f"{_r(ranges['pose_jump_duration'], 's')}"))
+    return rows
+
+
+INFORMATION_RULE = (
+    "## Information rule", "",
+    "A method sees what a real robot would: the **nominal robot** (the MJCF with the model's geometry — never the "
+    "drawn tyre friction, payload or servo gain, nor which simulator runs), the **path**, and its **sensors** — the "
+    "same measurements for estimator and controller. Enforced by construction: the path-following NMPC's lift-off "
+    "bound, braking trade and yaw compliance come from the nominal robot (`ftc_mj.sim.cache.robot_limits`); the "
+    "degraded mode's `auto` is armed by evidence on the measurements (the measured wheel rates leaving their "
+    "commands: the tyres can be dragged), not by the simulator kind; the `truth` policy needs `oracle = true`. "
+    "A test builds every built-in method on two draws that differ only in friction, payload, servo gain and plant "
+    "kind and finds every number its components receive bitwise equal (`tests/benchmark/test_information_rule.py`).",
+    "",
+    "From `ftc-v2` on, every draw has a **pose sensor** (fixes of x, y and heading at a drawn σ and rate): its x, y "
+    "are the filter's position measurements, and the controller's pose is the filter's pose estimate, which has "
+    "taken in the fixes so far and carries them forward with the measured wheel rates between fixes and through a "
+    "dropout (`sensors.pose_source = \"sensor\"`; without a filter, the last fix held). Pose faults — bias, jump, "
+    "dropout — hit those fixes, hence estimator and controller alike. `ftc-v1` draws keep the controller's pose "
+    "of the paper (the true pose + `pose_sigma` noise, untouched by sensor faults).", "",
+    "**The oracle** (`oracle = true`, a run-config flag set only by the benchmark's oracle row and by studies "
+    "that compare against an oracle) is told the truth — the drawn plant's limits and the `truth` policy's true "
+    "radii — so the rule does not bind it: it is a ceiling, not a method.")
+"""The page's section on what a method may see (docs/benchmark.md)."""
 
 
 POWER_DISCORDANCES = (0.05, 0.1, 0.2, 0.3)
@@ -148,6 +187,7 @@ def publish(docs: Path, report: Path, out: Path, argv: list[str], version: str) 
         "repository nor a bench's outputs (which keep only the key's SHA-256 id) reproduce them; without a key "
         "`--split private` exits 2. A test or private leaderboard lists, per method identity, the date of its "
         "first run on the split and how many times it has been scored there (the output folder's log).", "",
+        *INFORMATION_RULE, "",
         "## Draw count and power", "", *power_section(d), "",
         "## Distributions", "", *definition_tables(d), "", HEALTHY_CHECK, "",
         *([] if "--split test" in " ".join(argv) and "--healthy" not in argv else

@@ -22,8 +22,8 @@ filters' model along the true trajectory, ``R_R_pcrb_std, R_L_pcrb_std, radius_s
 glr_stat`` with their ``*_wheel`` isolation codes, ``glr_drop`` (m), ``glr_onset`` (s), …).
 Only in a run with such faults, the injected faults' truth (:data:`FAULT_TRUTH_COLUMNS`):
 ``fault_effectiveness_R/L`` (fraction of each servo's gain and torque limit acting), ``fault_lock_R/L``
-(0/1), ``fault_speed_offset`` (m/s), ``fault_yaw_rate_offset`` (rad/s), ``fault_speed_dropout``,
-``fault_yaw_rate_dropout`` (0/1).
+(0/1), ``fault_speed_offset`` (m/s), ``fault_yaw_rate_offset`` (rad/s), ``fault_pose_offset`` (m),
+``fault_speed_dropout``, ``fault_yaw_rate_dropout``, ``fault_pose_dropout`` (0/1).
 """
 
 from __future__ import annotations

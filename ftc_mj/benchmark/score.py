@@ -112,14 +112,17 @@ def sensor_kl(cfg: RunConfig, trace: dict[str, np.ndarray], fault: dict[str, Any
     """Cumulative KL information (nats per row) of a sensor fault from its onset: ``Σ ½ (offset/σ)²`` with the
     injected offset (m/s or rad/s, its class's
     :meth:`~ftc_mj.plant.faults.base.SensorFault.offset_profile`) and the sensor's σ; empty for a class that
-    carries no information (a dropout)."""
-    sigma = cfg.sensors.speed_sigma if fault["target"] == "speed" else cfg.sensors.yaw_rate_sigma
+    carries no information (a dropout). A pose fault's offset (m) displaces the fixes of σ ``position_sigma``,
+    which come at ``position_rate``: its information per row is that of a fix times the fixes per row."""
+    s = cfg.sensors
+    sigma = {"speed": s.speed_sigma, "yaw_rate": s.yaw_rate_sigma, "pose": s.position_sigma}.get(fault["target"])
+    per_row = s.position_rate / cfg.estimator.rate if fault["target"] == "pose" else 1.0
     t = np.asarray(trace["t"], float)
     t = t[(t >= fault["onset"] - 1e-9) & (t < fault["onset"] + KL_PROFILE_S)]
     dt = 1.0 / cfg.estimator.rate
     offset = None if sigma is None or t.size == 0 else fault_class(fault["fault_class"]).offset_profile(  # type: ignore[attr-defined]
         fault["size"], t - fault["onset"] + dt)
-    return np.zeros(0) if offset is None else np.cumsum(0.5 * (offset / sigma) ** 2)
+    return np.zeros(0) if offset is None else np.cumsum(0.5 * per_row * (offset / sigma) ** 2)
 
 
 def bound_scores(cfg: RunConfig, record: RunRecord, trace: dict[str, np.ndarray],

@@ -91,3 +91,27 @@ def test_every_builtin_method_receives_the_same_numbers_on_any_plant(name: str) 
     diff = differences(*prints)
     assert not diff, f"{name}: the components depend on the drawn plant at {diff[:8]}"
     assert prints[0]["controller"] != "<NoneType>"
+
+
+def test_ftc_v2_draws_the_pose_sensor_and_pose_faults_and_scores_their_information() -> None:
+    """Every ftc-v2 draw carries the pose sensor as the controller's pose source (σ and rate in the definition's
+    ranges; ftc-v1 draws none); a drawn pose jump becomes a valid run config, and the scorer's information of it
+    is that of the displaced fixes: ½ (size/σ)² per fix, ``position_rate / estimator.rate`` fixes per row."""
+    from ftc_mj.benchmark.score import KL_PROFILE_S, fault_truth, sensor_kl
+
+    assert draw("dev", 0, "ftc-v1").pose_fix_sigma is None
+    assert "pose_source" not in draw("dev", 0, "ftc-v1").scenario()["sensors"]
+    for i in range(20):
+        d = draw("dev", i, "ftc-v2")
+        assert 0.01 <= d.pose_fix_sigma <= 0.05 and 5.0 <= d.pose_fix_rate <= 10.0
+        assert d.scenario()["sensors"]["pose_source"] == "sensor"
+    jump = draw("dev", 18, "ftc-v2")
+    assert jump.fault_class == "pose_jump" and jump.faults[0].target == "pose"
+    cfg = load_method("safe").apply(jump.scenario())
+    assert cfg.faults.sensor[0].sensor == "pose" and cfg.faults.sensor[0].duration == jump.faults[0].duration
+    t = np.arange(0.0, cfg.duration, 1.0 / cfg.estimator.rate)
+    f = fault_truth(cfg)[0]
+    K = sensor_kl(cfg, {"t": t}, f)
+    rows = np.count_nonzero((t >= f["onset"] - 1e-9) & (t < f["onset"] + KL_PROFILE_S))
+    per_row = 0.5 * cfg.sensors.position_rate / cfg.estimator.rate * (f["size"] / cfg.sensors.position_sigma) ** 2
+    assert K.size == rows and K[-1] == pytest.approx(rows * per_row, rel=1e-12)

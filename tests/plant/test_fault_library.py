@@ -224,7 +224,9 @@ def test_the_docs_fault_table_is_the_classes_and_each_class_is_one_registered_ob
     doc = (Path(__file__).resolve().parents[2] / "docs" / "scenarios.md").read_text()
     assert markdown_table(builtin) in doc
     assert {c.name for c in builtin} == {"puncture", "actuator_loss", "wheel_lock", "actuator_unresponsive",
-                                         *(f"{s}_{m}" for s in ("speed", "gyro") for m in ("bias", "drift", "dropout"))}
+                                         *(f"{s}_{m}" for s in ("speed", "gyro") for m in ("bias", "drift", "dropout")),
+                                         *(f"pose_{m}" for m in ("bias", "jump", "dropout"))}
     for c in builtin:
         assert c.targets and all(c.columns(t) for t in c.targets) and c.observed_by, c.name
     assert fault_class("gyro_bias").observed_by == ("yaw_rate",) and fault_class("speed_drift").unit == "m/s²"
+    assert fault_class("pose_jump").component == "pose sensor" and fault_class("pose_jump").targets == ("pose",)

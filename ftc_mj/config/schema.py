@@ -16,7 +16,7 @@ from ..context import RunContext
 from ..control.nmpc import NMPCSettings
 from ..control.reference import ReferenceSettings
 from ..estimation.ukf import UKFSettings
-from ..fields import SafeName, StrictModel, ranged, ranged_int
+from ..fields import Flag, SafeName, StrictModel, ranged, ranged_int
 from ..model.sensors import SensorSettings
 from ..plant.faults import SERVO_CLASSES, PlantFault, fault_class
 from .sections import (
@@ -55,6 +55,9 @@ class RunConfig(StrictModel):
     reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
     reference: ReferenceSettings = Field(default_factory=ReferenceSettings)
     output: OutputConfig = Field(default_factory=OutputConfig)
+    oracle: Flag = False
+    """The run is told the truth: the drawn plant's limits and the truth policy; set only by the benchmark's
+    ``oracle`` row and by studies (a method file cannot: it sets only the method sections)."""
 
     @model_validator(mode="before")
     @classmethod

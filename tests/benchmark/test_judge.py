@@ -168,3 +168,29 @@ def test_stop_only_success_is_tracking_then_a_safe_stop():
 def test_near_path_rule_unchanged_for_ftc_v1():
     assert load_definition("ftc-v1").judge.rule == "near-path"
     assert math.isclose(load_definition("ftc-v2").judge.progress_fraction, 0.8)
+
+
+def test_a_real_standstill_run_fails_under_progress_and_passes_near_path():
+    """One short real run of the ``standstill`` reference row on a fault-free ftc-v2 draw: the robot never moves,
+    stays on the path, and fails only under the progress rule."""
+    from ftc_mj.benchmark.methods import load_method
+    from ftc_mj.benchmark.run import bench_run
+
+    d = _first_draw(lambda d: not d.faults)
+    cfg = load_method("standstill").apply({**d.scenario(), "duration": 8.0})
+    out = bench_run(cfg, None, False, rule=RULE)
+    assert out.metrics["label"] == TRACKABLE and out.metrics["success"] is False
+    assert abs(out.metrics["progress"]) < 0.05 < out.metrics["progress_needed"]
+    near = score_run(cfg, out.result.trace, out.result.events, status=out.metrics["status"])
+    assert near["success"] is True  # ftc-v1's rule: "on the path" without moving
+
+
+def test_a_method_file_cannot_tell_itself_the_truth(tmp_path):
+    from ftc_mj.benchmark.methods import load_method
+    from ftc_mj.errors import BadInput
+
+    f = tmp_path / "m.toml"
+    f.write_text('name = "cheat"\n[settings]\noracle = true\n')
+    with pytest.raises(BadInput, match="settings.oracle"):
+        load_method(str(f))
+    assert load_method("oracle").apply(draw("dev", 0, "ftc-v2").scenario()).oracle is True

@@ -20,6 +20,7 @@ from ..markdown import row, table
 from ..metrics.outcome import OFF_PATH_M
 from ..study.stats import Estimate
 from ..study.store import StudyStore
+from .ceiling import ceiling_lines, classes_of_draws, every_class_table
 from .stats import (
     ALPHA,
     CONTINUOUS,
@@ -323,6 +324,17 @@ def draw_count_line(bp: Any) -> str:
             f"(`leaderboard_draws = {fixed}`); these are draws {lo}–{hi - 1}.")
 
 
+def success_sentence(bp: Any) -> str:
+    """What success means under the version's rule (``[judge]``)."""
+    rule = getattr(bp, "rule", None)
+    if rule is not None and rule.rule == "progress":
+        return ("Success: rule `progress` — on a trackable draw, near the path *and* progressing along it at "
+                f"{100 * rule.progress_fraction:g} % of the attainable speed; on a stop-only draw, tracking until the "
+                "fault, then a safe stop (section \"Trackable and stop-only draws\").")
+    return (f"Success: the run completed, did not tip over and its largest |contouring error| from 5 s after the last "
+            f"fault onset is ≤ {OFF_PATH_M:g} m.")
+
+
 def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: list[Path], computed: str = "",
            history: Sequence[str] = ()) -> str:
     """The report's Markdown; ``computed`` says which invocations computed the runs (:func:`computed_line`),
@@ -333,8 +345,7 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
             "leaderboard.md": "Leaderboard", "dev-report.md": "Development-split report (not a leaderboard)"}
     out = [f"# {kind[report_name(bp.split, bp.healthy)]}: benchmark {bp.version}, {bp.split} split", "",
            f"Draws {lo}–{hi - 1} of the {bp.split} split ({hi - lo} draws), {len(rows)} runs; ftc-mj "
-           f"{bp.meta['package_version']}. Success: the run completed, did not tip over and its largest |contouring "
-           f"error| from 5 s after the last fault onset is ≤ {OFF_PATH_M:g} m. Rates: % [Wilson 95 %] (n runs); "
+           f"{bp.meta['package_version']}. {success_sentence(bp)} Rates: % [Wilson 95 %] (n runs); "
            "continuous scores: median [distribution-free order-statistic 95 %] (n runs with a value) and the share "
            "of runs beyond thresholds.",
            *([] if not computed else ["", computed]),
@@ -344,8 +355,9 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
                    for m in bp.methods))]
     if history:
         out += ["", f"Scoring history on the {bp.split} split (this output folder's log):", "", *history]
-    out += ["", "## Overall", "", *overall_table(rows, methods), "", "## Success by fault class", "",
-            *class_table(rows, methods, bp.classes), ""]
+    out += ["", "## Overall", "", *overall_table(rows, methods), "", *ceiling_lines(bp, rows, methods),
+            "## Success by fault class", "", "A draw counts in every class of its faults (a draw with two faults in "
+            "two rows).", "", *every_class_table(rows, methods, bp.classes, classes_of_draws(bp.draws)), ""]
     if len(methods) > 1:
         ans = answers(rows, methods)
         out += ["## The project's questions", "", *ans] if ans else []

@@ -102,7 +102,7 @@ def judge_run(cfg: RunConfig, record: RunRecord, tr: dict[str, np.ndarray], onse
     s = path_progress(build_reference(cfg), t, tr["x"], tr["y"])
     t_d = disabling_onset(cfg, record, rule, onsets)
     if t_d is None:
-        cap = draw_capacity(cfg, record, rule)
+        cap = draw_capacity(cfg, record, rule, float(t[-1]))  # the faults of the run (a shorter run: fewer)
         out = judge_trackable(tr, s, cap, max(onsets, default=0.0), near_path, rule)
     else:
         earlier = [o for o in onsets if o < t_d]

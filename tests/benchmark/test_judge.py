@@ -194,3 +194,17 @@ def test_a_method_file_cannot_tell_itself_the_truth(tmp_path):
     with pytest.raises(BadInput, match="settings.oracle"):
         load_method(str(f))
     assert load_method("oracle").apply(draw("dev", 0, "ftc-v2").scenario()).oracle is True
+
+
+def test_the_crawling_method_file_is_a_valid_method(tmp_path):
+    """The reviewer's exploit (one key: the path-following NMPC's progress capped at 0.05 m/s) is a method a file can
+    enter; at that speed it cannot make the progress a trackable draw asks (the crawl of
+    :func:`test_standing_still_or_crawling_fails_a_trackable_draw`): 0.05 m/s is below 80 % of every drawn speed."""
+    from ftc_mj.benchmark.methods import load_method
+
+    f = tmp_path / "crawl.toml"
+    f.write_text('name = "crawl"\n[settings]\n"controller.kind" = "pf-nmpc"\n'
+                 '"controller.path_following.max_progress_speed" = 0.05\n')
+    cfg = load_method(str(f)).apply(draw("dev", 0, "ftc-v2").scenario())
+    assert cfg.controller.path_following.max_progress_speed == 0.05
+    assert 0.05 < RULE.progress_fraction * load_definition("ftc-v2").path.speed.low * RULE.trackable_speed_fraction

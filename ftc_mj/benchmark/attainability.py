@@ -30,7 +30,8 @@ slides, so the healthy radius stands for it there), and the desired speed.
 
 *Label*: ``trackable`` when that speed is at least ``trackable_speed_fraction`` of the desired speed (the path at a
 reduced but non-zero speed), ``stop-only`` otherwise: a lock whose other motor cannot beat the locked tyre's friction
-(``τ_max / R = 1500 N m / 2 m = 750 N`` against ``μ N_0 ≈ 875 N`` at μ 1), an unresponsive servo (no force at
+(``τ_max / R = 1500 N m / 2 m = 750 N`` against ``μ N_0``: 907–1789 N on ftc-v2's dev draws 0–99, whose static
+tyre loads are 1260–1520 N), an unresponsive servo (no force at
 all: no couple, no reserve). Faults of other components (sensors, plug-in classes) leave the drive as it is.
 """
 

@@ -31,9 +31,11 @@ def classes_of_draws(draws: Sequence[Any]) -> dict[int, tuple[str, ...]]:
 def every_class_table(rows: list[dict[str, Any]], methods: list[str], order: Sequence[str],
                       classes: dict[int, tuple[str, ...]]) -> list[str]:
     """Success rate per fault class (rows, ``none`` first, then in ``order``) and method, a draw counted in each
-    class of its faults (a draw with two faults is in two rows), Wilson 95 % intervals."""
-    present = {c for cs in classes.values() for c in cs}
-    body = [[c, *(_rate([r for r in rows if r["method"] == m and c in classes.get(r["draw"], ())]) for m in methods)]
+    class of its faults (``classes``; a draw with two faults is in two rows; a draw not in ``classes``: its row's
+    ``fault_class``), Wilson 95 % intervals."""
+    of = {r["draw"]: classes.get(r["draw"], (r.get("fault_class", "none"),)) for r in rows}
+    present = {c for cs in of.values() for c in cs}
+    body = [[c, *(_rate([r for r in rows if r["method"] == m and c in of[r["draw"]]]) for m in methods)]
             for c in ("none", *(c for c in order if c != "none")) if c in present]
     return table(["fault class (every fault of a draw)", *methods], body)
 

@@ -66,7 +66,9 @@ def write_outputs(bp: Any, results: pl.DataFrame, out: Path, *, compare: int = 1
         scores.write_parquet(tmp)
     rows = scores.to_dicts()
     log_scoring(bp, out)
-    figures = draw_figures(rows, [m.name for m in bp.methods], out / "figures", bp.classes)
+    every = {} if bp.healthy else classes_of_draws(bp.draws)  # a draw in every class of its faults, as the table
+    per_class = [{**r, "fault_class": c} for r in rows for c in every.get(r["draw"], (r["fault_class"],))]
+    figures = draw_figures(per_class, [m.name for m in bp.methods], out / "figures", bp.classes)
     compared = write_comparisons(bp, rows, out / "compare", compare) if compare > 0 else []
     history = scoring_history(bp, out) if bp.split in LEADERBOARD_SPLITS else []
     text = render(bp, rows, figures, compared, computed_line(out), history)
@@ -357,7 +359,8 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
         out += ["", f"Scoring history on the {bp.split} split (this output folder's log):", "", *history]
     out += ["", "## Overall", "", *overall_table(rows, methods), "", *ceiling_lines(bp, rows, methods),
             "## Success by fault class", "", "A draw counts in every class of its faults (a draw with two faults in "
-            "two rows).", "", *every_class_table(rows, methods, bp.classes, classes_of_draws(bp.draws)), ""]
+            "two rows).", "", *every_class_table(rows, methods, bp.classes, {} if bp.healthy else
+                                                   classes_of_draws(bp.draws)), ""]
     if len(methods) > 1:
         ans = answers(rows, methods)
         out += ["## The project's questions", "", *ans] if ans else []

@@ -136,7 +136,8 @@ def judge_section(d: BenchmarkDefinition) -> list[str]:
             "tyre's radius or its traction μ(N₀ − k a), must cover the couple that turns the robot on the path's "
             f"curvature, M a x_G / (2b), plus a control reserve of {0.1:g} m/s² of half the mass; a locked wheel adds "
             "its tyre's sliding friction μ N₀ to the other tyre's demand (the other motor drags it: 1500 N m / 2 m = "
-            "750 N against μ N₀ ≈ 900–1900 N here, so no lock is trackable). The largest speed that satisfies this "
+            "750 N against μ N₀, 907–1789 N over ftc-v2's dev draws 0–99 by `drive_robot`: no lock is "
+            "trackable). The largest speed that satisfies this "
             "on every curvature of the path and the wheel-rate limit with the damaged radii, capped at the desired "
             f"speed, is the *attainable speed*; a draw is trackable when it is at least "
             f"{100 * j.trackable_speed_fraction:g} % of the desired speed.", "",

@@ -80,6 +80,19 @@ def definition_tables(d: BenchmarkDefinition) -> list[str]:
     return lines + table(["factor", "distribution"], factors)
 
 
+HEALTHY_CHECK_V2 = (
+    "**Healthy-path check of ftc-v2** (the same ranges as ftc-v1, new draws, the progress rule): "
+    "`ftc-mj bench feedback-off --healthy --benchmark ftc-v2 --draws 20 --workers 1` (the nominal NMPC, dev draws "
+    "0–19 without their faults, 2026-12-06) succeeded on all 20 under the progress rule: within 0.22 m of the path "
+    "from 5 s on (largest in draw 0, a 40 m circle at 7.6 m/s; mean of the 20 largest errors 0.098 m), progress at "
+    "least 99.99 % of the desired speed times the window, no lift-off, no tip-over.")
+
+
+def healthy_check(d: BenchmarkDefinition) -> str:
+    """The healthy-path check's paragraph: ftc-v1's, and ftc-v2's beside it from ftc-v2 on."""
+    return HEALTHY_CHECK if d.version == "ftc-v1" else HEALTHY_CHECK + "\n\n" + HEALTHY_CHECK_V2
+
+
 POWER_DISCORDANCES = (0.05, 0.1, 0.2, 0.3)
 """Shares of draws on which two methods disagree that the page's power table covers (ftc-v1's questions
 showed 1–58 %)."""
@@ -220,7 +233,7 @@ def publish(docs: Path, report: Path, out: Path, argv: list[str], version: str) 
         "`--split private` exits 2. A test or private leaderboard lists, per method identity, the date of its "
         "first run on the split and how many times it has been scored there (the output folder's log).", "",
         "## Draw count and power", "", *power_section(d), "",
-        "## Distributions", "", *definition_tables(d), "", HEALTHY_CHECK, "",
+        "## Distributions", "", *definition_tables(d), "", healthy_check(d), "",
         *judge_section(d), "",
         *([] if "--split test" in " ".join(argv) and "--healthy" not in argv else
           ["**Leaderboard.** Not generated yet: the leaderboard shows test-split results only; "

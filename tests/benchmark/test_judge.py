@@ -208,3 +208,21 @@ def test_the_crawling_method_file_is_a_valid_method(tmp_path):
     cfg = load_method(str(f)).apply(draw("dev", 0, "ftc-v2").scenario())
     assert cfg.controller.path_following.max_progress_speed == 0.05
     assert 0.05 < RULE.progress_fraction * load_definition("ftc-v2").path.speed.low * RULE.trackable_speed_fraction
+
+
+def test_label_is_the_draws_not_the_methods():
+    """The label and attainable speed come from the draw alone: every built-in method and reference row's config of
+    one draw gets the same; with two faults the disabling onset is the one that makes the draw stop-only."""
+    from ftc_mj.benchmark.judge import disabling_onset
+    from ftc_mj.benchmark.methods import BUILTIN, REFERENCE_ROWS, load_method
+
+    d = _first_draw(lambda d: len(d.faults) == 2 and d.faults[1].fault_class in ("wheel_lock", "actuator_unresponsive")
+                    and d.faults[0].fault_class not in ("wheel_lock", "actuator_unresponsive"))
+    caps = set()
+    for name in (*BUILTIN, *REFERENCE_ROWS):
+        cfg = load_method(name).apply(d.scenario())
+        rec = build_record(cfg)
+        caps.add(draw_capacity(cfg, rec, RULE))
+        assert disabling_onset(cfg, rec, RULE, [f.onset for f in d.faults]) == d.faults[1].onset
+        assert draw_capacity(cfg, rec, RULE, d.faults[0].onset).label == TRACKABLE
+    assert len(caps) == 1 and caps.pop().label == STOP_ONLY

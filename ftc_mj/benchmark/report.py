@@ -258,16 +258,25 @@ def summary_lines(bp: Any, results: pl.DataFrame) -> list[str]:
 def failures(rows: list[dict[str, Any]], bp: Any, limit: int = 30) -> list[str]:
     """The runs that did not succeed, named so anyone can replay them (draw index, method, what happened)."""
     bad = sorted((r for r in rows if not r.get("success")), key=lambda r: (r["draw"], r["method"]))
+    judged = getattr(getattr(bp, "rule", None), "rule", "") == "progress"
     body = []
     for r in bad[:limit]:
         cm = r.get("contouring_max")
         replay = f"`{replay_command(bp, r['method'], r['draw'])}`"
+        extra = [r.get("label"), _progress_cell(r)] if judged else []
         body.append([r["draw"], r["fault_class"], r["method"], r.get("outcome") or r.get("status"),
-                     "—" if cm is None else f"{cm:.2f}", r.get("tipped"), replay])
-    lines = table(["draw", "fault class", "method", "outcome", "contouring max (m)", "tipped", "replay"], body)
+                     "—" if cm is None else f"{cm:.2f}", r.get("tipped"), *extra, replay])
+    head = ["draw", "fault class", "method", "outcome", "contouring max (m)", "tipped"]
+    lines = table([*head, *(["label", "progress / needed (m)"] if judged else []), "replay"], body)
     if len(bad) > limit:
-        lines.append(f"| … | {len(bad) - limit} more in scores.parquet | | | | | |")
+        lines.append(f"| … | {len(bad) - limit} more in scores.parquet |" + " |" * (len(head) - 1 + 2 * judged))
     return lines
+
+
+def _progress_cell(r: dict[str, Any]) -> str:
+    """``progress / needed`` (m) of a row judged by the progress rule."""
+    p, n = r.get("progress"), r.get("progress_needed")
+    return "—" if p is None or n is None else f"{p:.1f} / {n:.1f}"
 
 
 def computed_line(out: Path) -> str:

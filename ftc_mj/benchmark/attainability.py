@@ -1,6 +1,6 @@
 """What the damaged robot of a draw can still do, from the draw's truth and the robot's MJCF alone: the speed it can
 physically make along the path (:func:`drive_capacity`) and the draw's label, ``trackable`` or ``stop-only``
-(:func:`label_run`). The scorer computes both (never the method, never from a run): they depend on the drawn plant,
+(:attr:`Capacity.label`). The scorer computes both (never the method, never from a run): they depend on the drawn plant,
 the drawn faults and the path only, not on the CPU.
 
 The physics (SI units), quasi-steady, level ground, wheels of radius ``R_i`` driven by velocity servos of torque
@@ -19,9 +19,9 @@ forces act at the axle, so the yaw moment ``M a x_G`` is a couple of longitudina
 ``M a_r / 2`` (:data:`RESERVE_ACCEL`: what each tyre needs to correct the speed and heading at all). A locked wheel
 adds its tyre's sliding friction ``μ N_0`` to the other tyre's demand (the other motor drags it).
 
-*Largest lateral acceleration* of a wheel: ``a_i = min((e_i τ_max/R_i − r)/β, (μ N_0 − r)/(β + μ k), a_lift)``
-(``r`` the reserve, ``a_lift`` the lift-off limit), the two first from ``β a + r ≤ F_i``; the robot's is the
-smaller of its wheels'. Negative: no speed at all.
+*Largest lateral acceleration* of a wheel: ``a_i = min((e_i τ_max/R_i − r − d)/β, (μ N_0 − r − d)/(β + μ k),
+a_lift)`` (``r`` the reserve, ``d`` the drag of a locked other wheel, ``a_lift`` the lift-off limit), the two first
+from ``β a + r + d ≤ F_i``; the robot's is the smaller of its turning wheels'. Negative: no speed at all.
 
 *Speed the damaged robot can make* on the path: the smallest over the path's curvatures of ``√(a_max / |κ|)``
 (unbounded on a line), the wheel-rate limit's speed with the damaged radii
@@ -31,8 +31,13 @@ slides, so the healthy radius stands for it there), and the desired speed.
 *Label*: ``trackable`` when that speed is at least ``trackable_speed_fraction`` of the desired speed (the path at a
 reduced but non-zero speed), ``stop-only`` otherwise: a lock whose other motor cannot beat the locked tyre's friction
 (``τ_max / R = 1500 N m / 2 m = 750 N`` against ``μ N_0``: 907–1789 N on ftc-v2's dev draws 0–99, whose static
-tyre loads are 1260–1520 N), an unresponsive servo (no force at
-all: no couple, no reserve). Faults of other components (sensors, plug-in classes) leave the drive as it is.
+tyre loads are 1260–1520 N), an unresponsive servo (no force at all: no couple, no reserve). Faults of other
+components (sensors, plug-in classes) leave the drive as it is.
+
+*Not modelled*: the outer tyre's extra load (bounding both tyres by the inner one's load is conservative); the
+load shift of a punctured robot's tilt (either way); rolling resistance and the yaw moment a dragged locked tyre adds
+(both would make a draw harder). A trackable draw the ``oracle`` row fails is listed on the page: there the rule or the
+oracle is wrong.
 """
 
 from __future__ import annotations

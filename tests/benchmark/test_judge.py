@@ -226,3 +226,16 @@ def test_label_is_the_draws_not_the_methods():
         assert disabling_onset(cfg, rec, RULE, [f.onset for f in d.faults]) == d.faults[1].onset
         assert draw_capacity(cfg, rec, RULE, d.faults[0].onset).label == TRACKABLE
     assert len(caps) == 1 and caps.pop().label == STOP_ONLY
+
+
+def test_ftc_v2_draw_count_is_its_stated_power_analysis():
+    """ftc-v2's leaderboard_draws (fixed before any of its runs): 80 % power for a 5-point paired success difference
+    at a 10 % discordance, exact McNemar at 0.05/12 (Holm's first step over the page's 12 verdicts)."""
+    from ftc_mj.benchmark.report import QUESTIONS, VERDICT_SCORES
+    from ftc_mj.benchmark.stats import draws_for_power, mcnemar_power
+
+    k = len(QUESTIONS) * len(VERDICT_SCORES)
+    n = load_definition("ftc-v2").leaderboard_draws
+    assert k == 12 and n == 560
+    assert mcnemar_power(n, 0.05, 0.10, 0.05, k) >= 0.80 and draws_for_power(0.05, 0.10, k) <= n
+    assert load_definition("ftc-v2").splits != load_definition("ftc-v1").splits  # new streams: no draw reappears

@@ -739,7 +739,8 @@ def _bench_folders(out: str | None, publish: str | None, version: str, split: st
 @app.command()
 def bench(
     methods: Annotated[list[str], typer.Argument(metavar="METHOD...", help="Built-in methods (paper, safe, pathfollow, "
-                                                 "hybrid, passive, feedback-off) or method TOML files.")],
+                                                 "hybrid, passive, feedback-off), reference rows (oracle, standstill) "
+                                                 "or method TOML files.")],
     split: Annotated[BenchSplit, typer.Option(help="dev (develop and tune there), test (public leaderboard) or "
                                               "private (draws from a key given at run time: FTC_MJ_PRIVATE_KEY or "
                                               "--key-file).")] = BenchSplit.dev,

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import ConfigDict, Field, ValidationError, model_validator
 
@@ -156,6 +156,30 @@ class SensorDistribution(StrictModel):
         return self
 
 
+RULES = ("near-path", "progress")
+"""The success rules a version can name (``[judge] rule``)."""
+
+
+class JudgeRule(StrictModel):
+    """How a run of the version is judged (``[judge]``; a property of the version, so a published version keeps its
+    rule). ``near-path`` (``ftc-v1``, the default): completed, never tipped, within 0.5 m of the path from 5 s after
+    the last onset. ``progress`` (``ftc-v2``): every draw labelled ``trackable`` or ``stop-only`` by the physics of
+    :mod:`~ftc_mj.benchmark.attainability`; a trackable draw also needs progress along the path, a stop-only draw a
+    safe stop (:mod:`~ftc_mj.benchmark.score`)."""
+
+    rule: Literal["near-path", "progress"] = "near-path"
+    progress_fraction: Annotated[float, Field(gt=0.0, le=1.0)] = 0.8
+    """Least progress along the path, as a fraction of the distance the attainable speed covers in the window."""
+    trackable_speed_fraction: Annotated[float, Field(gt=0.0, le=1.0)] = 0.25
+    """A draw is trackable when the damaged robot can make at least this fraction of the desired speed."""
+    stop_within: Annotated[float, Field(gt=0.0, le=60.0)] = 5.0
+    """s after the disabling fault's onset from which a stop-only run must stay at rest."""
+    stop_speed: Annotated[float, Field(gt=0.0, le=5.0)] = 0.1
+    """m/s: at rest below this speed."""
+    corridor: Annotated[float, Field(gt=0.0, le=50.0)] = 2.0
+    """m: a stop-only run stays this close to the path from the disabling onset on."""
+
+
 class SeedRanges(StrictModel):
     """Half-open ``[low, high)`` ranges of each split's run seeds."""
 
@@ -192,6 +216,8 @@ class BenchmarkDefinition(StrictModel):
     plant: PlantDistribution
     path: PathDistribution
     sensors: SensorDistribution
+    judge: JudgeRule = Field(default_factory=JudgeRule)
+    """The success rule of the version (``ftc-v1``: ``near-path``, the rule it was published with)."""
 
     @model_validator(mode="before")
     @classmethod

@@ -57,6 +57,18 @@ BUILTIN: dict[str, tuple[str, dict[str, Any]]] = {
 }
 """Built-in methods: name → (description, settings). ``feedback-off`` is also the healthy-path check's
 nominal NMPC."""
+REFERENCE_ROWS: dict[str, tuple[str, dict[str, Any]]] = {
+    "oracle": ("a ceiling, not a method: the path-following NMPC told the truth (the truth policy's true radii "
+               "from each onset, the drawn plant's limits: the run flag oracle = true), no estimator",
+               {**ACTIVE, "estimator.kind": "none", "controller.kind": "pf-nmpc", "reconfiguration.policy": "truth",
+                "oracle": True}),
+    "standstill": ("a floor, not a method: zero wheel-rate command throughout (the open loop at 0 rad/s), no "
+                   "estimator", {"estimator.kind": "none", "controller.kind": "open-loop",
+                                 "controller.open_loop_omega": [0.0, 0.0], "reconfiguration.policy": "none"}),
+}
+"""Built-in reference rows, scored like methods but not methods (the information rule does not bind them; a method
+file cannot set ``oracle``): name → (description, settings). The page reports every method's success as a fraction
+of the oracle's and lists the trackable draws the oracle fails."""
 
 
 class MethodFile(StrictModel):
@@ -154,18 +166,19 @@ def resolved_digest(method: Method) -> str:
     settings, defaults filled in), plug-in modules and code (:func:`code_identity`)."""
     cfg = method.apply({"name": "digest"})
     dump = cfg.model_dump(mode="json")
+    told = {"oracle": True} if dump.get("oracle") else {}  # a reference row told the truth (never a method file)
     return canonical_hash({"sections": {s: dump[s] for s in METHOD_SECTIONS}, "plugins": list(method.plugins),
-                           "code": code_identity(method)})[:16]
+                           "code": code_identity(method), **told})[:16]
 
 
 def load_method(spec: str) -> Method:
     """A built-in method name or a method file path, validated (:class:`BadInput` naming the field)."""
-    if spec in BUILTIN:
-        desc, settings = BUILTIN[spec]
+    if spec in BUILTIN or spec in REFERENCE_ROWS:
+        desc, settings = {**BUILTIN, **REFERENCE_ROWS}[spec]
         m = Method(spec, desc, dict(settings))
     else:
-        path = existing_file(spec, "METHOD", f"no such built-in method ({', '.join(BUILTIN)}) or file",
-                             did_you_mean(spec, BUILTIN))
+        path = existing_file(spec, "METHOD", f"no such built-in method ({', '.join([*BUILTIN, *REFERENCE_ROWS])}) "
+                             "or file", did_you_mean(spec, [*BUILTIN, *REFERENCE_ROWS]))
         try:
             f = MethodFile.model_validate(read_toml(path, "method"))
         except ValidationError as err:

@@ -20,6 +20,7 @@ from ..markdown import row, table
 from ..metrics.outcome import OFF_PATH_M
 from ..study.stats import Estimate
 from ..study.store import StudyStore
+from .ceiling import ceiling_lines, classes_of_draws, every_class_table
 from .stats import (
     ALPHA,
     CONTINUOUS,
@@ -65,7 +66,9 @@ def write_outputs(bp: Any, results: pl.DataFrame, out: Path, *, compare: int = 1
         scores.write_parquet(tmp)
     rows = scores.to_dicts()
     log_scoring(bp, out)
-    figures = draw_figures(rows, [m.name for m in bp.methods], out / "figures", bp.classes)
+    every = {} if bp.healthy else classes_of_draws(bp.draws)  # a draw in every class of its faults, as the table
+    per_class = [{**r, "fault_class": c} for r in rows for c in every.get(r["draw"], (r["fault_class"],))]
+    figures = draw_figures(per_class, [m.name for m in bp.methods], out / "figures", bp.classes)
     compared = write_comparisons(bp, rows, out / "compare", compare) if compare > 0 else []
     history = scoring_history(bp, out) if bp.split in LEADERBOARD_SPLITS else []
     text = render(bp, rows, figures, compared, computed_line(out), history)
@@ -255,16 +258,25 @@ def summary_lines(bp: Any, results: pl.DataFrame) -> list[str]:
 def failures(rows: list[dict[str, Any]], bp: Any, limit: int = 30) -> list[str]:
     """The runs that did not succeed, named so anyone can replay them (draw index, method, what happened)."""
     bad = sorted((r for r in rows if not r.get("success")), key=lambda r: (r["draw"], r["method"]))
+    judged = getattr(getattr(bp, "rule", None), "rule", "") == "progress"
     body = []
     for r in bad[:limit]:
         cm = r.get("contouring_max")
         replay = f"`{replay_command(bp, r['method'], r['draw'])}`"
+        extra = [r.get("label"), _progress_cell(r)] if judged else []
         body.append([r["draw"], r["fault_class"], r["method"], r.get("outcome") or r.get("status"),
-                     "—" if cm is None else f"{cm:.2f}", r.get("tipped"), replay])
-    lines = table(["draw", "fault class", "method", "outcome", "contouring max (m)", "tipped", "replay"], body)
+                     "—" if cm is None else f"{cm:.2f}", r.get("tipped"), *extra, replay])
+    head = ["draw", "fault class", "method", "outcome", "contouring max (m)", "tipped"]
+    lines = table([*head, *(["label", "progress / needed (m)"] if judged else []), "replay"], body)
     if len(bad) > limit:
-        lines.append(f"| … | {len(bad) - limit} more in scores.parquet | | | | | |")
+        lines.append(f"| … | {len(bad) - limit} more in scores.parquet |" + " |" * (len(head) - 1 + 2 * judged))
     return lines
+
+
+def _progress_cell(r: dict[str, Any]) -> str:
+    """``progress / needed`` (m) of a row judged by the progress rule."""
+    p, n = r.get("progress"), r.get("progress_needed")
+    return "—" if p is None or n is None else f"{p:.1f} / {n:.1f}"
 
 
 def computed_line(out: Path) -> str:
@@ -323,6 +335,17 @@ def draw_count_line(bp: Any) -> str:
             f"(`leaderboard_draws = {fixed}`); these are draws {lo}–{hi - 1}.")
 
 
+def success_sentence(bp: Any) -> str:
+    """What success means under the version's rule (``[judge]``)."""
+    rule = getattr(bp, "rule", None)
+    if rule is not None and rule.rule == "progress":
+        return ("Success: rule `progress` — on a trackable draw, near the path *and* progressing along it at "
+                f"{100 * rule.progress_fraction:g} % of the attainable speed; on a stop-only draw, tracking until the "
+                "fault, then a safe stop (section \"Trackable and stop-only draws\").")
+    return (f"Success: the run completed, did not tip over and its largest |contouring error| from 5 s after the last "
+            f"fault onset is ≤ {OFF_PATH_M:g} m.")
+
+
 def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: list[Path], computed: str = "",
            history: Sequence[str] = ()) -> str:
     """The report's Markdown; ``computed`` says which invocations computed the runs (:func:`computed_line`),
@@ -333,8 +356,7 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
             "leaderboard.md": "Leaderboard", "dev-report.md": "Development-split report (not a leaderboard)"}
     out = [f"# {kind[report_name(bp.split, bp.healthy)]}: benchmark {bp.version}, {bp.split} split", "",
            f"Draws {lo}–{hi - 1} of the {bp.split} split ({hi - lo} draws), {len(rows)} runs; ftc-mj "
-           f"{bp.meta['package_version']}. Success: the run completed, did not tip over and its largest |contouring "
-           f"error| from 5 s after the last fault onset is ≤ {OFF_PATH_M:g} m. Rates: % [Wilson 95 %] (n runs); "
+           f"{bp.meta['package_version']}. {success_sentence(bp)} Rates: % [Wilson 95 %] (n runs); "
            "continuous scores: median [distribution-free order-statistic 95 %] (n runs with a value) and the share "
            "of runs beyond thresholds.",
            *([] if not computed else ["", computed]),
@@ -344,8 +366,10 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
                    for m in bp.methods))]
     if history:
         out += ["", f"Scoring history on the {bp.split} split (this output folder's log):", "", *history]
-    out += ["", "## Overall", "", *overall_table(rows, methods), "", "## Success by fault class", "",
-            *class_table(rows, methods, bp.classes), ""]
+    out += ["", "## Overall", "", *overall_table(rows, methods), "", *ceiling_lines(bp, rows, methods),
+            "## Success by fault class", "", "A draw counts in every class of its faults (a draw with two faults in "
+            "two rows).", "", *every_class_table(rows, methods, bp.classes, {} if bp.healthy else
+                                                   classes_of_draws(bp.draws)), ""]
     if len(methods) > 1:
         ans = answers(rows, methods)
         out += ["## The project's questions", "", *ans] if ans else []

@@ -13,6 +13,7 @@ refused there.
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,7 +25,7 @@ from ..io import atomic_path, write_json, writer_lock
 from ..study.plan import PlannedRun, StudyPlan, run_key
 from ..study.spec import AnalysisSpec, StudySpec
 from ..study.store import StudyStore
-from .definition import PRIVATE, RUN_SPLITS, load_definition
+from .definition import PRIVATE, RUN_SPLITS, JudgeRule, load_definition
 from .draws import MAX_INDEX, Draw, draw
 from .methods import Method
 from .private import private_key_id
@@ -36,14 +37,14 @@ MAX_DRAWS = 2000
 """Largest ``--draws`` (the plan of a study is at most 10 000 runs; at ~6 s a run 2000 draws are hours)."""
 
 
-def bench_run(cfg: Any, out_root: Path | None, rrd: bool) -> Any:
-    """Run one (method, draw) and score it (the worker's ``run_fn``): the run's outcome whose metrics are
-    :data:`KEPT_METRICS` and the scores (:func:`~ftc_mj.benchmark.score.score_run`)."""
+def bench_run(cfg: Any, out_root: Path | None, rrd: bool, rule: JudgeRule | None = None) -> Any:
+    """Run one (method, draw) and score it (the worker's ``run_fn``, with the version's success ``rule`` bound): the
+    run's outcome whose metrics are :data:`KEPT_METRICS` and the scores (:func:`~ftc_mj.benchmark.score.score_run`)."""
     from ..sim.run import execute
 
     outcome = execute(cfg, out_root, rrd=rrd)
     scores = score_run(cfg, outcome.result.trace, outcome.result.events, status=str(outcome.metrics.get("status")),
-                       record=outcome.result.record)
+                       record=outcome.result.record, rule=rule)
     scores.pop("status", None)
     outcome.metrics = {**{k: outcome.metrics.get(k) for k in KEPT_METRICS}, **scores}
     return outcome
@@ -60,6 +61,8 @@ class BenchPlan:
     version: str
     healthy: bool
     meta: dict[str, Any] = field(default_factory=dict)
+    rule: JudgeRule = field(default_factory=JudgeRule)
+    """The version's success rule (``[judge]``)."""
     classes: tuple[str, ...] = ()
     """The drawn fault classes in the definition's order (the report's rows)."""
     replay: dict[str, str] = field(default_factory=dict)
@@ -123,8 +126,8 @@ def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str 
                      analysis=AnalysisSpec(figures=False))
     plan = StudyPlan(spec, Path("bench.json"), canonical_hash(identity), runs, ["method", "draw", "fault_class"], {},
                      json.loads(json.dumps(identity, default=str)))
-    return BenchPlan(plan, draws, methods, split, definition.version, healthy, meta, tuple(definition.fault.classes),
-                     replay)
+    return BenchPlan(plan, draws, methods, split, definition.version, healthy, meta, definition.judge,
+                     tuple(definition.fault.classes), replay)
 
 
 def adopt_earlier_bench(bp: BenchPlan, out: Path) -> bool:
@@ -174,7 +177,8 @@ def run_bench(bp: BenchPlan, out: Path, *, workers: int = 2, address: str | None
     remote = open_client(workers, address) if address is not None else contextlib.nullcontext(None)
     with remote as client, writer_lock(out):
         prepare_output(bp, out)
-        report = run_study(bp.plan, out, workers=workers, client=client, run_fn=bench_run, analyse=False,
+        run_fn = functools.partial(bench_run, rule=bp.rule)
+        report = run_study(bp.plan, out, workers=workers, client=client, run_fn=run_fn, analyse=False,
                            progress=progress, echo=echo)
         assert report.results is not None
         return report, write_outputs(bp, report.results, out, compare=compare, echo=echo)

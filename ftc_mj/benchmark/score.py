@@ -11,7 +11,12 @@ Safety
     ``tipped``; ``liftoff_s`` (s a wheel was off the ground outside the
     :data:`~ftc_mj.metrics.run.FAULT_TRANSIENT_S` after every onset) — :func:`~ftc_mj.metrics.run.plant_metrics`.
 ``success``
-    The run completed, did not tip over, and ``contouring_max`` ≤ :data:`~ftc_mj.metrics.outcome.OFF_PATH_M`.
+    Under the version's rule (``[judge]``, :class:`~ftc_mj.benchmark.definition.JudgeRule`). ``near-path``
+    (``ftc-v1``): the run completed, did not tip over, and ``contouring_max`` ≤
+    :data:`~ftc_mj.metrics.outcome.OFF_PATH_M`. ``progress`` (``ftc-v2``): :mod:`~ftc_mj.benchmark.judge` — the
+    draw's label (``trackable``/``stop-only``, from physics), progress along the path or a safe stop; it adds
+    ``label``, ``attainable_speed`` (m/s), ``progress`` and ``progress_needed`` (m) and ``disabling_onset`` (s),
+    ``None`` under ``near-path``.
 FDI (runs with an estimator)
     ``false_alarm``: a declaration before the first onset (any, without a fault); ``detected``: a
     declaration starts after the first onset; ``detection_delay`` (s) from the first onset;
@@ -58,10 +63,12 @@ from ..metrics.run import plant_metrics, reconfiguration_metrics
 from ..metrics.series import first_time, starts
 from ..plant.faults import SensorFault, fault_class, fault_list, wheel_schedules
 from ..sim.record import build_record
+from .definition import JudgeRule
+from .judge import JUDGE_COLUMNS, judge_run
 
 SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "liftoff_s", "false_alarm", "detected",
                  "detection_delay", "isolation", "reconfig_delay", "lorden_delay_bound", "radius_pcrb_R",
-                 "radius_pcrb_L", "radius_error_R", "radius_error_L", "solver_fallbacks", "status")
+                 "radius_pcrb_L", "radius_error_R", "radius_error_L", "solver_fallbacks", "status", *JUDGE_COLUMNS)
 """The keys :func:`score_run` returns (``None`` where a score does not apply)."""
 
 
@@ -161,11 +168,13 @@ def _text(e: Any) -> str:
 
 
 def score_run(config: RunConfig, trace: dict[str, np.ndarray], events: Sequence[Any],
-              status: str = "ok", record: RunRecord | None = None) -> dict[str, float | str | bool | None]:
+              status: str = "ok", record: RunRecord | None = None, rule: JudgeRule | None = None
+              ) -> dict[str, float | str | bool | None]:
     """The scores of one finished run (module docstring; keys :data:`SCORE_COLUMNS`). ``trace``: the columns
     :mod:`ftc_mj.sim` writes; ``events``: the run's events (``Event`` objects or ``{t, level, text}``
     dicts); ``status``: the run's (``ok``, ``failed``, ``unstable``) — only ``ok`` can succeed; ``record``: the
-    run's resolved record (``SimResult.record``, ``record.json``; built from ``config`` when not given)."""
+    run's resolved record (``SimResult.record``, ``record.json``; built from ``config`` when not given); ``rule``: the
+    version's success rule (``near-path`` when not given)."""
     cfg = config
     record = build_record(cfg) if record is None else record
     tr = {k: np.asarray(v) for k, v in trace.items()}
@@ -188,4 +197,9 @@ def score_run(config: RunConfig, trace: dict[str, np.ndarray], events: Sequence[
     rc = reconfiguration_metrics(tr, faults[0]["onset"] if faults else None)
     out["reconfig_delay"] = rc.get("reconfig_handover_delay")
     out.update(bound_scores(cfg, record, tr, faults))
+    if rule is not None and rule.rule == "progress":
+        alive = bool(status == "ok" and not plant["tipped"])
+        out.update(judge_run(cfg, record, tr, [f["onset"] for f in faults], out["success"], alive, rule))
+    else:
+        out.update(dict.fromkeys(JUDGE_COLUMNS))
     return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}

@@ -197,10 +197,14 @@ class DiffDriveEnv(gym.Env):
 
     def episode_score(self) -> dict[str, Any]:
         """The episode's benchmark scores (:func:`ftc_mj.benchmark.score.score_run`, as ``ftc-mj bench``
-        scores a run); its status is ``unstable`` if the physics blew up, else ``ok``."""
+        scores a run: a draw's episode by its version's success rule); its status is ``unstable`` if the physics
+        blew up, else ``ok``."""
+        from ..benchmark.definition import load_definition
+
         res = self.episode_result()
         status = "unstable" if unstable_time(res.trace) is not None else "ok"
-        return score_run(self.config, res.trace, res.events, status=status, record=res.record)
+        rule = load_definition(self.draw.version).judge if self.draw is not None else None
+        return score_run(self.config, res.trace, res.events, status=status, record=res.record, rule=rule)
 
     def episode_row(self, method: str) -> dict[str, Any]:
         """The episode as a row of ``ftc-mj bench``'s ``scores.parquet`` for the method named ``method``: the

@@ -12,12 +12,17 @@ from typing import Any
 
 import numpy as np
 
+from ..control.reference import Path, project
 from ..model.kinematics import max_path_speed
 from .record import RunRecord
 
 RECOVERED_AFTER_S = 5.0
 """``contouring_*_recovered`` start this long (s) after the *last* fault onset (a fault-free run: after
 this long from the start)."""
+PROGRESS_SAMPLE_S = 0.1
+"""Time (s) between the trace rows :func:`path_progress` projects (it interpolates between them)."""
+PROGRESS_MARGIN_M = 1.0
+"""Least half-width (m) of the arc-length window searched around the previous projection."""
 FINAL_WINDOW_S = 5.0
 """``speed_mean_final`` averages the speed over the last this many seconds (s)."""
 BOUND_TOL = 0.01
@@ -67,3 +72,29 @@ def path_following_metrics(record: RunRecord, trace: dict[str, np.ndarray],
     else:
         m["lateral_bound_time_s"] = float("nan")
     return m
+
+
+def path_progress(path: Path, t: np.ndarray, x: np.ndarray, y: np.ndarray, s0: float = 0.0) -> np.ndarray:
+    """Progress along ``path`` (m) per trace row: the arc length of the projection of the true position ``(x, y)``
+    (m) at times ``t`` (s), tracked locally from the previous projection — never a global nearest point — so it is
+    unwrapped on a closed path (it keeps growing lap after lap) and continuous through a figure-eight's crossing
+    (the other branch is a lobe's length away in arc length, far outside the window).
+
+    Every :data:`PROGRESS_SAMPLE_S` a row is projected (:func:`~ftc_mj.control.reference.project`) within
+    ``s_prev ± max(2 d, PROGRESS_MARGIN_M)`` of the previous projection ``s_prev`` (``d``: the distance (m) moved
+    since, so a robot at 20 m/s stays inside the window); the first row from ``s0`` (the path starts at the
+    initial pose); the rows between are interpolated linearly in time."""
+    t, x, y = (np.asarray(a, float) for a in (t, x, y))
+    if t.size == 0:
+        return np.zeros(0)
+    keep = [0]
+    for k in range(1, t.size):
+        if t[k] - t[keep[-1]] >= PROGRESS_SAMPLE_S - 1e-9 or k == t.size - 1:
+            keep.append(k)
+    s = np.empty(len(keep))
+    s[0] = project(path, float(x[0]), float(y[0]), s0, PROGRESS_MARGIN_M, step=0.25)
+    for j in range(1, len(keep)):
+        a, b = keep[j - 1], keep[j]
+        d = float(np.hypot(x[b] - x[a], y[b] - y[a]))
+        s[j] = project(path, float(x[b]), float(y[b]), float(s[j - 1]), max(2.0 * d, PROGRESS_MARGIN_M), step=0.25)
+    return np.interp(t, t[keep], s)

@@ -174,10 +174,11 @@ class LineReference(_TimeLaw):
             raise ValueError("speed must be > 0")
         self.speed = float(speed)
         self.x0, self.y0, self.psi0 = (float(v) for v in initial_pose)
+        self.cos0, self.sin0 = math.cos(self.psi0), math.sin(self.psi0)  # the direction (kept: NLP parameters)
 
     def geometry(self, s: Any, lib: ModuleType = np) -> PathSample:
         """Point at arc length ``s`` (m); constant heading, zero curvature."""
-        return PathSample(self.x0 + math.cos(self.psi0) * s, self.y0 + math.sin(self.psi0) * s,
+        return PathSample(self.x0 + self.cos0 * s, self.y0 + self.sin0 * s,
                           _full(lib, s, self.psi0), _full(lib, s, 0.0))
 
     def cross_track(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:

@@ -138,7 +138,7 @@ class PathQP:
         hc = np.concatenate([hp.ravel(), hs])
         # Gauss-Newton residuals e_c, e_l, psi - theta linearised in (x, y, psi, s) at the guess
         pg = self.path.geometry(Xg[:, 3])
-        ec, el = path_errors(self.path, Xg[:, 0], Xg[:, 1], Xg[:, 3])
+        ec, el = path_errors(self.path, Xg[:, 0], Xg[:, 1], Xg[:, 3], pg)
         c, s, k = np.cos(pg.heading), np.sin(pg.heading), pg.curvature
         grads = ((-s, c, 0.0 * k, -k * el), (c, s, 0.0 * k, k * ec - 1.0), (0.0 * k, 0.0 * k, 1.0 + 0.0 * k, -k))
         r0 = (ec, el, Xg[:, 2] - pg.heading)

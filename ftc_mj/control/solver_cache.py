@@ -287,9 +287,16 @@ def forget_solvers() -> None:
 
 
 def prune(folder: Path, max_age_s: float) -> int:
-    """Delete the cached solvers in ``folder`` not used (built or loaded) for ``max_age_s`` seconds;
-    return how many were deleted."""
+    """Delete the cached solvers in ``folder`` not used (built or loaded) for ``max_age_s`` seconds, and the
+    temporaries of loads that older (a process killed while loading leaves one, :func:`_load_function`);
+    return how many solvers were deleted."""
     cutoff = time.time() - max_age_s
+    for tmp in Path(folder).glob(".load-*"):
+        try:
+            if tmp.stat().st_mtime < cutoff:
+                tmp.unlink()
+        except OSError:
+            pass
     gone = 0
     for path in Path(folder).glob("*.casadi.z"):
         try:

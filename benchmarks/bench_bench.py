@@ -13,7 +13,9 @@ outermost call of a kind only): *physics* (the plant's ``advance``), *filter* (t
 (the RTI QPs' ``solve``), *IPOPT* (every IPOPT solve; *seed*: the first of the run), *solver build/load*
 (getting the IPOPT solver: from memory, the disk cache or a build; not counted in the solves). *floor* = physics +
 filter + QPs + one IPOPT seed, each at the cost measured in the same run (the performance issue's
-target: a draw ≤ 1.5× its floor; paper, safe, feedback-off ≤ 3× bare physics, the others ≤ 6×).
+target: a draw ≤ 1.5× its floor; paper, safe, feedback-off ≤ 3× bare physics, the others ≤ 6×). Below the
+table: the solver cache's entries after the warm-up and after the timed draws (it must not grow with new
+draws: one path-following solver per path kind) and the process's peak resident set.
 
 **The throughput comparison** (``--throughput``): the runs of ``ftc-mj bench`` on the study runner, each
 scored in its worker, then the outputs, next to the same run configs on the same runner with the study's
@@ -27,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import resource
 import statistics
 import tempfile
 import time
@@ -41,7 +44,7 @@ from ftc_mj.benchmark.draws import draw
 from ftc_mj.benchmark.methods import BUILTIN, load_methods
 from ftc_mj.benchmark.report import write_outputs
 from ftc_mj.benchmark.run import bench_run, plan_bench, prepare_output
-from ftc_mj.control import condensed_qp, multistage_qp, nmpc, pathfollow_nlp, pathfollow_qp, robust
+from ftc_mj.control import condensed_qp, multistage_qp, nmpc, pathfollow_nlp, pathfollow_qp, robust, solver_cache
 from ftc_mj.estimation.ukf import UKF
 from ftc_mj.plant.robot import Plant
 from ftc_mj.study.runner import run_study
@@ -143,6 +146,7 @@ def draw_table(methods: list[str], rounds: int, duration: float, first: int) -> 
     ms = load_methods(methods)
     for m in ms:  # warm-up: solvers, kernels and plant from their caches, as in a worker's later runs
         timed_draw(m, first + rounds, min(duration, 2.0))
+    entries = solver_entries()
     rows: dict[str, list[dict[str, float]]] = {m.name: [] for m in ms}
     for r in range(rounds):
         for m in ms:
@@ -159,6 +163,15 @@ def draw_table(methods: list[str], rounds: int, duration: float, first: int) -> 
         print(f"| {name} | {med['cpu']:.2f} | {x_bare:.1f}× | {med['floor']:.2f} | {x_floor:.1f}× | "
               f"{med['physics']:.2f} | {med['filter']:.2f} | {med['QPs']:.2f} | {med['IPOPT']:.2f} "
               f"({med['ipopt_solves']:.0f}) | {med['seed']:.2f} | {med['solver build/load']:.2f} | {med['bare']:.2f} |")
+    print(f"\nsolver cache {solver_cache.cache_dir()}: {entries} entries after the warm-up, {solver_entries()} after "
+          f"the {rounds} rounds of new draws; peak RSS of this process "
+          f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB")
+
+
+def solver_entries() -> int:
+    """How many solvers the disk cache holds (0 when it is off): the count must not grow with new draws."""
+    folder = solver_cache.cache_dir()
+    return len(list(folder.glob("*.casadi.z"))) if folder is not None and folder.is_dir() else 0
 
 
 def throughput(args: argparse.Namespace) -> None:

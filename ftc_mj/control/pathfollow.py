@@ -80,6 +80,7 @@ The spec and the robot's limits are in :mod:`~ftc_mj.control.pathfollow_spec`, t
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Literal
 
 import numpy as np
@@ -91,7 +92,7 @@ from .base import ControlOutput
 from .lgl import interpolation_matrix
 from .mpc import SOLVERS, MPCLifecycle, sanitize_pose, sanitize_radii
 from .nmpc import NMPCSettings
-from .pathfollow_nlp import PathNLP
+from .pathfollow_nlp import PathNLP, nlp_structure
 from .pathfollow_qp import PathQP
 from .pathfollow_spec import (
     PathFollowingSettings,
@@ -167,10 +168,34 @@ class PathFollowingNMPC(MPCLifecycle):
         self.solver_name = solver
         self.max_iter = int(max_iter)
         super().__init__(spec.problem, nominal_radii, time_budget, cold_time_budget)
-        self.qp = PathQP(self.col, spec, path, solver.split("-", 1)[1], qp_options) if solver != "ipopt" else None
-        self._nlp = PathNLP(self.col, spec, path, self.max_iter, cold_time_budget, time_budget)
         self._qp_args = (qp_options, cold_time_budget, time_budget)
-        self._robust: tuple[PathNLP, PathQP | None] | None = None  # the degraded mode's solvers, built on first use
+        self._build_solvers()  # the degraded mode's solvers are built on first use
+
+    def set_reference(self, path: Path, spec: PathFollowingSpec | None = None) -> None:
+        """Follow ``path`` with the problem numbers of ``spec`` (default: the current ones) from the next solve on:
+        a new draw's path, desired speed and robot limits. The path's numbers and the desired speed are
+        parameters of the built NLP and QP (:mod:`~ftc_mj.control.pathfollow_path`), so a built controller, reset,
+        serves them exactly as one built for them (the simulation's cache relies on it: ``retargetable``); a
+        problem of another structure (another path kind, another grid or weights) builds its solvers anew."""
+        spec = self.spec if spec is None else spec
+        if spec.problem != self.spec.problem and dataclasses.replace(
+                spec.problem, max_lateral_accel=self.spec.problem.max_lateral_accel) != self.spec.problem:
+            raise ValueError("set_reference: the path-following NMPC's grid and robot cannot change")
+        self.spec, self.path = spec, path
+        if nlp_structure(spec, path) != self._nlp.structure:
+            self._build_solvers()
+            return
+        for solver in (self._nlp, self.qp, *(self._robust or ())):
+            if solver is not None:
+                solver.set_problem(spec, path)
+
+    def _build_solvers(self) -> None:
+        """The NLP and QP of the current spec and path (the degraded mode's on its first use)."""
+        qp_options, cold, warm = self._qp_args
+        rti = self.solver_name != "ipopt"
+        self.qp = PathQP(self.col, self.spec, self.path, self.solver_name.split("-", 1)[1], qp_options) if rti else None
+        self._nlp = PathNLP(self.col, self.spec, self.path, self.max_iter, cold, warm)
+        self._robust: tuple[PathNLP, PathQP | None] | None = None
 
     def set_radius_interval(self, interval: RadiusInterval | None) -> None:
         """The radius interval of the degraded mode for the next solves (``None``: the mode is off). While it is

@@ -7,6 +7,7 @@ import numpy as np
 from ..lazy import lazy_module
 from .certified_qp import CertifiedQP
 from .elimination import StateElimination, lateral_accel_linearisation
+from .pathfollow_nlp import nlp_structure
 from .pathfollow_spec import SLACK_MAX, PathFollowingSpec, RadiusInterval, lateral_sides
 from .reference import Path, path_errors
 from .solvers import BufferedFunction, default_qp_options
@@ -62,8 +63,7 @@ class PathQP:
         H0[2 * N:3 * N, 2 * N:3 * N] += 2.0 * spec.progress_rate_penalty * (Dh.T * W) @ Dh
         H0[2 * N:3 * N, 2 * N:3 * N] += np.diag(2.0 * spec.q_progress * W)
         H0[self.i_sig, self.i_sig] = 2.0
-        g0 = np.zeros(n)
-        g0[2 * N:3 * N] = -2.0 * spec.q_progress * W * spec.desired_speed
+        g0 = np.zeros(n)  # the progress-speed part set per draw (set_problem)
         g0[self.i_sig] = spec.slack_penalty
         if robust:
             H0[3 * N + 1:, 3 * N + 1:] = np.diag(2.0 * W)
@@ -72,8 +72,7 @@ class PathQP:
         self._sqW = np.sqrt(np.concatenate([spec.q_contour * W, spec.q_lag * W, spec.q_heading * W]))
         self.rate_lim = pr.omega_rate_max * h
         self.lbx = np.zeros(n)  # wheel-rate parts set per QP (wheel_bounds)
-        self.ubx = np.concatenate([np.zeros(2 * N), spec.max_progress_speed * np.ones(N),
-                                   SLACK_MAX * np.ones(n - 3 * N)])
+        self.ubx = np.concatenate([np.zeros(3 * N), SLACK_MAX * np.ones(n - 3 * N)])  # wheel rates per QP
         self.n_lat = (len(lateral_sides(spec)) * N + len(lateral_sides(spec, True))
                       if pr.max_lateral_accel is not None else 0)
         self.n_lon = N + 1 if pr.max_longitudinal_accel is not None else 0
@@ -93,7 +92,20 @@ class PathQP:
         outs = [r["x"], r["cost"]] + ([r["lam_a"]] if robust else [])
         self._plugin = BufferedFunction(ca.Function("pf_rti_qp", [Hs, gs, As, bl, bu, xl, xu, u0], outs))
         self.path_counts: dict[str, int] = {}
+        self._structure = nlp_structure(spec, path, robust)
+        self.set_problem(spec, path)
         self.reset()
+
+    def set_problem(self, spec: PathFollowingSpec, path: Path) -> None:
+        """Build the QPs of ``spec`` on ``path`` from now on (a new draw): the same structure as the built one
+        (:func:`~ftc_mj.control.pathfollow_nlp.nlp_structure`; ``ValueError`` otherwise), its desired speed and
+        progress-speed bound; the lateral bound and the braking trade are read at every build."""
+        if nlp_structure(spec, path, self.robust) != self._structure:
+            raise ValueError("the path-following QP was built for a problem of another structure")
+        self.spec, self.path = spec, path
+        N = self.col.N
+        self.g0[2 * N:3 * N] = -2.0 * spec.q_progress * self.col.W * spec.desired_speed
+        self.ubx[2 * N:3 * N] = spec.max_progress_speed
 
     def reset(self) -> None:
         """Forget the active-set guess and the interval rows' multipliers (a reused solver then behaves like a
@@ -126,7 +138,7 @@ class PathQP:
         hc = np.concatenate([hp.ravel(), hs])
         # Gauss-Newton residuals e_c, e_l, psi - theta linearised in (x, y, psi, s) at the guess
         pg = self.path.geometry(Xg[:, 3])
-        ec, el = path_errors(self.path, Xg[:, 0], Xg[:, 1], Xg[:, 3])
+        ec, el = path_errors(self.path, Xg[:, 0], Xg[:, 1], Xg[:, 3], pg)
         c, s, k = np.cos(pg.heading), np.sin(pg.heading), pg.curvature
         grads = ((-s, c, 0.0 * k, -k * el), (c, s, 0.0 * k, k * ec - 1.0), (0.0 * k, 0.0 * k, 1.0 + 0.0 * k, -k))
         r0 = (ec, el, Xg[:, 2] - pg.heading)

@@ -174,10 +174,11 @@ class LineReference(_TimeLaw):
             raise ValueError("speed must be > 0")
         self.speed = float(speed)
         self.x0, self.y0, self.psi0 = (float(v) for v in initial_pose)
+        self.cos0, self.sin0 = math.cos(self.psi0), math.sin(self.psi0)  # the direction (kept: NLP parameters)
 
     def geometry(self, s: Any, lib: ModuleType = np) -> PathSample:
         """Point at arc length ``s`` (m); constant heading, zero curvature."""
-        return PathSample(self.x0 + math.cos(self.psi0) * s, self.y0 + math.sin(self.psi0) * s,
+        return PathSample(self.x0 + self.cos0 * s, self.y0 + self.sin0 * s,
                           _full(lib, s, self.psi0), _full(lib, s, 0.0))
 
     def cross_track(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
@@ -242,14 +243,15 @@ class FigureEightReference(_TimeLaw):
         return np.stack(self.geometry(np.linspace(0, self.length, n))[:2], axis=1)
 
 
-def path_errors(path: Path, x: np.ndarray, y: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def path_errors(path: Path, x: np.ndarray, y: np.ndarray, s: np.ndarray,
+                at: PathSample | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Contouring and lag error (m) of the points ``(x, y)`` relative to the path points at ``s``.
 
     ``e_c = −sin θ (x − x_p) + cos θ (y − y_p)`` (positive to the left of the path tangent) and
     ``e_l = cos θ (x − x_p) + sin θ (y − y_p)`` (positive ahead of the path point), with
-    ``(x_p, y_p, θ) = geometry(s)``.
+    ``(x_p, y_p, θ) = geometry(s)`` — or ``at``, that geometry when the caller has it already.
     """
-    g = path.geometry(np.asarray(s, dtype=float))
+    g = path.geometry(np.asarray(s, dtype=float)) if at is None else at
     dx, dy = np.asarray(x, float) - g.x, np.asarray(y, float) - g.y
     c, sn = np.cos(g.heading), np.sin(g.heading)
     return -sn * dx + c * dy, c * dx + sn * dy
@@ -269,8 +271,9 @@ def project(path: Path, x: float, y: float, s_guess: float, window: float, step:
     d2 = (g.x - x) ** 2 + (g.y - y) ** 2 + 1e-12 * np.abs(cand - s_guess)
     s = float(cand[int(np.argmin(d2))])
     for _ in range(newton):
-        ec, el = path_errors(path, np.array([x]), np.array([y]), np.array([s]))
-        k = float(path.geometry(np.array([s])).curvature[0])
+        g = path.geometry(np.array([s]))
+        ec, el = path_errors(path, np.array([x]), np.array([y]), np.array([s]), g)
+        k = float(g.curvature[0])
         den = 1.0 - k * float(ec[0])
         if den <= 1e-6:
             break

@@ -2,17 +2,18 @@
 
 Creating an ``nlpsol`` derives the gradient, the constraint Jacobian and the Lagrangian Hessian of the
 SX graph symbolically; for the path-following and robust NMPCs that is 1–5 s per process. CasADi can
-serialise the finished solver (``Function.serialize``) and rebuild it from that text without
-differentiating again. The loaded solver is the same instruction sequence with the same options, so
-its results are bitwise those of a fresh build (``tests/control/test_solver_cache.py``).
+serialise the finished solver (``Function.save``) and rebuild it from that file (``Function.load``,
+streamed: :func:`_load_function`) without differentiating again. The loaded solver is the same instruction
+sequence with the same options, so its results are bitwise those of a fresh build
+(``tests/control/test_solver_cache.py``).
 
 Key: SHA-256 of the CasADi version, the solver name, the serialised problem (``x``, ``p`` → ``f``,
 ``g``: every symbol, operation and constant) and the options. A changed problem, option or CasADi
 version is a new key. An entry is :data:`MAGIC`, one JSON header line recording what it was built from
 (the CasADi version, the key, the function's name, its inputs' and outputs' shapes, the payload's size
-and SHA-256), then the zlib-compressed serialisation (a few MB). An entry is used only when all of that
-matches the problem asked for and the loaded function has the name and the shapes that problem's
-``nlpsol`` has; anything else (an old-format or damaged file, another problem's solver under the key,
+and SHA-256), then the zlib-compressed serialisation (a few MB; 10 MB for the path-following NLP). An entry is
+used only when all of that matches the problem asked for and the loaded function has the name and the shapes
+that problem's ``nlpsol`` has; anything else (an old-format or damaged file, another problem's solver under the key,
 an empty function, a folder, a named pipe, a device, a link out of the folder, a file over
 :data:`MAX_ENTRY_BYTES`) is rebuilt and replaced, with one warning line on stderr. Files are written
 atomically (a temporary name, then ``os.replace``; the temporary is removed when that fails), so
@@ -52,8 +53,11 @@ CACHE_ENV = "FTC_MJ_CACHE_DIR"
 """Environment variable naming the cache root (the solvers go to its ``solvers/`` folder)."""
 SWITCH_ENV = "FTC_MJ_SOLVER_CACHE"
 """Environment variable: ``off``/``0``/``no`` disables the solver cache."""
-MAGIC = b"ftc-mj solver cache 2\n"
-"""First line of an entry (format 2: then one JSON header line, then the compressed serialisation)."""
+MAGIC = b"ftc-mj solver cache 3\n"
+"""First line of an entry (format 3: then one JSON header line, then the compressed file of ``Function.save``;
+format 2 held ``Function.serialize``'s text, which loads only from a string: three copies of it in memory)."""
+CHUNK = 2**20
+"""Bytes decompressed at a time when an entry is loaded (:func:`_load_function`)."""
 MAX_ENTRY_BYTES = 256 * 2**20
 """Largest entry read (bytes); the largest solver of the package compresses to a few MB."""
 
@@ -138,9 +142,33 @@ def _read_regular(path: Path) -> bytes | None:
         return fh.read(MAX_ENTRY_BYTES + 1)
 
 
-def _verified(data: bytes, key: str, name: str, nlp: dict) -> ca.Function:
+def _load_function(payload: bytes, folder: Path) -> ca.Function:
+    """The function whose ``Function.save`` file ``payload`` compresses: decompressed a :data:`CHUNK` at a time
+    into a temporary file (in ``folder``, else the system's temporary folder) that ``Function.load`` streams
+    from, so the process never holds the uncompressed text (≈ 70 MB for the path-following NLP: as a string
+    it cost a worker 200 MB of peak memory a load). The temporary is always removed."""
+    dec = zlib.decompressobj()
+    for where in (folder, None):
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=".load-", dir=where)
+        except OSError:
+            continue
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                for k in range(0, len(payload), CHUNK):
+                    fh.write(dec.decompress(payload[k:k + CHUNK]))
+                fh.write(dec.flush())
+            if not dec.eof:
+                raise zlib.error("incomplete payload")
+            return ca.Function.load(tmp)
+        finally:
+            os.unlink(tmp)
+    raise RuntimeError("no folder to load the solver from")
+
+
+def _verified(data: bytes, key: str, name: str, nlp: dict, folder: Path) -> ca.Function:
     """The solver in the entry ``data`` once its header, payload and function match the problem (``key``,
-    ``name``, ``nlp``); :class:`EntryRejected` saying what does not."""
+    ``name``, ``nlp``); :class:`EntryRejected` saying what does not (``folder``: where it is loaded from)."""
     if not data.startswith(MAGIC):
         raise EntryRejected("not an entry of this format")
     line, sep, payload = data[len(MAGIC):].partition(b"\n")
@@ -155,8 +183,8 @@ def _verified(data: bytes, key: str, name: str, nlp: dict) -> ca.Function:
         if head.get(field) != want[field]:
             raise EntryRejected(f"{field} does not match")
     try:
-        solver = ca.Function.deserialize(zlib.decompress(payload).decode())
-    except (zlib.error, UnicodeDecodeError, RuntimeError) as err:
+        solver = _load_function(payload, folder)
+    except (zlib.error, RuntimeError) as err:
         raise EntryRejected(f"cannot be loaded ({type(err).__name__})") from None
     if solver.is_null() or solver.name() != name or signature(solver) != want["signature"]:
         raise EntryRejected("the function is not this problem's solver")
@@ -170,7 +198,7 @@ def _load(path: Path, key: str, name: str, nlp: dict) -> ca.Function | None:
         data = _read_regular(path)
         if data is None:
             return None
-        solver = _verified(data, key, name, nlp)
+        solver = _verified(data, key, name, nlp, path.parent)
     except (EntryRejected, OSError) as err:
         why = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
         print(f"ftc-mj: warning: solver cache entry {path} cannot be used ({why}); rebuilding it",
@@ -186,17 +214,20 @@ def _load(path: Path, key: str, name: str, nlp: dict) -> ca.Function | None:
 def _store(path: Path, solver: ca.Function, key: str, name: str, nlp: dict) -> None:
     """Write the entry of ``solver`` atomically; a failure (a read-only or full disk, a folder in the
     entry's place) leaves no temporary file and costs the next process a build, nothing else."""
-    payload = zlib.compress(solver.serialize().encode(), 1)
-    head = json.dumps(header(key, name, nlp, payload), sort_keys=True).encode() + b"\n"
     tmp: str | None = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-        with os.fdopen(fd, "wb") as f:
+        os.close(fd)
+        solver.save(tmp)
+        with open(tmp, "rb") as f:
+            payload = zlib.compress(f.read(), 1)
+        head = json.dumps(header(key, name, nlp, payload), sort_keys=True).encode() + b"\n"
+        with open(tmp, "wb") as f:
             f.write(MAGIC + head + payload)
         os.replace(tmp, path)
         tmp = None
-    except OSError:
+    except (OSError, RuntimeError):  # RuntimeError: CasADi could not write the file
         pass
     finally:
         if tmp is not None:
@@ -256,9 +287,16 @@ def forget_solvers() -> None:
 
 
 def prune(folder: Path, max_age_s: float) -> int:
-    """Delete the cached solvers in ``folder`` not used (built or loaded) for ``max_age_s`` seconds;
-    return how many were deleted."""
+    """Delete the cached solvers in ``folder`` not used (built or loaded) for ``max_age_s`` seconds, and the
+    temporaries of loads that older (a process killed while loading leaves one, :func:`_load_function`);
+    return how many solvers were deleted."""
     cutoff = time.time() - max_age_s
+    for tmp in Path(folder).glob(".load-*"):
+        try:
+            if tmp.stat().st_mtime < cutoff:
+                tmp.unlink()
+        except OSError:
+            pass
     gone = 0
     for path in Path(folder).glob("*.casadi.z"):
         try:

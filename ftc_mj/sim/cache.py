@@ -10,8 +10,9 @@ The cache holds what a next run reuses and nothing else: one part per *slot* (a 
 controller per controller section and nominal model: a method), kept with the identity it was built for.
 A run of the same identity resets it; another identity replaces it, so a bench worker, which never sees
 a draw twice, holds one plant and one controller per method, not one per draw. A controller registered
-``retargetable`` (the tracking MPCs: the reference enters their problem as parameters) is keyed without
-its reference and given the run's reference after its reset, so every draw of a method reuses it; the
+``retargetable`` (the MPCs: the reference — and for the path-following NMPC its desired speed and the robot's
+limits — enters their problem as parameters) is keyed without its reference (and limits) and given the run's
+after its reset (:func:`~ftc_mj.wiring.control.retarget_controller`), so every draw of a method reuses it; the
 IPOPT solvers themselves are kept per process by :func:`~ftc_mj.control.solver_cache.ipopt_solver`.
 """
 
@@ -30,7 +31,7 @@ from ..plant.limits import lateral_accel_limits
 from ..plant.settings import PlantSettings
 from ..registry import controllers
 from ..resources import model_digest
-from ..wiring.control import build_controller
+from ..wiring.control import build_controller, retarget_controller
 from ..wiring.plant import build_plant
 
 _MAX_LIMITS = 16
@@ -101,8 +102,8 @@ def robot_limits(cfg: RunConfig) -> RobotLimits:
 
 def controller_for(cfg: RunConfig, reference: Any) -> Any:
     """A controller for ``cfg``, reset: one registered ``reusable`` (MPCs) is cached per method (its
-    controller and model sections) and built again only when its identity changes — with the reference
-    unless it is registered ``retargetable`` (then it is given ``reference`` after its reset); any other
+    controller and model sections) and built again only when its identity changes — with the reference and the
+    robot's limits unless it is registered ``retargetable`` (then it is given them after its reset); any other
     controller is built anew."""
     meta = controllers.get(cfg.controller.kind).meta
     limits = robot_limits(cfg) if meta.get("robot_limits", False) else None
@@ -110,11 +111,11 @@ def controller_for(cfg: RunConfig, reference: Any) -> Any:
         return build_controller(cfg, reference, limits)
     retarget = meta.get("retargetable", False)
     sections = ("controller", "robot", "model") if retarget else ("controller", "reference", "robot", "model")
-    key = _key(cfg, sections, (tuple(cfg.plant.initial_pose), limits))
+    key = _key(cfg, sections, (tuple(cfg.plant.initial_pose),) if retarget else (tuple(cfg.plant.initial_pose), limits))
     ctl = _reuse(_controllers, _key(cfg, ("controller", "model")), key, "controller",
                  lambda: build_controller(cfg, reference, limits))
     if retarget:
-        ctl.set_reference(reference)
+        retarget_controller(ctl, cfg, reference, limits)
     return ctl
 
 

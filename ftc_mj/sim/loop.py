@@ -241,7 +241,7 @@ class ClosedLoop:
         self.fault_columns = fault_columns(self.parts)
         self.sensor_faults = bool(self.parts.sensors.faults)
         self.trace = TraceWriter(self.n, tuple(getattr(self.parts.controller, "telemetry_columns", ())),
-                                 self.n_modes, self.fault_columns)
+                                 self.n_modes, self.fault_columns, self.parts.reference.cross_track)
         self.solves: list[Solve] = []
         self.events: list[Event] = [Event(t_on, "warn", f"fault injected: {wheel} tyre radius schedule starts")
                                     for wheel, t_on in self.run_record.onsets.items() if t_on is not None]
@@ -312,8 +312,7 @@ class ClosedLoop:
             self.flags_seen |= new
             self.events.append(Event(t, "warn", f"plant left the kinematic model's domain: "
                                                 f"{plant.describe_flags(new)}"))
-        self.trace.cross_track(k, float(self.parts.reference.cross_track(tr.x, tr.y)))
-        return tr, rd, u_meas
+        return tr, rd, u_meas  # the cross-track error: from the trace's x, y when read (TraceWriter.columns)
 
     def estimate(self, rd: SensorReading, u_meas: np.ndarray) -> tuple[FilterOutput, np.ndarray]:
         """One filter step: predict with the wheel rates measured at the previous step (at the first step,

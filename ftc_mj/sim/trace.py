@@ -10,7 +10,7 @@ Nothing is logged call by call: the arrays are handed over whole at the end of t
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -19,24 +19,54 @@ from ..estimation.base import FilterOutput
 from ..plant import SensorReading, Truth
 from ..telemetry.columns import BASE_COLUMNS, COVARIANCE_COLUMNS, STATE, WHEEL_CODES
 
+N_STATE = len(STATE)
+ESTIMATE_COLUMNS: tuple[str, ...] = (*(f"{s}_hat" for s in STATE), *(f"{s}_std" for s in STATE),
+                                     *COVARIANCE_COLUMNS.values())
+"""The columns :meth:`TraceWriter.estimate` writes as one block: estimates, σ, upper off-diagonal covariances."""
+_DIAG = np.arange(N_STATE)
+_UPPER = tuple(np.array(ix) for ix in zip(*COVARIANCE_COLUMNS, strict=True))  # (i…, j…) of P[i, j], i < j
+_LOWER = _UPPER[::-1]
+
 
 class TraceWriter:
     """The trace of one run: ``n`` rows of the base columns, ``extra`` columns (a controller's
     telemetry), ``n_modes`` mode-probability columns and the ``faults`` truth columns of the run's servo and
-    sensor faults, written row by row."""
+    sensor faults, written row by row.
 
-    def __init__(self, n: int, extra: Sequence[str] = (), n_modes: int = 0, faults: Sequence[str] = ()) -> None:
+    Per-step costs are kept out of Python where a column allows it: the estimate's 20 columns are rows of one
+    block written with three vector assignments (:meth:`estimate`), and ``cross_track_error``, a function of the
+    true position only, is computed for all rows written so far, vectorised, whenever :attr:`columns` is read
+    (``cross_track``: the reference's ``cross_track(x, y)``; ``None``: written by :meth:`cross_track` only)."""
+
+    def __init__(self, n: int, extra: Sequence[str] = (), n_modes: int = 0, faults: Sequence[str] = (),
+                 cross_track: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> None:
         self.extra = tuple(extra)
         self.n_modes = n_modes
-        self.columns: dict[str, np.ndarray] = {c: np.full(n, np.nan) for c in (*BASE_COLUMNS, *self.extra,
-                                                                              *faults)}
-        self.columns["plant_flags"] = np.zeros(n, dtype=np.int64)
+        self._est = np.full((len(ESTIMATE_COLUMNS), n), np.nan)
+        est = dict(zip(ESTIMATE_COLUMNS, self._est, strict=True))  # row views of the block
+        self._cols: dict[str, np.ndarray] = {c: est[c] if c in est else np.full(n, np.nan)
+                                             for c in (*BASE_COLUMNS, *self.extra, *faults)}
+        self._cols["plant_flags"] = np.zeros(n, dtype=np.int64)
         for j in range(n_modes):
-            self.columns[f"mode_prob_{j + 1}"] = np.full(n, np.nan)
+            self._cols[f"mode_prob_{j + 1}"] = np.full(n, np.nan)
+        self._cross_track = cross_track
+        self._written = 0  # rows whose truth is written
+        self._ct_done = 0  # rows whose cross-track error is computed
+
+    @property
+    def columns(self) -> dict[str, np.ndarray]:
+        """The columns (name → array of ``n`` rows), the cross-track error filled for every row written."""
+        if self._cross_track is not None and self._ct_done < self._written:
+            a, b = self._ct_done, self._written
+            c = self._cols
+            c["cross_track_error"][a:b] = self._cross_track(c["x"][a:b], c["y"][a:b])
+            self._ct_done = b
+        return self._cols
 
     def truth(self, k: int, t: float, tr: Truth, rd: SensorReading, u_meas: np.ndarray) -> None:
         """Time (s), the true state and the sensor readings of row ``k``."""
-        c = self.columns
+        c = self._cols
+        self._written = max(self._written, k + 1)
         c["t"][k] = t
         c["x"][k], c["y"][k], c["psi"][k] = tr.x, tr.y, tr.psi
         c["v"][k], c["yaw_rate"][k] = tr.v, tr.yaw_rate
@@ -54,23 +84,21 @@ class TraceWriter:
 
     def fault_truth(self, k: int, values: dict[str, float]) -> None:
         """The injected faults' state at row ``k`` (the ``fault_*`` truth columns, in their units)."""
-        c = self.columns
+        c = self._cols
         for name, value in values.items():
             c[name][k] = value
 
     def cross_track(self, k: int, error: float) -> None:
         """Signed distance (m) of the true position to the reference path, positive left of it."""
-        self.columns["cross_track_error"][k] = error
+        self._cols["cross_track_error"][k] = error
 
     def estimate(self, k: int, out: FilterOutput) -> None:
         """Estimate, σ of each state, off-diagonal covariances and the innovation statistics of row ``k``."""
-        c = self.columns
-        P = out.P
-        for i, name in enumerate(STATE):
-            c[f"{name}_hat"][k] = out.x[i]
-            c[f"{name}_std"][k] = np.sqrt(max(P[i, i], 0.0))
-        for (i, j), name in COVARIANCE_COLUMNS.items():
-            c[name][k] = 0.5 * (P[i, j] + P[j, i])
+        c, E, P = self._cols, self._est, out.P
+        E[:N_STATE, k] = out.x[:N_STATE]
+        d = P[_DIAG, _DIAG]
+        E[N_STATE:2 * N_STATE, k] = np.sqrt(np.where(d < 0.0, 0.0, d))  # max(d, 0) (NaN kept)
+        E[2 * N_STATE:, k] = 0.5 * (P[_UPPER] + P[_LOWER])
         c["innovation"][k] = out.speed_innovation
         c["innovation_std"][k] = out.speed_innovation_std
         c["nis"][k] = out.nis
@@ -79,7 +107,7 @@ class TraceWriter:
     def decision(self, k: int, ds: object, mode_probs: np.ndarray | None) -> None:
         """The fault decision of row ``k`` (a :class:`~ftc_mj.estimation.DecisionState`): declared and
         suspected flags, declared wheel, anomaly, split σ (m), every rule's statistic, IMM mode probabilities."""
-        c = self.columns
+        c = self._cols
         c["fault_detected"][k] = float(ds.detected)
         c["fault_suspected"][k] = float(ds.suspected)
         c["declared_wheel"][k] = float(WHEEL_CODES[ds.wheel])
@@ -93,11 +121,11 @@ class TraceWriter:
 
     def excitation(self, k: int, dither: float) -> None:
         """The yaw-rate dither (rad/s) added to the command of row ``k``."""
-        self.columns["excitation"][k] = dither
+        self._cols["excitation"][k] = dither
 
     def solve(self, k: int, cmd: ControlOutput) -> None:
         """The controller's telemetry and its solve's time (ms), iterations and success at a controller sample."""
-        c = self.columns
+        c = self._cols
         for name in self.extra:
             c[name][k] = cmd.telemetry.get(name, np.nan)
         c["solve_time_ms"][k] = cmd.solve_time * 1e3
@@ -107,7 +135,7 @@ class TraceWriter:
     def held(self, k: int, reconfig_state: float, omega: np.ndarray, model_radii: np.ndarray) -> None:
         """What holds on every row: the policy's state, the command in force (rad/s) and the radii (m) the
         controller assumed."""
-        c = self.columns
+        c = self._cols
         c["reconfig_state"][k] = reconfig_state
         c["omega_R_cmd"][k], c["omega_L_cmd"][k] = omega[0], omega[1]
         c["R_R_model"][k], c["R_L_model"][k] = model_radii

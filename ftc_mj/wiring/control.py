@@ -6,8 +6,9 @@ reference, *extra)``: ``settings`` the ``[controller]`` section (the settings mo
 beside the controller), ``context`` the :class:`~ftc_mj.context.RunContext` (the controller period, the
 model's nominal radii and half track, the robot's input limit) and the reference to track. MPCs are
 registered ``reusable`` (they have ``reset()`` and the simulation keeps one built solver per process and
-structure), the tracking MPCs also ``retargetable`` (they have ``set_reference``: the reference is a
-parameter of their problem, so one built controller serves every reference) and ``rate_bounded`` (their
+structure), and ``retargetable`` (they have ``set_reference``: the reference — for the path-following NMPC also
+its desired speed and the robot's limits — is a parameter of their problem, so one built controller serves every
+reference, :func:`retarget_controller`) and ``rate_bounded`` (their
 first input stays within ``omega_rate_max / rate`` of the command in force, so the loop clips an excitation
 dither to that bound); ``robot_limits``: the factory also takes the
 robot's :class:`~ftc_mj.control.pathfollow_spec.RobotLimits` (derived from the plant model by the sim layer)
@@ -85,7 +86,7 @@ def robust_nmpc(settings: RobustNMPCSettings, context: RunContext, reference: ob
                       cold_time_budget=c.cold_time_budget)
 
 
-@controllers.register("pf-nmpc", origin=BUILTIN, reusable=True, rate_bounded=True, robot_limits=True,
+@controllers.register("pf-nmpc", origin=BUILTIN, reusable=True, retargetable=True, rate_bounded=True, robot_limits=True,
                       radius_intervals=True, section=PathFollowingNMPCSettings)
 def path_following_nmpc(settings: PathFollowingNMPCSettings, context: RunContext, reference: Reference,
                         limits: RobotLimits | None = None) -> PathFollowingNMPC:
@@ -95,6 +96,16 @@ def path_following_nmpc(settings: PathFollowingNMPCSettings, context: RunContext
     spec = path_following_spec(c, context, reference.speed, limits)
     return PathFollowingNMPC(spec, reference, solver=c.solver, max_iter=c.max_iter, time_budget=c.time_budget,
                              nominal_radii=context.nominal_radii, cold_time_budget=c.cold_time_budget)
+
+
+def retarget_controller(ctl: Any, cfg: RunConfig, reference: Reference, limits: RobotLimits | None = None) -> None:
+    """Give a reused ``retargetable`` controller the reference of ``cfg``'s run: the path-following NMPC also the
+    problem numbers of that run (its desired speed and the robot's ``limits``), which are parameters of its
+    built problem (:meth:`~ftc_mj.control.pathfollow.PathFollowingNMPC.set_reference`)."""
+    if isinstance(ctl, PathFollowingNMPC):
+        ctl.set_reference(reference, path_following_spec(cfg.controller, run_context(cfg), reference.speed, limits))
+    else:
+        ctl.set_reference(reference)
 
 
 def controller_from_settings(controller: Any, reference: object, *, robot: Any = None,

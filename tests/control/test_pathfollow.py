@@ -344,3 +344,29 @@ def test_progress_feedback_closes_the_loop_on_the_progress_made(max_lag: float) 
         assert V[late].mean() == pytest.approx(5.0, rel=0.01)
     else:
         assert 5.5 < V[late].mean() < 10.0
+
+
+@pytest.mark.parametrize("other", ["same kind", "another kind"])
+def test_a_retargeted_controller_plans_as_a_fresh_one(other: str) -> None:
+    """``set_reference`` with a new draw's path and problem numbers (speed, lateral bound, braking trade): the
+    next two samples' plans are bit for bit those of a controller built for them — by new parameters of the
+    built NLP (another circle) or by new solvers (a line)."""
+    from ftc_mj.control.reference import CircleReference
+
+    path = CircleReference(30.0, 7.0, "cw", (0.0, 0.0, 0.2)) if other == "same kind" else \
+        LineReference(8.0, (1.0, -2.0, 0.3))
+    spec = _spec(A=2.5, beta=0.5, speed=path.speed)
+    ctl = PathFollowingNMPC(_spec(), CIRCLE)
+    nlp = ctl._nlp
+    ctl.set_reference(path, spec)
+    assert (ctl._nlp is nlp) == (other == "same kind")
+    fresh = PathFollowingNMPC(spec, path)
+    for c in (ctl, fresh):
+        c.reset()
+    radii, pose, u = np.array([2.0, 1.9]), np.array([0.3, -0.4, 0.25]), None
+    for t in (0.0, 0.1):
+        a, b = ctl.solve(t, pose, radii, u), fresh.solve(t, pose, radii, u)
+        assert not a.fallback and a.status == b.status
+        assert np.array_equal(a.omega, b.omega) and np.array_equal(a.predicted, b.predicted)
+        u = a.omega
+        assert a.telemetry["pf_speed_desired"] == path.speed and a.telemetry["pf_lateral_bound"] == 2.5

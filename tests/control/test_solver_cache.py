@@ -120,8 +120,12 @@ def test_a_load_marks_the_entry_used_and_prune_deletes_only_unused_ones(cache: P
     disk_cached_solver("t", rosenbrock(), OPTS)  # a load: used now
     assert solver_cache.stats == {"built": 2, "loaded": 1}
     assert t_path.stat().st_mtime > old + 3000.0
+    stale, fresh = cache / ".load-killed", cache / ".load-running"  # a killed load's temporary, a live one's
+    for path in (stale, fresh):
+        path.write_bytes(b"x")
+    os.utime(stale, (old, old))
     assert prune(cache, 1800.0) == 1
-    assert t_path.is_file() and not u_path.exists()
+    assert t_path.is_file() and not u_path.exists() and fresh.is_file() and not stale.exists()
 
 
 def entry(cache: Path, name: str = "t") -> Path:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ftc_mj.config import load_config
+from ftc_mj.control import solver_cache
 from ftc_mj.sim import cache
 from ftc_mj.sim.run import execute
 
@@ -37,3 +38,35 @@ def test_new_draws_reuse_one_retargeted_controller_bitwise() -> None:
                 np.testing.assert_array_equal(fresh[col], trace[col], err_msg=col)
     # the draws do track other paths
     assert not np.array_equal(reused[0]["cross_track_error"], reused[1]["cross_track_error"])
+
+
+PF_DRAWS = ({"reference.kind": "circle", "reference.radius": 3.0, "reference.speed": 0.5, "plant.tyre_friction": 0.9},
+            {"reference.kind": "circle", "reference.radius": 4.0, "reference.speed": 0.4, "reference.direction": "cw",
+             "plant.tyre_friction": 0.7},
+            {"reference.kind": "figure8", "reference.radius": 2.5, "plant.tyre_friction": 0.8})
+"""Three 'draws' of the path-following NMPC: two circles (other radius, speed, direction and robot limits), then
+another path kind."""
+
+
+def test_path_following_draws_share_one_controller_and_one_solver_per_path_kind() -> None:
+    """The draw's path, desired speed and robot limits are parameters of the pf-nmpc's NLP: a second circle reuses
+    the controller and its IPOPT solver (none built or loaded), and every retargeted run is bit for bit a fresh
+    build's."""
+    pf = {"controller.kind": "pf-nmpc"}
+    cache.clear()
+    reused, got = [], []
+    for i, draw in enumerate(PF_DRAWS):
+        hits = cache.stats["controller_hits"]
+        reused.append(_trace({**pf, **draw}))
+        got.append(solver_cache.stats["built"] + solver_cache.stats["loaded"])
+        assert cache.stats["controller_hits"] == hits + (i > 0)
+        assert len(cache._controllers) == 1
+    assert got[1] == got[0]  # the second circle: no new solver
+    for draw, trace in zip(PF_DRAWS, reused, strict=True):
+        cache.clear()
+        solver_cache.forget_solvers()
+        fresh = _trace({**pf, **draw})
+        for col in fresh:
+            if col != "solve_time_ms":
+                np.testing.assert_array_equal(fresh[col], trace[col], err_msg=col)
+    assert not np.array_equal(reused[0]["pf_speed_desired"], reused[1]["pf_speed_desired"])

@@ -56,3 +56,20 @@ def test_a_column_with_a_fraction_is_not_rounded(tmp_path: Path) -> None:
     t = pq.read_table(tmp_path / "x.parquet")
     assert t.column("a").type == pa.int64() and t.column("a").to_pylist() == [1, None]
     assert t.column("b").type == pa.float64() and t.column("b").to_pylist() == [0.5, 1.0]
+
+
+def test_cross_track_error_is_the_references_at_every_row_written() -> None:
+    """The cross-track error is filled from the trace's true x, y when the columns are read (vectorised): on
+    every path kind, every row equals the reference's ``cross_track`` of that row's position alone, and rows
+    not yet written stay NaN."""
+    from ftc_mj.sim.loop import ClosedLoop
+
+    for kind in ("circle", "line", "figure8"):
+        loop = ClosedLoop(load_config("scenario2", {"duration": 0.5, "reference.kind": kind}))
+        for k in range(30):
+            loop.step(k)
+        c = loop.trace.columns
+        ref = loop.parts.reference
+        want = [float(ref.cross_track(x, y)) for x, y in zip(c["x"][:30], c["y"][:30], strict=True)]
+        assert np.array_equal(c["cross_track_error"][:30], want), kind
+        assert np.isnan(c["cross_track_error"][30:]).all() and np.abs(want).max() > 0.0

@@ -9,14 +9,14 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from pydantic import Field, Strict, model_validator
+from pydantic import Field, SerializerFunctionWrapHandler, Strict, model_serializer, model_validator
 
 from .. import registry
 from ..context import RunContext
 from ..control.nmpc import NMPCSettings
 from ..control.reference import ReferenceSettings
 from ..estimation.ukf import UKFSettings
-from ..fields import SafeName, StrictModel, ranged, ranged_int
+from ..fields import Flag, SafeName, StrictModel, ranged, ranged_int
 from ..model.sensors import SensorSettings
 from ..plant.faults import SERVO_CLASSES, PlantFault, fault_class
 from .sections import (
@@ -55,6 +55,9 @@ class RunConfig(StrictModel):
     reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
     reference: ReferenceSettings = Field(default_factory=ReferenceSettings)
     output: OutputConfig = Field(default_factory=OutputConfig)
+    oracle: Flag = False
+    """The run may be given the truth: the benchmark's oracle (the same controller given the configured faults
+    as its diagnoses, :mod:`ftc_mj.reconfiguration.oracle`). ``false`` for every method."""
 
     @model_validator(mode="before")
     @classmethod
@@ -104,6 +107,24 @@ class RunConfig(StrictModel):
         r_ctl = 1.0 / (self.controller.rate * dt)
         if abs(r_ctl / r_est - round(r_ctl / r_est)) > 1e-9:
             raise ValueError("controller.rate: the control period must be a multiple of the estimator period")
+        return self
+
+    @model_serializer(mode="wrap")
+    def _omit_no_oracle(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """The fields, without ``oracle`` when it is off: a method's run keeps the identity (run id, study key) it
+        had before the flag existed."""
+        data = handler(self)
+        if not self.oracle:
+            data.pop("oracle", None)
+        return data
+
+    @model_validator(mode="after")
+    def _accommodation_source(self) -> RunConfig:
+        """Accommodating every mode needs declarations to accommodate: in this tree only the truth gives them,
+        and only an oracle run may have it."""
+        if self.reconfiguration.accommodation.mode == "all" and not self.oracle:
+            raise ValueError("reconfiguration.accommodation.mode: 'all' needs a diagnosis source; the truth's "
+                             "needs oracle = true")
         return self
 
     @model_validator(mode="after")

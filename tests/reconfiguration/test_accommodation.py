@@ -22,6 +22,8 @@ from ftc_mj.model.diagnosis import Diagnosis
 from ftc_mj.plant.faults import FaultSettings
 from ftc_mj.reconfiguration.accommodation import Accommodation, AccommodationMode, AccommodationSettings
 from ftc_mj.reconfiguration.oracle import TruthDiagnoses
+from ftc_mj.rerun.read import read_scalar_series
+from ftc_mj.rerun.record import write_rrd
 from ftc_mj.sim.loop import simulate
 
 NAN = float("nan")
@@ -174,10 +176,10 @@ LOCK = {"faults": {"actuator": [{"wheel": "left", "kind": "lock", "onset": 10.0}
 """Scenario 2's faults replaced by a locked left wheel at 10 s."""
 
 
-def test_a_locked_wheel_is_braked_to_rest_inside_the_corridor() -> None:
+def test_a_locked_wheel_is_braked_to_rest_inside_the_corridor(tmp_path) -> None:
     """Scenario 2's circle, left wheel locked at 10 s (dev seed 0): the safe stop is entered at the lock's
     declaration (the truth's, at 10 s), the robot is at rest (< 0.1 m/s) by 15 s, never more than 2 m from
-    the path, not tipped; without the accommodation it leaves the corridor."""
+    the path, not tipped; the mode is in the Rerun recording; without the accommodation it leaves the corridor."""
     res = _run("scenario2", 17.0, True, **LOCK)
     tr = res.trace
     t, v, e = tr["t"], tr["v"], tr["cross_track_error"]
@@ -188,6 +190,9 @@ def test_a_locked_wheel_is_braked_to_rest_inside_the_corridor() -> None:
     assert np.abs(e).max() <= 2.0
     assert np.all(np.abs(tr["roll"]) < 0.5) and np.all(np.abs(tr["pitch"]) < 0.5)
     assert np.all(tr["accommodation_mode"][t >= 15.0] == AccommodationMode.AT_REST)
+    write_rrd(tmp_path / "run.rrd", tr, run_id="lock", events=res.events)
+    t_rec, mode = read_scalar_series(tmp_path / "run.rrd", "/accommodation/mode")
+    assert mode[t_rec < 9.95].max() == 0.0 and mode[(t_rec >= 10.0) & (t_rec < 11.0)].min() == 2.0
     plain = _run("scenario2", 17.0, False, **LOCK).trace
     assert np.abs(plain["cross_track_error"]).max() > 2.0
 

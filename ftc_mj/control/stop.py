@@ -76,6 +76,7 @@ class SafeStop:
             a = min(a, limits.max_longitudinal_accel)
         self.deceleration = a
         self.max_lateral = max(settings.lateral_margin * limits.liftoff_accel - limits.braking_trade * a, 0.0)
+        self.max_lateral_coasting = settings.lateral_margin * limits.liftoff_accel
         L = settings.settle_length
         self.k_contour = 1.0 / (L * L)
         self.k_heading = 2.0 * settings.damping / L
@@ -95,8 +96,9 @@ class SafeStop:
         """When the planned speed reaches 0 (s)."""
         return self.t0 + self.v0 / self.deceleration
 
-    def yaw_rate(self, pose: np.ndarray, V: float) -> float:
-        """The yaw rate (rad/s) that steers towards the path at speed ``V`` (m/s), within the traction bound."""
+    def yaw_rate(self, pose: np.ndarray, V: float, coasting: bool = False) -> float:
+        """The yaw rate (rad/s) that steers towards the path at speed ``V`` (m/s), within the traction bound (while
+        braking, or ``coasting`` without the braking trade)."""
         if V <= 0.0:
             return 0.0
         x, y, psi = (float(v) for v in pose[:3])
@@ -106,19 +108,38 @@ class SafeStop:
         ec = float(path_errors(self.path, np.array([x]), np.array([y]), np.array([self.s]))[0][0])
         e_psi = float(np.angle(np.exp(1j * (psi - float(g.heading[0])))))
         kappa = float(g.curvature[0]) - self.k_heading * np.sin(e_psi) - self.k_contour * ec
-        r_max = self.max_lateral / V
+        r_max = (self.max_lateral_coasting if coasting else self.max_lateral) / V
         return float(np.clip(V * kappa, -r_max, r_max))
 
-    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray, u_applied: np.ndarray | None = None
-              ) -> ControlOutput:
+    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray, u_applied: np.ndarray | None = None,
+              free: int | None = None, rates: np.ndarray | None = None) -> ControlOutput:
         """The wheel-rate command (rad/s) at ``t`` (s) from the pose [x, y, psi] (m, m, rad) and the radii
-        [R_R, R_L] (m) the controller is given; ``u_applied`` is the command in force (rad/s)."""
+        [R_R, R_L] (m) the controller is given; ``u_applied`` is the command in force (rad/s). ``free`` (0 right,
+        1 left): a wheel whose servo applies no torque, turning at the measured ``rates`` [omega_R, omega_L]
+        (rad/s): only the other one acts (:meth:`_one_wheel`)."""
         lim = self.limits
-        V = self.speed(t)
-        r = self.yaw_rate(np.asarray(pose, dtype=float), V) if np.all(np.isfinite(pose)) else 0.0
-        om = np.array(inverse_rates(V, r, float(radii[0]), float(radii[1]), lim.half_track), dtype=float)
+        ok = bool(np.all(np.isfinite(pose)))
+        if free is not None and rates is not None and np.all(np.isfinite(rates)):
+            om = self._one_wheel(np.asarray(pose, dtype=float) if ok else None, radii, free, rates)
+        else:
+            V = self.speed(t)
+            r = self.yaw_rate(np.asarray(pose, dtype=float), V) if ok else 0.0
+            om = np.array(inverse_rates(V, r, float(radii[0]), float(radii[1]), lim.half_track), dtype=float)
         if u_applied is not None and np.all(np.isfinite(u_applied)):
             step = lim.omega_rate_max * lim.sample_time
             om = np.clip(om, np.asarray(u_applied, float) - step, np.asarray(u_applied, float) + step)
         om = np.clip(om, -lim.omega_max, lim.omega_max)
         return ControlOutput(omega=om, status="safe stop")
+
+    def _one_wheel(self, pose: np.ndarray | None, radii: np.ndarray, free: int, rates: np.ndarray) -> np.ndarray:
+        """Steering with one wheel. The free wheel neither drives nor brakes: its ground speed ``v_f = R_f omega_f``
+        is what it is, and braking the other wheel would only spin the robot about it. So the other wheel's speed
+        is set for the yaw rate towards the path, ``v_R − v_L = 2 b r`` (within the traction bound without
+        braking), and the robot slows as the free wheel does (its bearing's damping, the rolling resistance)."""
+        b = self.limits.half_track
+        v_free = float(radii[free]) * float(rates[free])
+        r = self.yaw_rate(pose, max(v_free, 0.0), coasting=True) if pose is not None else 0.0
+        sign = 1.0 if free == 1 else -1.0  # v_R − v_L = 2 b r
+        om = np.array(rates, dtype=float)
+        om[1 - free] = (v_free + sign * 2.0 * b * r) / float(radii[1 - free])
+        return om

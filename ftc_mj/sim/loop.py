@@ -398,7 +398,7 @@ class ClosedLoop:
         acc = self.parts.accommodation
         pose = rd.pose if acc is None else acc.controller_pose(rd.pose, self.out)
         if acc is not None and acc.stopping:
-            cmd = acc.command(t, pose, radii, self.applied)
+            cmd = acc.command(t, pose, radii, self.applied, self.u_prev)
         else:
             cmd = self.parts.controller.solve(t, pose, radii, self.applied)
         check_command(cmd.omega, t, cfg.controller.kind, self.parts.controller)

@@ -164,6 +164,21 @@ def test_the_stop_steers_towards_the_path() -> None:
     assert inside < path_r - 0.01 and outside > path_r + 0.01
 
 
+def test_with_a_free_wheel_the_other_one_steers() -> None:
+    """Left servo unresponsive, the left wheel rolling at 5 rad/s (10 m/s on 2 m): its command is its own rate
+    (it can do nothing else), and the right one runs faster by ``2 b r`` for the counter-clockwise circle's
+    ``r = V/50``; the right free instead: the left one runs slower by the same."""
+    acc = _accommodation()
+    acc.update(10.0, (_diag("servo", "left", "unresponsive", 0.0, 10.0),))
+    assert acc.free == 1 and acc.stopping
+    pose, radii, rates = np.array([0.0, 0.0, 0.0]), np.array([2.0, 2.0]), np.array([5.0, 5.0])
+    om = acc.command(10.0, pose, radii, rates, rates).omega
+    assert om[1] == 5.0 and 2.0 * om[0] - 10.0 == pytest.approx(2.0 * 1.0 * 10.0 / 50.0)
+    stop = _stop()
+    om = stop.solve(10.0, pose, radii, rates, free=0, rates=rates).omega
+    assert om[0] == 5.0 and 10.0 - 2.0 * om[1] == pytest.approx(2.0 * 1.0 * 10.0 / 50.0)
+
+
 # ---------------------------------------------------------------- closed loop
 def _run(scenario: str, duration: float, all_modes: bool, **extra):
     over = {"duration": duration, "controller.kind": "pf-nmpc", "output.rrd": False, **extra}

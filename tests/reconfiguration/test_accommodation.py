@@ -89,7 +89,7 @@ def test_a_lock_enters_the_safe_stop_for_good_with_its_reason() -> None:
 @pytest.mark.parametrize(("diagnosis", "stops"), [
     (("servo", "left", "loss", 0.3), False), (("servo", "right", "loss", 0.04), True),
     (("servo", "left", "unresponsive", 0.0), True), (("tyre", "left", "puncture", 0.3), False),
-    (("tyre", "right", "puncture", 0.04), True)])
+    (("tyre", "right", "puncture", 0.05), False), (("tyre", "right", "puncture", 0.015), True)])
 def test_what_leaves_the_path_out_of_reach(diagnosis, stops: bool) -> None:
     acc = _accommodation()
     acc.update(1.0, (_diag(*diagnosis),))

@@ -210,6 +210,14 @@ class Accommodation:
 
 
 def _describe(d: Diagnosis) -> str:
-    """``left servo loss (30 %)``: one declaration in an event."""
+    """``left servo loss (30%): actuator model scaled``: one declaration in an event, with what is done about it."""
     size = f"{d.size:.0%}" if d.component in ("tyre", "servo") else f"{d.size:.3g}"
-    return f"{d.target} {d.component} {d.mode} ({size})"
+    if d.component == "tyre":
+        action = "radii by the policy"
+    elif d.component == "servo":
+        action = "actuator model scaled" if d.mode == "loss" else "safe stop"
+    elif d.mode in ("bias", "drift") and d.component != "pose sensor":
+        action = "reading corrected"
+    else:
+        action = "excluded from the filter" + (" and the controller's pose" if d.component == "pose sensor" else "")
+    return f"{d.target} {d.component} {d.mode} ({size}): {action}"

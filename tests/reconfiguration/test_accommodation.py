@@ -126,6 +126,9 @@ def test_sensor_offsets_are_removed_and_dropped_channels_excluded() -> None:
                      _diag("pose sensor", "pose", "jump", 1.5)))
     z = acc.correct(3.0, Measurement(speed=10.4, yaw_rate=0.2, position=np.array([1.0, 2.0])))
     assert z.speed == pytest.approx(10.0) and z.yaw_rate is None and z.position is None
+    assert acc.events[-1].text == ("accommodation: speed speed sensor drift (0.2): reading corrected, yaw_rate gyro "
+                                   "dropout (2): excluded from the filter, pose pose sensor jump (1.5): excluded from "
+                                   "the filter and the controller's pose")
     out = FilterOutput(x=np.array([1.1, 2.1, 0.3, 2.0, 2.0]), P=np.eye(5), innovation=np.zeros(1), S=np.eye(1),
                        nis=1.0, speed_innovation=0.0, speed_innovation_std=1.0)
     assert np.array_equal(acc.controller_pose(np.array([1.0, 2.0, 0.2]), out), [1.1, 2.1, 0.3])

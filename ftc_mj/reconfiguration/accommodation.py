@@ -210,12 +210,13 @@ class Accommodation:
 
 
 def _describe(d: Diagnosis) -> str:
-    """``left servo loss (30%): actuator model scaled``: one declaration in an event, with what is done about it."""
+    """``left servo loss (30%): effectiveness to the actuator model``: one declaration in an event, with what is done
+    about it."""
     size = f"{d.size:.0%}" if d.component in ("tyre", "servo") else f"{d.size:.3g}"
     if d.component == "tyre":
         action = "radii by the policy"
     elif d.component == "servo":
-        action = "actuator model scaled" if d.mode == "loss" else "safe stop"
+        action = "effectiveness to the actuator model" if d.mode == "loss" else "safe stop"
     elif d.mode in ("bias", "drift") and d.component != "pose sensor":
         action = "reading corrected"
     else:

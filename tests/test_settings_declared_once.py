@@ -39,7 +39,7 @@ EXTRA_MODULES = ("ftc_mj.control.excitation", "ftc_mj.wiring.estimation", "ftc_m
                  "ftc_mj.wiring.reconfiguration", "ftc_mj.config.sections")
 NOT_OURS = {"ftc_mj.reconfiguration.scenario_weights"}
 """Its ``WeightingSettings`` mirrors the robust controller's settings: the control side removes it."""
-COMPOSITION = {"ReconfigurationConfig": {"excitation", "degraded"}}
+COMPOSITION = {"ReconfigurationConfig": {"excitation", "degraded", "accommodation"}}
 """The fields a config section may add to the component models it composes."""
 
 

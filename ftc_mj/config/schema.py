@@ -56,10 +56,11 @@ class RunConfig(StrictModel):
     reference: ReferenceSettings = Field(default_factory=ReferenceSettings)
     output: OutputConfig = Field(default_factory=OutputConfig)
     oracle: Flag = False
-    """The run is told the truth: the drawn plant's limits (:func:`~ftc_mj.sim.cache.robot_limits`) and the
-    ``truth`` policy. Set only by the benchmark's ``oracle`` row and by studies that compare against an oracle;
-    without it nothing a method's components receive depends on the drawn plant (docs/benchmark.md,
-    "Information rule")."""
+    """The run is told the truth: the drawn plant's limits (:func:`~ftc_mj.sim.cache.robot_limits`), the
+    ``truth`` policy and, with ``reconfiguration.accommodation.mode = "all"``, the configured faults as its
+    diagnoses (:mod:`ftc_mj.reconfiguration.oracle`). Set only by the benchmark's ``oracle`` row and by studies
+    that compare against an oracle; without it nothing a method's components receive depends on the drawn
+    plant (docs/benchmark.md, "Information rule")."""
 
     @model_serializer(mode="wrap")
     def _omit_no_oracle(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
@@ -118,6 +119,15 @@ class RunConfig(StrictModel):
         r_ctl = 1.0 / (self.controller.rate * dt)
         if abs(r_ctl / r_est - round(r_ctl / r_est)) > 1e-9:
             raise ValueError("controller.rate: the control period must be a multiple of the estimator period")
+        return self
+
+    @model_validator(mode="after")
+    def _accommodation_source(self) -> RunConfig:
+        """Accommodating every mode needs declarations to accommodate: in this tree only the truth gives them,
+        and only an oracle run may have it."""
+        if self.reconfiguration.accommodation.mode == "all" and not self.oracle:
+            raise ValueError("reconfiguration.accommodation.mode: 'all' needs a diagnosis source; the truth's "
+                             "needs oracle = true")
         return self
 
     @model_validator(mode="after")

@@ -25,9 +25,11 @@ from pydantic import (
     BeforeValidator,
     Discriminator,
     Field,
+    SerializerFunctionWrapHandler,
     Tag,
     TypeAdapter,
     ValidationError,
+    model_serializer,
 )
 
 from ..control.base import ControllerSettings
@@ -49,6 +51,7 @@ from ..plant.settings import FaultSettings as FaultSettings  # the plant's secti
 from ..plant.settings import ModelSettings as ModelSettings
 from ..plant.settings import PlantSettings as PlantSettings
 from ..plant.settings import RobotSettings as RobotSettings
+from ..reconfiguration.accommodation import AccommodationSettings
 from ..reconfiguration.degraded import DegradedSettings
 from ..reconfiguration.policies import ReconfigurationSettings
 
@@ -128,10 +131,21 @@ ControllerConfig = kind_union("controller", CONTROLLER_KINDS, PluginControllerSe
 
 class ReconfigurationConfig(ReconfigurationSettings):
     """The ``[reconfiguration]`` section: the policy's settings
-    (:class:`~ftc_mj.reconfiguration.policies.ReconfigurationSettings`), the excitation and the degraded mode."""
+    (:class:`~ftc_mj.reconfiguration.policies.ReconfigurationSettings`), the excitation, the degraded mode and
+    the accommodation of the diagnosed modes (:mod:`ftc_mj.reconfiguration.accommodation`)."""
 
     excitation: ExcitationSettings = Field(default_factory=ExcitationSettings)
     degraded: DegradedSettings = Field(default_factory=DegradedSettings)
+    accommodation: AccommodationSettings = Field(default_factory=AccommodationSettings)
+
+    @model_serializer(mode="wrap")
+    def _omit_default_accommodation(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """The fields, without ``accommodation`` at its defaults: a run that does not use it keeps the identity
+        (run id, study key) it had before it existed."""
+        data = handler(self)
+        if self.accommodation == AccommodationSettings():
+            data.pop("accommodation", None)
+        return data
 
 
 

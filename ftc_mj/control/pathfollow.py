@@ -107,6 +107,8 @@ from .reference import Path, path_errors, project
 from .spec import tracking_problem
 
 TWO_PI = 2.0 * np.pi
+MIN_EFFECTIVENESS = 0.05
+"""Smallest servo effectiveness the actuator model takes (:meth:`PathFollowingNMPC.set_actuator_effectiveness`)."""
 
 TELEMETRY = ("pf_progress", "pf_contouring_error", "pf_lag_error", "pf_speed_desired", "pf_speed_planned",
              "pf_progress_speed", "pf_lateral_accel", "pf_lateral_bound", "pf_slack", "pf_yaw_offset",
@@ -213,10 +215,18 @@ class PathFollowingNMPC(MPCLifecycle):
             self._robust = (PathNLP(self.col, self.spec, self.path, max_iter, cold, warm, robust=True), qp)
         return self._robust
 
+    def set_actuator_effectiveness(self, effectiveness: np.ndarray) -> None:
+        """The servos' remaining effectiveness [e_R, e_L] (fractions of gain and torque limit) for the next
+        solves (the accommodation of a diagnosed servo loss): a servo at ``e`` yields ``1/e`` times as much
+        under the same load, so its wheel's compliance offset is divided by ``e`` (floored at
+        :data:`MIN_EFFECTIVENESS`; a weaker servo is a safe stop's, not this controller's)."""
+        self._effectiveness = np.maximum(np.asarray(effectiveness, dtype=float), MIN_EFFECTIVENESS)
+
     def _clear(self) -> None:
         super()._clear()  # plans are (t0, X (N,4), U (N,3))
         self._offset = np.zeros(2)
         self._interval: RadiusInterval | None = None
+        self._effectiveness = np.ones(2)
 
     def _reset_solvers(self) -> None:
         for solver in (self._nlp, self.qp, *(self._robust or ())):
@@ -257,7 +267,7 @@ class PathFollowingNMPC(MPCLifecycle):
         shifted = self._shift(t, r) if self._plan is not None else None
         s_pred = float(shifted[0][0, 3]) if shifted is not None else None
         x0 = self.initial_state(p, s_pred)
-        self._offset = compliance_offset(self.spec, ua, r, self.nominal_radii)
+        self._offset = compliance_offset(self.spec, ua, r, self.nominal_radii) / self._effectiveness
         bounds = wheel_bounds(self.spec, self.col.N, ua, self._offset)
         V_app = None if ua is None else 0.5 * float(r @ (ua + self._offset))
         Xg, Ug = self._guess(t, x0, r, shifted)

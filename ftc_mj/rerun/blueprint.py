@@ -122,6 +122,9 @@ def _motion_tabs(trace: Mapping[str, np.ndarray]) -> rrb.View | rrb.Container:
     if "reconfig_state" in trace:
         speed.append(_ts("/reconfiguration", "Reconfiguration (0 nominal, 1 hold, 2 handed over, 3 reverted)",
                          axis_y=rrb.ScalarAxis(range=(-0.1, 3.1))))
+    if "accommodation_mode" in trace:
+        speed.append(_ts("/accommodation", "Accommodation (0 nominal, 1 accommodated, 2 safe stop, 3 at rest); "
+                                           "servo effectiveness", axis_y=rrb.ScalarAxis(range=(-0.1, 3.1))))
     if any(c in trace for c in FAULT_TRUTH_COLUMNS):
         speed.append(_ts("/injected", "Injected faults: servo effectiveness, lock (0/1), sensor offsets "
                                       "(m/s, rad/s), dropout (0/1)"))

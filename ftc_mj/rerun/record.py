@@ -48,7 +48,9 @@ Time series (``Scalars``; one sample per trace row unless stated):
   ``/yaw_rate/{truth,measured}`` (if ``yaw_rate``/``yaw_rate_meas`` are in the trace);
   ``/attitude/{roll,pitch,z}`` (if present); ``/fault/detected`` (if ``fault_detected`` is present;
   0/1); ``/reconfiguration/state`` (if ``reconfig_state`` is present; 0 nominal, 1 hold, 2 handed
-  over, 3 reverted) — :func:`_log_motion` and :func:`_log_modes`.
+  over, 3 reverted); ``/accommodation/{mode,effectiveness_R,effectiveness_L}`` (if ``accommodation_mode`` is
+  present; 0 nominal, 1 accommodated, 2 safe stop, 3 at rest; the servo effectiveness of the controller's
+  actuator model) — :func:`_log_motion` and :func:`_log_modes`.
 - ``/injected/<name>``: the injected servo and sensor faults' truth, trace columns ``fault_<name>``
   (:data:`~ftc_mj.telemetry.columns.FAULT_TRUTH_COLUMNS`, present only in a run with such a fault):
   servo effectiveness and lock per wheel, sensor offsets and dropout flags — :func:`_log_injected`.
@@ -434,6 +436,11 @@ def _log_motion(sink: _Sink) -> None:
         scalars("/fault/detected", col("fault_detected"), _LIMIT, "fault detected", 1.5)
     if "reconfig_state" in trace:
         scalars("/reconfiguration/state", col("reconfig_state"), _EST, "reconfiguration state", 1.5)
+    if "accommodation_mode" in trace:
+        scalars("/accommodation/mode", col("accommodation_mode"), _EST, "accommodation mode", 1.5)
+        for side, c in (("R", _TRUTH), ("L", _CMD)):
+            scalars(f"/accommodation/effectiveness_{side}", col(f"actuator_effectiveness_{side}"), c,
+                    f"actuator model: servo effectiveness {side}", 1.0)
 
 
 def _log_injected(sink: _Sink) -> None:

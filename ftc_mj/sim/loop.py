@@ -45,6 +45,7 @@ from ..estimation.pcrb import pcrb_columns
 from ..metrics.record import RunRecord
 from ..plant import SensorReading, Sensors, Truth
 from ..plant.faults import SENSOR_COLUMNS, fault_class, fault_list
+from ..reconfiguration.accommodation import ACCOMMODATION_COLUMNS
 from ..reconfiguration.degraded import DegradedMode
 from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers
@@ -52,8 +53,14 @@ from ..telemetry import Event, RobotGeometry, Solve
 from ..wiring.control import build_reference
 from ..wiring.decision import build_fault_decision
 from ..wiring.estimation import build_estimator
-from ..wiring.reconfiguration import build_degraded_mode, build_policy, build_scenario_weighting
-from .cache import controller_for, plant_for
+from ..wiring.reconfiguration import (
+    build_accommodation,
+    build_degraded_mode,
+    build_diagnosis_source,
+    build_policy,
+    build_scenario_weighting,
+)
+from .cache import controller_for, plant_for, robot_limits
 from .guards import BuildFailed, check_command, check_estimate
 from .record import build_record
 from .trace import TraceWriter
@@ -163,6 +170,10 @@ class Components:
     """The degraded robust mode between the policy and a controller that takes radius intervals (``None``: off)."""
     record: RunRecord | None = None
     """The run's resolved record (:func:`.record.build_record`), built once here."""
+    accommodation: Any = None
+    """The accommodation of every diagnosed mode and its safe stop (``None``: the policy's radii only)."""
+    diagnoses: Any = None
+    """Where the accommodation's declarations come from (``diagnoses(t)``; ``None``: none)."""
 
 
 def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any] | None = None) -> Components:
@@ -181,10 +192,13 @@ def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any]
     policy = build_policy(cfg, with_estimator=estimator is not None)
     weighting = build_scenario_weighting(cfg) if with_controller else None
     degraded = build_degraded_mode(cfg) if estimator is not None else None
+    accommodation = build_accommodation(cfg, robot_limits(cfg), reference) if with_controller else None
+    diagnoses = build_diagnosis_source(cfg) if accommodation is not None else None
     if cfg.plant.start_moving:
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
-    return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting, degraded, record)
+    return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting, degraded, record,
+                      accommodation, diagnoses)
 
 
 def present(value: float | None) -> float | None:
@@ -242,6 +256,8 @@ class ClosedLoop:
         self.sensor_faults = bool(self.parts.sensors.faults)
         self.trace = TraceWriter(self.n, tuple(getattr(self.parts.controller, "telemetry_columns", ())),
                                  self.n_modes, self.fault_columns, self.parts.reference.cross_track)
+        if self.parts.accommodation is not None:
+            self.trace.columns.update({c: np.full(self.n, np.nan) for c in ACCOMMODATION_COLUMNS})
         self.solves: list[Solve] = []
         self.events: list[Event] = [Event(t_on, "warn", f"fault injected: {wheel} tyre radius schedule starts")
                                     for wheel, t_on in self.run_record.onsets.items() if t_on is not None]
@@ -324,6 +340,8 @@ class ClosedLoop:
         else:
             z = Measurement(speed=rd.speed, yaw_rate=rd.yaw_rate, position=rd.position)
         u_pred = self.u_prev if self.u_prev is not None else u_meas
+        if self.parts.accommodation is not None:  # diagnosed sensor offsets removed, excluded channels absent
+            z = self.parts.accommodation.correct(self.rows * self.dt, z)
         self.z = z
         self.out = self.parts.estimator.step(u_pred, z)
         check_estimate(self.out, self.rows * self.dt, self.cfg.estimator.kind, self.parts.estimator)
@@ -373,6 +391,9 @@ class ClosedLoop:
                 self.parts.controller.set_radius_interval(interval)
         if self.parts.weighting is not None:
             self.parts.controller.set_scenario_weights(self.parts.weighting.weights(self.out, self.model_radii))
+        acc, source = self.parts.accommodation, self.parts.diagnoses
+        if acc is not None and acc.update(t, source.diagnoses(t) if source is not None else ()):
+            acc.hand_actuator(t, self.parts.controller)
         return self.model_radii
 
     def control(self, k: int, t: float, rd: SensorReading, radii: np.ndarray) -> ControlOutput:
@@ -380,9 +401,15 @@ class ClosedLoop:
         suspected but not isolated (and the excitation is on), a yaw-rate dither is added."""
         cfg = self.cfg
         exc = cfg.reconfiguration.excitation
-        cmd = self.parts.controller.solve(t, self.controller_pose(rd), radii, self.applied)
+        acc = self.parts.accommodation
+        pose = self.controller_pose(rd)
+        pose = pose if acc is None else acc.controller_pose(pose, self.out)
+        if acc is not None and acc.stopping:
+            cmd = acc.command(t, pose, radii, self.applied, self.u_prev)
+        else:
+            cmd = self.parts.controller.solve(t, pose, radii, self.applied)
         check_command(cmd.omega, t, cfg.controller.kind, self.parts.controller)
-        if exc.enabled and self.suspected:
+        if exc.enabled and self.suspected and not (acc is not None and acc.stopping):
             dither = yaw_dither(t, exc.amplitude, exc.period)
             cmd.omega = dither_wheel_rates(cmd.omega, dither, radii, cfg.model_half_track,
                                            cfg.robot.omega_max, *step_bound(cfg, self.applied))
@@ -417,6 +444,10 @@ class ClosedLoop:
     def record(self, k: int) -> None:
         """Row ``k``'s policy state, command in force and model radii; the row is complete."""
         self.trace.held(k, float(self.parts.policy.state), self.cmd.omega, self.model_radii)
+        acc = self.parts.accommodation
+        if acc is not None:
+            for name, value in zip(ACCOMMODATION_COLUMNS, (float(acc.state), *acc.effectiveness), strict=True):
+                self.trace.columns[name][k] = value
         self.rows = k + 1
 
     def fail(self, exc: Exception) -> None:
@@ -445,6 +476,8 @@ class ClosedLoop:
         events = self.events + list(self.parts.policy.events)
         if self.parts.degraded is not None:
             events += self.parts.degraded.events
+        if self.parts.accommodation is not None:
+            events += self.parts.accommodation.events
         events = sorted(events, key=lambda e: e.t)
         return SimResult(trace=self.columns(), solves=self.solves, events=events, counters=self.counters(),
                          decision=self.last_ds, n_modes=self.n_modes,

@@ -163,6 +163,13 @@ def nominal_hold_note(m: dict[str, Any], trace: dict[str, np.ndarray], max_sigma
             f"try: {working_command(scenario or str(m.get('scenario') or 'SCENARIO'))}")
 
 
+def safe_stop_lines(events: list[Any]) -> list[str]:
+    """Why the robot stopped: one line per safe-stop event of the accommodation
+    (:mod:`ftc_mj.reconfiguration.accommodation`; none when it did not stop)."""
+    return [f"SAFE STOP at t = {e.t:.2f} s — {e.text.removeprefix('safe stop: ')}" for e in events
+            if e.text.startswith("safe stop: ")]
+
+
 OUTCOME_STYLE = {"on the path": "bold green", "off the path": "bold red", "tipped over": "bold white on red",
                  "not judged": "bold yellow"}
 """How each outcome is printed (rich styles; plain text without a terminal)."""
@@ -235,5 +242,7 @@ def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None, scena
         console.print(note, soft_wrap=True)
     if sensors is not None:
         console.print(pose_source_line(sensors), soft_wrap=True)
+    for line in safe_stop_lines(outcome.result.events):
+        console.print(line, style="bold yellow", soft_wrap=True)
     if outcome.run_dir is not None:
         console.print(f"written: {outcome.run_dir}")

@@ -5,7 +5,12 @@ config (the built-in policies register themselves with their settings model in
 from __future__ import annotations
 
 from ..config import ReconfigurationConfig, RunConfig, run_context
+from ..control.pathfollow_spec import RobotLimits
+from ..control.reference import Path
+from ..control.stop import SafeStop, StopLimits
+from ..reconfiguration.accommodation import Accommodation
 from ..reconfiguration.degraded import DegradedMode, DragEvidence
+from ..reconfiguration.oracle import TruthDiagnoses
 from ..reconfiguration.policies import ReconfigurationPolicy
 from ..reconfiguration.scenario_weights import ScenarioWeighting
 from ..registry import controllers, policies
@@ -70,3 +75,28 @@ def build_degraded_mode(cfg: RunConfig) -> DegradedMode | None:
         evidence = DragEvidence(window, cfg.sensors.encoder_sigma, ctx.omega_max)
     return DegradedMode(d, ctx, cfg.estimator.decision.k_sigma, cfg.estimator.decision.min_drop,
                         rc.max_rate, rc.max_sigma, evidence)
+
+
+def build_accommodation(cfg: RunConfig, limits: RobotLimits, path: Path) -> Accommodation | None:
+    """The accommodation of every diagnosed mode (``reconfiguration.accommodation.mode = "all"``) or ``None``
+    (``radii``: the policy's radii only), with its safe stop along ``path`` within the nominal robot's
+    ``limits`` (lift-off lateral acceleration, braking trade), the model's half track, the robot's wheel-rate
+    bound and the controller's rate bounds."""
+    a = cfg.reconfiguration.accommodation
+    if a.mode != "all":
+        return None
+    c = cfg.controller
+    pf = getattr(c, "path_following", None)
+    lon = pf.max_longitudinal_accel if pf is not None else getattr(c, "max_longitudinal_accel", None)
+    stop_limits = StopLimits(
+        half_track=cfg.model_half_track, omega_max=float(cfg.robot.omega_max),
+        omega_rate_max=float(getattr(c, "omega_rate_max", float("inf"))), sample_time=1.0 / c.rate,
+        liftoff_accel=limits.liftoff_accel, braking_trade=limits.braking_trade, max_longitudinal_accel=lon)
+    return Accommodation(a, SafeStop(a.stop, stop_limits, path))
+
+
+def build_diagnosis_source(cfg: RunConfig) -> TruthDiagnoses | None:
+    """Where the accommodation's declarations come from: the truth (:class:`TruthDiagnoses`) in an oracle run
+    (``oracle = true``); ``None`` otherwise (no diagnoser in this tree: the config refuses ``all`` without
+    the oracle)."""
+    return TruthDiagnoses(cfg.faults, cfg.plant_wheel_radius) if cfg.oracle else None

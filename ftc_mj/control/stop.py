@@ -1,0 +1,145 @@
+"""The safe stop: brake to rest along the path without tipping, steering towards the path while slowing.
+
+When the remaining actuation cannot follow the path (a locked wheel, a dead servo: the accommodation's
+decision, :mod:`ftc_mj.reconfiguration.accommodation`), the robot is brought to rest instead of driven on.
+:class:`SafeStop` is that reference and the feedback that tracks it, sample by sample:
+
+*Speed.* A planned profile from the speed ``V_0`` (m/s) in force when the stop begins at ``t_0``:
+``V(t) = max(V_0 − a (t − t_0), 0)`` with the deceleration ``a`` (m/s²) the smaller of ``deceleration`` and
+the nominal robot's braking margin (``max_longitudinal_accel``). The profile is open loop on purpose: a
+locked wheel skids, so neither its rate nor the speed measured from it says how fast the robot goes.
+
+*Steering.* The curvature command ``κ = κ_p(s) − k_ψ sin e_ψ − k_c e_c`` about the nearest path point
+``s`` (contouring error ``e_c``, m, positive left; heading error ``e_ψ``, rad) makes the errors, as
+functions of the distance travelled, a second-order system ``e_c'' + k_ψ e_c' + k_c e_c = 0`` with natural
+length ``settle_length`` ``L`` (m) and damping ``damping`` ``ζ``: ``k_c = 1/L²``, ``k_ψ = 2 ζ / L``. The yaw
+rate is ``r = V κ``, clipped to the traction bound ``|V r| ≤ A − β a`` (the lift-off limit ``A`` of the
+nominal robot times ``lateral_margin``, less the braking trade ``β`` per m/s² of braking,
+:mod:`ftc_mj.plant.limits`): the stop never asks for a turn that lifts the inner wheel while it brakes.
+
+*Wheels.* ``(ω_R, ω_L) = ((V + b r)/R_R, (V − b r)/R_L)`` with the radii the controller is given, clipped to
+``±omega_max`` and to ``omega_rate_max T_s`` from the command in force. At rest (``V = 0``) both are 0.
+A wheel that does not turn (a lock) ignores its command; the other one's still brakes and steers: a
+braking force on one side yaws the robot towards it, the sign the law assumes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..fields import PosFloat, StrictModel, ranged
+from ..model.kinematics import inverse_rates
+from .base import ControlOutput
+from .reference import Path, path_errors, project
+
+
+class SafeStopSettings(StrictModel):
+    """The safe stop's profile and steering (``[reconfiguration.accommodation.stop]``)."""
+
+    deceleration: ranged(0.0, 20.0, lo_open=True, unit="m/s²") = 3.0
+    """Planned braking (m/s²); capped by the nominal robot's ``max_longitudinal_accel`` when it has one.
+    3 m/s² stops the robot from 10 m/s in 3.3 s (17 m)."""
+    lateral_margin: ranged(0.0, 1.0, lo_open=True) = 0.8
+    """Bound on ``|V r| + β a`` as a fraction of the nominal robot's lift-off lateral acceleration."""
+    settle_length: PosFloat = 6.0
+    """Natural length ``L`` (m) of the steering's error dynamics over the distance travelled."""
+    damping: ranged(0.0, 5.0, lo_open=True) = 0.8
+    """Damping ``ζ`` of the steering's error dynamics."""
+
+
+@dataclass(frozen=True)
+class StopLimits:
+    """The nominal robot's numbers the stop respects (SI units): its half track ``b`` (m), wheel-rate and
+    wheel-acceleration bounds (rad/s, rad/s²), controller period (s), lift-off lateral acceleration (m/s²),
+    braking trade (dimensionless) and the longitudinal bound of the controller (m/s², ``None``: none)."""
+
+    half_track: float
+    omega_max: float
+    omega_rate_max: float
+    sample_time: float
+    liftoff_accel: float
+    braking_trade: float
+    max_longitudinal_accel: float | None = None
+
+
+class SafeStop:
+    """Brake to rest along ``path`` (module docstring): :meth:`begin` once, then :meth:`solve` every sample."""
+
+    def __init__(self, settings: SafeStopSettings, limits: StopLimits, path: Path) -> None:
+        self.settings = settings
+        self.limits = limits
+        self.path = path
+        a = settings.deceleration
+        if limits.max_longitudinal_accel is not None:
+            a = min(a, limits.max_longitudinal_accel)
+        self.deceleration = a
+        self.max_lateral = max(settings.lateral_margin * limits.liftoff_accel - limits.braking_trade * a, 0.0)
+        self.max_lateral_coasting = settings.lateral_margin * limits.liftoff_accel
+        L = settings.settle_length
+        self.k_contour = 1.0 / (L * L)
+        self.k_heading = 2.0 * settings.damping / L
+        self.t0 = 0.0
+        self.v0 = 0.0
+        self.s: float | None = None
+
+    def begin(self, t: float, speed: float) -> None:
+        """Start braking at ``t`` (s) from ``speed`` (m/s, the speed in force; a negative one brakes from 0)."""
+        self.t0, self.v0, self.s = float(t), max(float(speed), 0.0), None
+
+    def speed(self, t: float) -> float:
+        """The planned speed (m/s) at ``t`` (s)."""
+        return max(self.v0 - self.deceleration * (t - self.t0), 0.0)
+
+    def rest_time(self) -> float:
+        """When the planned speed reaches 0 (s)."""
+        return self.t0 + self.v0 / self.deceleration
+
+    def yaw_rate(self, pose: np.ndarray, V: float, coasting: bool = False) -> float:
+        """The yaw rate (rad/s) that steers towards the path at speed ``V`` (m/s), within the traction bound (while
+        braking, or ``coasting`` without the braking trade)."""
+        if V <= 0.0:
+            return 0.0
+        x, y, psi = (float(v) for v in pose[:3])
+        guess = 0.0 if self.s is None else self.s
+        self.s = project(self.path, x, y, guess, max(2.0 * V, 10.0) if self.s is not None else 1.0e3, step=0.5)
+        g = self.path.geometry(np.array([self.s]))
+        ec = float(path_errors(self.path, np.array([x]), np.array([y]), np.array([self.s]))[0][0])
+        e_psi = float(np.angle(np.exp(1j * (psi - float(g.heading[0])))))
+        kappa = float(g.curvature[0]) - self.k_heading * np.sin(e_psi) - self.k_contour * ec
+        r_max = (self.max_lateral_coasting if coasting else self.max_lateral) / V
+        return float(np.clip(V * kappa, -r_max, r_max))
+
+    def solve(self, t: float, pose: np.ndarray, radii: np.ndarray, u_applied: np.ndarray | None = None,
+              free: int | None = None, rates: np.ndarray | None = None) -> ControlOutput:
+        """The wheel-rate command (rad/s) at ``t`` (s) from the pose [x, y, psi] (m, m, rad) and the radii
+        [R_R, R_L] (m) the controller is given; ``u_applied`` is the command in force (rad/s). ``free`` (0 right,
+        1 left): a wheel whose servo applies no torque, turning at the measured ``rates`` [omega_R, omega_L]
+        (rad/s): only the other one acts (:meth:`_one_wheel`)."""
+        lim = self.limits
+        ok = bool(np.all(np.isfinite(pose)))
+        if free is not None and rates is not None and np.all(np.isfinite(rates)):
+            om = self._one_wheel(np.asarray(pose, dtype=float) if ok else None, radii, free, rates)
+        else:
+            V = self.speed(t)
+            r = self.yaw_rate(np.asarray(pose, dtype=float), V) if ok else 0.0
+            om = np.array(inverse_rates(V, r, float(radii[0]), float(radii[1]), lim.half_track), dtype=float)
+        if u_applied is not None and np.all(np.isfinite(u_applied)):
+            step = lim.omega_rate_max * lim.sample_time
+            om = np.clip(om, np.asarray(u_applied, float) - step, np.asarray(u_applied, float) + step)
+        om = np.clip(om, -lim.omega_max, lim.omega_max)
+        return ControlOutput(omega=om, status="safe stop")
+
+    def _one_wheel(self, pose: np.ndarray | None, radii: np.ndarray, free: int, rates: np.ndarray) -> np.ndarray:
+        """Steering with one wheel. The free wheel neither drives nor brakes: its ground speed ``v_f = R_f omega_f``
+        is what it is, and braking the other wheel would only spin the robot about it. So the other wheel's speed
+        is set for the yaw rate towards the path, ``v_R − v_L = 2 b r`` (within the traction bound without
+        braking), and the robot slows as the free wheel does (its bearing's damping, the rolling resistance)."""
+        b = self.limits.half_track
+        v_free = float(radii[free]) * float(rates[free])
+        r = self.yaw_rate(pose, max(v_free, 0.0), coasting=True) if pose is not None else 0.0
+        sign = 1.0 if free == 1 else -1.0  # v_R − v_L = 2 b r
+        om = np.array(rates, dtype=float)
+        om[1 - free] = (v_free + sign * 2.0 * b * r) / float(radii[1 - free])
+        return om

@@ -1,0 +1,224 @@
+"""Accommodation per diagnosed mode: what the loop changes for each fault a diagnosis declares, and the safe
+stop when the remaining actuation cannot follow the path.
+
+:class:`Accommodation` reads the declarations (:class:`~ftc_mj.model.diagnosis.Diagnosis`, from a diagnoser or
+the truth, :mod:`.oracle`) at every controller sample and decides, per mode:
+
+==========================  =================================================================================
+diagnosed mode              accommodation
+==========================  =================================================================================
+tyre ``puncture``           the radii, as the reconfiguration policy hands them over (:mod:`.policies`); a
+                            tyre left with at most ``stop_radius_fraction`` of its radius: safe stop
+servo ``loss``              the controller's actuator model scaled by the effectiveness ``e``
+                            (``set_actuator_effectiveness``: the path-following NMPC's servo-compliance
+                            offset of that wheel grows by ``1/e``); ``e ≤ stop_effectiveness``: safe stop
+servo ``lock``,             safe stop: a wheel that cannot turn, or turns only with the ground, cannot
+``unresponsive``            steer the robot along the path
+sensor ``bias``, ``drift``  the reading corrected by the diagnosed offset (``size``, or ``size (t − onset)``)
+                            before the filter sees it
+sensor ``dropout``;         the channel excluded from the filter (and a pose sensor's from the controller's
+pose ``bias``, ``jump``     pose, which then is the filter's estimate): a pose offset's scalar size says
+                            nothing of its direction, so it cannot be subtracted
+==========================  =================================================================================
+
+*Safe stop* (:class:`~ftc_mj.control.stop.SafeStop`): entered at the first sample after a declaration that
+leaves the path out of reach, and final (a stopped robot does not drive on when a diagnosis is withdrawn); the
+controller is replaced by the stop law, which brakes along the path within the nominal robot's braking and
+lateral limits. Its reason is kept (:attr:`Accommodation.stop_reason`) for the events and the run summary.
+
+The state is :class:`AccommodationMode` (trace column ``accommodation_mode``); every change of it, and of
+the actuator model handed to the controller, is an :class:`~ftc_mj.telemetry.Event`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from enum import IntEnum
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field
+
+from ..control.base import ControlOutput
+from ..control.stop import SafeStop, SafeStopSettings
+from ..estimation.base import FilterOutput, Measurement
+from ..fields import StrictModel, ranged
+from ..model.diagnosis import Diagnosis
+from ..telemetry import Event
+
+ACCOMMODATION_COLUMNS: tuple[str, ...] = ("accommodation_mode", "actuator_effectiveness_R", "actuator_effectiveness_L")
+"""Trace columns of a run with the accommodation: its :class:`AccommodationMode` and the servo effectiveness per
+wheel handed to the controller's actuator model (fractions; 1 healthy)."""
+
+_SIDE = {"right": 0, "left": 1}
+_CHANNEL = {"speed sensor": "speed", "gyro": "yaw_rate", "pose sensor": "position"}
+
+
+class AccommodationSettings(StrictModel):
+    """What is accommodated and when the robot stops instead (``[reconfiguration.accommodation]``)."""
+
+    mode: Literal["radii", "all"] = "radii"
+    """``radii``: only the reconfiguration policy's radii reach the controller (the behaviour before
+    accommodation; every other fault is met by robustness alone). ``all``: every diagnosed mode is accommodated
+    and a fault that leaves the path out of reach stops the robot (module docstring); it needs a diagnosis
+    source — in this tree the truth, allowed with ``oracle = true``."""
+    stop_effectiveness: ranged(0.0, 1.0) = 0.05
+    """A servo diagnosed with at most this fraction of its gain and torque left stops the robot (m/s² of
+    turning it can still give scale with it; at 5 % the shipped robot's servo carries 0.4 m/s² of lateral
+    acceleration, ``e τ_max R / (c b k_v)``)."""
+    stop_radius_fraction: ranged(0.0, 1.0) = 0.02
+    """A tyre diagnosed with at most this fraction of its radius left stops the robot: its wheel carries at most
+    this fraction of the nominal speed at the servo's rate limit (0.7 m/s on the shipped robot at 2 %). Scenario 4's
+    tyre ends at 5 % (0.1 m), where the path-following NMPC still follows the path at 1.78 m/s: not a stop."""
+    stop: SafeStopSettings = Field(default_factory=SafeStopSettings)
+
+
+class AccommodationMode(IntEnum):
+    """The accommodation's state (trace column ``accommodation_mode``)."""
+
+    NOMINAL = 0
+    """Nothing declared."""
+    ACCOMMODATED = 1
+    """Faults declared and accommodated; the controller follows the path."""
+    STOPPING = 2
+    """Safe stop: braking along the path."""
+    AT_REST = 3
+    """Safe stop: the planned speed has reached 0."""
+
+
+class Accommodation:
+    """Maps the declared diagnoses to the loop (module docstring): :meth:`update` at every controller sample,
+    then :meth:`correct` (readings), :meth:`controller_pose`, :meth:`command` (the safe stop) as the loop needs."""
+
+    def __init__(self, settings: AccommodationSettings, stop: SafeStop) -> None:
+        self.settings = settings
+        self.stop = stop
+        self.state = AccommodationMode.NOMINAL
+        self.events: list[Event] = []
+        self.effectiveness = np.ones(2)
+        self.stop_reason: str | None = None
+        self.corrections: dict[str, Diagnosis] = {}
+        self.excluded: frozenset[str] = frozenset()
+        self._stop_started = False
+        self._declared: frozenset[tuple[str, str, str]] = frozenset()
+        self.free: int | None = None
+        """The wheel (0 right, 1 left) whose servo alone is declared unresponsive, else ``None``."""
+
+    @property
+    def stopping(self) -> bool:
+        """The safe stop is in force (from its entry to the end of the run)."""
+        return self.stop_reason is not None
+
+    def update(self, t: float, diagnoses: Sequence[Diagnosis]) -> bool:
+        """Take the declarations in force at ``t`` (s); returns whether the actuator model changed (then hand it
+        to the controller: :meth:`hand_actuator`)."""
+        eff = np.ones(2)
+        corrections: dict[str, Diagnosis] = {}
+        excluded: set[str] = set()
+        for d in diagnoses:
+            if d.component == "servo":
+                eff[_SIDE[d.target]] *= d.size if d.mode == "loss" else 0.0
+            elif d.component in _CHANNEL:
+                channel = _CHANNEL[d.component]
+                if d.mode in ("bias", "drift") and channel != "position":
+                    corrections[channel] = d
+                else:
+                    excluded.add(channel)
+            if self.stop_reason is None:
+                self._check_stop(t, d)
+        self.corrections, self.excluded = corrections, frozenset(excluded)
+        free = [_SIDE[d.target] for d in diagnoses if (d.component, d.mode) == ("servo", "unresponsive")]
+        self.free = free[0] if len(free) == 1 else None
+        changed = not np.array_equal(eff, self.effectiveness)
+        self.effectiveness = np.clip(eff, 0.0, 1.0)
+        declared = frozenset(d.key for d in diagnoses)
+        if not self.stopping and declared != self._declared:
+            self._enter(AccommodationMode.ACCOMMODATED if diagnoses else AccommodationMode.NOMINAL, t,
+                        "accommodation: " + (", ".join(_describe(d) for d in diagnoses) if diagnoses
+                                             else "nothing declared"))
+        self._declared = declared
+        return changed
+
+    def hand_actuator(self, t: float, controller: Any) -> None:
+        """Give ``controller`` the actuator model (servo effectiveness per wheel) in force at ``t`` (s), with an
+        event; a controller without one (no ``set_actuator_effectiveness``) is left as it is, and the event
+        says so."""
+        eR, eL = self.effectiveness
+        what = f"servo effectiveness R {eR:.0%}, L {eL:.0%}"
+        if hasattr(controller, "set_actuator_effectiveness"):
+            controller.set_actuator_effectiveness(self.effectiveness.copy())
+            self.events.append(Event(t, "warn", f"accommodation: the controller's actuator model changed: {what}"))
+        else:
+            self.events.append(Event(t, "warn", f"accommodation: {what}; the controller has no actuator model "
+                                                "(unchanged)"))
+
+    def _check_stop(self, t: float, d: Diagnosis) -> None:
+        """Enter the safe stop if declaration ``d`` leaves the path out of reach."""
+        s = self.settings
+        why = None
+        if d.component == "servo" and d.mode in ("lock", "unresponsive"):
+            why = f"{d.target} servo {d.mode} declared at {d.declared:.2f} s: that wheel cannot steer the robot"
+        elif d.component == "servo" and d.size <= s.stop_effectiveness:
+            why = (f"{d.target} servo at {d.size:.0%} effectiveness (≤ {s.stop_effectiveness:.0%}) declared at "
+                   f"{d.declared:.2f} s: too weak to follow the path")
+        elif d.component == "tyre" and d.size <= s.stop_radius_fraction:
+            why = (f"{d.target} tyre at {d.size:.0%} of its radius (≤ {s.stop_radius_fraction:.0%}) declared at "
+                   f"{d.declared:.2f} s: too small to follow the path")
+        if why is not None:
+            self.stop_reason = why
+            self._enter(AccommodationMode.STOPPING, t, f"safe stop: {why}", "error")
+
+    def _enter(self, state: AccommodationMode, t: float, text: str, level: str = "warn") -> None:
+        """Switch to ``state`` at ``t`` (s), with an event (the caller calls it when the state or the set of
+        declarations changes)."""
+        self.state = state
+        self.events.append(Event(t, level if state != AccommodationMode.NOMINAL else "info", text))
+
+    def correct(self, t: float, z: Measurement) -> Measurement:
+        """The readings at ``t`` (s) with the diagnosed offsets removed and the excluded channels absent."""
+        if not self.corrections and not self.excluded:
+            return z
+        values: dict[str, Any] = {}
+        for channel, d in self.corrections.items():
+            v = getattr(z, channel)
+            if v is not None:
+                values[channel] = v - (d.size if d.mode == "bias" else d.size * max(t - d.onset, 0.0))
+        for channel in self.excluded:
+            values[channel] = None
+        return dataclasses.replace(z, **values)
+
+    def controller_pose(self, pose: np.ndarray, out: FilterOutput | None) -> np.ndarray:
+        """The pose the controller is given: the sensors' ``pose``, or the filter's estimate when the pose
+        sensor is excluded (and a filter runs)."""
+        if "position" in self.excluded and out is not None:
+            return np.asarray(out.x[:3], dtype=float)
+        return pose
+
+    def command(self, t: float, pose: np.ndarray, radii: np.ndarray, u_applied: np.ndarray | None,
+                rates: np.ndarray | None = None) -> ControlOutput:
+        """The safe stop's command at ``t`` (s) (only while :attr:`stopping`): the first call starts the braking
+        profile from the speed of the command in force (m/s, with ``radii``); with one servo declared
+        unresponsive its wheel, turning at the measured ``rates`` (rad/s), is left free and the other steers."""
+        if not self._stop_started:
+            speed = 0.0 if u_applied is None else 0.5 * float(np.asarray(radii, float) @ np.asarray(u_applied, float))
+            self.stop.begin(t, speed)
+            self._stop_started = True
+        if self.state == AccommodationMode.STOPPING and t + 1e-9 >= self.stop.rest_time():
+            self._enter(AccommodationMode.AT_REST, t, f"safe stop: planned speed 0 at {t:.2f} s", "info")
+        return self.stop.solve(t, pose, radii, u_applied, self.free, rates)
+
+
+def _describe(d: Diagnosis) -> str:
+    """``left servo loss (30%): effectiveness to the actuator model``: one declaration in an event, with what is done
+    about it."""
+    size = f"{d.size:.0%}" if d.component in ("tyre", "servo") else f"{d.size:.3g}"
+    if d.component == "tyre":
+        action = "radii by the policy"
+    elif d.component == "servo":
+        action = "effectiveness to the actuator model" if d.mode == "loss" else "safe stop"
+    elif d.mode in ("bias", "drift") and d.component != "pose sensor":
+        action = "reading corrected"
+    else:
+        action = "excluded from the filter" + (" and the controller's pose" if d.component == "pose sensor" else "")
+    return f"{d.target} {d.component} {d.mode} ({size}): {action}"

@@ -58,10 +58,12 @@ BUILTIN: dict[str, tuple[str, dict[str, Any]]] = {
 """Built-in methods: name → (description, settings). ``feedback-off`` is also the healthy-path check's
 nominal NMPC."""
 REFERENCE_ROWS: dict[str, tuple[str, dict[str, Any]]] = {
-    "oracle": ("a ceiling, not a method: the path-following NMPC told the truth (the truth policy's true radii "
-               "from each onset, the drawn plant's limits: the run flag oracle = true), no estimator",
+    "oracle": ("a ceiling, not a method: the path-following NMPC told the truth (the run flag oracle = true: the "
+               "true pose, the truth policy's true radii from each onset, the drawn plant's limits, every fault as "
+               "its diagnosis from its onset, accommodated — a safe stop where the path is out of reach), no "
+               "estimator",
                {**ACTIVE, "estimator.kind": "none", "controller.kind": "pf-nmpc", "reconfiguration.policy": "truth",
-                "oracle": True}),
+                "reconfiguration.accommodation.mode": "all", "oracle": True}),
     "standstill": ("a floor, not a method: zero wheel-rate command throughout (the open loop at 0 rad/s), no "
                    "estimator", {"estimator.kind": "none", "controller.kind": "open-loop",
                                  "controller.open_loop_omega": [0.0, 0.0], "reconfiguration.policy": "none"}),

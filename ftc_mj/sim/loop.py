@@ -265,7 +265,7 @@ class ClosedLoop:
         self.u_prev: np.ndarray | None = None
         self.u_now: np.ndarray | None = None  # the wheel rates (rad/s) measured at the current step
         self.last_fix = np.array(cfg.plant.initial_pose, dtype=float)  # the pose sensor's latest fix (m, m, rad)
-        self.pose_from_sensor = cfg.sensors.pose_source == "sensor"
+        self.pose_from_sensor = cfg.sensors.pose_source == "sensor" and not cfg.oracle  # an oracle sees the truth
         self.out: FilterOutput | None = None
         self.z: Measurement | None = None  # the measurement of the latest estimator step
         self.cmd = ControlOutput(omega=np.zeros(2))
@@ -417,11 +417,11 @@ class ClosedLoop:
         return cmd
 
     def controller_pose(self, rd: SensorReading) -> np.ndarray:
-        """The pose ``[x, y, psi]`` (m, m, rad) the controller is given: ``pose_source = "truth"``: the reading's
-        (true pose + ``pose_sigma`` noise); ``"sensor"``: the filter's pose estimate, which has just taken in
-        this step's fix if one came and carries the last ones forward with the measured wheel rates between
-        fixes and through a dropout (the information a real robot has, fused once) — without a filter, the
-        last fix held."""
+        """The pose ``[x, y, psi]`` (m, m, rad) the controller is given: ``pose_source = "truth"`` or an oracle run
+        (``oracle = true``, told everything): the reading's (true pose + ``pose_sigma`` noise); ``"sensor"``: the
+        filter's pose estimate, which has just taken in this step's fix if one came and carries the last ones
+        forward with the measured wheel rates between fixes and through a dropout (the information a real robot
+        has, fused once) — without a filter, the last fix held."""
         if not self.pose_from_sensor:
             return rd.pose
         if self.out is not None:

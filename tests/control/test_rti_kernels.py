@@ -105,11 +105,11 @@ def test_certified_kernel_equals_the_numpy_reference(nominal_loop) -> None:
 
 @pytest.fixture(scope="module")
 def multistage(circle):
-    """A 4-scenario RTI robust NMPC and the arguments of its multi-stage QP's assemblies over 3 s of a loop
-    that loses half the left wheel at 1 s."""
+    """A 4-scenario RTI robust NMPC and the arguments of its multi-stage QP's RTI steps (those of its
+    assemblies too) over 3 s of a loop that loses half the left wheel at 1 s."""
     spec = problem(rate_penalty=1.0, rate_penalty_first_step=True)
     ctl = RobustNMPC(spec, circle, FOUR, solver="rti-daqp", time_budget=None, cold_time_budget=None)
-    calls = _recorded(ctl._stage_qp, "assemble", lambda: simulate(
+    calls = _recorded(ctl._stage_qp, "solve", lambda: simulate(
         ctl, circle, 3.0, (0.0, -5.0, 0.0), true_radii=LOOPS["tracking"][1], model_radii=lambda t: (2.0, 2.0)))
     assert len(calls) > 20
     return ctl, calls
@@ -143,3 +143,24 @@ def test_arrow_factor_is_an_inverse_factor_of_the_multistage_hessian(multistage)
     assert not arrow_inverse_factor(H, 2 * sq.k, 2 * (sq.N - sq.k), F)
     L = np.tril(np.random.default_rng(1).uniform(0.5, 2.0, (7, 7)))
     np.testing.assert_allclose(tri_inv(L) @ L, np.eye(7), atol=1e-12)
+
+
+def test_multistage_steps_equal_the_numpy_reference(multistage) -> None:
+    """Replayed in order (each with its own working-set guesses), the compiled multi-stage QP (compiled
+    assembly, arrow factor, compiled certificate) and the numpy reference (dense Cholesky factor) reach the
+    same verdicts, by the same paths, with the same plans to round-off."""
+    ctl, calls = multistage
+    sq = ctl._stage_qp
+    ref = NumpyMultiStageQP(NumpyCondensedQP(ctl.col, "daqp"), sq.S, sq.k)
+    sq.reset()
+    sq.path_counts.clear()
+    worst = 0.0
+    for args in calls:
+        a, b = sq.solve(*args), ref.solve(*args)
+        assert a[:2] == b[:2]
+        if a[0]:
+            worst = max(worst, float(np.abs(a[3] - b[3]).max()))
+    counts = dict(sq.path_counts)
+    assert counts == dict(ref.path_counts)
+    print(f"\n[rti] multi-stage QP, compiled vs numpy: {counts}, max |dU| {worst:.1e} rad/s")
+    assert worst < 1e-7

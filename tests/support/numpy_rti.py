@@ -21,7 +21,12 @@ from ftc_mj.control.spec import first_input_bounds, first_step_penalty
 
 
 class NumpyCertifiedQP(CertifiedQP):
-    """:class:`CertifiedQP` with the working-set solve and its certificate in numpy."""
+    """:class:`CertifiedQP` with the working-set solve and its certificate in numpy, and the dense Cholesky
+    factor of ``H`` always (a caller's structured ``factor`` is ignored)."""
+
+    def solve(self, H, g, A, lba, uba, lbx, ubx, guess=None, factor=None) -> CertifiedResult:
+        """:meth:`CertifiedQP.solve` with ``L⁻¹`` of the dense Cholesky factor."""
+        return super().solve(H, g, A, lba, uba, lbx, ubx, guess)
 
     def _try(self, Linv, H, g, A, lo, hi, eq, ws, path: str) -> CertifiedResult | None:
         """The reference of :meth:`CertifiedQP._try` (the certificate, its repairs and refusals) in numpy."""

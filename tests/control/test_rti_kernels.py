@@ -15,33 +15,13 @@ from ftc_mj.control.kernels import arrow_inverse_factor, tri_inv
 from ftc_mj.control.robust import RobustNMPC
 from tests.control.common import problem
 from tests.support.kinsim import simulate
-from tests.support.numpy_rti import NumpyCertifiedQP, NumpyCondensedQP, NumpyMultiStageQP
+from tests.support.numpy_rti import NumpyCertifiedQP, NumpyCondensedQP, NumpyMultiStageQP, recorded_calls
 
 FOUR = [(1.0, 1.0), (0.5, 1.0), (1.0, 0.5), (0.5, 0.5)]
 LOOPS = {  # (start pose, true radii, model radii told the controller)
     "tracking": ((0.0, -5.0, 0.0), lambda t: (2.0, 1.0) if t >= 1.0 else (2.0, 2.0), None),
     "saturated": ((0.0, 0.0, 0.0), lambda t: (1.0, 2.0), lambda t: (2.0, 1.0)),
 }
-
-
-def _recorded(obj, name: str, run) -> list[tuple]:
-    """Copies of the arguments of every call of ``obj.name`` while ``run()`` runs."""
-    calls: list[tuple] = []
-    method, own = getattr(obj, name), name in vars(obj)  # an instance attribute (another spy) is put back
-
-    def spy(*args):
-        calls.append(tuple(np.copy(a) if isinstance(a, np.ndarray) else a for a in args))
-        return method(*args)
-
-    setattr(obj, name, spy)
-    try:
-        run()
-    finally:
-        if own:
-            setattr(obj, name, method)
-        else:
-            delattr(obj, name)
-    return calls
 
 
 @pytest.fixture(scope="module", params=sorted(LOOPS))
@@ -52,7 +32,7 @@ def nominal_loop(request, circle):
     ctl = NMPC(spec, circle, solver="rti-daqp", time_budget=None, cold_time_budget=None, max_iter=300)
     qp = ctl._qp
     with qp.recording() as qps:
-        builds = _recorded(qp, "build", lambda: simulate(ctl, circle, 4.0, pose, true_radii=true_r,
+        builds = recorded_calls(qp, "build", lambda: simulate(ctl, circle, 4.0, pose, true_radii=true_r,
                                                          model_radii=model_r))
     assert len(builds) == len(qps) > 30
     return request.param, ctl, builds, qps
@@ -109,7 +89,7 @@ def multistage(circle):
     assemblies too) over 3 s of a loop that loses half the left wheel at 1 s."""
     spec = problem(rate_penalty=1.0, rate_penalty_first_step=True)
     ctl = RobustNMPC(spec, circle, FOUR, solver="rti-daqp", time_budget=None, cold_time_budget=None)
-    calls = _recorded(ctl._stage_qp, "solve", lambda: simulate(
+    calls = recorded_calls(ctl._stage_qp, "solve", lambda: simulate(
         ctl, circle, 3.0, (0.0, -5.0, 0.0), true_radii=LOOPS["tracking"][1], model_radii=lambda t: (2.0, 2.0)))
     assert len(calls) > 20
     return ctl, calls

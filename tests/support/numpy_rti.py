@@ -5,7 +5,7 @@ apply the certificate's refusal tests to both.
 
 :class:`NumpyCertifiedQP`, :class:`NumpyElimination`, :class:`NumpyCondensedQP` and
 :class:`NumpyMultiStageQP` are the package's classes with these methods in place of the kernels' calls, so
-a test runs a compiled and a reference QP side by side.
+a test runs a compiled and a reference QP side by side; :func:`recorded_calls` records the steps they replay.
 """
 
 from __future__ import annotations
@@ -250,3 +250,23 @@ class NumpyMultiStageQP(MultiStageQP):
         lbx[[0, self.k]], ubx[[0, self.k]] = first_input_bounds(qp.col.spec, u_prev)  # shared node-0 inputs
         return (H, g, np.vstack(rows), np.concatenate(lo), np.concatenate(hi), lbx, ubx,
                 np.array(Gs), np.array(hcs))
+
+
+def recorded_calls(obj, name: str, run) -> list[tuple]:
+    """Copies of the arguments of every call of ``obj.name`` while ``run()`` runs."""
+    calls: list[tuple] = []
+    method, own = getattr(obj, name), name in vars(obj)  # an instance attribute (another spy) is put back
+
+    def spy(*args):
+        calls.append(tuple(np.copy(a) if isinstance(a, np.ndarray) else a for a in args))
+        return method(*args)
+
+    setattr(obj, name, spy)
+    try:
+        run()
+    finally:
+        if own:
+            setattr(obj, name, method)
+        else:
+            delattr(obj, name)
+    return calls

@@ -16,7 +16,9 @@ This class therefore
    solution (slack below ``active_tol``),
 
 and in both cases solves the equality-constrained QP on that working set *exactly* (range-space
-method, Cholesky of H) and accepts the result only if it passes a KKT certificate, all four parts:
+method on a factor of H: its Cholesky factor, or one the caller knows from H's structure) and accepts the
+result only if it passes a KKT certificate, all four parts (the solve, its repairs and the certificate are
+one compiled call, :func:`~ftc_mj.control.kernels.certify`):
 
 * complementarity: every constraint of the working set holds with equality, within ``ws_tol``
   relative to its bound (an exact solve lands there to ~1e-12; a refinement that did not converge

@@ -43,7 +43,9 @@ class MultiStageQP:
     the shared first input relative to the input in force
     (:func:`~ftc_mj.control.spec.first_input_bounds`, as bounds on ``z``) and solves the dense QP:
     the certified active-set path first, DAQP for what it leaves unresolved. ``path_counts`` counts how
-    each QP was decided.
+    each QP was decided. The certified path works on the Hessian's structured factor
+    (:func:`~ftc_mj.control.kernels.arrow_inverse_factor`: the scenarios' own blocks are coupled only through
+    the shared inputs, so the factor has no fill), not on a dense Cholesky factor.
     """
 
     def __init__(self, qp: CondensedQP, n_scen: int, k: int) -> None:

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from ftc_mj.control import NMPC
+from ftc_mj.control.certified_qp import CertifiedQP
 from ftc_mj.control.kernels import arrow_inverse_factor, tri_inv
 from ftc_mj.control.robust import RobustNMPC
 from tests.control.common import problem
@@ -144,3 +145,24 @@ def test_multistage_steps_equal_the_numpy_reference(multistage) -> None:
     assert counts == dict(ref.path_counts)
     print(f"\n[rti] multi-stage QP, compiled vs numpy: {counts}, max |dU| {worst:.1e} rad/s")
     assert worst < 1e-7
+
+
+@pytest.mark.parametrize("m", [0, 2])
+def test_certified_kernel_on_bound_only_and_empty_working_sets(m: int) -> None:
+    """Working sets of bounds only (no rows active, or no rows at all) and the empty one: the compiled path
+    certifies the same optimum as the numpy reference, and its own working set is accepted as the guess."""
+    rng = np.random.default_rng(0)
+    n = 6
+    M = rng.standard_normal((n, n))
+    H, g = M @ M.T + np.eye(n), 10.0 * rng.standard_normal(n)
+    A, lba, uba = rng.standard_normal((m, n)), np.full(m, -100.0), np.full(m, 100.0)
+    box = np.ones(n)
+    got, want = (cls().solve(H, g, A, lba, uba, -box, box) for cls in (CertifiedQP, NumpyCertifiedQP))
+    assert got.status == want.status == "optimal"
+    assert np.count_nonzero(got.working_set[:n]) >= 2 and not np.any(got.working_set[n:])
+    np.testing.assert_allclose(got.u, want.u, atol=1e-12)
+    again = CertifiedQP().solve(H, g, A, lba, uba, -box, box, guess=got.working_set)
+    assert again.path == "guess"
+    free = CertifiedQP().solve(H, 0.01 * g, A, lba, uba, -1e3 * box, 1e3 * box, guess=np.zeros(n + m, np.int8))
+    assert free.path == "guess"
+    np.testing.assert_allclose(H @ free.u + 0.01 * g, 0.0, atol=1e-10)

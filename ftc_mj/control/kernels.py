@@ -360,7 +360,7 @@ def arrow_inverse_factor(H: np.ndarray, s: int, nv: int, F: np.ndarray) -> bool:
     L_siᵀ)``, and so has its inverse: ``L_ii⁻¹`` on the diagonal, ``−L_ss⁻¹ L_si L_ii⁻¹`` in the last block
     row. ``F⁻¹`` is that inverse with its columns in ``z``'s order (the range-space solve of :func:`eqp`
     needs any factor of ``H``; this one costs ~S (nv³/2) flops instead of the dense ``n³/2``)."""
-    S = (H.shape[0] - s) // nv
+    S = 0 if nv == 0 else (H.shape[0] - s) // nv  # every input shared (robust horizon = all nodes): no arrow
     F[:] = 0.0
     Sc = H[:s, :s].copy()
     for i in range(S):

@@ -124,6 +124,10 @@ def test_arrow_factor_is_an_inverse_factor_of_the_multistage_hessian(multistage)
     assert not arrow_inverse_factor(H, 2 * sq.k, 2 * (sq.N - sq.k), F)
     L = np.tril(np.random.default_rng(1).uniform(0.5, 2.0, (7, 7)))
     np.testing.assert_allclose(tri_inv(L) @ L, np.eye(7), atol=1e-12)
+    H = L @ L.T  # every input shared (a robust horizon of all nodes): no scenario block, the plain Cholesky
+    F = np.empty_like(H)
+    assert arrow_inverse_factor(H, 7, 0, F)
+    np.testing.assert_allclose(F @ H @ F.T, np.eye(7), atol=1e-12)
 
 
 def test_multistage_steps_equal_the_numpy_reference(multistage) -> None:

@@ -4,11 +4,14 @@ Why: the compiled kernels (the filters', :mod:`ftc_mj.estimation.kernels`; the r
 :mod:`ftc_mj.control.kernels`) are compiled by numba on their first call and cached on disk, and the
 controllers' IPOPT solvers are built once and cached (:mod:`ftc_mj.control.solver_cache`). After an install
 the first run pays for all of it on one core. This command pays for it up front on two processes at once,
-split so that no kernel is compiled twice: one process steps the UKF (with the open-loop controller), the
-other runs the MPCs of the built-in methods (RTI NMPC, multi-stage robust NMPC, path-following NMPC) without
-a filter. Each part is a short run of scenario 2 (:data:`WARM_UP`), with no output written.
+split so that no kernel is compiled twice and the two take about as long: one process steps the UKF (with
+the open-loop controller), the other runs the default run's MPC, the RTI NMPC, without a filter
+(:data:`WARM_UP`); ``--all`` (:data:`WARM_UP_ALL`) adds the other MPCs of the built-in benchmark methods, the
+multi-stage robust and the path-following NMPC, to the second process. Each part is a short run of
+scenario 2, with no output written.
 
-Kernels of other filter kinds (EKF, IMM) still compile on their first use.
+Kernels of other filter kinds (EKF, IMM), and without ``--all`` those only the robust and path-following
+NMPCs use, still compile on their first use.
 """
 
 from __future__ import annotations
@@ -19,13 +22,14 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
-WARM_UP: tuple[tuple[tuple[str, dict[str, Any]], ...], ...] = (
-    (("scenario2", {"estimator.kind": "ukf", "controller.kind": "open-loop", "duration": 0.5}),),
-    (("scenario2", {"estimator.kind": "none", "controller.kind": "nmpc", "duration": 0.5}),
-     ("scenario2", {"estimator.kind": "none", "controller.kind": "robust-nmpc", "duration": 0.5}),
-     ("scenario2", {"estimator.kind": "none", "controller.kind": "pf-nmpc", "duration": 0.5})),
-)
-"""The warm-up's parts, one per process: each a sequence of (scenario, overrides) runs."""
+_FILTER = ("scenario2", {"estimator.kind": "ukf", "controller.kind": "open-loop", "duration": 0.5})
+_MPC = {kind: ("scenario2", {"estimator.kind": "none", "controller.kind": kind, "duration": 0.5})
+        for kind in ("nmpc", "robust-nmpc", "pf-nmpc")}
+WARM_UP: tuple[tuple[tuple[str, dict[str, Any]], ...], ...] = ((_FILTER,), (_MPC["nmpc"],))
+"""The warm-up's parts, one per process: each a sequence of (scenario, overrides) runs — what the default run
+(``ftc-mj run scenario2``: UKF, RTI NMPC) compiles and builds."""
+WARM_UP_ALL: tuple[tuple[tuple[str, dict[str, Any]], ...], ...] = ((_FILTER,), tuple(_MPC.values()))
+"""``--all``: also the robust and the path-following NMPC (every MPC of the built-in benchmark methods)."""
 
 
 Part = tuple[tuple[str, dict[str, Any]], ...]

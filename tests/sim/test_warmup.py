@@ -7,7 +7,7 @@ import os
 
 from ftc_mj.benchmark.methods import BUILTIN
 from ftc_mj.config import load_config
-from ftc_mj.sim.warmup import WARM_UP, warm_up
+from ftc_mj.sim.warmup import WARM_UP, WARM_UP_ALL, warm_up
 
 
 def test_each_part_runs_in_a_fresh_process_of_its_own() -> None:
@@ -22,12 +22,17 @@ def test_each_part_runs_in_a_fresh_process_of_its_own() -> None:
 
 def test_the_parts_split_the_filter_from_the_controllers_and_cover_the_methods() -> None:
     """The first part steps the filter of the default run and of every built-in method without an MPC; the
-    other builds and steps every MPC kind of the built-in methods without a filter (so the two processes compile
-    disjoint kernels)."""
-    cfgs = [[load_config(sc, ov) for sc, ov in part] for part in WARM_UP]
-    assert len(cfgs) == 2
-    filters = {c.estimator.kind for c in cfgs[0]}
-    assert filters == {load_config("scenario2").estimator.kind} == {s["estimator.kind"] for _, s in BUILTIN.values()}
-    assert {c.controller.kind for c in cfgs[0]} == {"open-loop"}
-    assert {c.estimator.kind for c in cfgs[1]} == {"none"}
-    assert {c.controller.kind for c in cfgs[1]} == {s["controller.kind"] for _, s in BUILTIN.values()}
+    other builds and steps the default run's MPC (with ``--all``: every MPC kind of the built-in methods)
+    without a filter, so the two processes compile disjoint kernels."""
+    default = load_config("scenario2")
+    for parts, mpcs in ((WARM_UP, {default.controller.kind}),
+                        (WARM_UP_ALL, {s["controller.kind"] for _, s in BUILTIN.values()})):
+        cfgs = [[load_config(sc, ov) for sc, ov in part] for part in parts]
+        assert len(cfgs) == 2
+        filters = {c.estimator.kind for c in cfgs[0]}
+        assert filters == {default.estimator.kind} == {s["estimator.kind"] for _, s in BUILTIN.values()}
+        assert {c.controller.kind for c in cfgs[0]} == {"open-loop"}
+        assert {c.estimator.kind for c in cfgs[1]} == {"none"}
+        assert {c.controller.kind for c in cfgs[1]} == mpcs
+        assert {(c.controller.kind, c.controller.solver) for c in cfgs[1]} == {(k, default.controller.solver)
+                                                                               for k in mpcs}

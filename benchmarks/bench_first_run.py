@@ -10,6 +10,11 @@ loads. The table gives wall and CPU (user + system) seconds of both and the firs
 (first − second); the start-up issue's target is an excess ≤ 15 s. ``--baseline`` times another
 checkout the same way right after this one, estimator by estimator, so both see the same machine load.
 On a shared machine, read the CPU seconds: the wall time grows with the load, the compile work does not.
+
+``--first-command``: the README's first command after the install, timed whole: with empty caches,
+``ftc-mj warm-up`` (its two processes' CPU included), then ``ftc-mj run scenario2 --no-rrd -q`` (the full
+40 s run, which reaches the compiled real-time iteration, unlike a 0.1 s run) and that run again; beside it,
+in new empty caches, the same run twice without the warm-up.
 """
 
 from __future__ import annotations
@@ -27,13 +32,14 @@ ROOT = Path(__file__).resolve().parents[1]
 CLI = "import sys; from ftc_mj.cli import app; sys.argv[0] = 'ftc-mj'; sys.exit(app())"
 
 
-def timed(code: Path, estimator: str, caches: Path) -> tuple[float, float]:
-    """(wall s, CPU s) of one ``ftc-mj run`` of this ``code`` with its caches in ``caches``."""
+def timed(code: Path, estimator: str, caches: Path, command: list[str] | None = None) -> tuple[float, float]:
+    """(wall s, CPU s, its child processes' included) of one ``ftc-mj run`` of this ``code`` with its caches in
+    ``caches`` (or of ``ftc-mj COMMAND``)."""
     env = dict(os.environ, PYTHONPATH=str(code), NUMBA_CACHE_DIR=str(caches / "numba"),
                FTC_MJ_CACHE_DIR=str(caches / "ftc-mj"), OMP_NUM_THREADS="1")
     env.pop("PYTHONDONTWRITEBYTECODE", None)
-    args = [sys.executable, "-c", CLI, "run", "scenario2", "--estimator", estimator, "--duration", "0.1",
-            "--no-rrd", "-q", "--out", str(caches / "out")]
+    args = [sys.executable, "-c", CLI, *(command or ["run", "scenario2", "--estimator", estimator, "--duration",
+                                                     "0.1", "--no-rrd", "-q", "--out", str(caches / "out")])]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
     proc = subprocess.run(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
@@ -52,11 +58,34 @@ def first_and_second(code: Path, estimator: str) -> tuple[tuple[float, float], t
         return timed(code, estimator, Path(d)), timed(code, estimator, Path(d))
 
 
+def first_command(code: Path) -> None:
+    """The README's first command (warm-up, then the default run) and the same run without the warm-up (printed)."""
+    run = ["run", "scenario2", "--no-rrd", "-q", "--out"]
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="ftc-first-run-") as d:
+        rows.append(("ftc-mj warm-up (empty caches)", timed(code, "", Path(d), ["warm-up"])))
+        rows.append(("then ftc-mj run scenario2", timed(code, "", Path(d), [*run, f"{d}/out"])))
+        rows.append(("that run again", timed(code, "", Path(d), [*run, f"{d}/out"])))
+    with tempfile.TemporaryDirectory(prefix="ftc-first-run-") as d:
+        rows.append(("ftc-mj run scenario2 without the warm-up (empty caches)", timed(code, "", Path(d),
+                                                                                      [*run, f"{d}/out"])))
+        rows.append(("that run again", timed(code, "", Path(d), [*run, f"{d}/out"])))
+    print("| command | wall (s) | CPU (s) |\n|---|---|---|")
+    for label, (wall, cpu) in rows:
+        print(f"| {label} | {wall:.1f} | {cpu:.1f} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--estimators", nargs="+", default=["ukf", "ekf", "imm-ukf"])
     ap.add_argument("--baseline", type=Path, help="another checkout, timed the same way in this run")
+    ap.add_argument("--first-command", action="store_true", help="time the README's first command (module doc)")
     args = ap.parse_args()
+    if args.first_command:
+        print(f"load average at start: {os.getloadavg()[0]:.2f}\n")
+        first_command(ROOT)
+        print(f"\nload average at end: {os.getloadavg()[0]:.2f}")
+        return
     codes = [("this", ROOT)] + ([("baseline", args.baseline.resolve())] if args.baseline else [])
     print(f"load average at start: {os.getloadavg()[0]:.2f}\n")
     print("| estimator | code | first wall (s) | first CPU (s) | second wall (s) | second CPU (s) | "

@@ -14,6 +14,12 @@ set, :mod:`ftc_mj.control.certified_qp`), on QPs recorded from the well-behaved 
 saturated loop (the model is told swapped radii, so ~90 of the 100 inputs' bounds are active);
 each QP is solved by both paths back to back, in alternating order.
 
+``--kernels``: per RTI step (build, certified solve, checks; CPU time), the compiled kernels
+(:mod:`ftc_mj.control.kernels`) against their numpy reference (``tests/support/numpy_rti.py``, the package's
+code before it was compiled) on the same recorded steps, replayed back to back in alternating order: the
+nominal NMPC's QP on the well-behaved and the saturated loop of ``--qp``, and the 4-scenario multi-stage QP
+(the hybrid/passive methods' controller) on the kinematic scenario-2 loop of ``--robust``.
+
 ``--runs R``: whole-run wall times of three MuJoCo runs (scenario4 and scenario2 with UKF, direct
 radius feedback and the NMPC — they leave the path and saturate the wheels — and scenario2 with
 ``sensors.yaw_rate_sigma`` 0.01), old and new path alternated R times in one process; medians.
@@ -38,7 +44,7 @@ first-step bound and with the first input free, alternated R times in one proces
 time and of the runs' solve-time median/p95, with the largest command step, solver failures and
 cross-track maximum of each formulation.
 
-Usage: ``.venv/bin/python benchmarks/bench_mpc.py [--duration 30] [--skip-opti] [--skip-table] [--qp]
+Usage: ``.venv/bin/python benchmarks/bench_mpc.py [--duration 30] [--skip-opti] [--skip-table] [--qp] [--kernels]
 [--runs 3] [--rate-bound 3] [--robust [--dompc-python PYTHON]] [--degraded]``
 """
 
@@ -179,6 +185,55 @@ def qp_table(spec, ref, duration: float) -> None:
         print(f"| {name} | {len(qps)} | {np.median(o):.2f} | {np.percentile(o, 90):.2f} | {o.sum():.0f} | "
               f"**{np.median(nw):.2f}** | {np.percentile(nw, 90):.2f} | {nw.sum():.0f} | {r['paths']} | "
               f"{r['du'].max():.1e} |")
+
+
+def _replay(compiled, reference, calls: list[tuple]) -> tuple[np.ndarray, np.ndarray]:
+    """Per-step CPU times (ms) of ``compiled.solve`` and ``reference.solve`` on the same calls, alternating which goes
+    first; each keeps its own working-set guesses, from a reset."""
+    compiled.reset()
+    reference.reset()
+    compiled.path_counts.clear()
+    tc, tr = [], []
+    for i, args in enumerate(calls):
+        for which in ((compiled, tc), (reference, tr)) if i % 2 == 0 else ((reference, tr), (compiled, tc)):
+            t0 = time.process_time()  # CPU time: the machine may be shared
+            which[0].solve(*args)
+            which[1].append(time.process_time() - t0)
+    return np.array(tc) * 1e3, np.array(tr) * 1e3
+
+
+def kernel_table(spec, ref, duration: float) -> None:
+    """Per RTI step, compiled kernels against the numpy reference, on recorded steps (printed)."""
+    from tests.support.numpy_rti import NumpyCondensedQP, NumpyMultiStageQP, recorded_calls
+
+    free = {"time_budget": None, "cold_time_budget": None, "max_iter": 300}
+    cases = {
+        "NMPC, well-behaved (the loop above)": ((0.0, -5.0, 0.0), left_step, None),
+        "NMPC, saturated (model told swapped radii)": ((0.0, 0.0, 0.0), lambda t: (1.0, 2.0), lambda t: (2.0, 1.0)),
+    }
+    rows = []
+    for name, (pose, true_r, model_r) in cases.items():
+        ctl = NMPC(spec, ref, solver="rti-daqp", **free)
+        calls = recorded_calls(ctl._qp, "solve", lambda ctl=ctl, pose=pose, true_r=true_r, model_r=model_r: simulate(
+            ctl, ref, duration, pose, true_radii=true_r, model_radii=model_r))
+        rows.append((name, len(calls), *_replay(ctl._qp, NumpyCondensedQP(ctl.col, "daqp"), calls),
+                     dict(ctl._qp.path_counts)))
+    four = [(1.0, 1.0), (0.5, 1.0), (1.0, 0.5), (0.5, 0.5)]
+    ctl = RobustNMPC(spec, ref, four, **free)
+    sq = ctl._stage_qp
+    calls = recorded_calls(sq, "solve", lambda: simulate(ctl, ref, min(duration, 25.0), (0.0, 0.0, 0.0),
+                                                         true_radii=left_step, model_radii=lambda t: (2.0, 2.0)))
+    rows.append(("multi-stage, 4 scenarios (robust --robust loop)", len(calls),
+                 *_replay(sq, NumpyMultiStageQP(NumpyCondensedQP(ctl.col, "daqp"), sq.S, sq.k), calls),
+                 dict(sq.path_counts)))
+    print(f"\nPer RTI step (build, certified solve, checks), CPU ms: compiled kernels against the numpy reference "
+          f"on the same steps, alternating; {duration:.0f} s loops; load avg {os.getloadavg()[0]:.2f}.\n")
+    print("| QP | steps | compiled median | compiled p90 | numpy median | numpy p90 | numpy / compiled (median) "
+          "| decided by |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name, n, tc, tr, paths in rows:
+        print(f"| {name} | {n} | **{np.median(tc):.2f}** | {np.percentile(tc, 90):.2f} | {np.median(tr):.2f} | "
+              f"{np.percentile(tr, 90):.2f} | {np.median(tr) / np.median(tc):.1f}× | {paths} |")
 
 
 @contextlib.contextmanager
@@ -461,6 +516,7 @@ def main() -> None:
     ap.add_argument("--skip-opti", action="store_true")
     ap.add_argument("--skip-table", action="store_true", help="skip the controller comparison table")
     ap.add_argument("--qp", action="store_true", help="per-QP time, old vs new path")
+    ap.add_argument("--kernels", action="store_true", help="per RTI step, compiled kernels vs the numpy reference")
     ap.add_argument("--runs", type=int, default=0, help="whole MuJoCo runs, old vs new, this many times each")
     ap.add_argument("--rate-bound", type=int, default=0,
                     help="whole MuJoCo runs, first-step bound vs free first input, this many times each")
@@ -477,6 +533,8 @@ def main() -> None:
     cfg = RunConfig()
     if args.qp:
         qp_table(problem_spec(cfg), build_reference(cfg), min(args.duration, 20.0))
+    if args.kernels:
+        kernel_table(problem_spec(cfg), build_reference(cfg), min(args.duration, 20.0))
     if args.runs:
         run_table(args.runs)
     if args.rate_bound:

@@ -13,6 +13,10 @@ timed) fills the caches a user's second command finds: the bytecode, the numba k
 ``PYTHONDONTWRITEBYTECODE`` is removed from the commands' environment (``--keep-env`` keeps it): with
 it, every start compiles the package's modules from source (≈ 0.2 s), which an installed package
 never does. On a shared machine, read the ratios, not the seconds.
+
+``--importtime N``: after the table, what is left of a 0.1 s run's start: ``python -X importtime`` of one run
+(caches warm), the N imports of largest cumulative time among the top-level ones and their first two levels of
+children, in milliseconds (``-X importtime``'s own overhead included).
 """
 
 from __future__ import annotations
@@ -79,12 +83,33 @@ def measure(codes: list[Path], repeat: int, keep: bool) -> tuple[list[float], li
     return ref, times
 
 
+def import_profile(code: Path, keep: bool, top: int) -> list[tuple[int, int, str]]:
+    """``(cumulative µs, depth, module)`` of the ``top`` slowest imports at depths 0–2 of one 0.1 s run (the
+    run's caches warm: run once before)."""
+    env = environment(code, keep)
+    with tempfile.TemporaryDirectory(prefix="bench-startup.") as out:
+        args = commands(out)[-1][1]
+        wall_time(args, env)
+        proc = subprocess.run([sys.executable, "-X", "importtime", *args], env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.PIPE, text=True, cwd=tempfile.gettempdir(), check=True)
+    rows = []
+    for line in proc.stderr.splitlines():
+        if line.startswith("import time:") and "cumulative" not in line:
+            _, cumulative, name = line.split(":", 1)[1].split("|")
+            depth = (len(name) - len(name.lstrip()) - 1) // 2
+            if depth <= 2:
+                rows.append((int(cumulative), depth, name.strip()))
+    return sorted(rows, reverse=True)[:top]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=7, help="alternating rounds (medians are reported)")
     ap.add_argument("--code", type=Path, default=ROOT, help="checkout whose ftc_mj is measured (default: this one)")
     ap.add_argument("--baseline", type=Path, help="another checkout measured in the same rounds (e.g. main)")
     ap.add_argument("--keep-env", action="store_true", help="keep PYTHONDONTWRITEBYTECODE if set")
+    ap.add_argument("--importtime", type=int, default=0, metavar="N",
+                    help="also print the N slowest imports of a 0.1 s run (python -X importtime)")
     args = ap.parse_args()
     codes = [args.code.resolve()] + ([args.baseline.resolve()] if args.baseline else [])
     ref, times = measure(codes, args.repeat, args.keep_env)
@@ -102,6 +127,10 @@ def main() -> None:
             cells += [f"{med[1]:.3f}", f"{med[1] / r:.1f}×"]
         cells += [f"{med[0]:.3f}", f"{med[0] / r:.1f}×"]
         print("| " + " | ".join(cells) + " |")
+    if args.importtime:
+        print(f"\nThe {args.importtime} slowest imports (depth ≤ 2) of a 0.1 s run, cumulative ms (-X importtime):\n")
+        for us, depth, name in import_profile(codes[0], args.keep_env, args.importtime):
+            print(f"{'  ' * depth}{us / 1e3:7.1f}  {name}")
 
 
 if __name__ == "__main__":

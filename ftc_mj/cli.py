@@ -664,6 +664,21 @@ def _claim_comparisons(res: Any, out_dir: Path) -> list[Path]:
     return paths
 
 
+@app.command("warm-up")
+def warm_up(every: Annotated[bool, typer.Option("--all", help="Also the robust and the path-following NMPC (every "
+                                                "MPC of the built-in benchmark methods).")] = False) -> None:
+    """Compile the numba kernels and build the IPOPT solvers the default run needs, on two processes at once (the
+    first run after an install then starts at once; docs/performance.md). Prints the CPU seconds of each part."""
+    import time
+
+    from .sim.warmup import WARM_UP, WARM_UP_ALL
+    from .sim.warmup import warm_up as run_warm_up
+
+    t = time.perf_counter()
+    cpu = [c for _, c in run_warm_up(WARM_UP_ALL if every else WARM_UP)]
+    typer.echo(f"warm-up: {time.perf_counter() - t:.1f} s ({' + '.join(f'{c:.1f}' for c in cpu)} s CPU)")
+
+
 @app.command()
 def scenarios() -> None:
     """List the built-in scenarios."""

@@ -16,7 +16,9 @@ This class therefore
    solution (slack below ``active_tol``),
 
 and in both cases solves the equality-constrained QP on that working set *exactly* (range-space
-method, Cholesky of H) and accepts the result only if it passes a KKT certificate, all four parts:
+method on a factor of H: its Cholesky factor, or one the caller knows from H's structure) and accepts the
+result only if it passes a KKT certificate, all four parts (the solve, its repairs and the certificate are
+one compiled call, :func:`~ftc_mj.control.kernels.certify`):
 
 * complementarity: every constraint of the working set holds with equality, within ``ws_tol``
   relative to its bound (an exact solve lands there to ~1e-12; a refinement that did not converge
@@ -48,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..lazy import lazy_module
+from .kernels import certify
 
 scipy = lazy_module("scipy")  # imported on first use (ftc_mj.lazy)
 
@@ -107,13 +110,23 @@ class CertifiedQP:
 
     # ------------------------------------------------------------------------------------------
     def solve(self, H: np.ndarray, g: np.ndarray, A: np.ndarray, lba: np.ndarray, uba: np.ndarray,
-              lbx: np.ndarray, ubx: np.ndarray, guess: np.ndarray | None = None) -> CertifiedResult:
-        """Certified solution of the QP; ``guess`` is a working set (n + m,) to try first."""
+              lbx: np.ndarray, ubx: np.ndarray, guess: np.ndarray | None = None,
+              factor: np.ndarray | None = None) -> CertifiedResult:
+        """Certified solution of the QP; ``guess`` is a working set (n + m,) to try first. ``factor``: a
+        caller that knows the structure of ``H`` may hand ``F⁻¹`` (n, n) of a factor ``H = F Fᵀ`` (e.g.
+        :func:`~ftc_mj.control.kernels.arrow_inverse_factor`; NaN for an ``H`` that is not positive
+        definite); else ``L⁻¹`` of the Cholesky factor is computed here (LAPACK ``potrf``, ``trtri``)."""
         n, m = H.shape[0], A.shape[0]
-        L, info = scipy.linalg.lapack.dpotrf(H, lower=1, clean=1)
-        if info != 0:
+        if factor is None:
+            L, info = scipy.linalg.lapack.dpotrf(H, lower=1, clean=1)
+            if info != 0:
+                return CertifiedResult("unresolved", "H not positive definite")
+            Linv = np.ascontiguousarray(scipy.linalg.lapack.dtrtri(L, lower=1)[0])  # explicit L⁻¹: every
+            # working-set solve reuses it
+        elif not np.isfinite(factor[0, 0]):
             return CertifiedResult("unresolved", "H not positive definite")
-        Linv = scipy.linalg.lapack.dtrtri(L, lower=1)[0]  # explicit L⁻¹: every working-set solve reuses it
+        else:
+            Linv = factor
         eq = lba == uba
         lo = np.concatenate([lbx, lba])
         hi = np.concatenate([ubx, uba])
@@ -169,105 +182,18 @@ class CertifiedQP:
         set that fails a repairable part is repaired up to ``max_repairs`` times (add every violated
         constraint, else drop the multiplier of worst sign) — an active set predicted from an
         interior-point solution may miss a weakly active constraint; the repaired set must pass the same
-        certificate.
+        certificate. One compiled call (:func:`~ftc_mj.control.kernels.certify`).
         """
-        n = H.shape[0]
-        ws = ws.copy()
-        ws[n:][eq] = 1
-        ineq_all = np.concatenate([np.ones(n, bool), ~eq])
-        v = Linv @ g
-        for _ in range(1 + self.max_repairs):
-            sol = self._eqp(Linv, H, g, A, lo, hi, ws, v)
-            if sol is None:
-                return None
-            u, lam_full = sol
-            Au = A @ u
-            r = np.concatenate([u, Au])
-            if self._ws_residual(r, lo, hi, ws) > self.ws_tol:
-                return None  # u is not on its working set: the refinement did not converge
-            over, under = r - hi, lo - r
-            viol = np.maximum(over, under)
-            if viol.max(initial=0.0) > self.primal_tol:
-                bad = viol > self.primal_tol
-                if np.count_nonzero(bad) > self.max_repair_rows:
-                    return None  # far from this working set: not worth repairing
-                ws[bad] = np.where(over[bad] > 0, 1, -1)
-                continue
-            side = ws.astype(float)
-            lam_scale = 1.0 + float(np.max(np.abs(lam_full)))
-            wrong = np.where(ineq_all & (ws != 0), lam_full * side, 0.0)
-            if wrong.min(initial=0.0) < -self.dual_tol * lam_scale:
-                ws[int(np.argmin(wrong))] = 0
-                continue
-            lam_x, lam_a = lam_full[:n], lam_full[n:]
-            if self._stationarity(H, g, A, u, lam_x, lam_a) > self.stat_tol:
-                return None
-            ws[n:][eq] = 0
-            return CertifiedResult("optimal", path, u, lam_x, lam_a, ws)
-        return None
-
-    @staticmethod
-    def _ws_residual(r: np.ndarray, lo: np.ndarray, hi: np.ndarray, ws: np.ndarray) -> float:
-        """``max_W |r_i − b_i| / (1 + max_W |b_i|)`` over the working set (``r = [u; A u]``, ``b_i`` the
-        bound the working set puts constraint ``i`` on); 0 for an empty working set."""
-        idx = np.nonzero(ws)[0]
-        if idx.size == 0:
-            return 0.0
-        b = np.where(ws[idx] > 0, hi[idx], lo[idx])
-        return float(np.max(np.abs(r[idx] - b)) / (1.0 + np.max(np.abs(b))))
-
-    @staticmethod
-    def _stationarity(H: np.ndarray, g: np.ndarray, A: np.ndarray, u: np.ndarray, lam_x: np.ndarray,
-                      lam_a: np.ndarray) -> float:
-        """``max |H u + g + lam_x + Aᵀ lam_a|`` relative to ``1 + max(|H||u| + |g| + |lam_x| + |A|ᵀ|lam_a|)``,
-        the size of the terms whose rounding it measures."""
-        stat = H @ u + g + lam_x + A.T @ lam_a
-        scale = np.abs(H) @ np.abs(u) + np.abs(g) + np.abs(lam_x) + np.abs(A).T @ np.abs(lam_a)
-        return float(np.max(np.abs(stat)) / (1.0 + np.max(scale)))
-
-    @staticmethod
-    def _eqp(Linv: np.ndarray, H: np.ndarray, g: np.ndarray, A: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-             ws: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        """``(u, λ over bounds and rows)`` of ``min ½uᵀHu + gᵀu`` with the working-set constraints as
-        equalities; None if its rows are dependent.
-
-        Range-space method: with ``H = L Lᵀ``, ``Y = L⁻¹ C_Wᵀ`` and ``v = L⁻¹ g``, the multipliers solve
-        ``(YᵀY) λ = −(b_W + Yᵀv)`` and ``u = −L⁻ᵀ (v + Y λ)``. With ~100 active rows ``YᵀY`` has a
-        condition number up to ~1e14, so up to two steps of iterative refinement on the KKT residual
-        follow (they bring the working-set residual from ~1e-6 to ~1e-11).
-        """
-        n = H.shape[0]
-        idx = np.nonzero(ws)[0]
-        lam_full = np.zeros(lo.size)
-        if idx.size == 0:
-            return -(Linv.T @ v), lam_full
-        b = np.where(ws[idx] > 0, hi[idx], lo[idx])
-        bnd, row = idx[idx < n], idx[idx >= n] - n
-        nb = bnd.size
-        Ar = A[row]
-        Y = np.empty((n, idx.size))
-        Y[:, :nb] = Linv[:, bnd]
-        Y[:, nb:] = Linv @ Ar.T
-        Ls, info = scipy.linalg.lapack.dpotrf(Y.T @ Y, lower=1)
-        if info != 0:
+        n, m = H.shape[0], A.shape[0]
+        work = np.array(ws, dtype=np.int8)
+        u, lam = np.empty(n), np.empty(n + m)
+        tol = np.array([self.primal_tol, self.dual_tol, self.ws_tol, self.stat_tol])
+        c = np.ascontiguousarray
+        if not certify(c(Linv, dtype=float), c(H, dtype=float), c(g, dtype=float), c(A, dtype=float),
+                       c(lo, dtype=float), c(hi, dtype=float), c(eq, dtype=np.bool_), tol, self.max_repairs,
+                       self.max_repair_rows, work, u, lam):
             return None
-        lam = scipy.linalg.lapack.dpotrs(Ls, -(b + Y.T @ v), lower=1)[0]
-        u = -(Linv.T @ (v + Y @ lam))
-        b_scale = 1e-12 * (1.0 + float(np.max(np.abs(b))))
-        for _ in range(2):  # refinement: solve the KKT system for its residual with the same factors
-            r2 = b - np.concatenate([u[bnd], Ar @ u])
-            if np.max(np.abs(r2)) <= b_scale:
-                break
-            r1 = -(g + H @ u + Ar.T @ lam[nb:])
-            r1[bnd] -= lam[:nb]
-            w = Linv @ r1
-            dlam = scipy.linalg.lapack.dpotrs(Ls, Y.T @ w - r2, lower=1)[0]
-            u = u + Linv.T @ (w - Y @ dlam)
-            lam = lam + dlam
-        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(lam))):
-            return None
-        lam_full[idx] = lam
-        return u, lam_full
+        return CertifiedResult("optimal", path, u, lam[:n], lam[n:], work)
 
     def _farkas(self, r, A: np.ndarray, eq: np.ndarray, lba: np.ndarray, uba: np.ndarray, lbx: np.ndarray,
                 ubx: np.ndarray) -> bool:

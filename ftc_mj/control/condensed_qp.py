@@ -11,6 +11,7 @@ import numpy as np
 from ..lazy import lazy_module
 from .certified_qp import CertifiedQP
 from .elimination import StateElimination, lateral_accel_linearisation
+from .kernels import tracking_cost
 from .solvers import BufferedFunction, default_qp_options
 from .spec import first_input_bounds, first_step_penalty
 from .transcription import Collocation
@@ -56,6 +57,8 @@ class CondensedQP:
         Wd = np.concatenate([col.W, col.W])
         self.R_rate = 2.0 * sp.rate_penalty * (Dblk.T * Wd) @ Dblk / h**2
         self._qW3 = sp.q_pose * np.tile(col.W, 3)  # pose-error weights of the stacked states (x, y, psi)
+        self._q = np.array([sp.q_speed, sp.q_yaw_rate], dtype=float)  # speed and yaw-rate error weights
+        self._no_prev = np.zeros(2)  # u_prev's place when there is none (the first-step penalty is then 0)
         self.qpsol = qpsol
         opts = default_qp_options(qpsol)
         opts.update(qp_options or {})
@@ -128,34 +131,16 @@ class CondensedQP:
         col, N = self.col, self.col.N
         sp = col.spec
         G, hc, E, e = self.elim.pose(Xg, Ug, radii, x0)
-        # cost
-        W = col.W
         key = (float(radii[0]), float(radii[1]))
         if self._J_cache is None or self._J_cache[0] != key:
             self._J_cache = (key, self._J(radii)[0].reshape(2, 2, order="F").copy())
         J = self._J_cache[1]  # d[V, psidot]/du, constant for given radii
-        Gf = G.reshape(3 * N, 2 * N)
-        GW = Gf.T * self._qW3
-        H = GW @ Gf
-        g = GW @ (hc.ravel() - ref[:3].ravel())
-        idx = np.arange(N)
-        for k, q in ((0, sp.q_speed), (1, sp.q_yaw_rate)):
-            a0, a1 = J[k, 0], J[k, 1]
-            qW = q * W
-            H[idx, idx] += qW * a0 * a0
-            H[idx + N, idx + N] += qW * a1 * a1
-            H[idx, idx + N] += qW * a0 * a1
-            H[idx + N, idx] += qW * a0 * a1
-            g[:N] -= qW * a0 * ref[3 + k]
-            g[N:] -= qW * a1 * ref[3 + k]
-        H = 2.0 * H + self.R_rate
-        g = 2.0 * g
-        c = first_step_penalty(sp, u_prev)
-        if c > 0:  # c ‖U(t0) − u_prev‖² on inputs 0 (omega_R) and N (omega_L)
-            assert u_prev is not None
-            for i, ui in ((0, u_prev[0]), (N, u_prev[1])):
-                H[i, i] += 2.0 * c
-                g[i] -= 2.0 * c * ui
+        n = 2 * N
+        H, g = np.empty((n, n)), np.empty(n)
+        up = self._no_prev if u_prev is None else np.ascontiguousarray(u_prev, dtype=float)
+        tracking_cost(G, hc, np.ascontiguousarray(ref, dtype=float), col.W, self._qW3, J, self._q, self.R_rate,
+                      float(first_step_penalty(sp, u_prev)), up, H, g)
+        Gf = G.reshape(3 * N, n)
         return H, g, E, e, Gf, hc.ravel()
 
     def input_bounds(self, u_prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .kernels import condense_pose
 from .solvers import BufferedFunction
 from .transcription import Collocation
 
@@ -38,7 +39,7 @@ class StateElimination:
         Dinv = np.linalg.inv(Dt)
         self.c0 = Dinv[:, 0].copy()
         self.K = np.ascontiguousarray(Dinv[:, 1:])
-        self.hD0 = D[0] / h
+        self.hD0 = np.ascontiguousarray(D[0] / h)
         self._lin = BufferedFunction(col.lin)
 
     def pose(self, Xg: np.ndarray, Ug: np.ndarray, radii: np.ndarray, x0: np.ndarray
@@ -46,31 +47,11 @@ class StateElimination:
         """``(G (3, N, 2N), hc (3, N), E (3, 2N), e (3,))``: the pose ``X_s = G[s] u + hc[s]`` (x, y, psi)
         of the collocation linearised about ``(Xg (N,3), Ug (N,2))`` as a function of the wheel rates
         ``u = [omega_R(N), omega_L(N)]``, and the node-0 collocation rows ``E u = e``."""
-        N, K, c0 = self.N, self.K, self.c0
+        N = self.N
         fx, A, B = self._lin(Xg.T, Ug.T, radii)
-        fx = fx.reshape(3, N, order="F")
-        A = A.reshape(3, 3, N, order="F")  # A[i, j, k] = d f_i / d x_j at node k
-        B = B.reshape(3, 2, N, order="F")
-        # affine model f ≈ A X + B U + c
-        c = fx - np.einsum("ijk,kj->ik", A, Xg) - np.einsum("ijk,kj->ik", B, Ug)
-        ax, ay = A[0, 2], A[1, 2]
-        G = np.zeros((3, N, 2 * N))
-        hc = np.empty((3, N))
-        # psi
-        G[2][:, 1:N] = K * B[2, 0, 1:]
-        G[2][:, N + 1:] = K * B[2, 1, 1:]
-        hc[2] = c0 * x0[2] + K @ c[2, 1:]
-        for s, a in ((0, ax), (1, ay)):
-            Gs = K @ (a[1:, None] * G[2][1:])
-            Gs[:, 1:N] += K * B[s, 0, 1:]
-            Gs[:, N + 1:] += K * B[s, 1, 1:]
-            G[s] = Gs
-            hc[s] = c0 * x0[s] + K @ (a[1:] * hc[2][1:] + c[s, 1:])
-        # node-0 collocation rows: (2/T) D(0,:) @ X_s - (A X + B U + c)_0 = 0
-        E = self.hD0 @ G  # (3, 2N)
-        E[:, 0] -= B[:, 0, 0]
-        E[:, N] -= B[:, 1, 0]
-        e = c[:, 0] + A[:, :, 0] @ x0 - hc @ self.hD0
+        G, hc, E, e = np.empty((3, N, 2 * N)), np.empty((3, N)), np.empty((3, 2 * N)), np.empty(3)
+        condense_pose(fx, A, B, np.ascontiguousarray(Xg, dtype=float), np.ascontiguousarray(Ug, dtype=float),
+                      np.ascontiguousarray(x0, dtype=float), self.K, self.c0, self.hD0, G, hc, E, e)
         return G, hc, E, e
 
     def integrator(self, s0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:

@@ -10,6 +10,7 @@ import numpy as np
 from ..lazy import lazy_module
 from .certified_qp import CertifiedQP
 from .condensed_qp import CondensedQP
+from .kernels import add_scenario, arrow_inverse_factor
 from .solvers import BufferedFunction
 from .spec import first_input_bounds
 
@@ -42,7 +43,9 @@ class MultiStageQP:
     the shared first input relative to the input in force
     (:func:`~ftc_mj.control.spec.first_input_bounds`, as bounds on ``z``) and solves the dense QP:
     the certified active-set path first, DAQP for what it leaves unresolved. ``path_counts`` counts how
-    each QP was decided.
+    each QP was decided. The certified path works on the Hessian's structured factor
+    (:func:`~ftc_mj.control.kernels.arrow_inverse_factor`: the scenarios' own blocks are coupled only through
+    the shared inputs, so the factor has no fill), not on a dense Cholesky factor.
     """
 
     def __init__(self, qp: CondensedQP, n_scen: int, k: int) -> None:
@@ -80,37 +83,28 @@ class MultiStageQP:
         and penalty). ``G`` (S, 3N, 2N) and ``hc`` (S, 3N) give each scenario's states
         ``X_i = G_i u_i + hc_i``."""
         nz, qp = self.nz, self.qp
-        H = np.zeros((nz, nz))
-        g = np.zeros(nz)
-        rows, lo, hi, Gs, hcs = [], [], [], [], []
-        own = self.own
+        H, g, A = np.zeros((nz, nz)), np.zeros(nz), np.zeros((self.m, nz))
+        lo, hi, Gs, hcs = np.empty(self.m), np.empty(self.m), [], []
+        own, r0 = self.own, 0
         for i in range(self.S):
             Hi, gi, E, e, G, hc = qp.build(Xg[i], Ug[i], radii_s[i], x0, ref, u_prev)
             Lv, ll, lu = qp.lateral_rows(Ug[i], radii_s[i])
             Ai, lbi, ubi = qp._rows(E, e, Lv, ll, lu, qp.longitudinal_rows())
             ix = self.idx[i]
-            wi = 0.0 if np.isnan(weights[i]) else weights[i]
+            wi = 0.0 if np.isnan(weights[i]) else float(weights[i])
             if np.isnan(weights[i]):  # pruned
                 Ai, lbi, ubi = np.zeros_like(Ai), -np.ones_like(lbi), np.ones_like(ubi)
-            H[np.ix_(ix, ix)] += wi * Hi
-            g[ix] += wi * gi
             # proximal term on the scenario's own inputs about the guess (vanishes at a fixed point)
             rho = PROXIMAL * float(np.mean(np.diag(Hi)[own])) * max(0.0, 1.0 - self.S * wi)
-            io = ix[own]
-            H[io, io] += rho
-            g[io] -= rho * Ug[i].T.ravel()[own]
-            Az = np.zeros((Ai.shape[0], nz))
-            Az[:, ix] = Ai
-            rows.append(Az)
-            lo.append(lbi)
-            hi.append(ubi)
+            add_scenario(H, g, A, r0, Hi, gi, Ai, ix, ix[own], wi, rho, np.ascontiguousarray(Ug[i].T.ravel()[own]))
+            lo[r0:r0 + lbi.size], hi[r0:r0 + ubi.size] = lbi, ubi
+            r0 += lbi.size
             Gs.append(G)
             hcs.append(hc)
         om = np.full(nz, qp.omega_max)
         lbx, ubx = -om, om.copy()
         lbx[[0, self.k]], ubx[[0, self.k]] = first_input_bounds(qp.col.spec, u_prev)  # shared node-0 inputs
-        return (H, g, np.vstack(rows), np.concatenate(lo), np.concatenate(hi), lbx, ubx,
-                np.array(Gs), np.array(hcs))
+        return H, g, A, lo, hi, lbx, ubx, np.array(Gs), np.array(hcs)
 
     def solve(self, Xg: np.ndarray, Ug: np.ndarray, radii_s: np.ndarray, x0: np.ndarray, ref: np.ndarray,
               weights: np.ndarray, u_prev: np.ndarray | None
@@ -118,7 +112,10 @@ class MultiStageQP:
         """One RTI step: ``(ok, status, X (S, N, 3), U (S, N, 2))``; the inputs of the first ``k``
         nodes are the same array values in every scenario."""
         H, g, A, lba, uba, lbx, ubx, G, hc = self.assemble(Xg, Ug, radii_s, x0, ref, weights, u_prev)
-        res = self._cqp.solve(H, g, A, lba, uba, lbx, ubx, self._ws)
+        F = np.empty_like(H)
+        if not arrow_inverse_factor(H, 2 * self.k, 2 * (self.N - self.k), F):
+            F[0, 0] = np.nan  # not positive definite: the certified path declines
+        res = self._cqp.solve(H, g, A, lba, uba, lbx, ubx, self._ws, factor=F)
         if res.status == "optimal":
             self.path_counts[res.path] += 1
             self._ws, z, status = res.working_set, res.u, "optimal (certified active set)"

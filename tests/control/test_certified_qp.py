@@ -4,10 +4,11 @@ on random QPs, and the certificate's refusal of a working set whose refinement d
 import numpy as np
 import pytest
 
-from ftc_mj.control import NMPC, ProblemSpec
+from ftc_mj.control import NMPC, ProblemSpec, kernels
 from ftc_mj.control.certified_qp import CertifiedQP
 from tests.control.common import NOMINAL, problem
 from tests.support.kinsim import simulate
+from tests.support.numpy_rti import NumpyCertifiedQP
 
 DAQP_ITERATION_LIMIT = -4  # DAQP's exit flag when it stops at its iteration limit
 
@@ -164,17 +165,34 @@ def _near_parallel_qp(eps: float, lam: float) -> tuple:
     return H, g, A, uba - 10.0, uba, -np.ones(n), np.ones(n), u_star
 
 
-def test_certificate_refuses_a_working_set_whose_refinement_does_not_converge() -> None:
+def _compiled_eqp(Linv, H, g, A, lo, hi, ws) -> tuple | None:
+    """The compiled working-set solve: ``(u, λ)`` or None, as the reference's ``_eqp``."""
+    u, lam = np.empty(H.shape[0]), np.empty(lo.size)
+    ok = kernels.eqp(Linv, H, g, A, lo, hi, ws, Linv @ g, u, lam)
+    return (u, lam) if ok else None
+
+
+IMPLEMENTATIONS = {  # the certified QP, its working-set solve and its residual: compiled, and the numpy reference
+    "compiled": (CertifiedQP, _compiled_eqp, kernels.ws_residual),
+    "numpy": (NumpyCertifiedQP, lambda Linv, *a: NumpyCertifiedQP._eqp(Linv, *a, Linv @ a[1]),
+              NumpyCertifiedQP._ws_residual),
+}
+
+
+@pytest.mark.parametrize("impl", sorted(IMPLEMENTATIONS))
+def test_certificate_refuses_a_working_set_whose_refinement_does_not_converge(impl: str) -> None:
     """Two nearly parallel active rows (``a`` and ``a + eps d``, eps 3e-8–7e-8) with multipliers 3e8–3e10:
     ``YᵀY`` has a condition number ~1e15–1e16, so the two refinement steps may leave the working-set residual
     far above ``ws_tol`` while inside ``primal_tol``, with right-signed multipliers and rounding-level
     stationarity. Which cases of the grid do so is round-off and differs between CPUs (the case eps 3e-8,
-    λ 1e9 left 5e-8 relative on one EPYC, 7e-9 on another), so the test asserts the rule on every case —
-    a residual above ``ws_tol`` is refused, and ``solve`` then does not return the guess — and that the grid
-    holds a case which primal feasibility, signs and stationarity alone would accept 0.1 or more away from
-    the exact KKT point (five of the 20 on the machine that wrote this test)."""
-    cqp = CertifiedQP()
-    incomplete = CertifiedQP(ws_tol=np.inf)
+    λ 1e9 left 5e-8 relative on one EPYC, 7e-9 on another) and between the compiled kernel and the numpy
+    reference, so the test asserts the rule on every case — a residual above ``ws_tol`` is refused, and
+    ``solve`` then does not return the guess — and that the grid holds a case which primal feasibility, signs
+    and stationarity alone would accept 0.1 or more away from the exact KKT point (five of the 20 on the
+    machine that wrote this test)."""
+    cls, eqp, residual_of = IMPLEMENTATIONS[impl]
+    cqp = cls()
+    incomplete = cls(ws_tol=np.inf)
     let_through = 0
     for eps in (3e-8, 4e-8, 5e-8, 7e-8):
         for lam in (3e8, 1e9, 3e9, 1e10, 3e10):
@@ -183,10 +201,10 @@ def test_certificate_refuses_a_working_set_whose_refinement_does_not_converge() 
             ws = np.array([0, 0, 0, 0, 1, 1], dtype=np.int8)
             Linv = np.linalg.inv(np.linalg.cholesky(H))
             eq = lba == uba
-            eqp = cqp._eqp(Linv, H, g, A, lo, hi, ws, Linv @ g)
-            if eqp is None:  # the factorisation itself refused the pair
+            sol = eqp(Linv, H, g, A, lo, hi, ws)
+            if sol is None:  # the factorisation itself refused the pair
                 continue
-            residual = CertifiedQP._ws_residual(np.r_[eqp[0], A @ eqp[0]], lo, hi, ws)
+            residual = residual_of(np.r_[sol[0], A @ sol[0]], lo, hi, ws)
             if residual <= cqp.ws_tol:
                 continue
             assert cqp._try(Linv, H, g, A, lo, hi, eq, ws, "guess") is None, (eps, lam, residual)

@@ -19,11 +19,14 @@ from ftc_mj.sim.summary import working_command
 
 ROOT = Path(__file__).resolve().parents[2]
 README = ROOT / "README.md"
-FIRST_COMMAND = "python3 -m venv .venv && .venv/bin/pip install -e . && .venv/bin/ftc-mj run scenario2 --out runs/out"
+FIRST_COMMAND = ("python3 -m venv .venv && .venv/bin/pip install -e . && .venv/bin/ftc-mj warm-up && "
+                 ".venv/bin/ftc-mj run scenario2 --out runs/out")
 TEST_COMMAND = 'python3 -m venv .venv && .venv/bin/pip install -e ".[test]" && .venv/bin/pytest -q -n 2'
 COVERED = {
     FIRST_COMMAND: "tests/docs/test_readme.py::test_the_first_command_runs_and_writes_what_the_readme_says "
-                   "(reduced); tests/cli/test_hints.py::test_the_hint_after_the_default_run_works_as_printed (full)",
+                   "(reduced); tests/cli/test_hints.py::test_the_hint_after_the_default_run_works_as_printed (full); "
+                   "tests/sim/test_warmup.py (the warm-up, reduced)",
+    "ftc-mj warm-up": "tests/sim/test_warmup.py::test_each_part_runs_in_a_fresh_process_of_its_own (reduced)",
     TEST_COMMAND: "tests/docs/test_readme.py::test_ci_runs_the_readme_test_command",
     working_command("scenario2"): "tests/cli/test_hints.py::test_the_hint_after_the_default_run_works_as_printed",
     "ftc-mj view": "tests/cli/test_bad_input_cases.py::test_view_without_display_points_to_the_screenshot_script",
@@ -74,7 +77,7 @@ def test_numbers_quoted_from_the_docs_are_there() -> None:
     for number in ("70 % [63, 76]", "51 % [44, 58]", "17 % [12, 23]", "+0.19 [+0.135, +0.25]"):
         assert number in README.read_text() and number in benchmark, number
     performance = (ROOT / "docs" / "performance.md").read_text()
-    for fact in ("about 17 s", "2.5–3.5 minutes", "248 s with"):
+    for fact in ("about 12 s on two idle cores", "2.5–3.5 minutes", "248 s with"):
         assert fact in performance, fact
 
 

@@ -61,7 +61,7 @@ class StopLimits:
     sample_time: float
     liftoff_accel: float
     braking_trade: float
-    max_longitudinal_accel: float | None = None
+    max_longitudinal_accel: float | None
 
 
 class SafeStop:

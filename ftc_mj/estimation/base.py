@@ -92,7 +92,7 @@ class FilterOutput:
     reset: bool = False
     """The filter detected divergence this step and reset itself."""
     pose_rejected: bool = False
-    """This step's pose fix failed the filter's χ² gate and was not used (its other channels were)."""
+    """This step's pose fix's position failed the filter's χ² gate and was not used (the other channels were)."""
 
 
 class Estimator(Protocol):

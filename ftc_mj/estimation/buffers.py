@@ -80,7 +80,7 @@ class FilterBuffers:
         prm[P_KAPPA] = math.nan if setup.kappa is None else setup.kappa  # read by sigma-point steps only
         prm[P_GATE], prm[P_DIV_NIS] = setup.nis_gate, setup.divergence_nis
         prm[P_INFLATION], prm[P_MIN_RADIUS], prm[P_R0] = setup.reset_inflation, setup.min_radius, setup.nominal_radius
-        prm[P_POSE_GATE:P_POSE_GATE + 2] = setup.pose_gate_quantiles
+        prm[P_POSE_GATE] = setup.pose_gate_quantile
         self.cnt[C_DIV_STEPS] = setup.divergence_steps
         self.cnt[C_POSE_STREAK_MAX] = setup.pose_gate_steps
         self.cnt[C_N] = n
@@ -123,5 +123,6 @@ class HealthCounters:
     _st: FilterBuffers
     resets = Counter(C_RESETS, "Divergence resets so far.")
     rejections = Counter(C_REJECTIONS, "Steps whose measurement was rejected (non-finite channel, NIS above gate).")
-    pose_rejections = Counter(C_POSE_REJECTIONS, "Pose fixes the χ² gate rejected (the step's other channels used).")
+    pose_rejections = Counter(C_POSE_REJECTIONS, "Pose fixes whose position the χ² gate rejected (the step's other "
+                                                 "channels used).")
     _bad_nis_steps = Counter(C_BAD_NIS, "Consecutive steps with NIS above the divergence level.")

@@ -50,13 +50,13 @@ class FilterSettings(StrictModel):
     reset_inflation: PosFloat = 10.0
     """Covariance inflation factor on a divergence reset."""
     pose_gate: Fraction | None = 1.0e-4
-    """Probability that the χ² gate on pose fixes rejects a right fix's position, and apart its heading (false
-    rejection per fix): a position (x, y) or heading whose NIS against the filter's prediction exceeds the χ²
-    quantile of its channels (2 or 1) is not used. ``None`` = no gate."""
+    """Probability that the χ² gate on pose fixes rejects a right fix's position (false rejection per fix): a
+    fix whose x, y lie beyond the χ² quantile (2 dof) of the filter's prediction is not used (its heading is).
+    ``None`` = no gate."""
     pose_gate_reacquire: PosFloat = 2.0
-    """Longest time (s) the gate rejects pose fixes in a row (their positions, or apart their headings): the
-    first fix after it is fused whatever its NIS, so that a lasting offset cannot lock the filter out of its
-    pose sensor (docs/benchmark.md, "Information rule")."""
+    """Longest time (s) the gate rejects pose fixes in a row: the first fix after it is fused whatever its NIS,
+    so that a lasting offset cannot lock the filter out of its pose sensor (docs/benchmark.md, "Information
+    rule")."""
 
     @model_validator(mode="before")
     @classmethod
@@ -105,8 +105,8 @@ class FilterSetup:
     """Covariance after a reset, as a multiple of ``P0``."""
     min_radius: float
     """Smallest radius a reset or a ramp keeps (m)."""
-    pose_gate_quantiles: tuple[float, float] = (math.inf, math.inf)
-    """χ² quantiles of the pose gate for 1 (a fix's heading) and 2 (its x, y) channels (+inf: no gate)."""
+    pose_gate_quantile: float = math.inf
+    """χ² quantile (2 dof) of the gate on a fix's x, y (+inf: no gate)."""
     pose_gate_steps: int = 200
     """Filter steps a streak of rejected pose fixes lasts at most (then the next fix is fused ungated)."""
 
@@ -129,7 +129,7 @@ class FilterSetup:
             divergence_steps=max(1, int(round(est.divergence_dwell * est.rate))),
             **{name: getattr(sen, name) for name in _SENSOR_FIELDS},
             heading_sigma=None if sen.position_sigma is None else sen.fix_heading_sigma,
-            pose_gate_quantiles=gate_quantiles(est.pose_gate),
+            pose_gate_quantile=gate_quantile(est.pose_gate),
             pose_gate_steps=max(1, int(round(est.pose_gate_reacquire * est.rate))),
             kappa=getattr(est, "kappa", None),  # the sigma-point filters' setting only
             **{name: getattr(est, name) for name in _ESTIMATOR_FIELDS},
@@ -162,15 +162,14 @@ def setup_from_settings(settings: FilterSettings | Table = None, sensors: Sensor
                                           initial_pose=initial_pose)
 
 
-def gate_quantiles(probability: float | None) -> tuple[float, float]:
-    """The χ² quantiles (upper tail ``probability``) of 1 and 2 degrees of freedom: the NIS above which a right
-    fix heading (1) or position (2) is rejected with that probability (+inf each for ``None``). Computed once
-    per filter, not per step."""
+def gate_quantile(probability: float | None) -> float:
+    """The χ² quantile (upper tail ``probability``, 2 degrees of freedom): the NIS above which a right fix's
+    position is rejected with that probability (+inf for ``None``). Computed once per filter, not per step."""
     if probability is None:
-        return (math.inf, math.inf)
+        return math.inf
     from scipy.stats import chi2
 
-    return float(chi2.isf(probability, 1)), float(chi2.isf(probability, 2))
+    return float(chi2.isf(probability, 2))
 
 
 def process_noise(diffusion: Sequence[float], dt: float) -> np.ndarray:

@@ -16,7 +16,7 @@ import pytest
 from scipy.stats import chi2
 
 from ftc_mj.estimation import EKF, IMM, UKF, Measurement
-from ftc_mj.estimation.setup import gate_quantiles
+from ftc_mj.estimation.setup import gate_quantile
 from ftc_mj.model.kinematics import KinematicModel
 
 SENSORS = {"yaw_rate_sigma": 0.005, "position_sigma": 0.03, "heading_sigma": 0.03, "position_rate": 10.0}
@@ -61,12 +61,12 @@ def track(f: EKF | UKF | IMM, heading: bool = True, offset: Offset | None = None
     return psi_err, pos_err
 
 
-def test_the_gate_quantiles_are_chi2s() -> None:
-    """The gate of a false-rejection probability p is the upper-p χ² quantile of 1 (heading) and 2 (x, y) dof."""
-    q1, q2 = gate_quantiles(1e-4)
-    assert chi2.sf(q1, 1) == pytest.approx(1e-4) and chi2.sf(q2, 2) == pytest.approx(1e-4)
-    assert q2 == pytest.approx(-2.0 * math.log(1e-4))  # the 2-dof χ² is exponential
-    assert gate_quantiles(None) == (math.inf, math.inf)
+def test_the_gate_quantile_is_a_chi2s() -> None:
+    """The gate of a false-rejection probability p is the upper-p χ² quantile of 2 dof (the fix's x, y)."""
+    q = gate_quantile(1e-4)
+    assert chi2.sf(q, 2) == pytest.approx(1e-4)
+    assert q == pytest.approx(-2.0 * math.log(1e-4))  # the 2-dof χ² is exponential
+    assert gate_quantile(None) == math.inf
 
 
 @pytest.mark.parametrize("kind", ["ekf", "ukf", "imm-ukf"])
@@ -110,10 +110,11 @@ def test_a_lasting_pose_offset_is_reacquired_after_the_streak(kind: str) -> None
 
     for streak, back in ((20, 1200), (5, 1050)):
         f = make(kind, pose_gate_reacquire=streak / 10.0)
-        _, err = track(f, offset=bias)
+        psi_err, err = track(f, offset=bias)
         assert err[1000:back - 10].max() < 0.3, streak  # rejected while the streak lasts
         assert abs(err[-500:].mean() - 2.0) < 0.15, streak  # then following the fixes
         assert streak <= f.pose_rejections <= streak + 10
+        assert np.abs(psi_err[back:]).max() < 0.1  # the re-acquisition moves the position, the heading holds
 
 
 def test_a_run_records_the_rejected_fixes() -> None:

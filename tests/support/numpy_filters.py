@@ -29,7 +29,6 @@ from ftc_mj.estimation.base import FilterOutput, Measurement
 from ftc_mj.estimation.ekf import EKF
 from ftc_mj.estimation.imm import IMM
 from ftc_mj.estimation.kernels.layout import (
-    C_HEADING_STREAK,
     C_HYP,
     C_POSE_STREAK,
     C_STEPS,
@@ -110,43 +109,35 @@ def innovation(a: Assembled, zp: np.ndarray) -> np.ndarray:
     return y
 
 
-def _gate_group(f: SingleFilter | IMM, X: np.ndarray, P: np.ndarray, w: np.ndarray, a: Assembled,
-                codes: tuple[int, ...], streak: int) -> tuple[Assembled, bool]:
-    """The χ² gate on the channels ``codes`` of ``a`` (the fix's position, or its heading) against the mixture
-    (weights ``w``) of the predicted members ``X`` (M, 5), ``P`` (M, 5, 5), with the covariance of a streak's
-    first fix during a streak of rejections (begun at step ``cnt[streak] - 1``; 0: none)."""
-    idx = [i for i, k in enumerate(a.kinds) if k in codes]
-    k = len(idx)
-    if not k or math.isinf(f.setup.pose_gate_quantiles[k - 1]):
+def pose_gate(f: SingleFilter | IMM, X: np.ndarray, P: np.ndarray, w: np.ndarray, a: Assembled
+              ) -> tuple[Assembled, bool]:
+    """The χ² gate on the fix's x, y in ``a`` against the mixture (weights ``w``) of the predicted members ``X``
+    (M, 5), ``P`` (M, 5, 5), with the covariance of a streak's first
+    fix during a streak of rejections (begun at step ``cnt[C_POSE_STREAK] - 1``; 0: none):
+    ``(a without x, y, True)`` when the position is rejected."""
+    if POS_X not in a.kinds or math.isinf(f.setup.pose_gate_quantile):
         return a, False
+    idx = [a.kinds.index(POS_X), a.kinds.index(POS_Y)]
     cnt, gateP = f._st.cnt, f._st.gateP
-    sel = [c - POS_X for c in codes]
-    xm = w @ X[:, sel]
-    if cnt[streak] == 0:
-        d = X[:, sel] - xm
-        gateP[np.ix_(sel, sel)] = np.einsum("j,jab->ab", w, P[:, sel][:, :, sel]) + (d.T * w) @ d
-    S = gateP[np.ix_(sel, sel)] + np.diag(a.r[idx])
-    y = innovation(Assembled(a.z[idx], a.r[idx], tuple(a.kinds[i] for i in idx), False), xm)
-    nis = float(y @ np.linalg.solve(S, y))
-    step = int(cnt[C_STEPS])
-    if nis <= f.setup.pose_gate_quantiles[k - 1] or (cnt[streak] and step + 1 - cnt[streak] >= f.setup.pose_gate_steps):
-        cnt[streak] = 0
+    xm = w @ X[:, :2]
+    if cnt[C_POSE_STREAK] == 0:
+        d = X[:, :2] - xm
+        gateP[:2, :2] = np.einsum("j,jab->ab", w, P[:, :2, :2]) + (d.T * w) @ d
+    y = a.z[idx] - xm
+    nis = float(y @ np.linalg.solve(gateP[:2, :2] + np.diag(a.r[idx]), y))
+    if nis <= f.setup.pose_gate_quantile:
+        cnt[C_POSE_STREAK] = 0
         return a, False
-    if not cnt[streak]:
-        cnt[streak] = step + 1
+    step = int(cnt[C_STEPS])
+    if cnt[C_POSE_STREAK] and step + 1 - cnt[C_POSE_STREAK] >= f.setup.pose_gate_steps:
+        cnt[C_POSE_STREAK] = 0  # the streak's end: the fix is fused
+        return a, False
+    if not cnt[C_POSE_STREAK]:
+        cnt[C_POSE_STREAK] = step + 1
+    f.pose_rejections += 1
     rest = [i for i in range(len(a.kinds)) if i not in idx]
     r = a.r[rest]
     return Assembled(a.z[rest], r, tuple(a.kinds[i] for i in rest), a.dropped, np.diag(r)), True
-
-
-def pose_gate(f: SingleFilter | IMM, X: np.ndarray, P: np.ndarray, w: np.ndarray, a: Assembled
-              ) -> tuple[Assembled, bool]:
-    """The χ² gates on the fix's position and, apart, its heading: ``(a without the rejected part, rejected)``."""
-    a, pos = _gate_group(f, X, P, w, a, (POS_X, POS_Y), C_POSE_STREAK)
-    a, head = _gate_group(f, X, P, w, a, (HEADING,), C_HEADING_STREAK)
-    if pos or head:
-        f.pose_rejections += 1
-    return a, pos or head
 
 
 # ---------------------------------------------------------------------------- numerics

@@ -18,17 +18,15 @@ import math
 import numpy as np
 
 from .jit import njit
-from .kalman import ekf_update, ukf_update, wrap_angle
+from .kalman import ekf_update, ukf_update
 from .layout import (
     C_BAD_NIS,
     C_DIV_STEPS,
-    C_HEADING_STREAK,
     C_POSE_REJECTIONS,
     C_POSE_STREAK,
     C_POSE_STREAK_MAX,
     C_REJECTIONS,
     C_STEPS,
-    HEADING,
     N_CHANNELS,
     P_MIN_RADIUS,
     P_POSE_GATE,
@@ -74,80 +72,65 @@ def ukf_bank_update(buf: np.ndarray, rvar_at: int, Xp: np.ndarray, Pp: np.ndarra
 
 
 @njit(cache=True, error_model="numpy")
-def _gate_group(cnt: np.ndarray, prm: np.ndarray, rvar: np.ndarray, gateP: np.ndarray, Xp: np.ndarray,
-                Pp: np.ndarray, w: np.ndarray, kinds: np.ndarray, z: np.ndarray, lo: int, hi: int, streak: int
-                ) -> tuple[np.ndarray, np.ndarray, bool]:
-    """:func:`pose_gate` for the fix's channels of codes ``lo..hi`` (its position, or its heading), its current
-    streak of rejections begun at step ``cnt[streak] - 1`` (0: none): the channels left and whether these were
-    rejected."""
+def pose_gate(cnt: np.ndarray, prm: np.ndarray, rvar: np.ndarray, gateP: np.ndarray, Xp: np.ndarray, Pp: np.ndarray,
+              w: np.ndarray, kinds: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+    """The χ² gate on a pose fix's position: the channels to update with and whether the position was rejected.
+
+    The fix's x, y are tested against the predictive density of the bank's members ``Xp`` (n, 5), ``Pp``
+    (n, 5, 5) mixed with weights ``w`` (one member: weight 1): NIS ``yᵀS⁻¹y``, ``y`` the fix minus the
+    mixture's mean, ``S`` the mixture's covariance plus the fix's noise ``rvar``. Above the χ² quantile
+    ``prm[P_POSE_GATE]`` (2 dof; +inf: no gate) x, y are dropped and counted; the step's other channels — the
+    fix's heading among them: no pose fault moves it, and it keeps the dead reckoning straight while the
+    position is gated — are kept. During a streak of rejections the covariance is the one of the streak's first
+    fix (kept in ``gateP``), not the prediction's, which grows while no fix is taken in: else the gate would
+    open by itself after a second or so of dead reckoning and let a jump through. Once a streak has lasted
+    ``cnt[C_POSE_STREAK_MAX]`` steps the next fix is fused whatever its NIS (with the covariance grown over the
+    streak, the filter moves most of the way to it): a lasting offset (or a filter that has lost its pose)
+    cannot lock the filter out of its pose sensor for ever."""
     m = kinds.shape[0]
-    k = 0
+    first = -1
     for i in range(m):
-        if lo <= kinds[i] <= hi:
-            k += 1
-    if k == 0 or prm[P_POSE_GATE + k - 1] == np.inf:
+        if kinds[i] == POS_X:
+            first = i
+    thr = prm[P_POSE_GATE]
+    if first < 0 or thr == np.inf:
         return kinds, z, False
-    xm = np.zeros(3)
-    for a in range(lo - POS_X, hi - POS_X + 1):
+    xm = np.zeros(2)
+    for a in range(2):
         for j in range(Xp.shape[0]):
             xm[a] += w[j] * Xp[j, a]
-    if cnt[streak] == 0:  # the streak's reference covariance: this fix's prediction
-        for a in range(lo - POS_X, hi - POS_X + 1):
-            for b in range(lo - POS_X, hi - POS_X + 1):
+    if cnt[C_POSE_STREAK] == 0:  # the streak's reference covariance: this fix's prediction
+        for a in range(2):
+            for b in range(2):
                 s = 0.0
                 for j in range(Xp.shape[0]):
                     s += w[j] * (Pp[j, a, b] + (Xp[j, a] - xm[a]) * (Xp[j, b] - xm[b]))
                 gateP[a, b] = s
-    S = np.empty((k, k))
-    y = np.empty(k)
-    first = m - k if kinds[m - 1] == hi else m - k - 1  # the heading (code 4) follows x, y
-    for i in range(k):
-        c = kinds[first + i]
-        for i2 in range(k):
-            S[i, i2] = gateP[c - POS_X, kinds[first + i2] - POS_X] + (rvar[c] if i == i2 else 0.0)
-        y[i] = z[first + i] - xm[c - POS_X]
-        if c == HEADING:
-            y[i] = wrap_angle(y[i])
-    nis, _ = gaussian(y, S, np.empty((k, k)))
-    ended = cnt[streak] != 0 and cnt[C_STEPS] + 1 - cnt[streak] >= cnt[C_POSE_STREAK_MAX]  # the streak's limit
-    if nis <= prm[P_POSE_GATE + k - 1] or ended:
-        cnt[streak] = 0
+    S = np.empty((2, 2))
+    y = np.empty(2)
+    for a in range(2):
+        for b in range(2):
+            S[a, b] = gateP[a, b] + (rvar[POS_X + a] if a == b else 0.0)
+        y[a] = z[first + a] - xm[a]
+    nis, _ = gaussian(y, S, np.empty((2, 2)))
+    if nis <= thr:
+        cnt[C_POSE_STREAK] = 0
         return kinds, z, False
-    if cnt[streak] == 0:
-        cnt[streak] = cnt[C_STEPS] + 1
-    keep = np.empty(m - k, np.int64)
-    zk = np.empty(m - k)
+    if cnt[C_POSE_STREAK] != 0 and cnt[C_STEPS] + 1 - cnt[C_POSE_STREAK] >= cnt[C_POSE_STREAK_MAX]:
+        cnt[C_POSE_STREAK] = 0  # the streak's end: the fix is fused
+        return kinds, z, False
+    if cnt[C_POSE_STREAK] == 0:
+        cnt[C_POSE_STREAK] = cnt[C_STEPS] + 1
+    cnt[C_POSE_REJECTIONS] += 1
+    keep = np.empty(m - 2, np.int64)
+    zk = np.empty(m - 2)
     n = 0
     for i in range(m):
-        if not lo <= kinds[i] <= hi:
+        if kinds[i] != POS_X and kinds[i] != POS_Y:
             keep[n] = kinds[i]
             zk[n] = z[i]
             n += 1
     return keep, zk, True
-
-
-@njit(cache=True, error_model="numpy")
-def pose_gate(cnt: np.ndarray, prm: np.ndarray, rvar: np.ndarray, gateP: np.ndarray, Xp: np.ndarray, Pp: np.ndarray,
-              w: np.ndarray, kinds: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
-    """The χ² gate on a pose fix: the channels to update with and whether (part of) the fix was rejected.
-
-    The fix's position (x, y) and its heading are gated apart (a position jump leaves the heading of a
-    two-antenna fix good): each against the predictive density of the bank's members ``Xp`` (n, 5), ``Pp``
-    (n, 5, 5) mixed with weights ``w`` (one member: weight 1) — NIS ``yᵀS⁻¹y``, ``y`` the fix minus the
-    mixture's mean (heading wrapped), ``S`` the mixture's covariance plus the fix's noise ``rvar``. Above the
-    χ² quantile of its ``k`` channels (``prm[P_POSE_GATE + k - 1]``; +inf: no gate) the part is dropped (the
-    step's other channels are kept) and the fix counted. During a streak of rejections the covariance is the
-    one of the streak's first fix (kept in ``gateP``), not the prediction's, which grows while no fix is taken
-    in: else the gate would open by itself after a second or so of dead reckoning and let a jump through. Once a
-    streak has lasted ``cnt[C_POSE_STREAK_MAX]`` steps the next fix is fused whatever its NIS: a lasting offset
-    (or a filter that has lost its pose) cannot lock the filter out of its pose sensor for ever."""
-    kinds, z, pos_rejected = _gate_group(cnt, prm, rvar, gateP, Xp, Pp, w, kinds, z, POS_X, POS_Y, C_POSE_STREAK)
-    kinds, z, head_rejected = _gate_group(cnt, prm, rvar, gateP, Xp, Pp, w, kinds, z, HEADING, HEADING,
-                                          C_HEADING_STREAK)
-    rejected = pos_rejected or head_rejected
-    if rejected:
-        cnt[C_POSE_REJECTIONS] += 1
-    return kinds, z, rejected
 
 
 @njit(cache=True, error_model="numpy")

@@ -28,16 +28,16 @@ N_SIGMA = 11
 # int64 buffer: counters, then constants. Slot 5 held the member kind (EKF or UKF); the kind now selects
 # the compiled step itself (:mod:`.single`, :mod:`.imm`), so the slot is unused. The indices stay: the
 # kernels' cached machine code has them built in, and their source files do not change with this one.
-# Slots 8-11: the pose fixes the gate rejected, the longest streak of rejections (steps), the steps (+1) at which the
-# current streaks of rejected fix positions and fix headings began (0: none).
+# Slots 8-10: the pose fixes the gate rejected, the longest streak of rejections (steps), the step (+1) at which the
+# current streak of rejected fixes began (0: none).
 C_RESETS, C_REJECTIONS, C_BAD_NIS, C_STEPS, C_DIV_STEPS, _C_UNUSED, C_HYP, C_N = range(8)
-C_POSE_REJECTIONS, C_POSE_STREAK_MAX, C_POSE_STREAK, C_HEADING_STREAK = 8, 9, 10, 11
-N_COUNTERS = 12
+C_POSE_REJECTIONS, C_POSE_STREAK_MAX, C_POSE_STREAK = 8, 9, 10
+N_COUNTERS = 11
 
 # float scalars at ``layout(n).prm``
-# (``P_POSE_GATE + k - 1``: the pose gate's χ² quantile for ``k`` channels, k = 1 (heading), 2 (x, y))
+# (``P_POSE_GATE``: the pose gate's χ² quantile of 2 dof, the fix's x, y; +inf: no gate)
 P_DT, P_B, P_KAPPA, P_GATE, P_DIV_NIS, P_INFLATION, P_MIN_RADIUS, P_R0, P_RAMP_STEP, P_POSE_GATE = range(10)
-N_PRM = 11
+N_PRM = 10
 
 Layout = namedtuple(
     "Layout",
@@ -54,8 +54,8 @@ def layout(n: int) -> Layout:
     last accepted log-likelihoods; ``x``/``Pc`` combined estimate (IMM); ``y`` (5,) and ``S`` (5, 5)
     innovation and its covariance of the last step (first ``m`` channels); ``ulast`` last finite wheel
     rates; constants ``Q``, ``P0``, ``x0``, ``rvar`` (noise variance per channel code), IMM transition
-    ``Pi`` (n, n) and hypothesis data, the pose gate's covariance ``gateP`` (3, 3) of the predicted pose
-    at the start of a streak of rejected fixes, and the scalars ``prm`` (``P_*``).
+    ``Pi`` (n, n) and hypothesis data, the pose gate's covariance ``gateP`` (3, 3; its x, y block used) of
+    the predicted pose at the start of a streak of rejected fixes, and the scalars ``prm`` (``P_*``).
     """
     sizes = (5 * n, 25 * n, n, n, 5, 25, 5, 25, 2, 25, 25, 5, 5, n * n, 2 * n, 2 * n, 25 * n, 25 * n, n, 9, N_PRM)
     o = [0]

@@ -16,7 +16,8 @@ Consistency (:mod:`ftc_mj.estimation.consistency`, Bar-Shalom §5.4), averaged o
     covariance (``R_R_std, R_L_std, R_RL_cov``; 2 dof, expected 2 for a consistent filter).
     ``nees_mean``: the same for the full state ``[x, y, psi, R_R, R_L]`` (heading error wrapped to
     ±π; 5 dof). ``nis_mean``: NIS per measurement dimension, Σ NIS / Σ channels (steps with a
-    position fix have 3 or 4 channels, the others 1 or 2; expected 1). Each has a ``*_test`` dict:
+    position fix have 3 or 4 channels, 4 or 5 with its heading, the others 1 or 2; expected 1). Each has a
+    ``*_test`` dict:
     ``lo``/``hi`` (two-sided 95 % χ² bounds of the average for ``n_eff`` independent samples),
     ``n_eff`` (= ``samples / tau``), ``samples`` (finite steps), ``tau`` (integrated autocorrelation
     time of the statistic, steps), ``dof``. Successive NEES values are strongly correlated (``tau``

@@ -170,7 +170,7 @@ class DiffDriveEnv(gym.Env):
         """The observation at the sample ``s`` (:mod:`ftc_mj.envs.observation`)."""
         loop = self.loop
         assert loop is not None
-        values = sensor_values(s.t, s.reading, loop.parts.reference)
+        values = sensor_values(s.t, s.reading, loop.parts.reference, loop.controller_pose(s.reading))
         if self.observe_filter:
             values += filter_values(loop.out, loop.last_ds, loop.model_radii, float(loop.parts.policy.state))
         return np.array(values, dtype=np.float64)

@@ -1,7 +1,9 @@
 """The observation of :class:`~ftc_mj.envs.DiffDriveEnv`: one flat float64 vector of named entries.
 
 The sensors are what the closed loop's controller and filter receive at a controller sample
-(:class:`~ftc_mj.plant.SensorReading`), the reference point is the path's time law at that time, and,
+(:class:`~ftc_mj.plant.SensorReading`; the pose is the one the loop's controller would get, so that with
+``sensors.pose_source = "sensor"`` an agent sees what a benchmark method sees, never the true pose), the
+reference point is the path's time law at that time, and,
 with ``observe_filter``, the filter's estimate and the fault decision follow. A value a sensor did not
 produce (no gyro configured, no position fix due, a sample dropped as NaN) is written as 0.0 and its
 sensor's ``*_valid`` entry is 0.0 (1.0 when every value of that sensor is finite): the vector has the
@@ -27,7 +29,10 @@ SENSOR_GROUPS: dict[str, tuple[str, ...]] = {
     "pose": ("x_pose", "y_pose", "psi_pose"),
 }
 """Sensor -> its entries: speed (m/s), gyro yaw rate (rad/s), position fix (m), encoder wheel rates
-(rad/s), the pose the controller is handed (m, m, rad; with ``sensors.pose_sigma`` noise)."""
+(rad/s), the pose a controller is handed (m, m, rad; :meth:`~ftc_mj.sim.loop.ClosedLoop.controller_pose`): with
+``sensors.pose_source = "truth"`` the true pose + ``sensors.pose_sigma`` noise, with ``"sensor"`` what a benchmark
+method's controller gets from the pose sensor — the filter's pose estimate, without a filter the last fix held —
+never the truth."""
 REFERENCE = ("x_ref", "y_ref", "psi_ref", "v_ref", "yaw_rate_ref")
 """The reference's position (m), heading (rad), speed (m/s) and yaw rate (rad/s) at the sample time."""
 SENSOR_NAMES: tuple[str, ...] = ("t", *(n for g in SENSOR_GROUPS.values() for n in g),
@@ -59,14 +64,16 @@ def observation_space(observe_filter: bool) -> spaces.Box:
     return spaces.Box(low, hi, dtype=np.float64)
 
 
-def sensor_values(t: float, rd: SensorReading, reference: Reference) -> list[float]:
+def sensor_values(t: float, rd: SensorReading, reference: Reference, pose: np.ndarray | None = None) -> list[float]:
     """The sensor part of the observation at ``t`` (s): values (NaN and absent → 0.0), validity flags,
-    reference point."""
+    reference point. ``pose``: the controller's pose (m, m, rad; default the reading's ``pose``, the truth's
+    with ``pose_source = "truth"``)."""
+    pose = rd.pose if pose is None else pose
     raw = {"v_meas": rd.speed, "yaw_rate_meas": rd.yaw_rate,
            "x_fix": None if rd.position is None else rd.position[0],
            "y_fix": None if rd.position is None else rd.position[1],
            "omega_R_meas": rd.omega_R, "omega_L_meas": rd.omega_L,
-           "x_pose": rd.pose[0], "y_pose": rd.pose[1], "psi_pose": rd.pose[2]}
+           "x_pose": pose[0], "y_pose": pose[1], "psi_pose": pose[2]}
     ok = {n: v is not None and bool(np.isfinite(v)) for n, v in raw.items()}
     values = [float(raw[n]) if ok[n] else 0.0 for g in SENSOR_GROUPS.values() for n in g]
     valid = [float(all(ok[n] for n in g)) for g in SENSOR_GROUPS.values()]

@@ -5,7 +5,8 @@ The protocol (the loop calls ``step`` once per estimator period, after reading t
 - ``step(u, z) -> FilterOutput``: predict over one period ``dt = 1 / estimator.rate`` with the
   wheel rates ``u = [omega_R, omega_L]`` (rad/s) measured at the previous step, then update with
   the measurement ``z`` (:class:`Measurement`, SI units) of this step;
-- optional counters ``resets`` and ``rejections`` (ints; 0 if absent) end up in ``metrics.json``;
+- optional counters ``resets`` and ``rejections`` (ints; 0 if absent) end up in ``metrics.json``, and with a
+  pose sensor ``pose_rejections`` (fixes the χ² gate rejected);
 - a multiple-model estimator declares its ``hypotheses`` (:class:`Hypothesis`, one per mode, in the
   order of ``FilterOutput.mode_probs``) and puts them on every output, so that a decision rule reads
   what its modes mean instead of guessing from their number.
@@ -29,6 +30,8 @@ class Measurement:
     """Measured yaw rate (rad/s); ``None`` without a gyro or while it drops out."""
     position: np.ndarray | None = None
     """Measured (x, y) position fix (m)."""
+    heading: float | None = None
+    """Measured heading of the pose fix (rad, any turn: the filter wraps the innovation); ``None`` without."""
 
 
 @dataclass(frozen=True)
@@ -64,7 +67,7 @@ class FilterOutput:
     """The estimator's state after one predict + update step.
 
     ``innovation``/``S`` are over the measurements used this step, in the order speed, yaw rate,
-    x, y (those present). ``speed_innovation``/``speed_innovation_std`` are the speed channel's
+    x, y, heading (those present and not gated). ``speed_innovation``/``speed_innovation_std`` are the speed channel's
     innovation and sqrt of its innovation variance (the paper's plotted quantity).
     """
 
@@ -88,6 +91,8 @@ class FilterOutput:
     """The measurement was rejected (non-finite or gated) and only the prediction was kept."""
     reset: bool = False
     """The filter detected divergence this step and reset itself."""
+    pose_rejected: bool = False
+    """This step's pose fix's position failed the filter's χ² gate and was not used (the other channels were)."""
 
 
 class Estimator(Protocol):

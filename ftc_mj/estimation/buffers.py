@@ -11,8 +11,11 @@ from .kernels.layout import (
     C_BAD_NIS,
     C_DIV_STEPS,
     C_N,
+    C_POSE_REJECTIONS,
+    C_POSE_STREAK_MAX,
     C_REJECTIONS,
     C_RESETS,
+    HEADING,
     N_COUNTERS,
     N_PRM,
     P_B,
@@ -22,6 +25,7 @@ from .kernels.layout import (
     P_INFLATION,
     P_KAPPA,
     P_MIN_RADIUS,
+    P_POSE_GATE,
     P_R0,
     POS_X,
     POS_Y,
@@ -37,9 +41,10 @@ class FilterBuffers:
 
     ``buf`` (float64, offsets :func:`.kernels.layout.layout`) and ``cnt`` (int64, indices ``C_*``) are what a
     compiled step reads and writes; the attributes are views of ``buf`` (see :func:`.kernels.layout.layout`):
-    ``X`` (n, 5), ``P`` (n, 5, 5), ``mu``, ``loglik`` (n,), ``x`` (5,), ``Pc`` (5, 5), ``y`` (4,), ``S`` (4, 4),
+    ``X`` (n, 5), ``P`` (n, 5, 5), ``mu``, ``loglik`` (n,), ``x`` (5,), ``Pc`` (5, 5), ``y`` (5,), ``S`` (5, 5),
     ``ulast`` (2,), the constants ``Q``, ``P0``, ``x0``, ``rvar`` (noise variance by channel code), ``Pi``
-    (n, n), ``pin_value``/``pin`` (n, 2), ``keep``/``reset_var`` (n, 5, 5), ``ramp`` (n,) and ``prm``.
+    (n, n), ``pin_value``/``pin`` (n, 2), ``keep``/``reset_var`` (n, 5, 5), ``ramp`` (n,), ``gateP`` (3, 3) and
+    ``prm``.
     """
 
     def __init__(self, setup: FilterSetup, n: int) -> None:
@@ -54,26 +59,30 @@ class FilterBuffers:
         self.X, self.P = view(lay.X, n, 5), view(lay.P, n, 5, 5)
         self.mu, self.loglik = view(lay.mu, n), view(lay.loglik, n)
         self.x, self.Pc = view(lay.x, 5), view(lay.Pc, 5, 5)
-        self.y, self.S, self.ulast = view(lay.y, 4), view(lay.S, 4, 4), view(lay.ulast, 2)
+        self.y, self.S, self.ulast = view(lay.y, 5), view(lay.S, 5, 5), view(lay.ulast, 2)
         self.Q, self.P0, self.x0 = view(lay.Q, 5, 5), view(lay.P0, 5, 5), view(lay.x0, 5)
-        self.rvar, self.Pi = view(lay.rvar, 4), view(lay.Pi, n, n)
+        self.rvar, self.Pi = view(lay.rvar, 5), view(lay.Pi, n, n)
         self.pin_value, self.pin = view(lay.pin_value, n, 2), view(lay.pin, n, 2)
         self.keep, self.reset_var = view(lay.keep, n, 5, 5), view(lay.reset_var, n, 5, 5)
         self.ramp, self.prm = view(lay.ramp, n), view(lay.prm, N_PRM)
+        self.gateP = view(lay.gateP, 3, 3)
         # the innovation and its covariance over m channels, by m (views made once, not per step)
-        self.y_of = [self.y[:m] for m in range(5)]
-        self.S_of = [self.S[:m, :m] for m in range(5)]
+        self.y_of = [self.y[:m] for m in range(6)]
+        self.S_of = [self.S[:m, :m] for m in range(6)]
         self.Q[:], self.P0[:], self.x0[:] = setup.Q, setup.P0, setup.x0
         # variances as the channel assembly computes them (sigma * sigma)
         for code, sigma in ((SPEED, setup.speed_sigma), (YAW, setup.yaw_rate_sigma),
-                            (POS_X, setup.position_sigma), (POS_Y, setup.position_sigma)):
+                            (POS_X, setup.position_sigma), (POS_Y, setup.position_sigma),
+                            (HEADING, setup.heading_sigma)):
             self.rvar[code] = math.nan if sigma is None else sigma * sigma
         prm = self.prm
         prm[P_DT], prm[P_B] = setup.dt, setup.model.b
         prm[P_KAPPA] = math.nan if setup.kappa is None else setup.kappa  # read by sigma-point steps only
         prm[P_GATE], prm[P_DIV_NIS] = setup.nis_gate, setup.divergence_nis
         prm[P_INFLATION], prm[P_MIN_RADIUS], prm[P_R0] = setup.reset_inflation, setup.min_radius, setup.nominal_radius
+        prm[P_POSE_GATE] = setup.pose_gate_quantile
         self.cnt[C_DIV_STEPS] = setup.divergence_steps
+        self.cnt[C_POSE_STREAK_MAX] = setup.pose_gate_steps
         self.cnt[C_N] = n
 
 
@@ -114,4 +123,6 @@ class HealthCounters:
     _st: FilterBuffers
     resets = Counter(C_RESETS, "Divergence resets so far.")
     rejections = Counter(C_REJECTIONS, "Steps whose measurement was rejected (non-finite channel, NIS above gate).")
+    pose_rejections = Counter(C_POSE_REJECTIONS, "Pose fixes whose position the χ² gate rejected (the step's other "
+                                                 "channels used).")
     _bad_nis_steps = Counter(C_BAD_NIS, "Consecutive steps with NIS above the divergence level.")

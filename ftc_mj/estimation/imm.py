@@ -284,11 +284,13 @@ class IMM(HealthCounters):
     def step(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         """One IMM cycle with wheel rates ``u`` = [omega_R, omega_L] (rad/s) and measurement ``z``."""
         st = self._st
-        nis, sp_innov, sp_std, m, rejected, reset = self._step(st.buf, st.cnt, *kernel_inputs(self.setup, u, z))
+        nis, sp_innov, sp_std, m, rejected, reset, pose_rej = self._step(st.buf, st.cnt,
+                                                                         *kernel_inputs(self.setup, u, z))
         return FilterOutput(
             x=st.x.copy(), P=st.Pc.copy(), innovation=st.y_of[m].copy(), S=st.S_of[m].copy(),
             nis=nis, speed_innovation=sp_innov, speed_innovation_std=sp_std,
             mode_probs=st.mu.copy(), hypotheses=self.hypotheses, model_x=st.X.copy(), rejected=rejected, reset=reset,
+            pose_rejected=pose_rej,
         )
 
     @property

@@ -1,5 +1,5 @@
 """A step's measurement as the filters see it: the usable channels of a :class:`~.base.Measurement`
-(speed, yaw rate, x, y — those the configured sensors provide and that are finite), the scalar
+(speed, yaw rate, x, y, heading — those the configured sensors provide and that are finite), the scalar
 arguments of a compiled step, and the measurement Jacobian of a batch of states."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import numpy as np
 
 from ..model.kinematics import KinematicModel, numpy_rates_jacobian
 from .base import Measurement
-from .kernels.layout import POS_X, POS_Y, SPEED, YAW
+from .kernels.layout import HEADING, POS_X, POS_Y, SPEED, YAW
 from .setup import FilterSetup
 
 _SPEED_ONLY = (SPEED,)
@@ -18,8 +18,9 @@ _SPEED_ONLY = (SPEED,)
 
 def channels(setup: FilterSetup, meas: Measurement) -> tuple[list[float], list[float], tuple[int, ...], bool]:
     """The finite channels of ``meas`` that the configured sensor set provides: values (SI units), noise
-    variances, channel codes (in the order speed, yaw rate, x, y), and whether a channel that should have
-    been there was non-finite and dropped."""
+    variances, channel codes (in the order speed, yaw rate, x, y, heading), and whether a channel that should
+    have been there was non-finite and dropped. The heading of a pose fix is a channel when the fix has one
+    (``meas.heading``) and the filter knows its noise (``setup.heading_sigma``)."""
     if setup.yaw_rate_sigma is None and setup.position_sigma is None:  # speed sensor only (the paper's set)
         v = meas.speed
         if v is not None and type(v) is float and math.isfinite(v):
@@ -55,20 +56,22 @@ def channels(setup: FilterSetup, meas: Measurement) -> tuple[list[float], list[f
         else:
             add(pos[0], setup.position_sigma, POS_X)
             add(pos[1], setup.position_sigma, POS_Y)
+    if setup.heading_sigma is not None and meas.heading is not None:
+        add(meas.heading, setup.heading_sigma, HEADING)
     return z, r, tuple(kinds), dropped
 
 
 def kernel_inputs(
     setup: FilterSetup, u: np.ndarray, meas: Measurement
-) -> tuple[float, float, float, float, float, float, int, bool]:
+) -> tuple[float, float, float, float, float, float, float, int, bool]:
     """Per-step arguments of a compiled step (:mod:`.kernels`) after its two buffers: wheel rates
-    ``u0, u1`` (rad/s), the channel values ``z0..z3`` (first ``m`` used, zero padded), the channel
+    ``u0, u1`` (rad/s), the channel values ``z0..z4`` (first ``m`` used, zero padded), the channel
     bit mask and the dropped flag. Plain scalars: cheaper to pass to numba than small arrays."""
     u = np.asarray(u, dtype=float)
     u0, u1 = (u if u.shape == (2,) else u.reshape(2)).tolist()
     z, _, kinds, dropped = channels(setup, meas)
-    z0, z1, z2, z3 = (*z, 0.0, 0.0, 0.0, 0.0)[:4]
-    return u0, u1, z0, z1, z2, z3, kinds_mask(kinds), dropped
+    z0, z1, z2, z3, z4 = (*z, 0.0, 0.0, 0.0, 0.0, 0.0)[:5]
+    return u0, u1, z0, z1, z2, z3, z4, kinds_mask(kinds), dropped
 
 
 _MASKS: dict[tuple[int, ...], int] = {}
@@ -84,7 +87,8 @@ def kinds_mask(kinds: tuple[int, ...]) -> int:
 
 def measure_jacobian(model: KinematicModel, X: np.ndarray, u: np.ndarray, kinds: tuple[int, ...]) -> np.ndarray:
     """Measurement Jacobian (M, m, 5) at states ``X`` (M, 5) for wheel rates ``u`` (rad/s), from the AD
-    rates Jacobian (rows: d V/dx (m/s per unit), d psidot/dx (rad/s per unit), then position rows)."""
+    rates Jacobian (rows: d V/dx (m/s per unit), d psidot/dx (rad/s per unit), then the pose rows: unit rows
+    of x, y, psi)."""
     Hr = numpy_rates_jacobian(model, X, u)  # (M, 2, 5): rows d V/dx, d psidot/dx
     M = X.shape[0]
     H = np.zeros((M, len(kinds), 5))

@@ -17,7 +17,7 @@ import numpy as np
 from pydantic import model_validator
 
 from ..context import RunContext
-from ..fields import NonNegFloat, PosFloat, Rate, StrictModel
+from ..fields import Fraction, NonNegFloat, PosFloat, Rate, StrictModel
 from ..model.kinematics import KinematicModel
 from ..model.sensors import SensorSettings
 from ..validation import section
@@ -49,6 +49,14 @@ class FilterSettings(StrictModel):
     """Time (s) the NIS must stay above ``divergence_nis`` before the filter is reset."""
     reset_inflation: PosFloat = 10.0
     """Covariance inflation factor on a divergence reset."""
+    pose_gate: Fraction | None = 1.0e-4
+    """Probability that the χ² gate on pose fixes rejects a right fix's position (false rejection per fix): a
+    fix whose x, y lie beyond the χ² quantile (2 dof) of the filter's prediction is not used (its heading is).
+    ``None`` = no gate."""
+    pose_gate_reacquire: PosFloat = 2.0
+    """Longest time (s) the gate rejects pose fixes in a row: the first fix after it is fused whatever its NIS,
+    so that a lasting offset cannot lock the filter out of its pose sensor (docs/benchmark.md, "Information
+    rule")."""
 
     @model_validator(mode="before")
     @classmethod
@@ -83,6 +91,8 @@ class FilterSetup:
     """Yaw-rate noise σ (rad/s); ``None`` = no gyro."""
     position_sigma: float | None
     """Position-fix noise σ (m); ``None`` = no fixes."""
+    heading_sigma: float | None
+    """Heading noise σ of a pose fix (rad); ``None`` = no pose sensor."""
     kappa: float | None
     """Julier sigma-point parameter κ of a filter with sigma points (UKF members); ``None`` for one without."""
     nis_gate: float
@@ -95,6 +105,10 @@ class FilterSetup:
     """Covariance after a reset, as a multiple of ``P0``."""
     min_radius: float
     """Smallest radius a reset or a ramp keeps (m)."""
+    pose_gate_quantile: float = math.inf
+    """χ² quantile (2 dof) of the gate on a fix's x, y (+inf: no gate)."""
+    pose_gate_steps: int = 200
+    """Filter steps a streak of rejected pose fixes lasts at most (then the next fix is fused ungated)."""
 
     @classmethod
     def from_sections(cls, est: FilterSettings, sen: SensorSettings, *, wheel_radius: float,
@@ -114,6 +128,9 @@ class FilterSetup:
             nominal_radius=R0,
             divergence_steps=max(1, int(round(est.divergence_dwell * est.rate))),
             **{name: getattr(sen, name) for name in _SENSOR_FIELDS},
+            heading_sigma=None if sen.position_sigma is None else sen.fix_heading_sigma,
+            pose_gate_quantile=gate_quantile(est.pose_gate),
+            pose_gate_steps=max(1, int(round(est.pose_gate_reacquire * est.rate))),
             kappa=getattr(est, "kappa", None),  # the sigma-point filters' setting only
             **{name: getattr(est, name) for name in _ESTIMATOR_FIELDS},
         )
@@ -143,6 +160,16 @@ def setup_from_settings(settings: FilterSettings | Table = None, sensors: Sensor
     sen = section(SensorSettings, sensors, "sensors")
     return est, FilterSetup.from_sections(est, sen, wheel_radius=wheel_radius, half_track=half_track,
                                           initial_pose=initial_pose)
+
+
+def gate_quantile(probability: float | None) -> float:
+    """The χ² quantile (upper tail ``probability``, 2 degrees of freedom): the NIS above which a right fix's
+    position is rejected with that probability (+inf for ``None``). Computed once per filter, not per step."""
+    if probability is None:
+        return math.inf
+    from scipy.stats import chi2
+
+    return float(chi2.isf(probability, 2))
 
 
 def process_noise(diffusion: Sequence[float], dt: float) -> np.ndarray:

@@ -82,8 +82,10 @@ class SingleFilter(HealthCounters):
     def step(self, u: np.ndarray, z: Measurement) -> FilterOutput:
         """Predict with wheel rates ``u`` = [omega_R, omega_L] (rad/s), update with ``z``."""
         st = self._st
-        nis, sp_innov, sp_std, m, rejected, reset = self._step(st.buf, st.cnt, *kernel_inputs(self.setup, u, z))
+        nis, sp_innov, sp_std, m, rejected, reset, pose_rej = self._step(st.buf, st.cnt,
+                                                                         *kernel_inputs(self.setup, u, z))
         return FilterOutput(
             x=self._x.copy(), P=self._P.copy(), innovation=st.y_of[m].copy(), S=st.S_of[m].copy(), nis=nis,
             speed_innovation=sp_innov, speed_innovation_std=sp_std, rejected=rejected, reset=reset,
+            pose_rejected=pose_rej,
         )

@@ -9,13 +9,15 @@ A value that does not apply to the run is ``None`` (JSON ``null``; NaN floats ar
 Estimation (runs with an estimator)
     ``radius_rmse_R/L``, ``radius_final_error_R/L`` (m); ``innovation_in_2sigma`` (fraction of speed
     innovations inside ±2σ); ``position_estimate_final_error`` (m, the filter's position estimate
-    against the truth at the end); ``filter_resets``, ``filter_rejections``.
+    against the truth at the end); ``filter_resets``, ``filter_rejections`` (and with a pose sensor
+    ``filter_pose_rejections``).
 Consistency (:mod:`ftc_mj.estimation.consistency`, Bar-Shalom §5.4), averaged over the run's steps
     ``radius_nees_mean``: mean of ``eᵀ P⁻¹ e`` over the radius error with the full 2×2 radius
     covariance (``R_R_std, R_L_std, R_RL_cov``; 2 dof, expected 2 for a consistent filter).
     ``nees_mean``: the same for the full state ``[x, y, psi, R_R, R_L]`` (heading error wrapped to
     ±π; 5 dof). ``nis_mean``: NIS per measurement dimension, Σ NIS / Σ channels (steps with a
-    position fix have 3 or 4 channels, the others 1 or 2; expected 1). Each has a ``*_test`` dict:
+    position fix have 3 or 4 channels, 4 or 5 with its heading, the others 1 or 2; expected 1). Each has a
+    ``*_test`` dict:
     ``lo``/``hi`` (two-sided 95 % χ² bounds of the average for ``n_eff`` independent samples),
     ``n_eff`` (= ``samples / tau``), ``samples`` (finite steps), ``tau`` (integrated autocorrelation
     time of the statistic, steps), ``dof``. Successive NEES values are strongly correlated (``tau``
@@ -147,6 +149,8 @@ def estimation_metrics(trace: dict[str, np.ndarray], counters: dict[str, float])
                                                trace["y_hat"][-1] - trace["y"][-1]))
     m["filter_resets"] = int(counters.get("filter_resets", 0))
     m["filter_rejections"] = int(counters.get("filter_rejections", 0))
+    if "filter_pose_rejections" in counters:  # a run with a pose sensor
+        m["filter_pose_rejections"] = int(counters["filter_pose_rejections"])
     return m
 
 

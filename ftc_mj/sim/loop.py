@@ -254,8 +254,11 @@ class ClosedLoop:
         self.n_modes = len(getattr(estimator, "hypotheses", None) or ())
         self.fault_columns = fault_columns(self.parts)
         self.sensor_faults = bool(self.parts.sensors.faults)
+        self.pose_gate = estimator is not None and cfg.sensors.position_sigma is not None
+        """The run's filter gates pose fixes: the ``pose_rejected`` column and the ``filter_pose_rejections`` count."""
         self.trace = TraceWriter(self.n, tuple(getattr(self.parts.controller, "telemetry_columns", ())),
-                                 self.n_modes, self.fault_columns, self.parts.reference.cross_track)
+                                 self.n_modes, self.fault_columns, self.parts.reference.cross_track,
+                                 pose_gate=self.pose_gate)
         if self.parts.accommodation is not None:
             self.trace.columns.update({c: np.full(self.n, np.nan) for c in ACCOMMODATION_COLUMNS})
         self.solves: list[Solve] = []
@@ -335,10 +338,12 @@ class ClosedLoop:
         this one's) and update with the readings (a sample a faulty sensor did not deliver, NaN, is handed
         over as absent: the filter updates with the channels present, or only predicts); returns the output
         and the wheel rates (rad/s) used."""
+        heading = None if rd.pose_fix is None else float(rd.pose_fix[2])  # the fix's heading, fused with x, y
         if self.sensor_faults:
-            z = Measurement(speed=present(rd.speed), yaw_rate=present(rd.yaw_rate), position=rd.position)
+            z = Measurement(speed=present(rd.speed), yaw_rate=present(rd.yaw_rate), position=rd.position,
+                            heading=heading)
         else:
-            z = Measurement(speed=rd.speed, yaw_rate=rd.yaw_rate, position=rd.position)
+            z = Measurement(speed=rd.speed, yaw_rate=rd.yaw_rate, position=rd.position, heading=heading)
         u_pred = self.u_prev if self.u_prev is not None else u_meas
         if self.parts.accommodation is not None:  # diagnosed sensor offsets removed, excluded channels absent
             z = self.parts.accommodation.correct(self.rows * self.dt, z)
@@ -362,6 +367,8 @@ class ClosedLoop:
         """Row ``k``'s estimate and decision, and the events they start: a declaration, a radius anomaly,
         a filter reset."""
         self.trace.estimate(k, out)
+        if self.pose_gate and self.z is not None and self.z.position is not None:
+            self.trace.pose_gate(k, out.pose_rejected)
         self.trace.decision(k, ds, out.mode_probs)
         if ds.detected and not self.detected_before:
             self.events.append(Event(t, "warn", f"fault declared: {ds.wheel} wheel, severity "
@@ -486,15 +493,19 @@ class ClosedLoop:
                          geometry=robot_geometry(self.parts.plant, self.cfg), record=self.run_record)
 
     def counters(self) -> dict[str, float]:
-        """Filter resets and rejections, solver failures, the plant's flags seen, exceptions."""
+        """Filter resets and rejections (with a pose sensor also the pose fixes its gate rejected), solver
+        failures, the plant's flags seen, exceptions."""
         p = self.parts
-        return {
+        counts = {
             "filter_resets": float(getattr(p.estimator, "resets", 0)),
             "filter_rejections": float(getattr(p.estimator, "rejections", 0)),
             "solver_failures": float(getattr(p.controller, "failures", 0)),
             "plant_flags": float(self.flags_seen),
             "exceptions": float(self.error is not None),
         }
+        if self.pose_gate:
+            counts["filter_pose_rejections"] = float(getattr(p.estimator, "pose_rejections", 0))
+        return counts
 
 
 def simulate(cfg: RunConfig, progress: Callable[[float], None] | None = None, *,

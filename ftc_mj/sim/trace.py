@@ -17,7 +17,7 @@ import numpy as np
 from ..control.base import ControlOutput
 from ..estimation.base import FilterOutput
 from ..plant import SensorReading, Truth
-from ..telemetry.columns import BASE_COLUMNS, COVARIANCE_COLUMNS, STATE, WHEEL_CODES
+from ..telemetry.columns import BASE_COLUMNS, COVARIANCE_COLUMNS, POSE_GATE_COLUMN, STATE, WHEEL_CODES
 
 N_STATE = len(STATE)
 ESTIMATE_COLUMNS: tuple[str, ...] = (*(f"{s}_hat" for s in STATE), *(f"{s}_std" for s in STATE),
@@ -30,8 +30,8 @@ _LOWER = _UPPER[::-1]
 
 class TraceWriter:
     """The trace of one run: ``n`` rows of the base columns, ``extra`` columns (a controller's
-    telemetry), ``n_modes`` mode-probability columns and the ``faults`` truth columns of the run's servo and
-    sensor faults, written row by row.
+    telemetry), ``n_modes`` mode-probability columns, the ``faults`` truth columns of the run's servo and
+    sensor faults and, with ``pose_gate`` (a filter and a pose sensor), ``pose_rejected``, written row by row.
 
     Per-step costs are kept out of Python where a column allows it: the estimate's 20 columns are rows of one
     block written with three vector assignments (:meth:`estimate`), and ``cross_track_error``, a function of the
@@ -39,13 +39,16 @@ class TraceWriter:
     (``cross_track``: the reference's ``cross_track(x, y)``; ``None``: written by :meth:`cross_track` only)."""
 
     def __init__(self, n: int, extra: Sequence[str] = (), n_modes: int = 0, faults: Sequence[str] = (),
-                 cross_track: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> None:
+                 cross_track: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+                 pose_gate: bool = False) -> None:
         self.extra = tuple(extra)
         self.n_modes = n_modes
         self._est = np.full((len(ESTIMATE_COLUMNS), n), np.nan)
         est = dict(zip(ESTIMATE_COLUMNS, self._est, strict=True))  # row views of the block
         self._cols: dict[str, np.ndarray] = {c: est[c] if c in est else np.full(n, np.nan)
                                              for c in (*BASE_COLUMNS, *self.extra, *faults)}
+        if pose_gate:
+            self._cols[POSE_GATE_COLUMN] = np.full(n, np.nan)
         self._cols["plant_flags"] = np.zeros(n, dtype=np.int64)
         for j in range(n_modes):
             self._cols[f"mode_prob_{j + 1}"] = np.full(n, np.nan)
@@ -103,6 +106,10 @@ class TraceWriter:
         c["innovation_std"][k] = out.speed_innovation_std
         c["nis"][k] = out.nis
         c["nis_dof"][k] = float(np.size(out.innovation)) if np.isfinite(out.nis) else 0.0
+
+    def pose_gate(self, k: int, rejected: bool) -> None:
+        """Row ``k`` had a pose fix: 1.0 if the filter's χ² gate rejected it, 0.0 if the fix was fused."""
+        self._cols[POSE_GATE_COLUMN][k] = float(rejected)
 
     def decision(self, k: int, ds: object, mode_probs: np.ndarray | None) -> None:
         """The fault decision of row ``k`` (a :class:`~ftc_mj.estimation.DecisionState`): declared and

@@ -6,7 +6,7 @@ of each state), ``*_std`` (σ of each state: m, m, rad, m, m), the off-diagonal 
 :data:`COVARIANCE_COLUMNS` (``R_RL_cov``, m², between the radii; ``cov_<a>_<b>`` between the others),
 so that any NEES can be recomputed from the trace alone, ``innovation, innovation_std`` (speed
 channel, m/s), ``nis`` (normalised innovation squared over all channels of the step), ``nis_dof``
-(channels in that update: 1 speed, +1 gyro, +2 on a position fix; 0 = no update),
+(channels in that update: 1 speed, +1 gyro, +2 on a position fix, +1 its heading; 0 = no update),
 ``fault_detected, fault_suspected`` (a fault is evident but its wheel is not identified),
 ``declared_wheel`` (:data:`WHEEL_CODES`: the wheel the decision currently declares),
 ``radius_anomaly`` (1 while a radius estimate lies above nominal beyond the decision's thresholds:
@@ -23,7 +23,9 @@ glr_stat`` with their ``*_wheel`` isolation codes, ``glr_drop`` (m), ``glr_onset
 Only in a run with such faults, the injected faults' truth (:data:`FAULT_TRUTH_COLUMNS`):
 ``fault_effectiveness_R/L`` (fraction of each servo's gain and torque limit acting), ``fault_lock_R/L``
 (0/1), ``fault_speed_offset`` (m/s), ``fault_yaw_rate_offset`` (rad/s), ``fault_pose_offset`` (m),
-``fault_speed_dropout``, ``fault_yaw_rate_dropout``, ``fault_pose_dropout`` (0/1).
+``fault_speed_dropout``, ``fault_yaw_rate_dropout``, ``fault_pose_dropout`` (0/1). Only in a run with a filter
+and a pose sensor, :data:`POSE_GATE_COLUMN` ``pose_rejected``: on a row with a pose fix 1 if the filter's χ²
+gate rejected it, 0 if it was fused (NaN without a fix).
 """
 
 from __future__ import annotations
@@ -48,7 +50,11 @@ FAULT_TRUTH_COLUMNS: tuple[str, ...] = (*ACTUATOR_COLUMNS, *(c for cols in SENSO
 """The injected servo and sensor faults' truth columns (present only in a run with such a fault; the
 punctures' truth is ``R_R``/``R_L``)."""
 
-__all__ = ["BASE_COLUMNS", "COVARIANCE_COLUMNS", "FAULT_TRUTH_COLUMNS", "INTEGER_COLUMNS", "STATE", "WHEEL_CODES"]
+POSE_GATE_COLUMN = "pose_rejected"
+"""A pose fix rejected by the filter's χ² gate (1) or fused (0) on its row (a run with a filter and a pose sensor)."""
+
+__all__ = ["BASE_COLUMNS", "COVARIANCE_COLUMNS", "FAULT_TRUTH_COLUMNS", "INTEGER_COLUMNS", "POSE_GATE_COLUMN", "STATE",
+           "WHEEL_CODES"]
 
 BASE_COLUMNS: tuple[str, ...] = (
     "t", "x", "y", "psi", "v", "yaw_rate", "v_meas", "yaw_rate_meas", "R_R", "R_L",

@@ -225,6 +225,36 @@ def test_a_speed_dropout_is_masked() -> None:
         assert value == (0.0 if dropped else trace["v_meas"][k]), t
 
 
+@pytest.mark.parametrize(("source", "estimator"), [("sensor", "ukf"), ("sensor", "none"), ("truth", "ukf")])
+def test_the_observed_pose_is_the_one_a_method_sees(source: str, estimator: str) -> None:
+    """A pose sensor (σ 0.02 m, 10 Hz) whose fixes are displaced 1 m from 0.5 s (a pose bias). With
+    ``pose_source = "sensor"`` the observation's pose is what the loop's controller would get — the filter's
+    pose estimate (the trace's ``x_hat, y_hat, psi_hat`` at the sample's row), without a filter the last fix
+    held — and at 3 s (the filter's χ² gate re-acquires a lasting offset after 2 s) it is ~1 m off the truth, as
+    the fixes are; with ``"truth"`` it is the true pose."""
+    bias = {"sensor": "pose", "kind": "bias", "onset": 0.5, "size": 1.0}
+    env = DiffDriveEnv("scenario2", {**KINEMATIC, "duration": 4.0, "sensors.position_sigma": 0.02,
+                                     "sensors.position_rate": 10.0,
+                                     "sensors.pose_source": source, "estimator.kind": estimator,
+                                     "faults.sensor": [bias]})
+    pose = [env.observation_names.index(n) for n in POSE]
+    obs, info = env.reset()
+    while info["t"] < 3.0:
+        obs, _, _, _, info = env.step([5.1, 4.9])
+    trace = env.loop.trace.columns
+    k = round(info["t"] / env.loop.dt)
+    truth = np.array([trace["x"][k], trace["y"][k], trace["psi"][k]])
+    if source == "truth":
+        assert obs[pose].tolist() == truth.tolist()
+        return
+    if estimator == "ukf":
+        assert obs[pose].tolist() == [trace["x_hat"][k], trace["y_hat"][k], trace["psi_hat"][k]]
+    else:
+        fixes = np.flatnonzero(np.isfinite(trace["x_meas"][:k + 1]))
+        assert obs[pose][:2].tolist() == [trace["x_meas"][fixes[-1]], trace["y_meas"][fixes[-1]]]
+    assert 0.8 < float(np.hypot(*(obs[pose][:2] - truth[:2]))) < 1.2
+
+
 def test_tip_over_terminates_with_the_penalty_and_the_row_that_saw_it() -> None:
     """A hard turn at 10 m/s rolls the MuJoCo robot about 3.6°: with the tip-over limit at 2° the episode
     terminates there, the reward carries the penalty and the trace ends on the row flagged TIPPED."""

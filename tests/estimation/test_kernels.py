@@ -80,12 +80,23 @@ def run_both(make: Callable[[str], Filter], steps: Callable[[int, Filter], tuple
 
 def sensor_cfg(sensors: str, **estimator: object) -> RunConfig:
     yaw = 0.01 if sensors != "speed" else None
-    pos = 1.0 if sensors == "pos" else None
+    pos = {"pos": 1.0, "pose": 0.05}.get(sensors)
+    if sensors == "pose":
+        estimator = {"pose_gate_reacquire": 0.3, **estimator}
     return RunConfig.model_validate({"sensors": {"yaw_rate_sigma": yaw, "position_sigma": pos},
                                      "estimator": estimator})
 
 
-@pytest.mark.parametrize("sensors", ["speed", "yaw", "pos"])
+def pose_fix(k: int, ref: Filter) -> tuple[np.ndarray | None, float | None]:
+    """A pose fix every 10 steps near the reference filter's estimate, its heading counted three turns off
+    (the innovation must be wrapped), displaced 3 m for steps 150-259 (gated, until the streak's limit)."""
+    if k % 10 != 5:
+        return None, None
+    jump = 3.0 if 150 <= k < 260 else 0.0
+    return ref.x[:2] + 0.02 + jump, float(ref.x[2]) + 0.01 + 6.0 * math.pi
+
+
+@pytest.mark.parametrize("sensors", ["speed", "yaw", "pos", "pose"])
 @pytest.mark.parametrize(("kind", "models", "variant"), [
     ("ekf", 4, None), ("ukf", 4, None),
     ("imm-ekf", 4, "hypothesis"), ("imm-ekf", 5, "hypothesis"), ("imm-ukf", 4, "hypothesis"),
@@ -93,7 +104,8 @@ def sensor_cfg(sensors: str, **estimator: object) -> RunConfig:
 ])
 def test_numba_matches_numpy(kind: str, models: int, variant: str | None, sensors: str) -> None:
     """300 steps with R_L falling 2 → 1 m over steps 100-200, a dropped (NaN) speed, an outlier beyond
-    the gate, a non-finite gyro reading, non-finite wheel rates and (``pos``) a position fix every 50 steps."""
+    the gate, a non-finite gyro reading, non-finite wheel rates and (``pos``) a position fix every 50 steps,
+    (``pose``) a pose fix every 10 steps with a 3 m jump (:func:`pose_fix`)."""
     n = 300
     u, zs, zy = excited_data(n, yaw_sigma=0.01)
     est = {"kind": kind} | ({"imm_models": models} if kind.startswith("imm") else {})
@@ -103,13 +115,18 @@ def test_numba_matches_numpy(kind: str, models: int, variant: str | None, sensor
         speed = {40: math.nan, 70: float(zs[k]) + 1e3}.get(k, float(zs[k]))
         yaw = math.nan if k == 90 else float(zy[k])
         pos = ref.x[:2] + 0.3 if (sensors == "pos" and k % 50 == 25) else None
+        heading = None
+        if sensors == "pose":
+            pos, heading = pose_fix(k, ref)
         uk = np.array([math.nan, 1.0]) if k == 120 else u[k]
-        return uk, Measurement(speed, yaw, pos)
+        return uk, Measurement(speed, yaw, pos, heading)
 
     fast, ref, worst = run_both(lambda b: KINDS[kind](cfg, b), steps, n)
     print(f"{kind} {models} {variant} {sensors}: largest relative difference {worst:.1e}, "
-          f"rejections {fast.rejections}")
+          f"rejections {fast.rejections}, pose fixes rejected {fast.pose_rejections}")
     assert fast.rejections >= 2
+    if sensors == "pose":  # the jump's fixes rejected, three in a row at most (the streak's limit), then fused
+        assert 3 <= fast.pose_rejections == ref.pose_rejections <= 9
 
 
 @pytest.mark.parametrize("kind", list(KINDS))

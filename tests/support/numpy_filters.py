@@ -28,7 +28,20 @@ import numpy as np
 from ftc_mj.estimation.base import FilterOutput, Measurement
 from ftc_mj.estimation.ekf import EKF
 from ftc_mj.estimation.imm import IMM
-from ftc_mj.estimation.kernels.layout import C_HYP, EIG_FLOOR, LOG_2PI, MU_FLOOR, P_RAMP_STEP, POS_X, POS_Y, SPEED, YAW
+from ftc_mj.estimation.kernels.layout import (
+    C_HYP,
+    C_POSE_STREAK,
+    C_STEPS,
+    EIG_FLOOR,
+    HEADING,
+    LOG_2PI,
+    MU_FLOOR,
+    P_RAMP_STEP,
+    POS_X,
+    POS_Y,
+    SPEED,
+    YAW,
+)
 from ftc_mj.estimation.measurements import channels, measure_jacobian
 from ftc_mj.estimation.setup import FilterSetup
 from ftc_mj.estimation.single import SingleFilter
@@ -42,11 +55,11 @@ class Assembled:
     """The usable measurement channels of one step."""
 
     z: np.ndarray
-    """Measured values (m,) in the order speed, yaw rate, x, y (those present and finite)."""
+    """Measured values (m,) in the order speed, yaw rate, x, y, heading (those present and finite)."""
     r: np.ndarray
     """Noise variances (m,)."""
     kinds: tuple[int, ...]
-    """Channel codes (SPEED, YAW, POS_X, POS_Y) of the entries of ``z``."""
+    """Channel codes (SPEED, YAW, POS_X, POS_Y, HEADING) of the entries of ``z``."""
     dropped: bool
     """A channel that should have been there was non-finite and was dropped."""
     R: np.ndarray | None = None
@@ -83,8 +96,48 @@ def measure(model: KinematicModel, X: np.ndarray, u: np.ndarray, kinds: tuple[in
     if kinds == (SPEED,):
         return forward_speed(X[..., 3:4], X[..., 4:5], u[0], u[1])
     V, psidot = body_rates(X[..., 3], X[..., 4], u[0], u[1], model.b)
-    cols = {SPEED: V, YAW: psidot, POS_X: X[..., 0], POS_Y: X[..., 1]}
+    cols = {SPEED: V, YAW: psidot, POS_X: X[..., 0], POS_Y: X[..., 1], HEADING: X[..., 2]}
     return np.stack([cols[k] for k in kinds], axis=-1)
+
+
+def innovation(a: Assembled, zp: np.ndarray) -> np.ndarray:
+    """``z - zp`` over the last axis, a heading's wrapped to [-π, π)."""
+    y = a.z - zp
+    if HEADING in a.kinds:
+        i = a.kinds.index(HEADING)
+        y[..., i] = y[..., i] - 2.0 * np.pi * np.floor((y[..., i] + np.pi) / (2.0 * np.pi))
+    return y
+
+
+def pose_gate(f: SingleFilter | IMM, X: np.ndarray, P: np.ndarray, w: np.ndarray, a: Assembled
+              ) -> tuple[Assembled, bool]:
+    """The χ² gate on the fix's x, y in ``a`` against the mixture (weights ``w``) of the predicted members ``X``
+    (M, 5), ``P`` (M, 5, 5), with the covariance of a streak's first
+    fix during a streak of rejections (begun at step ``cnt[C_POSE_STREAK] - 1``; 0: none):
+    ``(a without x, y, True)`` when the position is rejected."""
+    if POS_X not in a.kinds or math.isinf(f.setup.pose_gate_quantile):
+        return a, False
+    idx = [a.kinds.index(POS_X), a.kinds.index(POS_Y)]
+    cnt, gateP = f._st.cnt, f._st.gateP
+    xm = w @ X[:, :2]
+    if cnt[C_POSE_STREAK] == 0:
+        d = X[:, :2] - xm
+        gateP[:2, :2] = np.einsum("j,jab->ab", w, P[:, :2, :2]) + (d.T * w) @ d
+    y = a.z[idx] - xm
+    nis = float(y @ np.linalg.solve(gateP[:2, :2] + np.diag(a.r[idx]), y))
+    if nis <= f.setup.pose_gate_quantile:
+        cnt[C_POSE_STREAK] = 0
+        return a, False
+    step = int(cnt[C_STEPS])
+    if cnt[C_POSE_STREAK] and step + 1 - cnt[C_POSE_STREAK] >= f.setup.pose_gate_steps:
+        cnt[C_POSE_STREAK] = 0  # the streak's end: the fix is fused
+        return a, False
+    if not cnt[C_POSE_STREAK]:
+        cnt[C_POSE_STREAK] = step + 1
+    f.pose_rejections += 1
+    rest = [i for i in range(len(a.kinds)) if i not in idx]
+    r = a.r[rest]
+    return Assembled(a.z[rest], r, tuple(a.kinds[i] for i in rest), a.dropped, np.diag(r)), True
 
 
 # ---------------------------------------------------------------------------- numerics
@@ -196,7 +249,7 @@ class UKFCore:
         dzT_W = dz.swapaxes(1, 2) * self.W
         S = dzT_W @ dz + a.R
         Pxz = ((sig - X[:, None, :]).swapaxes(1, 2) * self.W) @ dz
-        y = a.z - zp
+        y = innovation(a, zp)
         SI, nis, ll = gaussian_terms(y, S)
         K = Pxz @ SI
         Xn = X + (K @ y[:, :, None])[:, :, 0]
@@ -233,7 +286,7 @@ class UKFCore:
         dz = sh - zp
         S = (dz.T * W).dot(dz) + a.R
         Pxz = ((sig - x).T * W).dot(dz)
-        y = a.z - zp
+        y = innovation(a, zp)
         if y.shape[0] == 1:
             s = S[0, 0]
             K = Pxz / s
@@ -268,7 +321,7 @@ class EKFCore:
         R = a.R
         S = H @ PHT + R
         zp = measure(self.model, X, u, a.kinds)
-        y = a.z - zp
+        y = innovation(a, zp)
         SI, nis, ll = gaussian_terms(y, S)
         K = PHT @ SI
         Xn = X + (K @ y[:, :, None])[:, :, 0]
@@ -294,7 +347,7 @@ class EKFCore:
         PHT = P.dot(H.T)
         R = a.R
         S = H.dot(PHT) + R
-        y = a.z - measure(self.model, x, u, kinds)
+        y = innovation(a, measure(self.model, x, u, kinds))
         SI = 1.0 / S if len(kinds) == 1 else np.linalg.inv(S)
         K = PHT.dot(SI)
         I_KH = self.eye - K.dot(H)
@@ -357,7 +410,7 @@ class _NumpySingle(SingleFilter):
         x_prev = self._x.copy()
         core = self.core
         x, P = core.predict1(x_prev, self._P, u)
-        a = assemble(self.setup, z)
+        a, pose_rejected = pose_gate(self, x[None, :], P[None, :, :], np.ones(1), assemble(self.setup, z))
         rejected = a.dropped
         nis = sp_innov = sp_std = math.nan
         if a.z.size:
@@ -383,6 +436,7 @@ class _NumpySingle(SingleFilter):
         return FilterOutput(
             x=x.copy(), P=P.copy(), innovation=y, S=S, nis=nis,
             speed_innovation=sp_innov, speed_innovation_std=sp_std, rejected=rejected, reset=reset,
+            pose_rejected=pose_rejected,
         )
 
     def _check_divergence(self, X: np.ndarray, P: np.ndarray, nis: float) -> bool:
@@ -469,7 +523,7 @@ class NumpyIMM(IMM):
         if self._hyp and self._ramp.any():
             r = self._ramp
             Xp[r, 4] = np.maximum(Xp[r, 4] - self._ramp_step, self.setup.min_radius)
-        a = assemble(self.setup, z)
+        a, pose_rejected = pose_gate(self, Xp, Pp, cbar, assemble(self.setup, z))
         rejected = a.dropped
         X, P, mu = Xp, Pp, cbar
         y = np.zeros(0)
@@ -483,7 +537,7 @@ class NumpyIMM(IMM):
             dzp = res.zp - zbar
             mz = dzp.shape[1]
             S = (cbar @ res.S.reshape(len(cbar), mz * mz)).reshape(mz, mz) + (dzp.T * cbar) @ dzp
-            y = a.z - zbar
+            y = innovation(a, zbar)
             nis = float(y @ np.linalg.solve(S, y)) if y.size > 1 else float(y[0] * y[0] / S[0, 0])
             if SPEED in a.kinds:
                 i = a.kinds.index(SPEED)
@@ -509,11 +563,12 @@ class NumpyIMM(IMM):
         self.x, self.P_comb = self._combine(self.X, self.P, self.mu)
         if rejected:
             self.rejections += 1
+        self._st.cnt[C_STEPS] += 1
         return FilterOutput(
             x=self.x.copy(), P=self.P_comb.copy(), innovation=np.array(y, float), S=np.array(S, float),
             nis=nis, speed_innovation=sp_innov, speed_innovation_std=sp_std,
             mode_probs=self.mu.copy(), hypotheses=self.hypotheses, model_x=self.X.copy(), rejected=rejected,
-            reset=reset,
+            reset=reset, pose_rejected=pose_rejected,
         )
 
     def _check_divergence(self, X: np.ndarray, P: np.ndarray, nis: float) -> bool:

@@ -13,15 +13,17 @@ import math
 
 import numpy as np
 
-from .bank import clip_radii, count_step, ekf_bank_update, nis_dwell, speed_std, ukf_bank_update
+from .bank import clip_radii, count_step, ekf_bank_update, nis_dwell, pose_gate, speed_std, ukf_bank_update
 from .jit import njit
-from .kalman import channels, ekf_predict, ukf_predict, unscented_moments, weights
+from .kalman import channels, ekf_predict, ukf_predict, unscented_moments, weights, wrap_angle
 from .layout import (
     C_BAD_NIS,
     C_HYP,
     C_N,
     C_RESETS,
+    HEADING,
     MU_FLOOR,
+    N_CHANNELS,
     N_PRM,
     P_DIV_NIS,
     P_GATE,
@@ -128,12 +130,14 @@ def _mixture_innovation(buf: np.ndarray, lay: Layout, kinds: np.ndarray, z: np.n
     ``y[:m]``, ``S[:m, :m]`` of ``buf``; returns its NIS, the speed innovation and its std (m/s)."""
     m = kinds.shape[0]
     zbar = np.empty(m)
-    y_out = buf[lay.y:lay.y + 4]
-    S_mix = buf[lay.S:lay.S + 16].reshape((4, 4))[:m, :m]
+    y_out = buf[lay.y:lay.y + N_CHANNELS]
+    S_mix = buf[lay.S:lay.S + N_CHANNELS * N_CHANNELS].reshape((N_CHANNELS, N_CHANNELS))[:m, :m]
     combine(Zp, S, cbar, zbar, S_mix)
     y = np.empty(m)
     for i in range(m):
         y[i] = z[i] - zbar[i]
+        if kinds[i] == HEADING:
+            y[i] = wrap_angle(y[i])
         y_out[i] = y[i]
     if m == 1:
         nis = y[0] * y[0] / S_mix[0, 0]
@@ -234,7 +238,7 @@ def _imm_step(ekf: bool):
 
     @njit(cache=True, error_model="numpy")
     def step(buf: np.ndarray, cnt: np.ndarray, u0: float, u1: float, z0: float, z1: float, z2: float, z3: float,
-             mask: int, dropped: bool) -> tuple[float, float, float, int, bool, bool]:
+             z4: float, mask: int, dropped: bool) -> tuple[float, float, float, int, bool, bool, bool]:
         """One IMM cycle on the bank's buffers, in place; arguments and result as the single filter's
         step (:mod:`.single`; ``y``, ``S`` and NIS are those of the mixture predictive density)."""
         n = cnt[C_N]
@@ -264,7 +268,9 @@ def _imm_step(ekf: bool):
             ukf_predict(X0, P0, u, prm, c, W, Q, Xp, Pp)
         if hyp:
             _ramp(buf[lay.ramp:lay.ramp + n], Xp, prm)
-        kinds, z = channels(mask, z0, z1, z2, z3)
+        kinds, z = channels(mask, z0, z1, z2, z3, z4)
+        kinds, z, pose_rejected = pose_gate(cnt, prm, buf[lay.rvar:lay.rvar + N_CHANNELS],
+                                            buf[lay.gateP:lay.gateP + 9].reshape((3, 3)), Xp, Pp, cbar, kinds, z)
         m = kinds.shape[0]
         rejected = dropped
         Xs, Ps = Xp, Pp
@@ -289,7 +295,7 @@ def _imm_step(ekf: bool):
         _floor_normalise(mu_new, mu)
         combine(X, P, mu, buf[lay.x:lay.x + 5], buf[lay.Pc:lay.Pc + 25].reshape((5, 5)))
         count_step(cnt, rejected)
-        return nis, sp_innov, sp_std, m, rejected, reset
+        return nis, sp_innov, sp_std, m, rejected, reset, pose_rejected
 
     return step
 

@@ -10,7 +10,9 @@ gives the same formulas in matrix form; the tests require agreement to round-off
 * EKF (``ExtendedKalmanFilter``, ``F`` = AD Jacobian at the posterior): ``P⁻ = F P Fᵀ + Q``;
   Joseph-form update ``P⁺ = (I-KH)P⁻(I-KH)ᵀ + K R Kᵀ``.
 
-Units: states (m, m, rad, m, m), wheel rates (rad/s), speed (m/s), yaw rate (rad/s), position (m).
+Units: states (m, m, rad, m, m), wheel rates (rad/s), speed (m/s), yaw rate (rad/s), position (m), heading
+(rad). A heading innovation is wrapped to [-π, π) (:func:`wrap_angle`): the filter's heading is continuous
+(it counts turns), a heading fix is an angle.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 
 from .generated import kin_F, kin_H, kin_rates, kin_step
 from .jit import njit
-from .layout import N_SIGMA, P_B, P_DT, POS_X, SPEED, YAW
+from .layout import HEADING, N_CHANNELS, N_SIGMA, P_B, P_DT, POS_X, POS_Y, SPEED, YAW
 from .linalg import chol, eig_floor, gaussian, mat_mul
 
 MODEL_DIGEST = "d5385545ce3b5bff"
@@ -29,23 +31,29 @@ MODEL_DIGEST = "d5385545ce3b5bff"
 
 
 @njit(cache=True, error_model="numpy")
-def channels(mask: int, z0: float, z1: float, z2: float, z3: float) -> tuple[np.ndarray, np.ndarray]:
+def channels(mask: int, z0: float, z1: float, z2: float, z3: float, z4: float) -> tuple[np.ndarray, np.ndarray]:
     """Channel codes present in the bit mask ``mask`` (bit k = channel code k), in stacking order, and
-    their values (the first ``m`` of ``z0..z3``)."""
+    their values (the first ``m`` of ``z0..z4``)."""
     m = 0
-    for k in range(4):
+    for k in range(N_CHANNELS):
         m += (mask >> k) & 1
     kinds = np.empty(m, np.int64)
     i = 0
-    for k in range(4):
+    for k in range(N_CHANNELS):
         if (mask >> k) & 1:
             kinds[i] = k
             i += 1
     z = np.empty(m)
-    for i, v in enumerate((z0, z1, z2, z3)):
+    for i, v in enumerate((z0, z1, z2, z3, z4)):
         if i < m:
             z[i] = v
     return kinds, z
+
+
+@njit(cache=True, error_model="numpy")
+def wrap_angle(a: float) -> float:
+    """The angle ``a`` (rad) wrapped to [-π, π)."""
+    return a - 2.0 * math.pi * math.floor((a + math.pi) / (2.0 * math.pi))
 
 
 @njit(cache=True, error_model="numpy")
@@ -60,8 +68,10 @@ def measure(x: np.ndarray, u: np.ndarray, b: float, kinds: np.ndarray, rates: np
             out[i] = rates[1]
         elif k == POS_X:
             out[i] = x[0]
-        else:
+        elif k == POS_Y:
             out[i] = x[1]
+        else:
+            out[i] = x[2]
 
 
 # ---------------------------------------------------------------------------- UKF
@@ -124,13 +134,16 @@ def unscented_moments(W: np.ndarray, pts: np.ndarray, mean: np.ndarray, dev: np.
 
 
 @njit(cache=True, error_model="numpy")
-def innovate(z: np.ndarray, j: int, Zp: np.ndarray, S: np.ndarray, C: np.ndarray, X: np.ndarray, Y: np.ndarray,
-             Xn: np.ndarray, SI: np.ndarray, K: np.ndarray, nis: np.ndarray, ll: np.ndarray) -> None:
-    """Member ``j``'s innovation ``Y[j] = z - Zp[j]``, its NIS and log-likelihood under ``S[j]``, the gain
-    ``K = C S⁻¹`` (``C`` the state-measurement cross covariance, (5, m)) and the mean ``Xn[j] = X[j] + K Y[j]``."""
+def innovate(kinds: np.ndarray, z: np.ndarray, j: int, Zp: np.ndarray, S: np.ndarray, C: np.ndarray, X: np.ndarray,
+             Y: np.ndarray, Xn: np.ndarray, SI: np.ndarray, K: np.ndarray, nis: np.ndarray, ll: np.ndarray) -> None:
+    """Member ``j``'s innovation ``Y[j] = z - Zp[j]`` (a heading's wrapped), its NIS and log-likelihood under
+    ``S[j]``, the gain ``K = C S⁻¹`` (``C`` the state-measurement cross covariance, (5, m)) and the mean
+    ``Xn[j] = X[j] + K Y[j]``."""
     m = z.shape[0]
     for i in range(m):
         Y[j, i] = z[i] - Zp[j, i]
+        if kinds[i] == HEADING:
+            Y[j, i] = wrap_angle(Y[j, i])
     nis[j], ll[j] = gaussian(Y[j], S[j], SI)
     for a in range(5):
         for i in range(m):
@@ -197,7 +210,7 @@ def ukf_update(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, c: 
                 for k in range(N_SIGMA):
                     s += (sig[j, k, a] - X[j, a]) * W[k] * dz[k, i]
                 Pxz[a, i] = s
-        innovate(z, j, Zp, S, Pxz, X, Y, Xn, SI, K, nis, ll)
+        innovate(kinds, z, j, Zp, S, Pxz, X, Y, Xn, SI, K, nis, ll)
         # P⁺ = P - K (S Kᵀ)
         for i in range(m):
             for a in range(5):
@@ -270,7 +283,7 @@ def ekf_update(X: np.ndarray, P: np.ndarray, u: np.ndarray, prm: np.ndarray, kin
                     s += H[i, a] * PHT[a, i2]
                 S[j, i, i2] = s + (rvar[kinds[i]] if i == i2 else 0.0)
         measure(X[j], u, prm[P_B], kinds, rates, Zp[j])
-        innovate(z, j, Zp, S, PHT, X, Y, Xn, SI, K, nis, ll)
+        innovate(kinds, z, j, Zp, S, PHT, X, Y, Xn, SI, K, nis, ll)
         # Joseph form: (I - KH) P (I - KH)ᵀ + K R Kᵀ
         for a in range(5):
             for b in range(5):

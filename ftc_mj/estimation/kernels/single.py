@@ -1,7 +1,8 @@
 """One step of a single EKF or UKF with its numerical-health rules, as one compiled call.
 
 Health rules (a run never dies of a filter): non-finite channels are dropped (the step counts as a
-rejection); an update whose NIS exceeds ``nis_gate`` is not applied (a rejection); ``P`` is
+rejection); a pose fix that fails the χ² gate (:func:`.bank.pose_gate`) is dropped and counted apart, the
+step updating with its other channels; an update whose NIS exceeds ``nis_gate`` is not applied (a rejection); ``P`` is
 symmetrised after every step and, for the EKF, eigen-floored if it stops being positive definite (the
 UKF's next Cholesky repairs it itself); divergence (non-finite or non-positive variances, or NIS above
 ``divergence_nis`` for ``divergence_dwell`` s) resets the filter to its last finite estimate (radii
@@ -14,12 +15,13 @@ import math
 
 import numpy as np
 
-from .bank import clip_radii, count_step, ekf_bank_update, nis_dwell, speed_std, ukf_bank_update
+from .bank import clip_radii, count_step, ekf_bank_update, nis_dwell, pose_gate, speed_std, ukf_bank_update
 from .jit import njit
 from .kalman import channels, ekf_predict, ukf_predict, weights
 from .layout import (
     C_BAD_NIS,
     C_RESETS,
+    N_CHANNELS,
     N_PRM,
     P_DIV_NIS,
     P_GATE,
@@ -43,8 +45,8 @@ def _posterior(buf: np.ndarray, lay: Layout, Y: np.ndarray, S: np.ndarray, nisv:
     gate."""
     m = kinds.shape[0]
     nis = nisv[0]
-    y_out = buf[lay.y:lay.y + 4]
-    S_out = buf[lay.S:lay.S + 16].reshape((4, 4))
+    y_out = buf[lay.y:lay.y + N_CHANNELS]
+    S_out = buf[lay.S:lay.S + N_CHANNELS * N_CHANNELS].reshape((N_CHANNELS, N_CHANNELS))
     for i in range(m):
         y_out[i] = Y[0, i]
         for i2 in range(m):
@@ -109,13 +111,13 @@ def _single_step(ekf: bool):
 
     @njit(cache=True, error_model="numpy")
     def step(buf: np.ndarray, cnt: np.ndarray, u0: float, u1: float, z0: float, z1: float, z2: float,
-             z3: float, mask: int, dropped: bool) -> tuple[float, float, float, int, bool, bool]:
+             z3: float, z4: float, mask: int, dropped: bool) -> tuple[float, float, float, int, bool, bool, bool]:
         """One step of the single filter on its buffers, in place.
 
-        ``u0, u1`` wheel rates (rad/s), ``z0..z3`` the values of the channels in ``mask`` (bit k = channel
+        ``u0, u1`` wheel rates (rad/s), ``z0..z4`` the values of the channels in ``mask`` (bit k = channel
         code k; the first ``m`` used, SI units); ``dropped`` a channel was non-finite. Returns ``(NIS,
-        speed innovation (m/s), its std (m/s), m, rejected, reset)``; the state, the innovation ``y[:m]``
-        and its covariance ``S[:m, :m]`` are in ``buf``.
+        speed innovation (m/s), its std (m/s), m, rejected, reset, pose fix rejected)``; the state, the
+        innovation ``y[:m]`` and its covariance ``S[:m, :m]`` are in ``buf``.
         """
         lay = layout(1)
         x = buf[lay.X:lay.X + 5]
@@ -135,7 +137,10 @@ def _single_step(ekf: bool):
             ekf_predict(x.reshape((1, 5)), P.reshape((1, 5, 5)), u, prm, Q, Xp, Pp)
         else:
             ukf_predict(x.reshape((1, 5)), P.reshape((1, 5, 5)), u, prm, c, W, Q, Xp, Pp)
-        kinds, z = channels(mask, z0, z1, z2, z3)
+        kinds, z = channels(mask, z0, z1, z2, z3, z4)
+        kinds, z, pose_rejected = pose_gate(cnt, prm, buf[lay.rvar:lay.rvar + N_CHANNELS],
+                                            buf[lay.gateP:lay.gateP + 9].reshape((3, 3)), Xp, Pp, np.ones(1),
+                                            kinds, z)
         m = kinds.shape[0]
         rejected = dropped
         nis = sp_innov = sp_std = np.nan
@@ -159,7 +164,7 @@ def _single_step(ekf: bool):
                 _repair(Ps[0])
             _store(x, P, Xs[0], Ps[0])
         count_step(cnt, rejected)
-        return nis, sp_innov, sp_std, m, rejected, reset
+        return nis, sp_innov, sp_std, m, rejected, reset, pose_rejected
 
     return step
 

@@ -20,6 +20,8 @@ FDI (runs with an estimator)
     (declared, wheel unknown), ``wrong`` (anything else: a healthy wheel, or any wheel when a fault is
     not a puncture — the filters model radius faults only, so a sensor or actuator fault declared as a
     puncture is a false isolation), ``none`` (nothing declared after the onset), ``n/a`` (no fault).
+Diagnosis (runs with a diagnoser)
+    ``diag_*`` at component-and-mode level — :func:`~ftc_mj.metrics.diagnosis.diagnosis_scores`.
 Reconfiguration
     ``reconfig_delay`` (s): first hand-over after the first onset —
     :func:`~ftc_mj.metrics.run.reconfiguration_metrics`.
@@ -50,6 +52,7 @@ import numpy as np
 
 from ..config import RunConfig
 from ..metrics.detection import WHEEL_OF_CODE, declared_wheel_codes
+from ..metrics.diagnosis import DIAGNOSIS_SCORE_COLUMNS, diagnosis_scores
 from ..metrics.fdi import KL_PROFILE_S, cumulative_kl, lorden_delays
 from ..metrics.outcome import OFF_PATH_M
 from ..metrics.path import path_following_metrics
@@ -61,7 +64,8 @@ from ..sim.record import build_record
 
 SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "liftoff_s", "false_alarm", "detected",
                  "detection_delay", "isolation", "reconfig_delay", "lorden_delay_bound", "radius_pcrb_R",
-                 "radius_pcrb_L", "radius_error_R", "radius_error_L", "solver_fallbacks", "status")
+                 "radius_pcrb_L", "radius_error_R", "radius_error_L", "solver_fallbacks", "status",
+                 *DIAGNOSIS_SCORE_COLUMNS)
 """The keys :func:`score_run` returns (``None`` where a score does not apply)."""
 
 
@@ -185,4 +189,6 @@ def score_run(config: RunConfig, trace: dict[str, np.ndarray], events: Sequence[
     rc = reconfiguration_metrics(tr, faults[0]["onset"] if faults else None)
     out["reconfig_delay"] = rc.get("reconfig_handover_delay")
     out.update(bound_scores(cfg, record, tr, faults))
+    out.update(diagnosis_scores(tr, fault_list(cfg.faults, cfg.plant_wheel_radius), cfg.sensors,
+                                cfg.model_wheel_radius))
     return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}

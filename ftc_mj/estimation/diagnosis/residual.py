@@ -1,0 +1,346 @@
+"""The built-in diagnoser: structured residuals, each sensitive to one component, a windowed GLR on each,
+and an isolation table that reads which residuals fired (Gertler's structured residuals; the
+window-limited GLR of Willsky & Jones and Basseville & Nikiforov §2.4; the residual table of Blanke et al.
+ch. 6). docs/fdi.md says why this design and what each channel can and cannot see.
+
+Every residual compares two measurements that a healthy robot makes agree, against a reference that no
+other fault moves:
+
+- ``tyre_R``/``tyre_L``: the arc each wheel's contact point rolled between two pose fixes
+  (``s ± b Δψ``) over the angle its encoder turned (``R0 Δθ``) — its rolling ratio, a fraction of the
+  nominal radius — after a candidate change against the window before it: a puncture only;
+- ``servo_R``/``servo_L``: the gain ``α`` of the wheel's response to its command (the regression
+  ``Δω_k = α (ω_cmd − ω)_{k−1} − β``) after a candidate change over the gain before it: a servo loss or an
+  unresponsive servo only (a puncture raises it);
+- ``lock_R``/``lock_L``: the wheel turns at under ``lock_ratio`` of its command;
+- ``speed``: the speed sensor's mean reading minus the pose's arc per second; ``gyro``: the gyro's mean
+  minus the pose's heading change per second: the sensor's own faults only;
+- ``speed_dropout``/``gyro_dropout``: how long the sensor has delivered nothing.
+
+The GLR of a mean shift ``D`` of variance ``σ²`` is ``D² / (2 σ²)``, maximised over the candidate change
+times :attr:`~.settings.ResidualDiagnoserSettings.windows` before the latest pose fix; σ² is the noise of
+the sensors involved (from their configured σ) plus a model floor relative to the nominal quantity.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...context import RunContext
+from ...model.diagnosis import Diagnosis
+from .base import CHANNELS, DiagnosisInput, DiagnosisStep
+from .history import History
+from .settings import ResidualDiagnoserSettings
+
+WHEEL_SIDES = {"R": "right", "L": "left"}
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One channel's verdict at a step: its statistic and threshold, and what a declaration would say."""
+
+    stat: float
+    threshold: float
+    size: float = float("nan")
+    sigma: float = float("nan")
+    onset: float = float("nan")
+
+    @property
+    def alarm(self) -> bool:
+        """The statistic lies above its threshold."""
+        return bool(self.stat > self.threshold)
+
+
+QUIET = Reading(0.0, math.inf)
+"""A channel with nothing to say this step (no data, or not applicable)."""
+
+
+class ResidualDiagnoser:
+    """The structured-residual diagnoser (module docstring) for the robot of ``context``.
+
+    Args:
+        settings: its settings (:class:`~.settings.ResidualDiagnoserSettings`).
+        context: the run context: the nominal radius and half track, the estimator period, the sensors' σ.
+    """
+
+    def __init__(self, settings: ResidualDiagnoserSettings, context: RunContext) -> None:
+        self.settings = settings
+        self.R0 = float(context.nominal_radii[0])
+        self.b = float(context.half_track)
+        self.dt = float(context.estimator_dt)
+        self.omega_max = float(context.omega_max)
+        sensors = context.sensors
+        self.sigma_v = float(getattr(sensors, "speed_sigma", 0.5))
+        gyro = getattr(sensors, "yaw_rate_sigma", None)
+        self.sigma_g = None if gyro is None else float(gyro)
+        self.history = History(self.dt)
+        self.readings: dict[str, Reading] = {c: QUIET for c in CHANNELS}
+        self.since: dict[str, float | None] = {c: None for c in CHANNELS}
+        self.missing = {"speed": 0.0, "gyro": 0.0}
+        self.declared: list[Diagnosis] = []
+        self.pose_sigma = (self.R0 * settings.pose_floor, settings.pose_floor)
+
+    # ---------------------------------------------------------------- the step
+    def step(self, z: DiagnosisInput) -> DiagnosisStep:
+        """Add the measurements of this step, update every channel, declare what the alarms isolate."""
+        h = self.history
+        h.push(z.t, np.asarray(z.omega, float), z.command, z.speed, z.yaw_rate, z.pose)
+        floor_p, floor_psi = self.R0 * self.settings.pose_floor, self.settings.pose_floor
+        self.pose_sigma = (max(z.pose_sigma, floor_p), max(z.pose_sigma, floor_psi))
+        self._dropouts(z)
+        for side in "RL":
+            self.readings[f"lock_{side}"] = self._lock(side)
+            self.readings[f"servo_{side}"] = self._servo(side)
+        if h.fix_steps and h.fix_steps[-1] == h.k:  # the pose channels move with a new fix only
+            for side in "RL":
+                self.readings[f"tyre_{side}"] = self._tyre(side)
+            self.readings["speed"] = self._sensor("speed")
+            self.readings["gyro"] = self._sensor("gyro") if self.sigma_g is not None else QUIET
+        for c, r in self.readings.items():
+            if not r.alarm:
+                self.since[c] = None
+            elif self.since[c] is None:
+                self.since[c] = z.t
+        new = self._isolate(z.t)
+        self.declared.extend(new)
+        return DiagnosisStep(statistics={c: r.stat for c, r in self.readings.items()},
+                             alarms={c: r.alarm for c, r in self.readings.items()}, new=new,
+                             declared=list(self.declared))
+
+    # ---------------------------------------------------------------- the channels
+    def _dropouts(self, z: DiagnosisInput) -> None:
+        """How long (s) the speed sensor and the gyro have delivered nothing."""
+        s = self.settings
+        for name, value, present in (("speed", z.speed, True), ("gyro", z.yaw_rate, self.sigma_g is not None)):
+            missing = present and (value is None or not math.isfinite(value))
+            self.missing[name] = self.missing[name] + self.dt if missing else 0.0
+            onset = z.t - self.missing[name] + self.dt
+            self.readings[f"{name}_dropout"] = (Reading(self.missing[name], s.dropout_min - 1e-9,
+                                                        self.missing[name], 0.0, onset)
+                                                if present else QUIET)
+
+    def _lock(self, side: str) -> Reading:
+        """``1 − |mean ω| / |mean command|`` over the last ``lock_window`` (s) of wheel ``side``."""
+        s, h = self.settings, self.history
+        j = h.step_at(h.t[-1] - s.lock_window)
+        if j is None or j == h.k:
+            return QUIET
+        n = h.delta("n_cmd", j, h.k)
+        if n < 1:
+            return QUIET
+        cmd = h.delta(f"cmd_{side}", j, h.k) / n
+        turn = abs(h.delta(f"th_{side}", j, h.k)) / (h.t[-1] - h.t[j])
+        if cmd < s.lock_min_command * self.omega_max:
+            return QUIET
+        return Reading(1.0 - turn / cmd, 1.0 - s.lock_ratio, 0.0, 0.0, h.t[-1] - s.lock_window)
+
+    def _servo(self, side: str) -> Reading:
+        """``1 − α_after / α_before``: the fraction of the servo's identified gain lost over the last
+        ``servo_window`` (s) against the ``reference_window`` before it."""
+        s, h = self.settings, self.history
+        k = h.k
+        j = h.step_at(h.t[-1] - s.servo_window)
+        # the reference window starts after the launch from rest (whose gain differs) and lasts at least
+        # as long as the test window
+        i = h.step_at(max(h.t[-1] - s.servo_window - s.reference_window, s.launch))
+        if i is None or j is None or h.t[j] - h.t[i] < s.servo_window - 1e-9:
+            return QUIET
+        after, before = h.regression(side, j, k), h.regression(side, i, j)
+        if after is None or before is None or before[0] <= 0.0:
+            return QUIET
+        ratio = after[0] / before[0]
+        size = float(np.clip(ratio, 0.0, 1.0)) ** s.servo_size_exponent
+        onset = h.t[j] if self.since[f"servo_{side}"] is None else self.since[f"servo_{side}"] - 0.5 * s.servo_window
+        return Reading(1.0 - ratio, 1.0 - s.servo_ratio, size, float("nan"), onset)
+
+    def _window_pairs(self) -> list[tuple[int, int, int | None]]:
+        """``(j, k, i)`` pose-fix indices of each GLR window: the latest fix ``k``, the fix ``j`` a window
+        before it, the fix ``i`` a ``reference_window`` before ``j`` (``None`` before the run has one);
+        longest window first, each at most once."""
+        s, h = self.settings, self.history
+        k = len(h.fix_t) - 1
+        out, seen = [], set()
+        for w in sorted(s.windows, reverse=True):
+            j = h.fix_at(h.fix_t[k] - w)
+            if j is None or j >= k or j in seen or h.fix_t[k] - h.fix_t[j] < 0.5 * w:
+                continue
+            seen.add(j)
+            out.append((j, k, h.fix_at(h.fix_t[j] - s.reference_window)))
+        return out
+
+    def _ratio(self, side: str, j: int, k: int) -> tuple[float, float] | None:
+        """The rolling ratio (fraction of nominal radius) of wheel ``side`` between pose fixes ``j`` and
+        ``k`` and its variance from the pose noise; ``None`` when the wheel turned too little."""
+        h = self.history
+        turn = h.delta(f"th_{side}", h.fix_steps[j], h.fix_steps[k])
+        if abs(turn) < self.settings.tyre_min_turn:
+            return None
+        arc, dpsi = h.motion(j, k)
+        sign = 1.0 if side == "R" else -1.0
+        sp, spsi = self.pose_sigma
+        var = (2.0 * sp**2 + 2.0 * (self.b * spsi) ** 2) / (self.R0 * turn) ** 2
+        return (arc + sign * self.b * dpsi) / (self.R0 * turn), var
+
+    def _glr(self, shift: Callable[[int, int, int | None], Reading | None]) -> Reading:
+        """The largest of ``shift(j, k, i)`` — one candidate change's reading — over the candidate windows
+        (:meth:`_window_pairs`): the window-limited GLR."""
+        best = Reading(0.0, self.settings.threshold)
+        for j, k, i in self._window_pairs():
+            r = shift(j, k, i)
+            if r is not None and r.stat > best.stat:
+                best = r
+        return best
+
+    def _tyre(self, side: str) -> Reading:
+        """The GLR of a drop of wheel ``side``'s rolling ratio against the window before the change."""
+        s, h = self.settings, self.history
+
+        def shift(j: int, k: int, i: int | None) -> Reading | None:
+            after = self._ratio(side, j, k)
+            if after is None:
+                return None
+            before = self._ratio(side, i, j) if i is not None and i < j else None
+            # a skidding wheel rolls more than a turn's worth (a ratio above 1): the reference is capped at
+            # the nominal radius, so the end of a skid is not a drop
+            ref, var_ref = (min(before[0], 1.0), before[1]) if before is not None else (1.0, (3.0 * s.tyre_floor) ** 2)
+            drop = after[0] - ref
+            var = after[1] + var_ref + s.tyre_floor**2
+            stat = drop**2 / (2.0 * var) if drop < -s.tyre_min_drop else 0.0
+            # the size: the ratio since the change, relative to the one before
+            return Reading(stat, s.threshold, after[0] / ref, math.sqrt(var), h.fix_t[j])
+
+        return self._glr(shift)
+
+    def residual(self, name: str, j: int, k: int) -> tuple[float, float] | None:
+        """The ``speed`` (m/s) or ``gyro`` (rad/s) residual between pose fixes ``j`` and ``k``: the sensor's
+        mean minus the pose's rate, with its variance; ``None`` without samples."""
+        h = self.history
+        a, b = h.fix_steps[j], h.fix_steps[k]
+        key, sig = ("v", self.sigma_v) if name == "speed" else ("g", self.sigma_g or 0.0)
+        n = h.delta(f"n_{key}", a, b)
+        if n < 5:
+            return None
+        span = h.fix_t[k] - h.fix_t[j]
+        arc, dpsi = h.motion(j, k)
+        ref, sp = (arc / span, self.pose_sigma[0]) if name == "speed" else (dpsi / span, self.pose_sigma[1])
+        floor = (self.settings.speed_floor if name == "speed" else self.settings.gyro_floor) * abs(ref)
+        var = sig**2 / n + 2.0 * sp**2 / span**2 + floor**2
+        return h.delta(key, a, b) / n - ref, var
+
+    def _sensor(self, name: str) -> Reading:
+        """The GLR of an offset of the ``speed`` sensor or the ``gyro`` over the candidate windows."""
+        s, h = self.settings, self.history
+
+        def shift(j: int, k: int, i: int | None) -> Reading | None:
+            r = self.residual(name, j, k)
+            return None if r is None else Reading(r[0] ** 2 / (2.0 * r[1]), s.threshold, r[0], math.sqrt(r[1]),
+                                                  h.fix_t[j])
+
+        return self._glr(shift)
+
+    # ---------------------------------------------------------------- isolation
+    def _confirmed(self, channel: str, t: float) -> bool:
+        """The channel's alarm has held for ``confirm`` (``servo_confirm`` for a servo) seconds."""
+        since = self.since[channel]
+        hold = self.settings.servo_confirm if channel.startswith("servo") else self.settings.confirm
+        return since is not None and t - since >= hold - 1e-9
+
+    def _has(self, component: str, target: str | None = None) -> Diagnosis | None:
+        """The latest declaration on ``component`` (and ``target``), if any."""
+        for d in reversed(self.declared):
+            if d.component == component and (target is None or d.target == target):
+                return d
+        return None
+
+    def _isolate(self, t: float) -> list[Diagnosis]:
+        """At most one new declaration per step, from the confirmed alarms, in the order: dropouts, lock,
+        servo, tyre, speed sensor, gyro (the isolation table of docs/fdi.md)."""
+        for maker in (self._declare_dropout, self._declare_servo, self._declare_tyre, self._declare_sensor):
+            d = maker(t)
+            if d is not None:
+                return [d]
+        return []
+
+    def _make(self, component: str, target: str, mode: str, r: Reading, t: float) -> Diagnosis:
+        return Diagnosis(component, target, mode, float(r.size), float(r.sigma), float(min(r.onset, t)), t,
+                         float(r.stat), float(r.threshold))
+
+    def _declare_dropout(self, t: float) -> Diagnosis | None:
+        for name, component, target in (("speed", "speed sensor", "speed"), ("gyro", "gyro", "yaw_rate")):
+            r = self.readings[f"{name}_dropout"]
+            last = self._has(component)
+            if r.alarm and (last is None or last.mode != "dropout" or last.onset < r.onset - 1e-9):
+                return self._make(component, target, "dropout", r, t)
+        return None
+
+    def _declare_servo(self, t: float) -> Diagnosis | None:
+        """A lock, else a servo loss or an unresponsive servo; one servo fault per run (a lock or a dead
+        servo drags the robot so that the other servo's regression moves too), none after a puncture."""
+        if self._has("servo") is not None or self._has("tyre") is not None:
+            return None  # a puncture changes the wheel-chassis coupling the servo regression identifies
+        for side in "RL":
+            if self._confirmed(f"lock_{side}", t):
+                return self._make("servo", WHEEL_SIDES[side], "lock", self.readings[f"lock_{side}"], t)
+        for side in "RL":
+            r = self.readings[f"servo_{side}"]
+            if self._confirmed(f"servo_{side}", t) and not self.readings[f"tyre_{side}"].alarm:
+                mode = "unresponsive" if r.size < self.settings.unresponsive_below else "loss"
+                size = 0.0 if mode == "unresponsive" else r.size
+                return self._make("servo", WHEEL_SIDES[side], mode, Reading(r.stat, r.threshold, size, r.sigma,
+                                                                              r.onset), t)
+        return None
+
+    def _declare_tyre(self, t: float) -> Diagnosis | None:
+        for side in "RL":
+            target = WHEEL_SIDES[side]
+            if self._has("tyre", target) is not None or self.readings[f"lock_{side}"].alarm:
+                continue
+            servo = self._has("servo")
+            if servo is not None and (servo.mode != "loss" or servo.target == target):
+                continue  # a dragged wheel skids: its rolling ratio says nothing of its tyre
+            if self._confirmed(f"tyre_{side}", t):
+                return self._make("tyre", target, "puncture", self.readings[f"tyre_{side}"], t)
+        return None
+
+    def _declare_sensor(self, t: float) -> Diagnosis | None:
+        """A speed-sensor or gyro bias or drift, told apart once ``shape_min`` (s) has passed since the
+        estimated onset; a bias declared is re-declared as a drift when the residual keeps growing."""
+        for name, component, target in (("speed", "speed sensor", "speed"), ("gyro", "gyro", "yaw_rate")):
+            r = self.readings[name]
+            last = self._has(component)
+            if not self._confirmed(name, t) or (last is not None and last.mode != "bias"):
+                continue
+            onset = r.onset if last is None else last.onset
+            if t - onset < self.settings.shape_min:
+                continue
+            shape = self._shape(name, onset)
+            if shape is None:
+                continue
+            mode, size, sigma = shape
+            if last is None or mode == "drift":
+                return self._make(component, target, mode, Reading(r.stat, r.threshold, size, sigma, onset), t)
+        return None
+
+    def _shape(self, name: str, onset: float) -> tuple[str, float, float] | None:
+        """``(mode, size, σ)`` of a sensor fault since ``onset`` (s): a drift (size the growth rate, per s)
+        when the mean residual of the second half exceeds the first's by ``drift_z`` σ (growing away from
+        zero), else a bias (size the mean offset)."""
+        h = self.history
+        k = len(h.fix_t) - 1
+        j0 = h.fix_at(onset)
+        jm = h.fix_at(0.5 * (onset + h.fix_t[k]))
+        if j0 is None or jm is None or not j0 < jm < k:
+            return None
+        first, second, whole = self.residual(name, j0, jm), self.residual(name, jm, k), self.residual(name, j0, k)
+        if first is None or second is None or whole is None:
+            return None
+        grow = second[0] - first[0]
+        half = 0.5 * (h.fix_t[k] - h.fix_t[j0])
+        z = abs(grow) / math.sqrt(first[1] + second[1])
+        if z > self.settings.drift_z and second[0] * grow > 0:
+            return "drift", grow / half, math.sqrt(first[1] + second[1]) / half
+        return "bias", whole[0], math.sqrt(whole[1])

@@ -88,7 +88,11 @@ class ResidualDiagnoser:
     def step(self, z: DiagnosisInput) -> DiagnosisStep:
         """Add the measurements of this step, update every channel, declare what the alarms isolate."""
         h = self.history
-        h.push(z.t, np.asarray(z.omega, float), z.command, z.speed, z.yaw_rate, z.pose)
+        pose = z.pose
+        if pose is not None and self.settings.pose_rate is not None:
+            if h.fix_t and z.t < h.fix_t[-1] + 1.0 / self.settings.pose_rate - 1e-9:
+                pose = None  # not due yet at pose_rate
+        h.push(z.t, np.asarray(z.omega, float), z.command, z.speed, z.yaw_rate, pose)
         floor_p, floor_psi = self.R0 * self.settings.pose_floor, self.settings.pose_floor
         self.pose_sigma = (max(z.pose_sigma, floor_p), max(z.pose_sigma, floor_psi))
         self._dropouts(z)

@@ -36,6 +36,9 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """GLR threshold (log-likelihood ratio): 12.5 is a 5σ shift of a Gaussian residual."""
     confirm: ranged(0.0, 10.0, unit="s") = 0.2
     """How long (s) an alarm holds before it is declared."""
+    pose_rate: ranged(0.0, 1.0e4, lo_open=True, unit="Hz") | None = None
+    """Use pose fixes at most at this rate (Hz); unset: every fix the loop hands over (the controller's pose,
+    at the estimator rate)."""
     pose_floor: ranged(1.0e-6, 0.5) = 1.0e-3
     """The least σ assumed for a pose fix, as a fraction of the nominal radius (m/m; and rad)."""
     tyre_floor: ranged(0.0, 0.5) = 0.004

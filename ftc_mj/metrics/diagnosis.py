@@ -69,25 +69,29 @@ def true_size(spec: FaultSpec, trace: Mapping[str, np.ndarray], row: int, nomina
 
 def _fault_entry(spec: FaultSpec, found: list[Diagnosis], trace: Mapping[str, np.ndarray], nominal: float,
                  measured: tuple[str, ...]) -> dict[str, Any]:
-    """One true fault's scoring: its first declaration after the onset (detection), its first correct one
-    (isolation: component, target and mode all right), that one's size against the truth."""
+    """One true fault's scoring: its first declaration after the onset (detection); the diagnoser's final
+    belief on the fault's component and target — its last declaration on them, else the first declaration
+    after the onset — is the one compared (``declared``): isolated when its mode is right too (the delay: to
+    the first declaration of that key); its size against the truth."""
     key = true_key(spec)
     t = np.asarray(trace["t"], float)
     after = [d for d in found if d.declared >= spec.onset - MATCH_TOLERANCE_S]
-    correct = [d for d in after if d.key == key]
+    on_it = [d for d in after if d.key[:2] == key[:2]]
+    final = on_it[-1] if on_it else (after[0] if after else None)
+    correct = [d for d in after if d.key == key] if final is not None and final.key == key else []
     e: dict[str, Any] = {"fault_class": spec.fault_class, "component": key[0], "target": key[1], "mode": key[2],
                          "onset": spec.onset, "observable": observable(spec, measured), "in_run": bool(
                              t.size and spec.onset <= t[-1]),
                          "detection_delay": (after[0].declared - spec.onset) if after else None,
                          "isolated": bool(correct),
                          "isolation_delay": (correct[0].declared - spec.onset) if correct else None,
-                         "declared": "/".join(after[0].key) if after else None}
+                         "declared": "/".join(final.key) if final is not None else None}
     if correct:
-        row = int(min(np.searchsorted(t, correct[0].declared), t.size - 1))
+        row = int(min(np.searchsorted(t, correct[-1].declared), t.size - 1))
         truth = true_size(spec, trace, row, nominal)
         e["size_true"] = truth
-        e["size_declared"] = correct[0].size
-        e["size_error"] = correct[0].size - truth if np.isfinite(truth) else None
+        e["size_declared"] = correct[-1].size
+        e["size_error"] = correct[-1].size - truth if np.isfinite(truth) else None
     return e
 
 
@@ -131,7 +135,8 @@ def run_key(entry: Mapping[str, Any]) -> tuple[str, str, str]:
 
 def confusion(runs: Iterable[Mapping[str, Any]]) -> Counter[tuple[tuple[str, str, str], str]]:
     """The mode-level confusion matrix over runs' metrics: ``(true key, declared "component/target/mode" or
-    "none")`` → count, over observable faults in the run (the first declaration after each onset), and
+    "none")`` → count, over observable faults in the run (the diagnoser's final belief on each, see
+    :func:`diagnosis_metrics`), and
     ``(NONE, declared)`` for every declaration of a no-fault run."""
     out: Counter[tuple[tuple[str, str, str], str]] = Counter()
     for m in runs:

@@ -81,6 +81,7 @@ class ResidualDiagnoser:
         self.readings: dict[str, Reading] = {c: QUIET for c in CHANNELS}
         self.since: dict[str, float | None] = {c: None for c in CHANNELS}
         self.missing = {"speed": 0.0, "gyro": 0.0}
+        self.refit = {"speed": 0.0, "gyro": 0.0}
         self.declared: list[Diagnosis] = []
         self.pose_sigma = (self.R0 * settings.pose_floor, settings.pose_floor)
 
@@ -143,8 +144,11 @@ class ResidualDiagnoser:
         return Reading(1.0 - turn / cmd, 1.0 - s.lock_ratio, 0.0, 0.0, h.t[-1] - s.lock_window)
 
     def _servo(self, side: str) -> Reading:
-        """``1 − α_after / α_before``: the fraction of the servo's identified gain lost over the last
-        ``servo_window`` (s) against the ``reference_window`` before it."""
+        """``1 − g_after / g_before``: the fraction of the servo's gain lost over the last ``servo_window`` (s)
+        against the ``reference_window`` before it. The gain is the regression's α while the command excites
+        the wheel (the variance of ``ω_cmd − ω`` in the reference window above ``servo_min_excitation``);
+        on a steady command, the inverse of the mean lag ``ω_cmd − ω`` (a servo of gain ``e k_v`` lags a
+        steady load ``τ`` by ``τ / (e k_v)``)."""
         s, h = self.settings, self.history
         k = h.k
         j = h.step_at(h.t[-1] - s.servo_window)
@@ -154,12 +158,30 @@ class ResidualDiagnoser:
         if i is None or j is None or h.t[j] - h.t[i] < s.servo_window - 1e-9:
             return QUIET
         after, before = h.regression(side, j, k), h.regression(side, i, j)
-        if after is None or before is None or before[0] <= 0.0:
+        if after is None or before is None:
             return QUIET
-        ratio = after[0] / before[0]
-        size = float(np.clip(ratio, 0.0, 1.0)) ** s.servo_size_exponent
+        if before[1] >= s.servo_min_excitation and before[0] > 0.0:
+            ratio = after[0] / before[0]
+            size = float(np.clip(ratio, 0.0, 1.0)) ** s.servo_size_exponent
+        else:
+            lag_before = h.delta(f"lag_{side}", i, j) / max(h.delta("n_cmd", i, j), 1.0)
+            lag_after = h.delta(f"lag_{side}", j, k) / max(h.delta("n_cmd", j, k), 1.0)
+            grew = lag_before * lag_after > 0.0 and abs(lag_after) > abs(lag_before)
+            ratio = lag_before / lag_after if grew else 1.0
+            size = ratio
         onset = h.t[j] if self.since[f"servo_{side}"] is None else self.since[f"servo_{side}"] - 0.5 * s.servo_window
         return Reading(1.0 - ratio, 1.0 - s.servo_ratio, size, float("nan"), onset)
+
+    def _dead(self, side: str) -> bool:
+        """The wheel lags its command by more than ``unresponsive_lag`` of it over the last ``servo_window``:
+        no torque follows the command (a lossy servo's lag stays bounded by its reduced torque)."""
+        s, h = self.settings, self.history
+        j = h.step_at(h.t[-1] - s.servo_window)
+        if j is None or j == h.k:
+            return False
+        n = max(h.delta("n_cmd", j, h.k), 1.0)
+        cmd = h.delta(f"cmd_{side}", j, h.k) / n
+        return cmd > 0.0 and abs(h.delta(f"lag_{side}", j, h.k)) / n > s.unresponsive_lag * cmd
 
     def _window_pairs(self) -> list[tuple[int, int, int | None]]:
         """``(j, k, i)`` pose-fix indices of each GLR window: the latest fix ``k``, the fix ``j`` a window
@@ -202,6 +224,8 @@ class ResidualDiagnoser:
     def _tyre(self, side: str) -> Reading:
         """The GLR of a drop of wheel ``side``'s rolling ratio against the window before the change."""
         s, h = self.settings, self.history
+        # a punctured tyre tilts the chassis, which moves the other tyre's contact point: a larger drop needed
+        min_drop = s.tyre_min_drop_second if self._has("tyre") is not None else s.tyre_min_drop
 
         def shift(j: int, k: int, i: int | None) -> Reading | None:
             after = self._ratio(side, j, k)
@@ -213,7 +237,7 @@ class ResidualDiagnoser:
             ref, var_ref = (min(before[0], 1.0), before[1]) if before is not None else (1.0, (3.0 * s.tyre_floor) ** 2)
             drop = after[0] - ref
             var = after[1] + var_ref + s.tyre_floor**2
-            stat = drop**2 / (2.0 * var) if drop < -s.tyre_min_drop else 0.0
+            stat = drop**2 / (2.0 * var) if drop < -min_drop else 0.0
             # the size: the ratio since the change, relative to the one before
             return Reading(stat, s.threshold, after[0] / ref, math.sqrt(var), h.fix_t[j])
 
@@ -282,9 +306,14 @@ class ResidualDiagnoser:
         return None
 
     def _declare_servo(self, t: float) -> Diagnosis | None:
-        """A lock, else a servo loss or an unresponsive servo; one servo fault per run (a lock or a dead
-        servo drags the robot so that the other servo's regression moves too), none after a puncture."""
-        if self._has("servo") is not None or self._has("tyre") is not None:
+        """A lock, else a servo loss or an unresponsive servo (re-declared as such if a loss's wheel stops
+        following its command); one servo fault per run (a lock or a dead servo drags the robot so that the
+        other servo's regression moves too), none after a puncture."""
+        last = self._has("servo")
+        if last is not None and last.mode == "loss" and self._dead(last.target[0].upper()):
+            return self._make("servo", last.target, "unresponsive",
+                              Reading(last.statistic, last.threshold, 0.0, last.sigma, last.onset), t)
+        if last is not None or self._has("tyre") is not None:
             return None  # a puncture changes the wheel-chassis coupling the servo regression identifies
         for side in "RL":
             if self._confirmed(f"lock_{side}", t):
@@ -292,7 +321,8 @@ class ResidualDiagnoser:
         for side in "RL":
             r = self.readings[f"servo_{side}"]
             if self._confirmed(f"servo_{side}", t) and not self.readings[f"tyre_{side}"].alarm:
-                mode = "unresponsive" if r.size < self.settings.unresponsive_below else "loss"
+                dead = r.size < self.settings.unresponsive_below or self._dead(side)
+                mode = "unresponsive" if dead else "loss"
                 size = 0.0 if mode == "unresponsive" else r.size
                 return self._make("servo", WHEEL_SIDES[side], mode, Reading(r.stat, r.threshold, size, r.sigma,
                                                                               r.onset), t)
@@ -311,40 +341,60 @@ class ResidualDiagnoser:
         return None
 
     def _declare_sensor(self, t: float) -> Diagnosis | None:
-        """A speed-sensor or gyro bias or drift, told apart once ``shape_min`` (s) has passed since the
-        estimated onset; a bias declared is re-declared as a drift when the residual keeps growing."""
+        """A speed-sensor or gyro bias or drift once its alarm is confirmed and ``shape_min`` (s) has passed
+        since the GLR's onset: mode, size and onset from :func:`onset_fit` on the integrated residual; a bias
+        declared is fitted again every ``shape_min`` while the alarm holds and re-declared as a drift if that
+        fits better."""
         for name, component, target in (("speed", "speed sensor", "speed"), ("gyro", "gyro", "yaw_rate")):
             r = self.readings[name]
             last = self._has(component)
             if not self._confirmed(name, t) or (last is not None and last.mode != "bias"):
                 continue
-            onset = r.onset if last is None else last.onset
-            if t - onset < self.settings.shape_min:
+            since = r.onset if last is None else last.declared
+            if t - since < self.settings.shape_min - 1e-9 or (last is not None and t - self.refit[name] <
+                                                              self.settings.shape_min - 1e-9):
                 continue
-            shape = self._shape(name, onset)
-            if shape is None:
-                continue
-            mode, size, sigma = shape
-            if last is None or mode == "drift":
+            self.refit[name] = t
+            fit = self._shape(name, t)
+            if fit is not None and (last is None or fit[0] == "drift"):
+                mode, size, sigma, onset = fit
                 return self._make(component, target, mode, Reading(r.stat, r.threshold, size, sigma, onset), t)
         return None
 
-    def _shape(self, name: str, onset: float) -> tuple[str, float, float] | None:
-        """``(mode, size, σ)`` of a sensor fault since ``onset`` (s): a drift (size the growth rate, per s)
-        when the mean residual of the second half exceeds the first's by ``drift_z`` σ (growing away from
-        zero), else a bias (size the mean offset)."""
-        h = self.history
-        k = len(h.fix_t) - 1
-        j0 = h.fix_at(onset)
-        jm = h.fix_at(0.5 * (onset + h.fix_t[k]))
-        if j0 is None or jm is None or not j0 < jm < k:
+    def _shape(self, name: str, t: float) -> tuple[str, float, float, float] | None:
+        """:func:`onset_fit` of the ``speed`` or ``gyro`` channel's integrated residual (the sensor's integral
+        minus the pose's arc or heading) at the pose fixes of the last ``fit_window`` (s) before ``t``."""
+        h, s = self.history, self.settings
+        j = h.fix_at(max(t - s.fit_window, s.launch))
+        if j is None or len(h.fix_t) - j < 10:
             return None
-        first, second, whole = self.residual(name, j0, jm), self.residual(name, jm, k), self.residual(name, j0, k)
-        if first is None or second is None or whole is None:
-            return None
-        grow = second[0] - first[0]
-        half = 0.5 * (h.fix_t[k] - h.fix_t[j0])
-        z = abs(grow) / math.sqrt(first[1] + second[1])
-        if z > self.settings.drift_z and second[0] * grow > 0:
-            return "drift", grow / half, math.sqrt(first[1] + second[1]) / half
-        return "bias", whole[0], math.sqrt(whole[1])
+        steps = np.asarray(h.fix_steps[j:])
+        times = np.asarray(h.fix_t[j:])
+        key = "v" if name == "speed" else "g"
+        ref = np.asarray(h.fix_s[j:]) if name == "speed" else np.array([p[2] for p in h.fix_pose[j:]])
+        e = np.asarray(h.sums[key])[steps] * self.dt - ref
+        starts = np.arange(times[0] + 0.5, t - 0.3, 0.05)
+        return onset_fit(times, e, starts) if starts.size else None
+
+
+def onset_fit(t: np.ndarray, e: np.ndarray, starts: np.ndarray) -> tuple[str, float, float, float]:
+    """``(mode, size, σ, onset)``: the least-squares fit of ``e(t) = c + b h(t − t0)`` over the candidate
+    onsets ``starts`` (s) for an offset (``bias``: ``h(x) = x⁺``, the integral of a constant offset ``b``)
+    and a ``drift`` (``h(x) = (x⁺)² / 2``, the integral of an offset growing at ``b`` per s) — the model,
+    the onset and the size with the smallest residual sum of squares, and the size's σ."""
+    best: tuple[float, str, float, float, float] | None = None
+    ec = e - e.mean()
+    for mode, power in (("bias", 1), ("drift", 2)):
+        H = np.clip(t[None, :] - starts[:, None], 0.0, None) ** power / power
+        Hc = H - H.mean(axis=1, keepdims=True)
+        shh = np.einsum("ij,ij->i", Hc, Hc)
+        she = Hc @ ec
+        ok = shh > 1e-12
+        b = np.where(ok, she / np.where(ok, shh, 1.0), 0.0)
+        sse = np.where(ok, float(ec @ ec) - b * she, np.inf)
+        i = int(np.argmin(sse))
+        sigma = math.sqrt(max(sse[i], 0.0) / max(t.size - 2, 1) / shh[i]) if ok[i] else math.inf
+        if best is None or sse[i] < best[0]:
+            best = (float(sse[i]), mode, float(b[i]), sigma, float(starts[i]))
+    assert best is not None
+    return best[1], best[2], best[3], best[4]

@@ -45,6 +45,8 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """σ of a tyre's rolling ratio between two windows of the healthy robot (fraction of nominal radius)."""
     tyre_min_drop: ranged(0.0, 1.0) = 0.02
     """The least radius drop declared (fraction of the nominal radius)."""
+    tyre_min_drop_second: ranged(0.0, 1.0) = 0.06
+    """The least drop declared on the other tyre once one is declared punctured (fraction of nominal radius)."""
     tyre_min_turn: ranged(0.0, 1.0e3, unit="rad") = 1.0
     """The least wheel rotation (rad) in a window for its rolling ratio to count."""
     speed_floor: ranged(0.0, 0.5) = 0.005
@@ -62,8 +64,13 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """Alarm when a servo's identified gain falls below this fraction of its gain before."""
     servo_size_exponent: ranged(0.05, 5.0) = 0.4
     """Size of a servo loss = (gain ratio) ** exponent: the closed-loop regression's bias, fitted on dev runs."""
+    servo_min_excitation: ranged(0.0, 1.0e3) = 1.0e-5
+    """Below this variance ((rad/s)²) of ``ω_cmd − ω`` in the reference window the command does not excite the
+    servo's regression: its gain is read from the mean lag instead."""
     unresponsive_below: ranged(0.0, 1.0) = 0.1
     """A servo fault whose size (remaining fraction) is below this is declared ``unresponsive``."""
+    unresponsive_lag: ranged(0.0, 10.0) = 0.15
+    """A servo whose wheel lags its command by more than this fraction of it is declared ``unresponsive``."""
     lock_window: Seconds = 0.1
     """Window (s) of the lock test."""
     lock_ratio: ranged(0.0, 1.0, lo_open=True, hi_open=True) = 0.1
@@ -73,9 +80,10 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     dropout_min: ranged(0.0, 10.0, unit="s") = 0.05
     """A sensor that delivers nothing for this long (s) is declared dropped out."""
     shape_min: ranged(0.0, 60.0, unit="s") = 1.0
-    """Time (s) after a sensor fault's estimated onset before bias and drift are told apart."""
-    drift_z: ranged(0.5, 100.0) = 4.0
-    """A sensor fault is a drift when its residual grew between the halves since the onset by this many σ."""
+    """Time (s) after a sensor fault's estimated onset before bias and drift are told apart (and between two
+    fits of a bias declared)."""
+    fit_window: Seconds = 10.0
+    """The span (s) of integrated residual a sensor fault's bias/drift fit reads."""
 
 
 class NoDiagnoserSettings(DiagnosisSettings):

@@ -355,37 +355,42 @@ class ResidualDiagnoser:
                                                               self.settings.shape_min - 1e-9):
                 continue
             self.refit[name] = t
-            fit = self._shape(name, t)
+            fit = self._shape(name, t, r.onset if last is None else last.onset)
             if fit is not None and (last is None or fit[0] == "drift"):
                 mode, size, sigma, onset = fit
                 return self._make(component, target, mode, Reading(r.stat, r.threshold, size, sigma, onset), t)
         return None
 
-    def _shape(self, name: str, t: float) -> tuple[str, float, float, float] | None:
-        """:func:`onset_fit` of the ``speed`` or ``gyro`` channel's integrated residual (the sensor's integral
-        minus the pose's arc or heading) at the pose fixes of the last ``fit_window`` (s) before ``t``."""
+    def _shape(self, name: str, t: float, onset: float) -> tuple[str, float, float, float] | None:
+        """:func:`onset_fit` of the ``speed`` or ``gyro`` channel's residual (the sensor's mean minus the pose's
+        arc or heading rate) over successive ``shape_bin`` (s) spans of the last ``fit_window`` (s) before
+        ``t``, the candidate onsets from ``shape_min`` before the GLR's ``onset`` (s) on."""
         h, s = self.history, self.settings
-        j = h.fix_at(max(t - s.fit_window, s.launch))
-        if j is None or len(h.fix_t) - j < 10:
+        grid = np.arange(max(t - s.fit_window, s.launch), t + 1e-9, s.shape_bin)
+        fixes = sorted({f for f in (h.fix_at(g) for g in grid) if f is not None})
+        mids, values = [], []
+        for j, k in zip(fixes[:-1], fixes[1:], strict=True):
+            r = self.residual(name, j, k)
+            if r is not None:
+                mids.append(0.5 * (h.fix_t[j] + h.fix_t[k]))
+                values.append(r[0])
+        starts = np.arange(max(grid[0] + s.shape_bin, onset - s.shape_min), t - 2.0 * s.shape_bin, 0.05)
+        if len(values) < 6 or not starts.size:
             return None
-        steps = np.asarray(h.fix_steps[j:])
-        times = np.asarray(h.fix_t[j:])
-        key = "v" if name == "speed" else "g"
-        ref = np.asarray(h.fix_s[j:]) if name == "speed" else np.array([p[2] for p in h.fix_pose[j:]])
-        e = np.asarray(h.sums[key])[steps] * self.dt - ref
-        starts = np.arange(times[0] + 0.5, t - 0.3, 0.05)
-        return onset_fit(times, e, starts) if starts.size else None
+        return onset_fit(np.asarray(mids), np.asarray(values), starts, s.drift_margin)
 
 
-def onset_fit(t: np.ndarray, e: np.ndarray, starts: np.ndarray) -> tuple[str, float, float, float]:
-    """``(mode, size, σ, onset)``: the least-squares fit of ``e(t) = c + b h(t − t0)`` over the candidate
-    onsets ``starts`` (s) for an offset (``bias``: ``h(x) = x⁺``, the integral of a constant offset ``b``)
-    and a ``drift`` (``h(x) = (x⁺)² / 2``, the integral of an offset growing at ``b`` per s) — the model,
-    the onset and the size with the smallest residual sum of squares, and the size's σ."""
+def onset_fit(t: np.ndarray, e: np.ndarray, starts: np.ndarray, margin: float = 1.0
+              ) -> tuple[str, float, float, float]:
+    """``(mode, size, σ, onset)``: the least-squares fit of a residual ``e(t) = c + b h(t − t0)`` over the
+    candidate onsets ``starts`` (s) for an offset (``bias``: ``h`` the unit step, ``b`` the offset) and a
+    ``drift`` (``h(x) = x⁺``, an offset growing at ``b`` per s) — the model, the onset and the size with the
+    smallest residual sum of squares (a drift's divided by ``margin`` ≤ 1), and the size's σ."""
     best: tuple[float, str, float, float, float] | None = None
     ec = e - e.mean()
-    for mode, power in (("bias", 1), ("drift", 2)):
-        H = np.clip(t[None, :] - starts[:, None], 0.0, None) ** power / power
+    for mode, power in (("bias", 0), ("drift", 1)):
+        x = t[None, :] - starts[:, None]
+        H = (x >= 0.0).astype(float) if power == 0 else np.clip(x, 0.0, None)
         Hc = H - H.mean(axis=1, keepdims=True)
         shh = np.einsum("ij,ij->i", Hc, Hc)
         she = Hc @ ec
@@ -394,7 +399,8 @@ def onset_fit(t: np.ndarray, e: np.ndarray, starts: np.ndarray) -> tuple[str, fl
         sse = np.where(ok, float(ec @ ec) - b * she, np.inf)
         i = int(np.argmin(sse))
         sigma = math.sqrt(max(sse[i], 0.0) / max(t.size - 2, 1) / shh[i]) if ok[i] else math.inf
-        if best is None or sse[i] < best[0]:
-            best = (float(sse[i]), mode, float(b[i]), sigma, float(starts[i]))
+        score = float(sse[i]) / (margin if mode == "drift" else 1.0)
+        if best is None or score < best[0]:
+            best = (score, mode, float(b[i]), sigma, float(starts[i]))
     assert best is not None
     return best[1], best[2], best[3], best[4]

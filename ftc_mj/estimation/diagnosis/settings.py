@@ -82,6 +82,11 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     shape_min: ranged(0.0, 60.0, unit="s") = 1.0
     """Time (s) after a sensor fault's estimated onset before bias and drift are told apart (and between two
     fits of a bias declared)."""
+    shape_bin: ranged(0.05, 10.0, unit="s") = 0.25
+    """Span (s) of each mean residual the bias/drift fit reads."""
+    drift_margin: ranged(0.01, 1.0) = 0.9
+    """A sensor fault is a drift when the drift model's residual sum of squares is below this fraction of the
+    bias model's."""
     fit_window: Seconds = 10.0
     """The span (s) of integrated residual a sensor fault's bias/drift fit reads."""
 

@@ -32,8 +32,8 @@ def context(gyro: float | None = 0.01, speed_sigma: float = 0.3) -> RunContext:
 
 def drive(fault: dict, duration: float = 20.0, gyro: float | None = 0.01, pose_sigma: float = 0.02,
           seed: int = 3, **settings: float) -> list[Diagnosis]:
-    """A unicycle on a 50 m circle at 10 m/s with first-order wheel servos (gain α per step), exact kinematics
-    and Gaussian sensors; ``fault``: ``{"kind": ..., "t": onset, ...}``; returns the declarations."""
+    """A unicycle on a 50 m circle at 10 m/s with first-order wheel servos (gain α per step) under a steady
+    load, exact kinematics and Gaussian sensors; ``fault``: ``{"kind": ..., "t": onset, ...}``; returns the declarations."""
     rng = np.random.default_rng(seed)
     diag = ResidualDiagnoser(ResidualDiagnoserSettings(**settings), context(gyro))
     x = y = psi = 0.0
@@ -54,7 +54,7 @@ def drive(fault: dict, duration: float = 20.0, gyro: float | None = 0.01, pose_s
             psidot = v_ref / r_ref
             cmd = np.array([(v_ref + B * psidot) / radii[0], (v_ref - B * psidot) / radii[1]])
             cmd = cmd + 0.2 * rng.standard_normal(2)
-        omega = omega + alpha * (cmd - omega)
+        omega = omega + alpha * (cmd - omega) - np.array([0.003, -0.003])  # a steady load: lags of ±0.03 rad/s
         if on and kind == "lock":
             omega[fault["wheel"]] = 0.0
         v = 0.5 * (radii[0] * omega[0] + radii[1] * omega[1])
@@ -83,11 +83,9 @@ def test_a_healthy_robot_is_not_diagnosed(sensing: dict) -> None:
 def test_a_puncture_is_declared_on_its_tyre_within_two_seconds_with_its_remaining_fraction(
         wheel: int, fraction: float) -> None:
     found = drive({"kind": "puncture", "t": 10.0, "wheel": wheel, "fraction": fraction})
-    assert [d.key for d in found] == [("tyre", ("right", "left")[wheel], "puncture")]
-    d = found[0]
-    assert 10.0 <= d.declared <= 12.0
-    assert d.size == pytest.approx(fraction, abs=0.05)  # the mean since a change time on the windows' grid
-    assert d.statistic > d.threshold
+    assert {d.key for d in found} == {("tyre", ("right", "left")[wheel], "puncture")}  # its size may be re-declared
+    assert 10.0 <= found[0].declared <= 12.0 and found[0].statistic > found[0].threshold
+    assert found[-1].size == pytest.approx(fraction, abs=0.05)  # the mean since a change time on the windows' grid
 
 
 def test_a_servo_loss_is_declared_on_its_servo_with_its_gain_fraction() -> None:
@@ -146,5 +144,5 @@ def test_a_puncture_without_a_gyro_is_isolated_from_a_noisy_10_hz_pose() -> None
     fixes at 10 Hz still isolate a 50 % left puncture within 2 s."""
     found = drive({"kind": "puncture", "t": 10.0, "wheel": 1, "fraction": 0.5}, gyro=None, pose_sigma=0.05,
                   pose_rate=10.0)
-    assert [d.key for d in found] == [("tyre", "left", "puncture")]
+    assert {d.key for d in found} == {("tyre", "left", "puncture")}
     assert found[0].declared <= 12.0

@@ -48,6 +48,8 @@ class Reading:
     size: float = float("nan")
     sigma: float = float("nan")
     onset: float = float("nan")
+    reference: float = 1.0
+    """A tyre's rolling ratio before the change, which its size is relative to."""
 
     @property
     def alarm(self) -> bool:
@@ -82,6 +84,7 @@ class ResidualDiagnoser:
         self.since: dict[str, float | None] = {c: None for c in CHANNELS}
         self.missing = {"speed": 0.0, "gyro": 0.0}
         self.refit = {"speed": 0.0, "gyro": 0.0}
+        self.tyre_reference = {"R": 1.0, "L": 1.0}
         self.declared: list[Diagnosis] = []
         self.pose_sigma = (self.R0 * settings.pose_floor, settings.pose_floor)
 
@@ -160,15 +163,17 @@ class ResidualDiagnoser:
         after, before = h.regression(side, j, k), h.regression(side, i, j)
         if after is None or before is None:
             return QUIET
-        if before[1] >= s.servo_min_excitation and before[0] > 0.0:
+        lag_before = h.delta(f"lag_{side}", i, j) / max(h.delta("n_cmd", i, j), 1.0)
+        lag_after = h.delta(f"lag_{side}", j, k) / max(h.delta("n_cmd", j, k), 1.0)
+        # a servo that lost gain lags the same load more: without that, a change of α is the loop's (a dither)
+        grew = lag_before * lag_after > 0.0 and abs(lag_after) > s.servo_lag_growth * abs(lag_before)
+        if not grew:
+            ratio, size = 1.0, 1.0
+        elif before[1] >= s.servo_min_excitation and before[0] > 0.0:
             ratio = after[0] / before[0]
             size = float(np.clip(ratio, 0.0, 1.0)) ** s.servo_size_exponent
         else:
-            lag_before = h.delta(f"lag_{side}", i, j) / max(h.delta("n_cmd", i, j), 1.0)
-            lag_after = h.delta(f"lag_{side}", j, k) / max(h.delta("n_cmd", j, k), 1.0)
-            grew = lag_before * lag_after > 0.0 and abs(lag_after) > abs(lag_before)
-            ratio = lag_before / lag_after if grew else 1.0
-            size = ratio
+            ratio = size = lag_before / lag_after
         onset = h.t[j] if self.since[f"servo_{side}"] is None else self.since[f"servo_{side}"] - 0.5 * s.servo_window
         return Reading(1.0 - ratio, 1.0 - s.servo_ratio, size, float("nan"), onset)
 
@@ -239,7 +244,7 @@ class ResidualDiagnoser:
             var = after[1] + var_ref + s.tyre_floor**2
             stat = drop**2 / (2.0 * var) if drop < -min_drop else 0.0
             # the size: the ratio since the change, relative to the one before
-            return Reading(stat, s.threshold, after[0] / ref, math.sqrt(var), h.fix_t[j])
+            return Reading(stat, s.threshold, after[0] / ref, math.sqrt(var), h.fix_t[j], ref)
 
         return self._glr(shift)
 
@@ -329,16 +334,44 @@ class ResidualDiagnoser:
         return None
 
     def _declare_tyre(self, t: float) -> Diagnosis | None:
+        """A puncture (see :meth:`_isolate`), or a declared one's size again when its rolling ratio has dropped
+        by ``tyre_min_drop`` and 3σ since (a step puncture's tyre settles over about a second; a ramp goes on)."""
         for side in "RL":
             target = WHEEL_SIDES[side]
-            if self._has("tyre", target) is not None or self.readings[f"lock_{side}"].alarm:
+            last = self._has("tyre", target)
+            if last is not None:
+                update = self._tyre_update(side, last, t)
+                if update is not None:
+                    return update
+                continue
+            if self.readings[f"lock_{side}"].alarm:
                 continue
             servo = self._has("servo")
-            if servo is not None and (servo.mode != "loss" or servo.target == target):
+            if servo is not None and servo.mode != "loss":
                 continue  # a dragged wheel skids: its rolling ratio says nothing of its tyre
             if self._confirmed(f"tyre_{side}", t):
+                self.tyre_reference[side] = self.readings[f"tyre_{side}"].reference
                 return self._make("tyre", target, "puncture", self.readings[f"tyre_{side}"], t)
         return None
+
+    def _tyre_update(self, side: str, last: Diagnosis, t: float) -> Diagnosis | None:
+        """``last``'s puncture with the size of the wheel's rolling ratio over the last ``tyre_update_window``
+        (s), relative to the one before the change, when it is below ``last``'s by ``tyre_min_drop`` and 3σ;
+        at most once per ``tyre_update_window``."""
+        s, h = self.settings, self.history
+        if t - last.declared < s.tyre_update_window - 1e-9 or not h.fix_t:
+            return None
+        k = len(h.fix_t) - 1
+        j = h.fix_at(h.fix_t[k] - s.tyre_update_window)
+        now = self._ratio(side, j, k) if j is not None and j < k else None
+        if now is None:
+            return None
+        size = now[0] / self.tyre_reference[side]
+        sigma = math.sqrt(now[1] + s.tyre_floor**2)
+        if last.size - size < max(s.tyre_min_drop, 3.0 * sigma):
+            return None  # a tyre does not re-inflate: a ratio back up is a skid
+        return self._make("tyre", last.target, "puncture", Reading(last.statistic, last.threshold, size, sigma,
+                                                                    last.onset), t)
 
     def _declare_sensor(self, t: float) -> Diagnosis | None:
         """A speed-sensor or gyro bias or drift once its alarm is confirmed and ``shape_min`` (s) has passed

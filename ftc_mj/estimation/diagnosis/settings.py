@@ -47,6 +47,8 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """The least radius drop declared (fraction of the nominal radius)."""
     tyre_min_drop_second: ranged(0.0, 1.0) = 0.06
     """The least drop declared on the other tyre once one is declared punctured (fraction of nominal radius)."""
+    tyre_update_window: Seconds = 1.0
+    """A declared puncture's size is re-declared from the rolling ratio over this window (s), at most this often."""
     tyre_min_turn: ranged(0.0, 1.0e3, unit="rad") = 1.0
     """The least wheel rotation (rad) in a window for its rolling ratio to count."""
     speed_floor: ranged(0.0, 0.5) = 0.005
@@ -62,6 +64,8 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """How long (s) a servo alarm holds before it is declared (a lock's alarm comes first)."""
     servo_ratio: ranged(0.0, 1.0, lo_open=True, hi_open=True) = 0.5
     """Alarm when a servo's identified gain falls below this fraction of its gain before."""
+    servo_lag_growth: ranged(1.0, 100.0) = 1.3
+    """A servo alarm needs its wheel's mean lag behind the command to have grown by this factor (same sign)."""
     servo_size_exponent: ranged(0.05, 5.0) = 0.4
     """Size of a servo loss = (gain ratio) ** exponent: the closed-loop regression's bias, fitted on dev runs."""
     servo_min_excitation: ranged(0.0, 1.0e3) = 1.0e-5

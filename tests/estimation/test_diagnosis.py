@@ -33,7 +33,8 @@ def context(gyro: float | None = 0.01, speed_sigma: float = 0.3) -> RunContext:
 def drive(fault: dict, duration: float = 20.0, gyro: float | None = 0.01, pose_sigma: float = 0.02,
           seed: int = 3, **settings: float) -> list[Diagnosis]:
     """A unicycle on a 50 m circle at 10 m/s with first-order wheel servos (gain α per step) under a steady
-    load, exact kinematics and Gaussian sensors; ``fault``: ``{"kind": ..., "t": onset, ...}``; returns the declarations."""
+    load, exact kinematics and Gaussian sensors; ``fault``: ``{"kind": ..., "t": onset, ...}``; returns the
+    declarations."""
     rng = np.random.default_rng(seed)
     diag = ResidualDiagnoser(ResidualDiagnoserSettings(**settings), context(gyro))
     x = y = psi = 0.0

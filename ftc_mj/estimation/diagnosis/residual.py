@@ -375,13 +375,13 @@ class ResidualDiagnoser:
 
     def _declare_sensor(self, t: float) -> Diagnosis | None:
         """A speed-sensor or gyro bias or drift once its alarm is confirmed and ``shape_min`` (s) has passed
-        since the GLR's onset: mode, size and onset from :func:`onset_fit` on the integrated residual; a bias
-        declared is fitted again every ``shape_min`` while the alarm holds and re-declared as a drift if that
+        since the GLR's onset and since the fitted one: mode, size and onset from :func:`onset_fit` of the
+        binned residual; a bias declared is fitted again every ``shape_min`` and re-declared as a drift if that
         fits better."""
         for name, component, target in (("speed", "speed sensor", "speed"), ("gyro", "gyro", "yaw_rate")):
             r = self.readings[name]
             last = self._has(component)
-            if not self._confirmed(name, t) or (last is not None and last.mode != "bias"):
+            if (last is None and not self._confirmed(name, t)) or (last is not None and last.mode != "bias"):
                 continue
             since = r.onset if last is None else last.declared
             if t - since < self.settings.shape_min - 1e-9 or (last is not None and t - self.refit[name] <
@@ -389,17 +389,19 @@ class ResidualDiagnoser:
                 continue
             self.refit[name] = t
             fit = self._shape(name, t, r.onset if last is None else last.onset)
+            if fit is not None and t - fit[4] < self.settings.shape_min - 1e-9:
+                continue  # too little since either model's fitted onset to tell a bias from a drift yet
             if fit is not None and (last is None or fit[0] == "drift"):
-                mode, size, sigma, onset = fit
+                mode, size, sigma, onset, _ = fit
                 return self._make(component, target, mode, Reading(r.stat, r.threshold, size, sigma, onset), t)
         return None
 
-    def _shape(self, name: str, t: float, onset: float) -> tuple[str, float, float, float] | None:
+    def _shape(self, name: str, t: float, onset: float) -> tuple[str, float, float, float, float] | None:
         """:func:`onset_fit` of the ``speed`` or ``gyro`` channel's residual (the sensor's mean minus the pose's
         arc or heading rate) over successive ``shape_bin`` (s) spans of the last ``fit_window`` (s) before
         ``t``, the candidate onsets from ``shape_min`` before the GLR's ``onset`` (s) on."""
         h, s = self.history, self.settings
-        grid = np.arange(max(t - s.fit_window, s.launch), t + 1e-9, s.shape_bin)
+        grid = (t - np.arange(0.0, t - max(t - s.fit_window, s.launch) + 1e-9, s.shape_bin))[::-1]  # ends at t
         fixes = sorted({f for f in (h.fix_at(g) for g in grid) if f is not None})
         mids, values = [], []
         for j, k in zip(fixes[:-1], fixes[1:], strict=True):
@@ -407,19 +409,21 @@ class ResidualDiagnoser:
             if r is not None:
                 mids.append(0.5 * (h.fix_t[j] + h.fix_t[k]))
                 values.append(r[0])
-        starts = np.arange(max(grid[0] + s.shape_bin, onset - s.shape_min), t - 2.0 * s.shape_bin, 0.05)
+        starts = np.arange(max(grid[0] + s.shape_bin, onset - s.shape_min), t - s.shape_bin, 0.05)
         if len(values) < 6 or not starts.size:
             return None
         return onset_fit(np.asarray(mids), np.asarray(values), starts, s.drift_margin)
 
 
 def onset_fit(t: np.ndarray, e: np.ndarray, starts: np.ndarray, margin: float = 1.0
-              ) -> tuple[str, float, float, float]:
+              ) -> tuple[str, float, float, float, float]:
     """``(mode, size, σ, onset)``: the least-squares fit of a residual ``e(t) = c + b h(t − t0)`` over the
     candidate onsets ``starts`` (s) for an offset (``bias``: ``h`` the unit step, ``b`` the offset) and a
     ``drift`` (``h(x) = x⁺``, an offset growing at ``b`` per s) — the model, the onset and the size with the
-    smallest residual sum of squares (a drift's divided by ``margin`` ≤ 1), and the size's σ."""
+    smallest residual sum of squares (a drift's divided by ``margin`` ≤ 1), the size's σ, and the later of the
+    two models' onsets (a decision needs data after both)."""
     best: tuple[float, str, float, float, float] | None = None
+    latest = -math.inf
     ec = e - e.mean()
     for mode, power in (("bias", 0), ("drift", 1)):
         x = t[None, :] - starts[:, None]
@@ -432,8 +436,9 @@ def onset_fit(t: np.ndarray, e: np.ndarray, starts: np.ndarray, margin: float = 
         sse = np.where(ok, float(ec @ ec) - b * she, np.inf)
         i = int(np.argmin(sse))
         sigma = math.sqrt(max(sse[i], 0.0) / max(t.size - 2, 1) / shh[i]) if ok[i] else math.inf
+        latest = max(latest, float(starts[i]))
         score = float(sse[i]) / (margin if mode == "drift" else 1.0)
         if best is None or score < best[0]:
             best = (score, mode, float(b[i]), sigma, float(starts[i]))
     assert best is not None
-    return best[1], best[2], best[3], best[4]
+    return best[1], best[2], best[3], best[4], latest

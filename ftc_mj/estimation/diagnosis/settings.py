@@ -83,10 +83,10 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """The lock test needs a command of at least this fraction of ``robot.omega_max``."""
     dropout_min: ranged(0.0, 10.0, unit="s") = 0.05
     """A sensor that delivers nothing for this long (s) is declared dropped out."""
-    shape_min: ranged(0.0, 60.0, unit="s") = 1.0
+    shape_min: ranged(0.0, 60.0, unit="s") = 2.0
     """Time (s) after a sensor fault's estimated onset before bias and drift are told apart (and between two
     fits of a bias declared)."""
-    shape_bin: ranged(0.05, 10.0, unit="s") = 0.25
+    shape_bin: ranged(0.05, 10.0, unit="s") = 0.5
     """Span (s) of each mean residual the bias/drift fit reads."""
     drift_margin: ranged(0.01, 1.0) = 0.9
     """A sensor fault is a drift when the drift model's residual sum of squares is below this fraction of the

@@ -88,7 +88,7 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     fits of a bias declared)."""
     shape_bin: ranged(0.05, 10.0, unit="s") = 0.5
     """Span (s) of each mean residual the bias/drift fit reads."""
-    drift_margin: ranged(0.01, 1.0) = 0.9
+    drift_margin: ranged(0.01, 1.0) = 0.5
     """A sensor fault is a drift when the drift model's residual sum of squares is below this fraction of the
     bias model's."""
     fit_window: Seconds = 10.0

@@ -85,6 +85,7 @@ class ResidualDiagnoser:
         self.missing = {"speed": 0.0, "gyro": 0.0}
         self.refit = {"speed": 0.0, "gyro": 0.0}
         self.tyre_reference = {"R": 1.0, "L": 1.0}
+        self.next_glr = 0.0
         self.declared: list[Diagnosis] = []
         self.pose_sigma = (self.R0 * settings.pose_floor, settings.pose_floor)
 
@@ -103,7 +104,8 @@ class ResidualDiagnoser:
         for side in "RL":
             self.readings[f"lock_{side}"] = self._lock(side)
             self.readings[f"servo_{side}"] = self._servo(side)
-        if h.fix_steps and h.fix_steps[-1] == h.k:  # the pose channels move with a new fix only
+        if h.fix_steps and h.fix_steps[-1] == h.k and z.t >= self.next_glr - 1e-9:  # with a new fix only,
+            self.next_glr = z.t + self.settings.glr_period                              # every glr_period
             for side in "RL":
                 self.readings[f"tyre_{side}"] = self._tyre(side)
             self.readings["speed"] = self._sensor("speed")

@@ -30,6 +30,9 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     windows: Annotated[list[Seconds], Field(min_length=1, max_length=16)] = Field(
         default_factory=lambda: [0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0])
     """The GLR's candidate change times: this long (s) before the latest pose fix."""
+    glr_period: ranged(0.0, 10.0, unit="s") = 0.05
+    """The pose channels' GLRs are evaluated at a new pose fix at most this often (s): their statistics change
+    little in between, and each evaluation costs a few hundred µs of Python."""
     reference_window: Seconds = 6.0
     """Length (s) of the window before a candidate change that gives a tyre's and a servo's nominal value."""
     threshold: ranged(0.5, 1.0e3) = 12.5

@@ -36,7 +36,8 @@ _COMPONENTS = {"Event": "ftc_mj.telemetry", "FilterOutput": "ftc_mj.estimation.b
                "RunConfig": "ftc_mj.config", "RunContext": "ftc_mj.context"}
 _REGISTER = {"register_estimator": "estimators", "register_decision_rule": "decision_rules",
              "register_controller": "controllers", "register_policy": "policies",
-             "register_reference": "references", "register_fault_class": "fault_classes"}
+             "register_reference": "references", "register_fault_class": "fault_classes",
+             "register_diagnoser": "diagnosers"}
 
 __all__ = [*_API, *_COMPONENTS, *_REGISTER, "components", "__version__"]
 

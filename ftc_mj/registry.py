@@ -1,5 +1,5 @@
 """Registries of the pluggable components: estimators, fault-decision rules, controllers,
-reconfiguration policies and reference paths.
+reconfiguration policies, reference paths, fault classes and diagnosers.
 
 A run config names each component by a string (``estimator.kind``, ``estimator.decision.rule``,
 ``controller.kind``, ``reconfiguration.policy``, ``reference.kind``); the simulation looks the name
@@ -213,9 +213,15 @@ its name, targets, units, parameters' ranges, physics, truth columns and observi
 attributes), built from one configuration table; ``settings``: the model of a plug-in class's ``options``
 (``[[faults.plugin]]``). A benchmark definition's ``plugins`` modules register the classes it draws."""
 
+diagnosers = Registry("diagnoser", "ftc_mj.diagnosers", "ftc_mj.wiring.diagnosis", "diagnosis.kind")
+"""``factory(settings, context: RunContext) -> Diagnoser | None`` (``settings``: the ``[diagnosis]`` section,
+the model of its ``kind`` — a plug-in's ``PluginDiagnoserSettings`` with its ``options``; ``None``: the run has no
+diagnoser); the object's ``step(DiagnosisInput) -> DiagnosisStep`` is called once per estimator step
+(:mod:`ftc_mj.estimation.diagnosis.base`); meta ``section``: a built-in's settings model."""
+
 REGISTRIES: dict[str, Registry] = {"estimators": estimators, "decision_rules": decision_rules,
                                    "controllers": controllers, "policies": policies, "references": references,
-                                   "fault_classes": fault_classes}
+                                   "fault_classes": fault_classes, "diagnosers": diagnosers}
 """Every registry by its name."""
 
 _loaded_plugins: set[str] = set()

@@ -145,8 +145,9 @@ def test_plant_and_controller_from_their_own_settings() -> None:
 def test_version_and_public_names() -> None:
     assert ftc_mj.__version__ == "0.1.0"
     assert set(ftc_mj.components()) == {"estimators", "decision_rules", "controllers", "policies", "references",
-                                        "fault_classes"}
+                                        "fault_classes", "diagnosers"}
     assert "actuator_loss" in ftc_mj.components()["fault_classes"] and callable(ftc_mj.register_fault_class)
+    assert "residual" in ftc_mj.components()["diagnosers"] and callable(ftc_mj.register_diagnoser)
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         _ = ftc_mj.nope  # type: ignore[attr-defined]
     assert json.loads(json.dumps(ftc_mj.__all__))  # plain names

@@ -25,6 +25,8 @@ FDI (runs with an estimator)
     (declared, wheel unknown), ``wrong`` (anything else: a healthy wheel, or any wheel when a fault is
     not a puncture — the filters model radius faults only, so a sensor or actuator fault declared as a
     puncture is a false isolation), ``none`` (nothing declared after the onset), ``n/a`` (no fault).
+Diagnosis (runs with a diagnoser)
+    ``diag_*`` at component-and-mode level — :func:`~ftc_mj.metrics.diagnosis.diagnosis_scores`.
 Reconfiguration
     ``reconfig_delay`` (s): first hand-over after the first onset —
     :func:`~ftc_mj.metrics.run.reconfiguration_metrics`.
@@ -55,6 +57,7 @@ import numpy as np
 
 from ..config import RunConfig
 from ..metrics.detection import WHEEL_OF_CODE, declared_wheel_codes
+from ..metrics.diagnosis import DIAGNOSIS_SCORE_COLUMNS, diagnosis_scores
 from ..metrics.fdi import KL_PROFILE_S, cumulative_kl, lorden_delays
 from ..metrics.outcome import OFF_PATH_M
 from ..metrics.path import path_following_metrics
@@ -68,7 +71,8 @@ from .judge import JUDGE_COLUMNS, judge_run
 
 SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "liftoff_s", "false_alarm", "detected",
                  "detection_delay", "isolation", "reconfig_delay", "lorden_delay_bound", "radius_pcrb_R",
-                 "radius_pcrb_L", "radius_error_R", "radius_error_L", "solver_fallbacks", "status", *JUDGE_COLUMNS)
+                 "radius_pcrb_L", "radius_error_R", "radius_error_L", "solver_fallbacks", "status", *JUDGE_COLUMNS,
+                 *DIAGNOSIS_SCORE_COLUMNS)
 """The keys :func:`score_run` returns (``None`` where a score does not apply)."""
 
 
@@ -202,4 +206,6 @@ def score_run(config: RunConfig, trace: dict[str, np.ndarray], events: Sequence[
         out.update(judge_run(cfg, record, tr, [f["onset"] for f in faults], out["success"], alive, rule))
     else:
         out.update(dict.fromkeys(JUDGE_COLUMNS))
+    out.update(diagnosis_scores(tr, fault_list(cfg.faults, cfg.plant_wheel_radius), cfg.sensors,
+                                cfg.model_wheel_radius))
     return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}

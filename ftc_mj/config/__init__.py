@@ -44,6 +44,7 @@ from .load import (
 from .schema import RunConfig, run_context
 from .sections import (
     ControllerConfig,
+    DiagnosisConfig,
     EstimatorConfig,
     FaultSettings,
     ModelSettings,
@@ -55,7 +56,7 @@ from .sections import (
 
 __all__ = [
     "BUILTIN_SCENARIOS", "DEFAULT_MODEL_FILE", "FLOAT_BOUND", "MAX_TOML_BYTES", "NAME_RE", "OMEGA_MAX",
-    "ControllerConfig", "EstimatorConfig", "FaultSettings",
+    "ControllerConfig", "DiagnosisConfig", "EstimatorConfig", "FaultSettings",
     "FiniteFloat",
     "Flag", "Fraction", "ModelSettings", "NonNegFloat", "OutputConfig",
     "PlantSettings", "PosFloat", "ReconfigurationConfig", "RobotSettings",

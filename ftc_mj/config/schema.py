@@ -15,12 +15,14 @@ from .. import registry
 from ..context import RunContext
 from ..control.nmpc import NMPCSettings
 from ..control.reference import ReferenceSettings
+from ..estimation.diagnosis import ResidualDiagnoserSettings
 from ..estimation.ukf import UKFSettings
 from ..fields import Flag, SafeName, StrictModel, ranged, ranged_int
 from ..model.sensors import SensorSettings
 from ..plant.faults import SERVO_CLASSES, PlantFault, fault_class
 from .sections import (
     ControllerConfig,
+    DiagnosisConfig,
     EstimatorConfig,
     FaultSettings,
     ModelSettings,
@@ -51,6 +53,7 @@ class RunConfig(StrictModel):
     faults: FaultSettings = Field(default_factory=FaultSettings)
     sensors: SensorSettings = Field(default_factory=SensorSettings)
     estimator: EstimatorConfig = Field(default_factory=UKFSettings)
+    diagnosis: DiagnosisConfig = Field(default_factory=ResidualDiagnoserSettings)
     controller: ControllerConfig = Field(default_factory=NMPCSettings)
     reconfiguration: ReconfigurationConfig = Field(default_factory=ReconfigurationConfig)
     reference: ReferenceSettings = Field(default_factory=ReferenceSettings)

@@ -1,5 +1,5 @@
 """The sections of a run config (``robot``, ``plant``, ``model``, ``faults``, ``sensors``,
-``estimator``, ``controller``, ``reconfiguration``, ``reference``, ``output``): one pydantic model
+``estimator``, ``diagnosis``, ``controller``, ``reconfiguration``, ``reference``, ``output``): one pydantic model
 each, with the paper's values as defaults. SI units and radians throughout; the only
 degree-valued fields end in ``_deg``.
 
@@ -40,6 +40,7 @@ from ..control.open_loop import OpenLoopSettings
 from ..control.pathfollow import PathFollowingNMPCSettings
 from ..control.robust import RobustNMPCSettings
 from ..control.spec import PluginControllerSettings
+from ..estimation.diagnosis import DIAGNOSER_KINDS, PluginDiagnoserSettings
 from ..estimation.kinds import BUILTIN_ESTIMATORS
 from ..estimation.settings import EstimatorSettings, PluginEstimatorSettings
 from ..fields import (
@@ -127,6 +128,12 @@ the filter model's settings, a UKF's sigma points, an IMM bank's, the fault deci
 ControllerConfig = kind_union("controller", CONTROLLER_KINDS, PluginControllerSettings, "nmpc")
 """The trajectory-tracking controller (paper §3), discriminated by ``kind``: the built-in kinds' models
 (:data:`CONTROLLER_KINDS`) or a plug-in's (its ``options``)."""
+
+
+DiagnosisConfig = kind_union("diagnosis", DIAGNOSER_KINDS, PluginDiagnoserSettings, "residual")
+"""The diagnoser (which component failed, how, how much, since when: :mod:`ftc_mj.estimation.diagnosis`),
+discriminated by ``kind``: the built-in ``residual`` and ``none`` (:data:`DIAGNOSER_KINDS`) or a plug-in's
+(its ``options``)."""
 
 
 class ReconfigurationConfig(ReconfigurationSettings):

@@ -44,7 +44,7 @@ from ..sim.loop import ClosedLoop, Sample, SimResult
 from ..sim.run import RunOutcome, run_metrics, unstable_time, write_outcome
 from ..telemetry import Event
 from .episode import episode_config
-from .observation import filter_values, observation_names, observation_space, sensor_values
+from .observation import diagnosis_values, filter_values, observation_names, observation_space, sensor_values
 
 ENDING_FLAGS = TIPPED | UNSTABLE | NAN
 """Plant flags that end an episode: the robot fell over, or the physics blew up (the plant froze)."""
@@ -173,6 +173,7 @@ class DiffDriveEnv(gym.Env):
         values = sensor_values(s.t, s.reading, loop.parts.reference, loop.controller_pose(s.reading))
         if self.observe_filter:
             values += filter_values(loop.out, loop.last_ds, loop.model_radii, float(loop.parts.policy.state))
+            values += diagnosis_values(loop.last_diagnosis)
         return np.array(values, dtype=np.float64)
 
     def _info(self, s: Sample) -> dict[str, Any]:

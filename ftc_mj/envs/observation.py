@@ -19,6 +19,8 @@ from ..control.reference import Reference
 from ..estimation.base import FilterOutput
 from ..estimation.change import WHEEL_CODES
 from ..estimation.decision import DecisionState
+from ..estimation.diagnosis import DiagnosisStep
+from ..estimation.diagnosis.base import COMPONENT_CODES, MODE_CODES, TARGET_CODES
 from ..plant import SensorReading
 
 SENSOR_GROUPS: dict[str, tuple[str, ...]] = {
@@ -42,23 +44,33 @@ STATE = ("x", "y", "psi", "R_R", "R_L")
 FILTER_NAMES: tuple[str, ...] = (*(f"{s}_hat" for s in STATE), *(f"{s}_std" for s in STATE),
                                  "fault_detected", "fault_suspected", "declared_wheel", "radius_anomaly",
                                  "R_R_model", "R_L_model", "reconfig_state", "filter_valid")
-"""With ``observe_filter``: the estimate (m, m, rad, m, m) and its σ, the decision (0/1 flags, the declared
-wheel's code 0 none, 1 right, 2 left, 3 both, 4 unknown), the radii (m) the reconfiguration policy
-chose for the controller, the policy's state (0 nominal, 1 hold, 2 handed over, 3 reverted), and
-``filter_valid`` (0.0 for a run without a filter: then the estimate and decision entries are 0.0)."""
+"""With ``observe_filter`` (then :data:`DIAGNOSIS_NAMES` follow): the estimate (m, m, rad, m, m) and its σ,
+the decision (0/1 flags, the declared wheel's code 0 none, 1 right, 2 left, 3 both, 4 unknown), the radii (m)
+the reconfiguration policy chose for the controller, the policy's state (0 nominal, 1 hold, 2 handed over,
+3 reverted), and ``filter_valid`` (0.0 for a run without a filter: then the estimate and decision entries are
+0.0)."""
+DIAGNOSIS_NAMES: tuple[str, ...] = ("diag_component", "diag_target", "diag_mode", "diag_size", "diag_onset",
+                                    "diag_count", "diag_alarms", "diag_valid")
+"""With ``observe_filter``, after the filter's entries: the diagnoser's latest declaration (codes of its
+component, target and mode — :data:`~ftc_mj.estimation.diagnosis.base.COMPONENT_CODES` … —, 0 when nothing is
+declared; its size in the mode's unit and onset, s), the number of declarations, the number of channels in
+alarm at this step, and ``diag_valid`` (0.0 for a run without a diagnoser: then all of them are 0.0)."""
 _FLAGS = {"t", "fault_detected", "fault_suspected", "declared_wheel", "radius_anomaly", "reconfig_state",
-          "filter_valid", *(f"{g}_valid" for g in SENSOR_GROUPS)}
+          "filter_valid", "diag_component", "diag_target", "diag_mode", "diag_count", "diag_alarms", "diag_valid",
+          *(f"{g}_valid" for g in SENSOR_GROUPS)}
 
 
 def observation_names(observe_filter: bool) -> tuple[str, ...]:
     """The names of the observation's entries, in order."""
-    return SENSOR_NAMES + (FILTER_NAMES if observe_filter else ())
+    return SENSOR_NAMES + (FILTER_NAMES + DIAGNOSIS_NAMES if observe_filter else ())
 
 
 def observation_space(observe_filter: bool) -> spaces.Box:
     """The Box of the observation: flags and codes in [0, 1] or [0, 4], time ≥ 0, the rest unbounded."""
     names = observation_names(observe_filter)
-    high = {"declared_wheel": float(max(WHEEL_CODES.values())), "reconfig_state": 3.0, "t": np.inf}
+    high = {"declared_wheel": float(max(WHEEL_CODES.values())), "reconfig_state": 3.0, "t": np.inf,
+            "diag_component": float(max(COMPONENT_CODES.values())), "diag_target": float(max(TARGET_CODES.values())),
+            "diag_mode": float(max(MODE_CODES.values())), "diag_count": np.inf, "diag_alarms": np.inf}
     low = np.array([0.0 if n in _FLAGS else -np.inf for n in names])
     hi = np.array([high.get(n, 1.0) if n in _FLAGS else np.inf for n in names])
     return spaces.Box(low, hi, dtype=np.float64)
@@ -91,3 +103,16 @@ def filter_values(out: FilterOutput | None, ds: DecisionState | None, model_radi
     decision = [float(ds.detected), float(ds.suspected), float(WHEEL_CODES[ds.wheel]), float(ds.anomaly)]
     return [*(float(v) for v in out.x[:len(STATE)]), *(float(v) for v in std[:len(STATE)]), *decision,
             *policy, 1.0]
+
+
+def diagnosis_values(step: DiagnosisStep | None) -> list[float]:
+    """The diagnosis part of the observation (:data:`DIAGNOSIS_NAMES`) from the diagnoser's latest step."""
+    if step is None:
+        return [0.0] * len(DIAGNOSIS_NAMES)
+    alarms = float(sum(step.alarms.values()))
+    if not step.declared:
+        return [0.0] * 5 + [0.0, alarms, 1.0]
+    d = step.declared[-1]
+    size = float(d.size) if np.isfinite(d.size) else 0.0
+    return [float(COMPONENT_CODES[d.component]), float(TARGET_CODES[d.target]), float(MODE_CODES[d.mode]), size,
+            float(d.onset), float(len(step.declared)), alarms, 1.0]

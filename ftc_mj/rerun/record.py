@@ -441,6 +441,15 @@ def _log_motion(sink: _Sink) -> None:
         for side, c in (("R", _TRUTH), ("L", _CMD)):
             scalars(f"/accommodation/effectiveness_{side}", col(f"actuator_effectiveness_{side}"), c,
                     f"actuator model: servo effectiveness {side}", 1.0)
+    _log_diagnosis(sink)
+
+
+def _log_diagnosis(sink: _Sink) -> None:
+    """The diagnoser's channels in alarm and declarations so far (counts), as ``/diagnosis/alarms`` and
+    ``/diagnosis/declarations`` (the declarations themselves are events), when the trace has them."""
+    if "diag_alarms" in sink.trace and np.isfinite(sink.col("diag_alarms")).any():
+        sink.scalars("/diagnosis/alarms", sink.col("diag_alarms"), _LIMIT, "channels in alarm", 1.5)
+        sink.scalars("/diagnosis/declarations", sink.col("diag_count"), _EST, "declarations", 1.5)
 
 
 def _log_injected(sink: _Sink) -> None:

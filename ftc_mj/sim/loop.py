@@ -10,7 +10,9 @@ fixed sequence of named steps:
 1. ``sense``: read the truth and the sensors at ``t_k``;
 2. ``estimate``: the filter predicts over ``[t_{k-1}, t_k]`` with the wheel rates measured at
    ``t_{k-1}`` and updates with the measurement at ``t_k``; ``decide``: the fault decision runs on its
-   output and the policy observes it; ``record_estimate``;
+   output and the policy observes it; ``record_estimate``; ``diagnose``: the diagnoser
+   (:mod:`ftc_mj.estimation.diagnosis`) reads the same measurements and the command in force and declares
+   which component failed, how and how much;
 3. on a controller sample, ``reconfigure``: the policy chooses the radii (a robust NMPC with
    ``posterior`` weighting is first handed the filter's scenario weights,
    :mod:`ftc_mj.reconfiguration.scenario_weights`);
@@ -41,6 +43,7 @@ from ..control.excitation import dither_wheel_rates, yaw_dither
 from ..errors import BadInput
 from ..estimation.base import FilterOutput, Measurement
 from ..estimation.decision import DecisionState, FaultDecision
+from ..estimation.diagnosis import Diagnoser, DiagnosisInput, DiagnosisStep
 from ..estimation.pcrb import pcrb_columns
 from ..metrics.record import RunRecord
 from ..plant import SensorReading, Sensors, Truth
@@ -52,6 +55,7 @@ from ..registry import controllers
 from ..telemetry import Event, RobotGeometry, Solve
 from ..wiring.control import build_reference
 from ..wiring.decision import build_fault_decision
+from ..wiring.diagnosis import build_diagnoser
 from ..wiring.estimation import build_estimator
 from ..wiring.reconfiguration import (
     build_accommodation,
@@ -86,6 +90,8 @@ class SimResult:
     geometry: RobotGeometry | None = None
     record: RunRecord | None = None
     """The run's resolved record (:mod:`.record`), which its metrics and scores read."""
+    diagnoses: list[Any] = field(default_factory=list)
+    """The diagnoser's declarations (:class:`~ftc_mj.model.diagnosis.Diagnosis`), oldest first."""
 
 
 @dataclass(frozen=True)
@@ -174,6 +180,8 @@ class Components:
     """The accommodation of every diagnosed mode and its safe stop (``None``: the policy's radii only)."""
     diagnoses: Any = None
     """Where the accommodation's declarations come from (``diagnoses(t)``; ``None``: none)."""
+    diagnoser: Diagnoser | None = None
+    """The diagnoser (``None``: ``diagnosis.kind = "none"``)."""
 
 
 def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any] | None = None) -> Components:
@@ -198,7 +206,7 @@ def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any]
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
     return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting, degraded, record,
-                      accommodation, diagnoses)
+                      accommodation, diagnoses, build_diagnoser(cfg))
 
 
 def present(value: float | None) -> float | None:
@@ -276,6 +284,7 @@ class ClosedLoop:
         self.model_radii = np.full(2, cfg.model_wheel_radius)
         self.last_resets = 0
         self.last_ds: DecisionState | None = None
+        self.last_diagnosis: DiagnosisStep | None = None
         self.detected_before = False
         self.anomaly_before = False
         self.suspected = False
@@ -307,6 +316,8 @@ class ClosedLoop:
             out, u_pred = self.estimate(reading, u_meas)
             ds = self.decide(t, out, u_pred)
             self.record_estimate(k, t, out, ds)
+        if self.parts.diagnoser is not None:
+            self.diagnose(k, t, reading, u_meas)
         self.u_prev = u_meas
         radii = self.reconfigure(t, u_meas, truth) if k % self.est_per_ctl == 0 else None
         return Sample(t, truth, reading, radii)
@@ -383,6 +394,28 @@ class ClosedLoop:
             self.reset_since_solve = True
             self.events.append(Event(t, "error", f"filter divergence: reset #{resets}"))
         self.last_resets = resets
+
+    def diagnose(self, k: int, t: float, rd: SensorReading, u_meas: np.ndarray) -> DiagnosisStep:
+        """The diagnoser's step at ``t`` (s) on the readings (a sample a faulty sensor did not deliver is
+        absent), the pose (``pose_source = "truth"``: the one the controller is handed, σ ``sensors.pose_sigma``;
+        ``"sensor"``: the pose sensor's fixes, σ ``sensors.position_sigma``), the encoders, the command in
+        force and the filter's radii; row ``k``'s diagnosis columns and an event per declaration."""
+        assert self.parts.diagnoser is not None
+        radii = None if self.out is None else self.out.x[3:5]
+        if self.pose_from_sensor:  # the information rule: the pose sensor's fixes (None between them)
+            pose, sigma = rd.pose_fix, self.cfg.sensors.position_sigma
+        else:
+            pose, sigma = rd.pose, self.cfg.sensors.pose_sigma
+        z = DiagnosisInput(t=t, omega=u_meas, command=self.applied, speed=present(rd.speed),
+                           yaw_rate=present(rd.yaw_rate), pose=pose, pose_sigma=sigma, radii=radii)
+        step = self.parts.diagnoser.step(z)
+        self.trace.diagnosis(k, step)
+        for d in step.new:
+            self.events.append(Event(t, "warn", f"diagnosis: {d.component} {d.target} {d.mode}, size {d.size:.3g} "
+                                                f"± {d.sigma:.2g}, onset {d.onset:.2f} s (statistic {d.statistic:.3g}"
+                                                f" > threshold {d.threshold:.3g})"))
+        self.last_diagnosis = step
+        return step
 
     def reconfigure(self, t: float, u_meas: np.ndarray, tr: Truth) -> np.ndarray:
         """The radii (m) the policy gives the controller at ``t`` (s); a robust NMPC weighted by the filter
@@ -490,7 +523,8 @@ class ClosedLoop:
                          decision=self.last_ds, n_modes=self.n_modes,
                          reference_path=self.parts.reference.path_points(720),
                          wall_time=time.perf_counter() - wall0, error=self.error, error_where=self.error_where,
-                         geometry=robot_geometry(self.parts.plant, self.cfg), record=self.run_record)
+                         geometry=robot_geometry(self.parts.plant, self.cfg), record=self.run_record,
+                         diagnoses=list(self.last_diagnosis.declared) if self.last_diagnosis else [])
 
     def counters(self) -> dict[str, float]:
         """Filter resets and rejections (with a pose sensor also the pose fixes its gate rejected), solver

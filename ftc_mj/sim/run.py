@@ -33,12 +33,14 @@ from ..errors import OutputError
 from ..estimation.imm import IMMSettings
 from ..identity import run_id
 from ..io import atomic_dir, remove_stale_temporaries, unique_dir, write_json, write_parquet, write_toml
+from ..metrics.diagnosis import diagnosis_metrics
 from ..metrics.fdi import fdi_sweep_metrics
 from ..metrics.outcome import physical_outcome
 from ..metrics.record import RunRecord
 from ..metrics.run import compute_metrics
 from ..metrics.schema import schema as metrics_schema
 from ..plant import NAN, UNSTABLE
+from ..plant.faults import fault_list
 from ..telemetry.columns import INTEGER_COLUMNS, trace_schema_metadata
 from .loop import SimResult, simulate
 from .output import check_output_root, output_bytes
@@ -86,6 +88,8 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
     record = record_of(cfg, res)
     m.update(compute_metrics(record, res.trace, res.counters))
     m.update(fdi_sweep_metrics(record, res.trace))
+    m.update(diagnosis_metrics(res.trace, fault_list(cfg.faults, cfg.plant_wheel_radius), cfg.sensors,
+                               cfg.model_wheel_radius))
     # the radii the controller used departed from nominal at some sample (not just: a feeding policy)
     m["feedback"] = bool((m.get("reconfig_handed_fraction") or 0.0) > 0.0)
     t_bad = unstable_time(res.trace)

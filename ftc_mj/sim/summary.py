@@ -114,6 +114,18 @@ def onset_lines(metrics: dict[str, Any], sample_s: float | None = None) -> list[
     return lines
 
 
+def diagnosis_lines(metrics: dict[str, Any]) -> list[str]:
+    """One line per declaration of the diagnoser (component, target, mode, size, onset, declaration time) and,
+    for every configured fault, whether it was isolated."""
+    lines = [f"diagnosis at t = {d['declared']:.2f} s: {d['component']} {d['target']} {d['mode']}, size "
+             f"{_fmt(d['size'])} (onset {d['onset']:.2f} s)" for d in metrics.get("diagnoses") or []]
+    for e in metrics.get("diagnosis_faults") or []:
+        verdict = (f"isolated after {e['isolation_delay']:.2f} s" if e["isolated"]
+                   else f"not isolated (first declaration: {e['declared'] or 'none'})")
+        lines.append(f"fault {e['fault_class']} on {e['target']} at {e['onset']:g} s: {verdict}")
+    return lines
+
+
 def _final(trace: dict[str, np.ndarray], col: str) -> float | None:
     a = np.asarray(trace.get(col, []), dtype=float)
     a = a[np.isfinite(a)]
@@ -235,7 +247,7 @@ def print_run_summary(outcome: RunOutcome, max_sigma: float | None = None, scena
     for text, style in outcome_lines(m):
         console.print(text, style=style or None, soft_wrap=True)
     console.print(table)
-    for line in onset_lines(m, sample_s):
+    for line in onset_lines(m, sample_s) + diagnosis_lines(m):
         console.print(line, soft_wrap=True)
     note = nominal_hold_note(m, trace, max_sigma, scenario)
     if note:

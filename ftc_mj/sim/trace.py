@@ -16,6 +16,7 @@ import numpy as np
 
 from ..control.base import ControlOutput
 from ..estimation.base import FilterOutput
+from ..estimation.diagnosis.base import COMPONENT_CODES, MODE_CODES, TARGET_CODES
 from ..plant import SensorReading, Truth
 from ..telemetry.columns import BASE_COLUMNS, COVARIANCE_COLUMNS, POSE_GATE_COLUMN, STATE, WHEEL_CODES
 
@@ -125,6 +126,29 @@ class TraceWriter:
         if mode_probs is not None:
             for j in range(self.n_modes):
                 c[f"mode_prob_{j + 1}"][k] = mode_probs[j]
+
+    def diagnosis(self, k: int, step: object) -> None:
+        """The diagnoser's output at row ``k`` (a :class:`~ftc_mj.estimation.diagnosis.DiagnosisStep`): every
+        channel's statistic and alarm flag (the channels of :data:`~ftc_mj.estimation.diagnosis.CHANNELS`), the
+        number in alarm, and the latest declaration with the count."""
+        c = self.columns
+        for name, value in step.statistics.items():  # a plug-in's own channels count in diag_alarms only
+            if f"diag_stat_{name}" in c:
+                c[f"diag_stat_{name}"][k] = value
+        for name, alarm in step.alarms.items():
+            if f"diag_alarm_{name}" in c:
+                c[f"diag_alarm_{name}"][k] = float(alarm)
+        c["diag_alarms"][k] = float(sum(step.alarms.values()))
+        c["diag_count"][k] = float(len(step.declared))
+        if step.declared:
+            d = step.declared[-1]
+            c["diag_component"][k] = COMPONENT_CODES[d.component]
+            c["diag_target"][k] = TARGET_CODES[d.target]
+            c["diag_mode"][k] = MODE_CODES[d.mode]
+            for key in ("size", "sigma", "onset", "declared", "statistic", "threshold"):
+                c[f"diag_{key}"][k] = getattr(d, key)
+        else:
+            c["diag_component"][k] = c["diag_target"][k] = c["diag_mode"][k] = 0.0
 
     def excitation(self, k: int, dither: float) -> None:
         """The yaw-rate dither (rad/s) added to the command of row ``k``."""

@@ -31,6 +31,13 @@ gate rejected it, 0 if it was fused (NaN without a fix).
 from __future__ import annotations
 
 from ..estimation.change import WHEEL_CODES
+from ..estimation.diagnosis.base import (
+    COMPONENT_CODES,
+    DIAGNOSIS_COLUMNS,
+    DIAGNOSIS_INTEGER_COLUMNS,
+    MODE_CODES,
+    TARGET_CODES,
+)
 from ..estimation.pcrb import PCRB_COLUMNS
 from ..estimation.rule_statistics import STAT_COLUMNS
 from ..plant.faults import ACTUATOR_COLUMNS, SENSOR_COLUMNS
@@ -65,7 +72,7 @@ BASE_COLUMNS: tuple[str, ...] = (
     "R_R_model", "R_L_model", "cross_track_error", "roll", "pitch", "z", "slip_R", "slip_L",
     "plant_flags", "fault_detected", "fault_suspected", "declared_wheel", "radius_anomaly", "radius_split_std",
     "reconfig_state", "excitation", "solve_time_ms", "solver_iterations", "solver_ok",
-    "x_meas", "y_meas", *PCRB_COLUMNS, *STAT_COLUMNS,
+    "x_meas", "y_meas", *PCRB_COLUMNS, *STAT_COLUMNS, *DIAGNOSIS_COLUMNS,
 )
 
 CODED_COLUMNS: dict[str, str] = {
@@ -80,12 +87,21 @@ CODED_COLUMNS: dict[str, str] = {
         f"{code} {name or 'nothing declared'}" for name, code in WHEEL_CODES.items()),
     "excitation": "yaw-rate dither added to the command (rad/s); NaN when off",
     "cross_track_error": "signed distance to the reference path (m), positive = left of it",
+    "diag_component": "component of the latest diagnosis: " + ", ".join(
+        f"{code} {name or 'nothing declared'}" for name, code in COMPONENT_CODES.items()),
+    "diag_target": "target of the latest diagnosis: " + ", ".join(
+        f"{code} {name or 'nothing declared'}" for name, code in TARGET_CODES.items()),
+    "diag_mode": "mode of the latest diagnosis: " + ", ".join(
+        f"{code} {name or 'nothing declared'}" for name, code in MODE_CODES.items()),
+    "diag_count": "number of diagnoses declared so far (a new one where it grows)",
+    "diag_alarms": "number of diagnosis channels in alarm (statistic above its threshold), declared or not",
 }
 """Meaning of the trace's coded columns, also stored in the Parquet schema metadata of ``trace.parquet``."""
 
 INTEGER_COLUMNS: tuple[str, ...] = (
     "plant_flags", "fault_detected", "fault_suspected", "declared_wheel", "radius_anomaly", "reconfig_state",
     "solver_ok", "solver_iterations", "nis_dof", *(c for c in STAT_COLUMNS if c.endswith("_wheel")),
+    *DIAGNOSIS_INTEGER_COLUMNS,
 )
 """Integer codes, flags and counts: stored in ``trace.parquet`` as integers with nulls where the run
 produced no value (in memory ``plant_flags`` is an int64 column, the others floats with NaN)."""

@@ -27,8 +27,8 @@ SHORT = ["--duration", "1", "--set", "sensors.yaw_rate_sigma=0.01", "--no-rrd", 
 
 
 def test_package_data_is_found_through_importlib_resources() -> None:
-    assert resources.builtin_scenarios() == ("actuator_loss", "scenario1", "scenario2", "scenario3", "scenario4",
-                                             "servo_loss30")
+    assert resources.builtin_scenarios() == ("actuator_loss", "gyro_bias", "scenario1", "scenario2", "scenario3",
+                                             "scenario4", "servo_loss30", "speed_bias")
     assert {"observability", "severity", "reconfiguration"} <= set(resources.builtin_studies())
     assert resources.builtin_models() == ("diffdrive.xml",)
     assert resources.model_path("builtin:diffdrive.xml").read_text().lstrip().startswith("<!--")

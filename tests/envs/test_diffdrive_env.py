@@ -326,3 +326,24 @@ def test_an_action_that_is_not_two_finite_real_numbers_is_refused(action: object
     assert "\n" not in str(err.value)
     obs, *_ = env.step(np.array([5, 5]))  # integers are real numbers; the episode goes on from t = 0
     assert env.loop is not None and env.loop.trace.columns["omega_R_cmd"][0] == 5.0
+
+
+def test_the_diagnosis_is_observed_with_the_filter() -> None:
+    """With ``observe_filter`` the diagnoser's latest declaration follows the filter's entries: a speed-sensor
+    dropout from 0.2 s is declared, its component, target and mode codes and the declaration count observed;
+    without a diagnoser ``diag_valid`` is 0."""
+    from ftc_mj.estimation.diagnosis.base import COMPONENT_CODES, MODE_CODES, TARGET_CODES
+
+    dropout = {"sensor": "speed", "kind": "dropout", "onset": 0.2, "duration": 1.0}
+    env = DiffDriveEnv("scenario2", {**KINEMATIC, "faults.sensor": [dropout]}, observe_filter=True)
+    env.reset()
+    for _ in range(4):
+        obs, *_ = env.step([5.0, 4.0])
+    o = dict(zip(env.observation_names, obs, strict=True))
+    assert env.observation_space.contains(obs) and o["diag_valid"] == 1.0 and o["diag_count"] == 1.0
+    assert (o["diag_component"], o["diag_target"], o["diag_mode"]) == (
+        COMPONENT_CODES["speed sensor"], TARGET_CODES["speed"], MODE_CODES["dropout"])
+    env = DiffDriveEnv("scenario2", {**KINEMATIC, "diagnosis.kind": "none"}, observe_filter=True)
+    env.reset()
+    obs, *_ = env.step([5.0, 4.0])
+    assert dict(zip(env.observation_names, obs, strict=True))["diag_valid"] == 0.0

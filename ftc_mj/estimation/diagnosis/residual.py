@@ -1,0 +1,446 @@
+"""The built-in diagnoser: structured residuals, each sensitive to one component, a windowed GLR on each,
+and an isolation table that reads which residuals fired (Gertler's structured residuals; the
+window-limited GLR of Willsky & Jones and Basseville & Nikiforov §2.4; the residual table of Blanke et al.
+ch. 6). docs/fdi.md says why this design and what each channel can and cannot see.
+
+Every residual compares two measurements that a healthy robot makes agree, against a reference that no
+other fault moves:
+
+- ``tyre_R``/``tyre_L``: the arc each wheel's contact point rolled between two pose fixes
+  (``s ± b Δψ``) over the angle its encoder turned (``R0 Δθ``) — its rolling ratio, a fraction of the
+  nominal radius — after a candidate change against the window before it: a puncture only;
+- ``servo_R``/``servo_L``: the gain ``α`` of the wheel's response to its command (the regression
+  ``Δω_k = α (ω_cmd − ω)_{k−1} − β``) after a candidate change over the gain before it: a servo loss or an
+  unresponsive servo only (a puncture raises it);
+- ``lock_R``/``lock_L``: the wheel turns at under ``lock_ratio`` of its command;
+- ``speed``: the speed sensor's mean reading minus the pose's arc per second; ``gyro``: the gyro's mean
+  minus the pose's heading change per second: the sensor's own faults only;
+- ``speed_dropout``/``gyro_dropout``: how long the sensor has delivered nothing.
+
+The GLR of a mean shift ``D`` of variance ``σ²`` is ``D² / (2 σ²)``, maximised over the candidate change
+times :attr:`~.settings.ResidualDiagnoserSettings.windows` before the latest pose fix; σ² is the noise of
+the sensors involved (from their configured σ) plus a model floor relative to the nominal quantity.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...context import RunContext
+from ...model.diagnosis import Diagnosis
+from .base import CHANNELS, DiagnosisInput, DiagnosisStep
+from .history import History
+from .settings import ResidualDiagnoserSettings
+
+WHEEL_SIDES = {"R": "right", "L": "left"}
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One channel's verdict at a step: its statistic and threshold, and what a declaration would say."""
+
+    stat: float
+    threshold: float
+    size: float = float("nan")
+    sigma: float = float("nan")
+    onset: float = float("nan")
+    reference: float = 1.0
+    """A tyre's rolling ratio before the change, which its size is relative to."""
+
+    @property
+    def alarm(self) -> bool:
+        """The statistic lies above its threshold."""
+        return bool(self.stat > self.threshold)
+
+
+QUIET = Reading(0.0, math.inf)
+"""A channel with nothing to say this step (no data, or not applicable)."""
+
+
+class ResidualDiagnoser:
+    """The structured-residual diagnoser (module docstring) for the robot of ``context``.
+
+    Args:
+        settings: its settings (:class:`~.settings.ResidualDiagnoserSettings`).
+        context: the run context: the nominal radius and half track, the estimator period, the sensors' σ.
+    """
+
+    def __init__(self, settings: ResidualDiagnoserSettings, context: RunContext) -> None:
+        self.settings = settings
+        self.R0 = float(context.nominal_radii[0])
+        self.b = float(context.half_track)
+        self.dt = float(context.estimator_dt)
+        self.omega_max = float(context.omega_max)
+        sensors = context.sensors
+        self.sigma_v = float(getattr(sensors, "speed_sigma", 0.5))
+        gyro = getattr(sensors, "yaw_rate_sigma", None)
+        self.sigma_g = None if gyro is None else float(gyro)
+        self.history = History(self.dt)
+        self.readings: dict[str, Reading] = {c: QUIET for c in CHANNELS}
+        self.since: dict[str, float | None] = {c: None for c in CHANNELS}
+        self.missing = {"speed": 0.0, "gyro": 0.0}
+        self.refit = {"speed": 0.0, "gyro": 0.0}
+        self.tyre_reference = {"R": 1.0, "L": 1.0}
+        self.next_glr = 0.0
+        self.declared: list[Diagnosis] = []
+        self.pose_sigma = (self.R0 * settings.pose_floor, settings.pose_floor)
+
+    # ---------------------------------------------------------------- the step
+    def step(self, z: DiagnosisInput) -> DiagnosisStep:
+        """Add the measurements of this step, update every channel, declare what the alarms isolate."""
+        h = self.history
+        pose = z.pose
+        if pose is not None and self.settings.pose_rate is not None:
+            if h.fix_t and z.t < h.fix_t[-1] + 1.0 / self.settings.pose_rate - 1e-9:
+                pose = None  # not due yet at pose_rate
+        h.push(z.t, np.asarray(z.omega, float), z.command, z.speed, z.yaw_rate, pose)
+        floor_p, floor_psi = self.R0 * self.settings.pose_floor, self.settings.pose_floor
+        self.pose_sigma = (max(z.pose_sigma, floor_p), max(z.pose_sigma, floor_psi))
+        self._dropouts(z)
+        for side in "RL":
+            self.readings[f"lock_{side}"] = self._lock(side)
+            self.readings[f"servo_{side}"] = self._servo(side)
+        if h.fix_steps and h.fix_steps[-1] == h.k and z.t >= self.next_glr - 1e-9:  # with a new fix only,
+            self.next_glr = z.t + self.settings.glr_period                              # every glr_period
+            for side in "RL":
+                self.readings[f"tyre_{side}"] = self._tyre(side)
+            self.readings["speed"] = self._sensor("speed")
+            self.readings["gyro"] = self._sensor("gyro") if self.sigma_g is not None else QUIET
+        for c, r in self.readings.items():
+            if not r.alarm:
+                self.since[c] = None
+            elif self.since[c] is None:
+                self.since[c] = z.t
+        new = self._isolate(z.t)
+        self.declared.extend(new)
+        return DiagnosisStep(statistics={c: r.stat for c, r in self.readings.items()},
+                             alarms={c: r.alarm for c, r in self.readings.items()}, new=new,
+                             declared=list(self.declared))
+
+    # ---------------------------------------------------------------- the channels
+    def _dropouts(self, z: DiagnosisInput) -> None:
+        """How long (s) the speed sensor and the gyro have delivered nothing."""
+        s = self.settings
+        for name, value, present in (("speed", z.speed, True), ("gyro", z.yaw_rate, self.sigma_g is not None)):
+            missing = present and (value is None or not math.isfinite(value))
+            self.missing[name] = self.missing[name] + self.dt if missing else 0.0
+            onset = z.t - self.missing[name] + self.dt
+            self.readings[f"{name}_dropout"] = (Reading(self.missing[name], s.dropout_min - 1e-9,
+                                                        self.missing[name], 0.0, onset)
+                                                if present else QUIET)
+
+    def _lock(self, side: str) -> Reading:
+        """``1 − |mean ω| / |mean command|`` over the last ``lock_window`` (s) of wheel ``side``."""
+        s, h = self.settings, self.history
+        j = h.step_at(h.t[-1] - s.lock_window)
+        if j is None or j == h.k:
+            return QUIET
+        n = h.delta("n_cmd", j, h.k)
+        if n < 1:
+            return QUIET
+        cmd = h.delta(f"cmd_{side}", j, h.k) / n
+        turn = abs(h.delta(f"th_{side}", j, h.k)) / (h.t[-1] - h.t[j])
+        if cmd < s.lock_min_command * self.omega_max:
+            return QUIET
+        return Reading(1.0 - turn / cmd, 1.0 - s.lock_ratio, 0.0, 0.0, h.t[-1] - s.lock_window)
+
+    def _servo(self, side: str) -> Reading:
+        """``1 − g_after / g_before``: the fraction of the servo's gain lost over the last ``servo_window`` (s)
+        against the ``reference_window`` before it. The gain is the regression's α while the command excites
+        the wheel (the variance of ``ω_cmd − ω`` in the reference window above ``servo_min_excitation``);
+        on a steady command, the inverse of the mean lag ``ω_cmd − ω`` (a servo of gain ``e k_v`` lags a
+        steady load ``τ`` by ``τ / (e k_v)``)."""
+        s, h = self.settings, self.history
+        k = h.k
+        j = h.step_at(h.t[-1] - s.servo_window)
+        # the reference window starts after the launch from rest (whose gain differs) and lasts at least
+        # as long as the test window
+        i = h.step_at(max(h.t[-1] - s.servo_window - s.reference_window, s.launch))
+        if i is None or j is None or h.t[j] - h.t[i] < s.servo_window - 1e-9:
+            return QUIET
+        after, before = h.regression(side, j, k), h.regression(side, i, j)
+        if after is None or before is None:
+            return QUIET
+        lag_before = h.delta(f"lag_{side}", i, j) / max(h.delta("n_cmd", i, j), 1.0)
+        lag_after = h.delta(f"lag_{side}", j, k) / max(h.delta("n_cmd", j, k), 1.0)
+        # a servo that lost gain lags the same load more: without that, a change of α is the loop's (a dither)
+        grew = lag_before * lag_after > 0.0 and abs(lag_after) > s.servo_lag_growth * abs(lag_before)
+        if not grew:
+            ratio, size = 1.0, 1.0
+        elif before[1] >= s.servo_min_excitation and before[0] > 0.0:
+            ratio = after[0] / before[0]
+            size = float(np.clip(ratio, 0.0, 1.0)) ** s.servo_size_exponent
+        else:
+            ratio = size = lag_before / lag_after
+        onset = h.t[j] if self.since[f"servo_{side}"] is None else self.since[f"servo_{side}"] - 0.5 * s.servo_window
+        return Reading(1.0 - ratio, 1.0 - s.servo_ratio, size, float("nan"), onset)
+
+    def _dead(self, side: str) -> bool:
+        """The wheel lags its command by more than ``unresponsive_lag`` of it over the last ``servo_window``:
+        no torque follows the command (a lossy servo's lag stays bounded by its reduced torque)."""
+        s, h = self.settings, self.history
+        j = h.step_at(h.t[-1] - s.servo_window)
+        if j is None or j == h.k:
+            return False
+        n = max(h.delta("n_cmd", j, h.k), 1.0)
+        cmd = h.delta(f"cmd_{side}", j, h.k) / n
+        return cmd > 0.0 and abs(h.delta(f"lag_{side}", j, h.k)) / n > s.unresponsive_lag * cmd
+
+    def _window_pairs(self) -> list[tuple[int, int, int | None]]:
+        """``(j, k, i)`` pose-fix indices of each GLR window: the latest fix ``k``, the fix ``j`` a window
+        before it, the fix ``i`` a ``reference_window`` before ``j`` (``None`` before the run has one);
+        longest window first, each at most once."""
+        s, h = self.settings, self.history
+        k = len(h.fix_t) - 1
+        out, seen = [], set()
+        for w in sorted(s.windows, reverse=True):
+            j = h.fix_at(h.fix_t[k] - w)
+            if j is None or j >= k or j in seen or h.fix_t[k] - h.fix_t[j] < 0.5 * w:
+                continue
+            seen.add(j)
+            out.append((j, k, h.fix_at(h.fix_t[j] - s.reference_window)))
+        return out
+
+    def _ratio(self, side: str, j: int, k: int) -> tuple[float, float] | None:
+        """The rolling ratio (fraction of nominal radius) of wheel ``side`` between pose fixes ``j`` and
+        ``k`` and its variance from the pose noise; ``None`` when the wheel turned too little."""
+        h = self.history
+        turn = h.delta(f"th_{side}", h.fix_steps[j], h.fix_steps[k])
+        if abs(turn) < self.settings.tyre_min_turn:
+            return None
+        arc, dpsi = h.motion(j, k)
+        sign = 1.0 if side == "R" else -1.0
+        sp, spsi = self.pose_sigma
+        var = (2.0 * sp**2 + 2.0 * (self.b * spsi) ** 2) / (self.R0 * turn) ** 2
+        return (arc + sign * self.b * dpsi) / (self.R0 * turn), var
+
+    def _glr(self, shift: Callable[[int, int, int | None], Reading | None]) -> Reading:
+        """The largest of ``shift(j, k, i)`` — one candidate change's reading — over the candidate windows
+        (:meth:`_window_pairs`): the window-limited GLR."""
+        best = Reading(0.0, self.settings.threshold)
+        for j, k, i in self._window_pairs():
+            r = shift(j, k, i)
+            if r is not None and r.stat > best.stat:
+                best = r
+        return best
+
+    def _tyre(self, side: str) -> Reading:
+        """The GLR of a drop of wheel ``side``'s rolling ratio against the window before the change."""
+        s, h = self.settings, self.history
+        # a punctured tyre tilts the chassis, which moves the other tyre's contact point: a larger drop needed
+        min_drop = s.tyre_min_drop_second if self._has("tyre") is not None else s.tyre_min_drop
+
+        def shift(j: int, k: int, i: int | None) -> Reading | None:
+            after = self._ratio(side, j, k)
+            if after is None:
+                return None
+            before = self._ratio(side, i, j) if i is not None and i < j else None
+            # a skidding wheel rolls more than a turn's worth (a ratio above 1): the reference is capped at
+            # the nominal radius, so the end of a skid is not a drop
+            ref, var_ref = (min(before[0], 1.0), before[1]) if before is not None else (1.0, (3.0 * s.tyre_floor) ** 2)
+            drop = after[0] - ref
+            var = after[1] + var_ref + s.tyre_floor**2
+            stat = drop**2 / (2.0 * var) if drop < -min_drop else 0.0
+            # the size: the ratio since the change, relative to the one before
+            return Reading(stat, s.threshold, after[0] / ref, math.sqrt(var), h.fix_t[j], ref)
+
+        return self._glr(shift)
+
+    def residual(self, name: str, j: int, k: int) -> tuple[float, float] | None:
+        """The ``speed`` (m/s) or ``gyro`` (rad/s) residual between pose fixes ``j`` and ``k``: the sensor's
+        mean minus the pose's rate, with its variance; ``None`` without samples."""
+        h = self.history
+        a, b = h.fix_steps[j], h.fix_steps[k]
+        key, sig = ("v", self.sigma_v) if name == "speed" else ("g", self.sigma_g or 0.0)
+        n = h.delta(f"n_{key}", a, b)
+        if n < 5:
+            return None
+        span = h.fix_t[k] - h.fix_t[j]
+        arc, dpsi = h.motion(j, k)
+        ref, sp = (arc / span, self.pose_sigma[0]) if name == "speed" else (dpsi / span, self.pose_sigma[1])
+        floor = (self.settings.speed_floor if name == "speed" else self.settings.gyro_floor) * abs(ref)
+        var = sig**2 / n + 2.0 * sp**2 / span**2 + floor**2
+        return h.delta(key, a, b) / n - ref, var
+
+    def _sensor(self, name: str) -> Reading:
+        """The GLR of an offset of the ``speed`` sensor or the ``gyro`` over the candidate windows."""
+        s, h = self.settings, self.history
+
+        def shift(j: int, k: int, i: int | None) -> Reading | None:
+            r = self.residual(name, j, k)
+            return None if r is None else Reading(r[0] ** 2 / (2.0 * r[1]), s.threshold, r[0], math.sqrt(r[1]),
+                                                  h.fix_t[j])
+
+        return self._glr(shift)
+
+    # ---------------------------------------------------------------- isolation
+    def _confirmed(self, channel: str, t: float) -> bool:
+        """The channel's alarm has held for ``confirm`` (``servo_confirm`` for a servo) seconds."""
+        since = self.since[channel]
+        hold = self.settings.servo_confirm if channel.startswith("servo") else self.settings.confirm
+        return since is not None and t - since >= hold - 1e-9
+
+    def _has(self, component: str, target: str | None = None) -> Diagnosis | None:
+        """The latest declaration on ``component`` (and ``target``), if any."""
+        for d in reversed(self.declared):
+            if d.component == component and (target is None or d.target == target):
+                return d
+        return None
+
+    def _isolate(self, t: float) -> list[Diagnosis]:
+        """At most one new declaration per step, from the confirmed alarms, in the order: dropouts, lock,
+        servo, tyre, speed sensor, gyro (the isolation table of docs/fdi.md)."""
+        for maker in (self._declare_dropout, self._declare_servo, self._declare_tyre, self._declare_sensor):
+            d = maker(t)
+            if d is not None:
+                return [d]
+        return []
+
+    def _make(self, component: str, target: str, mode: str, r: Reading, t: float) -> Diagnosis:
+        return Diagnosis(component, target, mode, float(r.size), float(r.sigma), float(min(r.onset, t)), t,
+                         float(r.stat), float(r.threshold))
+
+    def _declare_dropout(self, t: float) -> Diagnosis | None:
+        for name, component, target in (("speed", "speed sensor", "speed"), ("gyro", "gyro", "yaw_rate")):
+            r = self.readings[f"{name}_dropout"]
+            last = self._has(component)
+            if r.alarm and (last is None or last.mode != "dropout" or last.onset < r.onset - 1e-9):
+                return self._make(component, target, "dropout", r, t)
+        return None
+
+    def _declare_servo(self, t: float) -> Diagnosis | None:
+        """A lock, else a servo loss or an unresponsive servo (re-declared as such if a loss's wheel stops
+        following its command); one servo fault per run (a lock or a dead servo drags the robot so that the
+        other servo's regression moves too), none after a puncture."""
+        last = self._has("servo")
+        if last is not None and last.mode == "loss" and self._dead(last.target[0].upper()):
+            return self._make("servo", last.target, "unresponsive",
+                              Reading(last.statistic, last.threshold, 0.0, last.sigma, last.onset), t)
+        if last is not None or self._has("tyre") is not None:
+            return None  # a puncture changes the wheel-chassis coupling the servo regression identifies
+        for side in "RL":
+            if self._confirmed(f"lock_{side}", t):
+                return self._make("servo", WHEEL_SIDES[side], "lock", self.readings[f"lock_{side}"], t)
+        for side in "RL":
+            r = self.readings[f"servo_{side}"]
+            if self._confirmed(f"servo_{side}", t) and not self.readings[f"tyre_{side}"].alarm:
+                dead = r.size < self.settings.unresponsive_below or self._dead(side)
+                mode = "unresponsive" if dead else "loss"
+                size = 0.0 if mode == "unresponsive" else r.size
+                return self._make("servo", WHEEL_SIDES[side], mode, Reading(r.stat, r.threshold, size, r.sigma,
+                                                                              r.onset), t)
+        return None
+
+    def _declare_tyre(self, t: float) -> Diagnosis | None:
+        """A puncture (see :meth:`_isolate`), or a declared one's size again when its rolling ratio has dropped
+        by ``tyre_min_drop`` and 3σ since (a step puncture's tyre settles over about a second; a ramp goes on)."""
+        for side in "RL":
+            target = WHEEL_SIDES[side]
+            last = self._has("tyre", target)
+            if last is not None:
+                update = self._tyre_update(side, last, t)
+                if update is not None:
+                    return update
+                continue
+            if self.readings[f"lock_{side}"].alarm:
+                continue
+            servo = self._has("servo")
+            if servo is not None and servo.mode != "loss":
+                continue  # a dragged wheel skids: its rolling ratio says nothing of its tyre
+            if self._confirmed(f"tyre_{side}", t):
+                self.tyre_reference[side] = self.readings[f"tyre_{side}"].reference
+                return self._make("tyre", target, "puncture", self.readings[f"tyre_{side}"], t)
+        return None
+
+    def _tyre_update(self, side: str, last: Diagnosis, t: float) -> Diagnosis | None:
+        """``last``'s puncture with the size of the wheel's rolling ratio over the last ``tyre_update_window``
+        (s), relative to the one before the change, when it is below ``last``'s by ``tyre_min_drop`` and 3σ;
+        at most once per ``tyre_update_window``."""
+        s, h = self.settings, self.history
+        if t - last.declared < s.tyre_update_window - 1e-9 or not h.fix_t:
+            return None
+        k = len(h.fix_t) - 1
+        j = h.fix_at(h.fix_t[k] - s.tyre_update_window)
+        now = self._ratio(side, j, k) if j is not None and j < k else None
+        if now is None:
+            return None
+        size = now[0] / self.tyre_reference[side]
+        sigma = math.sqrt(now[1] + s.tyre_floor**2)
+        if last.size - size < max(s.tyre_min_drop, 3.0 * sigma):
+            return None  # a tyre does not re-inflate: a ratio back up is a skid
+        return self._make("tyre", last.target, "puncture", Reading(last.statistic, last.threshold, size, sigma,
+                                                                    last.onset), t)
+
+    def _declare_sensor(self, t: float) -> Diagnosis | None:
+        """A speed-sensor or gyro bias or drift once its alarm is confirmed and ``shape_min`` (s) has passed
+        since the GLR's onset and since the fitted one: mode, size and onset from :func:`onset_fit` of the
+        binned residual; a bias declared is fitted again every ``shape_min`` and re-declared as a drift if that
+        fits better."""
+        for name, component, target in (("speed", "speed sensor", "speed"), ("gyro", "gyro", "yaw_rate")):
+            r = self.readings[name]
+            last = self._has(component)
+            if (last is None and not self._confirmed(name, t)) or (last is not None and last.mode != "bias"):
+                continue
+            since = r.onset if last is None else last.declared
+            if t - since < self.settings.shape_min - 1e-9 or (last is not None and t - self.refit[name] <
+                                                              self.settings.shape_min - 1e-9):
+                continue
+            self.refit[name] = t
+            fit = self._shape(name, t, r.onset if last is None else last.onset)
+            if fit is not None and t - fit[4] < self.settings.shape_min - 1e-9:
+                continue  # too little since either model's fitted onset to tell a bias from a drift yet
+            if fit is not None and (last is None or fit[0] == "drift"):
+                mode, size, sigma, onset, _ = fit
+                return self._make(component, target, mode, Reading(r.stat, r.threshold, size, sigma, onset), t)
+        return None
+
+    def _shape(self, name: str, t: float, onset: float) -> tuple[str, float, float, float, float] | None:
+        """:func:`onset_fit` of the ``speed`` or ``gyro`` channel's residual (the sensor's mean minus the pose's
+        arc or heading rate) over successive ``shape_bin`` (s) spans of the last ``fit_window`` (s) before
+        ``t``, the candidate onsets from ``shape_min`` before the GLR's ``onset`` (s) on."""
+        h, s = self.history, self.settings
+        grid = (t - np.arange(0.0, t - max(t - s.fit_window, s.launch) + 1e-9, s.shape_bin))[::-1]  # ends at t
+        fixes = sorted({f for f in (h.fix_at(g) for g in grid) if f is not None})
+        mids, values = [], []
+        for j, k in zip(fixes[:-1], fixes[1:], strict=True):
+            r = self.residual(name, j, k)
+            if r is not None:
+                mids.append(0.5 * (h.fix_t[j] + h.fix_t[k]))
+                values.append(r[0])
+        starts = np.arange(max(grid[0] + s.shape_bin, onset - s.shape_min), t - s.shape_bin, 0.05)
+        if len(values) < 6 or not starts.size:
+            return None
+        return onset_fit(np.asarray(mids), np.asarray(values), starts, s.drift_margin)
+
+
+def onset_fit(t: np.ndarray, e: np.ndarray, starts: np.ndarray, margin: float = 1.0
+              ) -> tuple[str, float, float, float, float]:
+    """``(mode, size, σ, onset)``: the least-squares fit of a residual ``e(t) = c + b h(t − t0)`` over the
+    candidate onsets ``starts`` (s) for an offset (``bias``: ``h`` the unit step, ``b`` the offset) and a
+    ``drift`` (``h(x) = x⁺``, an offset growing at ``b`` per s) — the model, the onset and the size with the
+    smallest residual sum of squares (a drift's divided by ``margin`` ≤ 1), the size's σ, and the later of the
+    two models' onsets (a decision needs data after both)."""
+    best: tuple[float, str, float, float, float] | None = None
+    latest = -math.inf
+    ec = e - e.mean()
+    for mode, power in (("bias", 0), ("drift", 1)):
+        x = t[None, :] - starts[:, None]
+        H = (x >= 0.0).astype(float) if power == 0 else np.clip(x, 0.0, None)
+        Hc = H - H.mean(axis=1, keepdims=True)
+        shh = np.einsum("ij,ij->i", Hc, Hc)
+        she = Hc @ ec
+        ok = shh > 1e-12
+        b = np.where(ok, she / np.where(ok, shh, 1.0), 0.0)
+        sse = np.where(ok, float(ec @ ec) - b * she, np.inf)
+        i = int(np.argmin(sse))
+        sigma = math.sqrt(max(sse[i], 0.0) / max(t.size - 2, 1) / shh[i]) if ok[i] else math.inf
+        latest = max(latest, float(starts[i]))
+        score = float(sse[i]) / (margin if mode == "drift" else 1.0)
+        if best is None or score < best[0]:
+            best = (score, mode, float(b[i]), sigma, float(starts[i]))
+    assert best is not None
+    return best[1], best[2], best[3], best[4], latest

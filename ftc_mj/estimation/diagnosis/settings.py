@@ -1,0 +1,120 @@
+"""The ``[diagnosis]`` section's models: the built-in residual diagnoser's
+(:class:`ResidualDiagnoserSettings`), none (:class:`NoDiagnoserSettings`) and a plug-in's
+(:class:`PluginDiagnoserSettings`). Every threshold is relative to a nominal quantity — a fraction of the
+nominal radius, of the servo's gain before the change, of the speed, or a log-likelihood ratio of a
+residual normalised by its sensor's σ — so a rescaled robot is diagnosed the same (docs/fdi.md).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field
+
+from ...fields import Options, StrictModel, component, options_of, ranged
+
+Seconds = ranged(0.01, 60.0, unit="s")
+
+
+class DiagnosisSettings(StrictModel):
+    """What every diagnoser kind's settings share: the ``kind`` naming it."""
+
+    kind: str = "residual"
+
+
+class ResidualDiagnoserSettings(DiagnosisSettings):
+    """The built-in structured-residual diagnoser (:class:`~.residual.ResidualDiagnoser`)."""
+
+    kind: Literal["residual"] = "residual"
+    """Structured residuals (tyres, servos, speed sensor, gyro) with a windowed GLR each."""
+    windows: Annotated[list[Seconds], Field(min_length=1, max_length=16)] = Field(
+        default_factory=lambda: [0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0])
+    """The GLR's candidate change times: this long (s) before the latest pose fix."""
+    glr_period: ranged(0.0, 10.0, unit="s") = 0.05
+    """The pose channels' GLRs are evaluated at a new pose fix at most this often (s): their statistics change
+    little in between, and each evaluation costs a few hundred µs of Python."""
+    reference_window: Seconds = 6.0
+    """Length (s) of the window before a candidate change that gives a tyre's and a servo's nominal value."""
+    threshold: ranged(0.5, 1.0e3) = 12.5
+    """GLR threshold (log-likelihood ratio): 12.5 is a 5σ shift of a Gaussian residual."""
+    confirm: ranged(0.0, 10.0, unit="s") = 0.2
+    """How long (s) an alarm holds before it is declared."""
+    pose_rate: ranged(0.0, 1.0e4, lo_open=True, unit="Hz") | None = None
+    """Use pose fixes at most at this rate (Hz); unset: every fix the loop hands over (the controller's pose,
+    at the estimator rate)."""
+    pose_floor: ranged(1.0e-6, 0.5) = 1.0e-3
+    """The least σ assumed for a pose fix, as a fraction of the nominal radius (m/m; and rad)."""
+    tyre_floor: ranged(0.0, 0.5) = 0.004
+    """σ of a tyre's rolling ratio between two windows of the healthy robot (fraction of nominal radius)."""
+    tyre_min_drop: ranged(0.0, 1.0) = 0.02
+    """The least radius drop declared (fraction of the nominal radius)."""
+    tyre_min_drop_second: ranged(0.0, 1.0) = 0.06
+    """The least drop declared on the other tyre once one is declared punctured (fraction of nominal radius)."""
+    tyre_update_window: Seconds = 1.0
+    """A declared puncture's size is re-declared from the rolling ratio over this window (s), at most this often."""
+    tyre_min_turn: ranged(0.0, 1.0e3, unit="rad") = 1.0
+    """The least wheel rotation (rad) in a window for its rolling ratio to count."""
+    speed_floor: ranged(0.0, 0.5) = 0.005
+    """σ of the speed model (a fraction of the speed): chassis side-slip, the pose's arc approximation."""
+    gyro_floor: ranged(0.0, 0.5) = 0.002
+    """σ of the yaw-rate model (a fraction of the yaw rate)."""
+    launch: ranged(0.0, 60.0, unit="s") = 2.0
+    """The servo's reference window starts after this time (s): the launch from rest has another gain."""
+    servo_window: Seconds = 2.0
+    """Window (s) of the servo's gain regression after a candidate change (its reference window:
+    ``reference_window`` before it, after ``launch``)."""
+    servo_confirm: ranged(0.0, 10.0, unit="s") = 0.5
+    """How long (s) a servo alarm holds before it is declared (a lock's alarm comes first)."""
+    servo_ratio: ranged(0.0, 1.0, lo_open=True, hi_open=True) = 0.5
+    """Alarm when a servo's identified gain falls below this fraction of its gain before."""
+    servo_lag_growth: ranged(1.0, 100.0) = 1.3
+    """A servo alarm needs its wheel's mean lag behind the command to have grown by this factor (same sign)."""
+    servo_size_exponent: ranged(0.05, 5.0) = 0.4
+    """Size of a servo loss = (gain ratio) ** exponent: the closed-loop regression's bias, fitted on dev runs."""
+    servo_min_excitation: ranged(0.0, 1.0e3) = 1.0e-5
+    """Below this variance ((rad/s)²) of ``ω_cmd − ω`` in the reference window the command does not excite the
+    servo's regression: its gain is read from the mean lag instead."""
+    unresponsive_below: ranged(0.0, 1.0) = 0.1
+    """A servo fault whose size (remaining fraction) is below this is declared ``unresponsive``."""
+    unresponsive_lag: ranged(0.0, 10.0) = 0.15
+    """A servo whose wheel lags its command by more than this fraction of it is declared ``unresponsive``."""
+    lock_window: Seconds = 0.1
+    """Window (s) of the lock test."""
+    lock_ratio: ranged(0.0, 1.0, lo_open=True, hi_open=True) = 0.1
+    """Alarm when a wheel turns at less than this fraction of its command."""
+    lock_min_command: ranged(0.0, 1.0) = 0.05
+    """The lock test needs a command of at least this fraction of ``robot.omega_max``."""
+    dropout_min: ranged(0.0, 10.0, unit="s") = 0.05
+    """A sensor that delivers nothing for this long (s) is declared dropped out."""
+    shape_min: ranged(0.0, 60.0, unit="s") = 2.0
+    """Time (s) after a sensor fault's estimated onset before bias and drift are told apart (and between two
+    fits of a bias declared)."""
+    shape_bin: ranged(0.05, 10.0, unit="s") = 0.5
+    """Span (s) of each mean residual the bias/drift fit reads."""
+    drift_margin: ranged(0.01, 1.0) = 0.5
+    """A sensor fault is a drift when the drift model's residual sum of squares is below this fraction of the
+    bias model's."""
+    fit_window: Seconds = 10.0
+    """The span (s) of integrated residual a sensor fault's bias/drift fit reads."""
+
+
+class NoDiagnoserSettings(DiagnosisSettings):
+    """No diagnoser (``diagnosis.kind = "none"``): no declarations, no alarms."""
+
+    kind: Literal["none"] = "none"
+
+
+class PluginDiagnoserSettings(DiagnosisSettings):
+    """A plug-in diagnoser (a kind a plug-in module registered) with its own ``options``."""
+
+    kind: component("diagnosers")
+    """A registered diagnoser (:data:`ftc_mj.registry.diagnosers`)."""
+    options: Options = Field(default_factory=dict, validate_default=True)
+    """Settings of the plug-in diagnoser (its registered settings model)."""
+
+    _options = options_of("diagnosers", "kind")
+
+
+DIAGNOSER_KINDS: dict[str, type[DiagnosisSettings]] = {"residual": ResidualDiagnoserSettings,
+                                                       "none": NoDiagnoserSettings}
+"""The built-in diagnoser kinds and their settings models."""

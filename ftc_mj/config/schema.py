@@ -126,11 +126,12 @@ class RunConfig(StrictModel):
 
     @model_validator(mode="after")
     def _accommodation_source(self) -> RunConfig:
-        """Accommodating every mode needs declarations to accommodate: in this tree only the truth gives them,
-        and only an oracle run may have it."""
-        if self.reconfiguration.accommodation.mode == "all" and not self.oracle:
-            raise ValueError("reconfiguration.accommodation.mode: 'all' needs a diagnosis source; the truth's "
-                             "needs oracle = true")
+        """Accommodating every mode needs declarations to accommodate: the run's diagnoser's, or in an oracle run
+        the truth's."""
+        if (self.reconfiguration.accommodation.mode == "all" and not self.oracle
+                and self.diagnosis.kind == "none"):
+            raise ValueError("reconfiguration.accommodation.mode: 'all' needs a diagnosis source: a diagnoser "
+                             "(diagnosis.kind) or, in an oracle run, the truth (oracle = true)")
         return self
 
     @model_validator(mode="after")

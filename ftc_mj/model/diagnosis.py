@@ -23,6 +23,7 @@ growth rate (per s); the duration so far (s) for a dropout.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -86,3 +87,14 @@ class Diagnosis:
     def as_dict(self) -> dict[str, Any]:
         """The record as a flat dict (events, the run summary, JSON)."""
         return asdict(self)
+
+
+def in_force(declared: Iterable[Diagnosis]) -> tuple[Diagnosis, ...]:
+    """The declarations in force among ``declared`` (in declaration order): the latest per *(component,
+    target)* — a diagnoser re-declares a fault as it learns more (a settling puncture's size, a bias found to
+    drift, a loss found unresponsive), and the latest word replaces the earlier ones."""
+    latest: dict[tuple[str, str], Diagnosis] = {}
+    for d in declared:
+        latest.pop((d.component, d.target), None)
+        latest[(d.component, d.target)] = d
+    return tuple(latest.values())

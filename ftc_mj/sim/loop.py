@@ -46,6 +46,7 @@ from ..estimation.decision import DecisionState, FaultDecision
 from ..estimation.diagnosis import Diagnoser, DiagnosisInput, DiagnosisStep
 from ..estimation.pcrb import pcrb_columns
 from ..metrics.record import RunRecord
+from ..model.diagnosis import in_force
 from ..plant import SensorReading, Sensors, Truth
 from ..plant.faults import SENSOR_COLUMNS, fault_class, fault_list
 from ..reconfiguration.accommodation import ACCOMMODATION_COLUMNS
@@ -432,7 +433,13 @@ class ClosedLoop:
         if self.parts.weighting is not None:
             self.parts.controller.set_scenario_weights(self.parts.weighting.weights(self.out, self.model_radii))
         acc, source = self.parts.accommodation, self.parts.diagnoses
-        if acc is not None and acc.update(t, source.diagnoses(t) if source is not None else ()):
+        if acc is None:
+            return self.model_radii
+        if source is not None:  # an oracle run: the truth
+            current = source.diagnoses(t)
+        else:  # the run's diagnoser: its declarations in force
+            current = in_force(self.last_diagnosis.declared if self.last_diagnosis is not None else ())
+        if acc.update(t, current):
             acc.hand_actuator(t, self.parts.controller)
         return self.model_radii
 

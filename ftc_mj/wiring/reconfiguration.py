@@ -97,6 +97,6 @@ def build_accommodation(cfg: RunConfig, limits: RobotLimits, path: Path) -> Acco
 
 def build_diagnosis_source(cfg: RunConfig) -> TruthDiagnoses | None:
     """Where the accommodation's declarations come from: the truth (:class:`TruthDiagnoses`) in an oracle run
-    (``oracle = true``); ``None`` otherwise (no diagnoser in this tree: the config refuses ``all`` without
-    the oracle)."""
+    (``oracle = true``); ``None`` otherwise: the loop hands the accommodation its diagnoser's declarations in
+    force (:func:`~ftc_mj.model.diagnosis.in_force`; the config refuses ``all`` with neither)."""
     return TruthDiagnoses(cfg.faults, cfg.plant_wheel_radius) if cfg.oracle else None

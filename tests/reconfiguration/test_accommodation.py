@@ -65,12 +65,25 @@ def test_truth_declares_each_fault_from_its_onset_with_the_truths_size() -> None
     assert later["servo", "right", "lock"].size == 0.0
 
 
-def test_the_truth_needs_an_oracle_run() -> None:
-    """``mode = "all"`` without ``oracle = true``: a one-line error naming the field."""
+def test_accommodating_every_mode_needs_a_diagnosis_source() -> None:
+    """``mode = "all"`` with neither a diagnoser nor ``oracle = true``: a one-line error naming the field; the
+    default diagnoser or an oracle run is a source."""
     with pytest.raises(BadInput, match=r"reconfiguration\.accommodation\.mode"):
-        load_config("scenario2", {"reconfiguration.accommodation.mode": "all"})
-    cfg = load_config("scenario2", {"reconfiguration.accommodation.mode": "all", "oracle": True})
-    assert cfg.oracle
+        load_config("scenario2", {"reconfiguration.accommodation.mode": "all", "diagnosis.kind": "none"})
+    assert load_config("scenario2", {"reconfiguration.accommodation.mode": "all", "diagnosis.kind": "none",
+                                     "oracle": True}).oracle
+    assert load_config("scenario2", {"reconfiguration.accommodation.mode": "all"}).diagnosis.kind == "residual"
+
+
+def test_in_force_keeps_the_latest_declaration_per_component() -> None:
+    """A diagnoser's re-declarations replace its earlier words on the same (component, target)."""
+    from ftc_mj.model.diagnosis import Diagnosis, in_force
+
+    bias = Diagnosis("gyro", "yaw_rate", "bias", 0.04, 0.01, 10.0, 11.7, 30.0, 20.0)
+    drift = Diagnosis("gyro", "yaw_rate", "drift", 0.005, 0.001, 10.0, 14.0, 40.0, 20.0)
+    tyre = Diagnosis("tyre", "left", "puncture", 0.5, 0.02, 10.0, 10.6, 50.0, 20.0)
+    assert in_force([bias, tyre, drift]) == (tyre, drift)
+    assert in_force([]) == ()
 
 
 # ---------------------------------------------------------------- per mode

@@ -108,10 +108,10 @@ class PathQP:
         self.ubx[2 * N:3 * N] = spec.max_progress_speed
 
     def reset(self) -> None:
-        """Forget the active-set guess and the interval rows' multipliers (a reused solver then behaves like a
+        """Forget the active-set guess and the last robust QP's multipliers (a reused solver then behaves like a
         new one)."""
         self._ws: np.ndarray | None = None
-        self._lam_rob: np.ndarray | None = None  # multipliers (2N,) of the interval rows of the last QP
+        self._lam_rows: np.ndarray | None = None  # multipliers (m,) of the rows of the last robust QP
 
     def jacobian(self, radii: np.ndarray) -> np.ndarray:
         """``d[V, psidot]/d[omega_R, omega_L]`` (2, 2) for the radii (cached per radii)."""
@@ -192,7 +192,7 @@ class PathQP:
             if interval is None:
                 raise ValueError("a robust path-following QP needs the radius interval")
             self._interval_rows(A, lba, uba, i, Ug, interval)
-            self._interval_curvature(H, g, Ug, interval)
+            self._lateral_curvature(H, g, Ug, radii, interval)
         lbx, ubx = self.lbx.copy(), self.ubx.copy()
         lbx[:2 * N], ubx[:2 * N] = bounds
         return H, g, A, lba, uba, lbx, ubx, G, hc
@@ -225,20 +225,39 @@ class PathQP:
             A[rows, 3 * N + 1 + j] = -1.0
             lba[rows], uba[rows] = -np.inf, A_max - sign * lin0
 
-    def _interval_curvature(self, H: np.ndarray, g: np.ndarray, Ug: np.ndarray, interval: RadiusInterval) -> None:
-        """Add (in place) the convex part of the interval rows' curvature, weighted by their multipliers of the
-        previous QP, about the guess's wheel rates ``Ug`` (N, 2): ``λ_j ∂²(±a)/∂omega²`` has the diagonal
-        ``(R_R², −R_L²)/(2b)`` (upper corner) or ``(−R_R², R_L²)/(2b)`` (lower), and its positive entry
-        becomes the term ``½ c (omega − omega_g)²`` of the QP. Gauss–Newton alone leaves out this curvature;
-        with multipliers of the order of the slack penalty its RTI iterates then cycle from one side of the
-        row to the other instead of converging (measured on the test's braking plan)."""
-        if self._lam_rob is None:
+    def _lateral_curvature(self, H: np.ndarray, g: np.ndarray, Ug: np.ndarray, radii: np.ndarray,
+                           interval: RadiusInterval) -> None:
+        """Add (in place) the convex part of the curvature of the rows that bound the lateral acceleration, the
+        model's (at ``radii``, m) and the interval's (at its corners), weighted by their multipliers of the previous
+        QP, about the guess's wheel rates ``Ug`` (N, 2) (rad/s). A row ``±a(R_R, R_L)`` has the diagonal Hessian
+        ``±(R_R², −R_L²)/(2b)`` in (omega_R, omega_L) (the braking term is linear), and its positive entry becomes
+        the term ``½ c (omega − omega_g)²`` of the QP. Gauss–Newton alone leaves out this curvature; with
+        multipliers of the order of the slack penalty its RTI iterates then cycle from one side of the interval
+        row to the other instead of converging (measured on the test's braking plan).
+
+        The model's rows count as well: where the radii are a corner of the interval (an interval with the
+        estimate at one end) a node's model row and interval row are one row with two slacks (σ and τ_j), the
+        active set holds both, and only the sum of their multipliers is determined. How a QP solver splits it
+        is decided by round-off; weighted by the interval rows' share alone, that split set the next QP's
+        Hessian, and the closed loop amplified the round-off (the same loop braked to a stop and reversed, or
+        did not, by the order of a sum). The sum sets it now."""
+        if self._lam_rows is None:
             return
         N, b = self.col.N, self.spec.problem.half_track
+        lam = np.maximum(self._lam_rows, 0.0)
         up, lo = interval.corners()
-        lam = np.maximum(self._lam_rob, 0.0)
-        cR = lam[:N] * up[0] ** 2 / (2.0 * b)  # upper corner: + R_R² on omega_R
-        cL = lam[N:] * lo[1] ** 2 / (2.0 * b)  # lower corner (row −a): + R_L² on omega_L
+        rob = self.m - self.n_rob
+        cR = lam[rob:rob + N] * up[0] ** 2 / (2.0 * b)  # upper corner (row +a): + R_R² on omega_R
+        cL = lam[rob + N:rob + 2 * N] * lo[1] ** 2 / (2.0 * b)  # lower corner (row −a): + R_L² on omega_L
+        i = 4 + 2 * N  # the model's lateral rows
+        sides = lateral_sides(self.spec)
+        for q, (sl, _) in enumerate((*sides, *lateral_sides(self.spec, True))):
+            nodes = slice(0, N) if q < len(sides) else slice(0, 1)  # the rows at t0 are node 0's
+            lq = lam[i + q * N:i + (q + 1) * N] if q < len(sides) else lam[i + len(sides) * N + q - len(sides)]
+            if sl > 0:
+                cR[nodes] += lq * radii[0] ** 2 / (2.0 * b)
+            else:
+                cL[nodes] += lq * radii[1] ** 2 / (2.0 * b)
         j = np.arange(N)
         H[j, j] += cR
         H[N + j, N + j] += cL
@@ -293,11 +312,11 @@ class PathQP:
                 status = f"{status}; solution violates its constraints"
         if not ok:
             self._ws = None
-            self._lam_rob = None
+            self._lam_rows = None
             return False, status, None, None, float("nan")
         assert u is not None
         if self.robust and self._lam_a is not None:
-            self._lam_rob = np.asarray(self._lam_a, float).ravel()[self.m - self.n_rob:].copy()
+            self._lam_rows = np.asarray(self._lam_a, float).ravel().copy()
         u = np.clip(u, lbx, ubx)
         X = (G @ u + hc).reshape(4, N).T
         self.corner_slack = float(u[3 * N + 1:].max()) if self.robust else 0.0

@@ -320,6 +320,42 @@ def test_ipopt_and_rti_iterates_honour_the_interval_rows(built) -> None:
     assert a_cl[late].max() <= 3.0 + 1e-3 and max(tau) < 1e-6
 
 
+def test_robust_rti_curvature_does_not_depend_on_how_one_row_shares_its_multiplier(built) -> None:
+    """The model's radii at the interval's lower corner: at each node the model's row ``−a(R) − σ ≤ A`` and the
+    interval's row ``−a(lo_R, hi_L) − τ_j ≤ A`` are one row (two slacks), and with both active only the sum of
+    their multipliers is determined — how a QP solver splits it is round-off. The next RTI QP must be the same
+    whichever of the two carries it: its curvature term (the rows' convex part ``λ R_L²/(2b)`` on omega_L) is
+    weighted by the sum. Weighted by the interval row's share alone, the closed loop of the interval test braked
+    through zero or did not by the order of a sum."""
+    spec = _spec(beta=0.0)
+    iv = RadiusInterval(np.array([2.0, 0.5]), np.array([2.0, 2.0]))
+    R = np.array([2.0, 2.0])
+    ctl = built(PathFollowingNMPC, spec, CIRCLE, solver="rti-daqp", tag="robust")
+    qp = ctl.degraded_solvers[1]
+    N, b = ctl.col.N, spec.problem.half_track
+    x0 = np.zeros(4)
+    Xg, Ug = ctl._feed_forward(0.0, x0, R)
+    bounds = wheel_bounds(spec, N, None, np.zeros(2))
+    model, lower = 4 + 3 * N + np.arange(N), qp.m - N + np.arange(N)  # the −a rows: the model's, the interval's
+    lam = np.linspace(1.0, 50.0, N)
+    out = []
+    for rows in (None, lower, model):
+        qp.reset()
+        if rows is not None:
+            qp._lam_rows = np.zeros(qp.m)
+            qp._lam_rows[rows] = lam
+        out.append(qp.build(Xg, Ug, R, x0, bounds, None, iv))
+    qp.reset()
+    (H0, g0, A0, *_), (H1, g1, *_), (H2, g2, *_) = out
+    assert np.array_equal(A0[model, :2 * N], A0[lower, :2 * N])  # one row
+    c = np.zeros(qp.n)
+    c[N:2 * N] = lam * R[1] ** 2 / (2.0 * b)
+    for H, g in ((H1, g1), (H2, g2)):
+        np.testing.assert_allclose(H - H0, np.diag(c), rtol=0.0, atol=1e-9)
+        np.testing.assert_allclose(g - g0, -c * np.concatenate([Ug[:, :2].T.ravel(), np.zeros(qp.n - 2 * N)]),
+                                   rtol=0.0, atol=1e-9)
+
+
 @pytest.mark.parametrize("max_lag", [0.0, 2.0])
 def test_progress_feedback_closes_the_loop_on_the_progress_made(max_lag: float) -> None:
     """Both tyres at 1 m, the model's at 2 m: the model's speed is twice the robot's, its curvature the robot's.

@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 import os
 import sys
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -58,13 +59,55 @@ class LazyKernel:
         return getattr(self.dispatcher, name)
 
 
+class _CompileClock:
+    """Wall-time spans (``perf_counter`` s) during which numba held its compiler lock in this process: compiling a
+    kernel, or loading it from numba's disk cache. A listener of numba's event API (``numba.core.event``, the
+    ``numba:compiler_lock`` events; nested acquisitions make one span)."""
+
+    def __init__(self) -> None:
+        self.depth = 0
+        self.start = 0.0
+        self.spans: list[tuple[float, float]] = []
+
+    def notify(self, event: Any) -> None:
+        if event.is_start:
+            if self.depth == 0:
+                self.start = time.perf_counter()
+            self.depth += 1
+        elif event.is_end:
+            self.depth -= 1
+            if self.depth == 0:
+                self.spans.append((self.start, time.perf_counter()))
+
+    def since(self, t0: float) -> float:
+        """Seconds of the spans after ``t0`` (``perf_counter`` s), a span running now included."""
+        now = time.perf_counter()
+        done = sum(end - max(start, t0) for start, end in self.spans if end > t0)
+        return done + (now - max(self.start, t0) if self.depth > 0 else 0.0)
+
+
+_CLOCK = _CompileClock()
+
+
+def compile_seconds_since(t0: float) -> float:
+    """Wall seconds (from ``perf_counter`` time ``t0``) this process spent compiling numba kernels or loading them
+    from numba's cache — what a solve's wall-time budget must not count: a first run after install compiles
+    the kernels inside its first solves, and a budget that counted it would make that run fall back where
+    every later run does not (a run must be a pure function of its config and seed). 0 before numba is used."""
+    return _CLOCK.since(t0) if _numba_njit else 0.0
+
+
 def compile_all() -> None:
     """Import numba, make every recorded kernel a numba dispatcher (compiled lazily by numba on its first
     call, from numba's cache when it has one) and replace the stand-ins by the dispatchers in the
     namespaces of the package's modules."""
     if not _numba_njit:
         from numba import njit as numba_njit
+        from numba.core import event
 
+        listener = type("CompileListener", (event.Listener,), {"on_start": lambda self, e: _CLOCK.notify(e),
+                                                               "on_end": lambda self, e: _CLOCK.notify(e)})()
+        event.register("numba:compiler_lock", listener)
         _numba_njit.append(numba_njit)
     for k in _kernels:
         if k.dispatcher is None:

@@ -90,16 +90,9 @@ def test_the_loop_hands_the_controller_the_sensors_pose(monkeypatch) -> None:
     """The pose the controller receives is the :class:`Sensors` reading checked above (noise included),
     not a second noise source of the loop's own."""
     from ftc_mj.config import load_config
-    from ftc_mj.control.open_loop import OpenLoopController
     from ftc_mj.sim.loop import simulate
 
-    readings: list[SensorReading] = []
-    poses: list[np.ndarray] = []
-    read = Sensors.read
-    monkeypatch.setattr(Sensors, "read", lambda self, *a: readings.append(read(self, *a)) or readings[-1])
-    solve = OpenLoopController.solve
-    monkeypatch.setattr(OpenLoopController, "solve",
-                        lambda self, t, pose, *a: poses.append(np.array(pose)) or solve(self, t, pose, *a))
+    readings, poses = _record_readings_and_poses(monkeypatch)
     cfg = load_config("scenario1", {"duration": 1.0, "controller.kind": "open-loop", "sensors.pose_sigma": 0.1,
                                     "plant.kind": "kinematic", "estimator.kind": "none"})
     res = simulate(cfg)
@@ -165,16 +158,9 @@ def test_with_the_sensor_pose_source_the_controller_gets_the_filters_pose_or_the
     """``pose_source = "sensor"``: the controller's pose is the filter's pose estimate at the sample (it has taken
     in the fixes); without a filter the last fix, held between fixes (2 Hz fixes, 10 Hz controller)."""
     from ftc_mj.config import load_config
-    from ftc_mj.control.open_loop import OpenLoopController
     from ftc_mj.sim.loop import simulate
 
-    readings: list[SensorReading] = []
-    poses: list[np.ndarray] = []
-    read = Sensors.read
-    monkeypatch.setattr(Sensors, "read", lambda self, *a: readings.append(read(self, *a)) or readings[-1])
-    solve = OpenLoopController.solve
-    monkeypatch.setattr(OpenLoopController, "solve",
-                        lambda self, t, pose, *a: poses.append(np.array(pose)) or solve(self, t, pose, *a))
+    readings, poses = _record_readings_and_poses(monkeypatch)
     cfg = load_config("scenario1", {"duration": 2.0, "controller.kind": "open-loop", "sensors.position_sigma": 0.2,
                                     "sensors.position_rate": 2.0, "sensors.pose_source": "sensor",
                                     "plant.kind": "kinematic", "estimator.kind": estimator,
@@ -187,3 +173,17 @@ def test_with_the_sensor_pose_source_the_controller_gets_the_filters_pose_or_the
     else:
         est = np.stack([res.trace[c][::10] for c in ("x_hat", "y_hat", "psi_hat")], axis=1)
         np.testing.assert_array_equal(np.array(poses), est)
+
+
+def _record_readings_and_poses(monkeypatch: pytest.MonkeyPatch) -> tuple[list[SensorReading], list[np.ndarray]]:
+    """Lists that fill with every :class:`Sensors` reading and every pose the open-loop controller is handed."""
+    from ftc_mj.control.open_loop import OpenLoopController
+
+    readings: list[SensorReading] = []
+    poses: list[np.ndarray] = []
+    read = Sensors.read
+    monkeypatch.setattr(Sensors, "read", lambda self, *a: readings.append(read(self, *a)) or readings[-1])
+    solve = OpenLoopController.solve
+    monkeypatch.setattr(OpenLoopController, "solve",
+                        lambda self, t, pose, *a: poses.append(np.array(pose)) or solve(self, t, pose, *a))
+    return readings, poses

@@ -105,9 +105,14 @@ def compile_all() -> None:
         from numba import njit as numba_njit
         from numba.core import event
 
-        listener = type("CompileListener", (event.Listener,), {"on_start": lambda self, e: _CLOCK.notify(e),
-                                                               "on_end": lambda self, e: _CLOCK.notify(e)})()
-        event.register("numba:compiler_lock", listener)
+        class CompileListener(event.Listener):
+            def on_start(self, e: Any) -> None:
+                _CLOCK.notify(e)
+
+            def on_end(self, e: Any) -> None:
+                _CLOCK.notify(e)
+
+        event.register("numba:compiler_lock", CompileListener())
         _numba_njit.append(numba_njit)
     for k in _kernels:
         if k.dispatcher is None:

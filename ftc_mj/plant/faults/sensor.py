@@ -152,17 +152,10 @@ class Drift(BuiltinSensorFault):
         return size * elapsed
 
 
-class Jump(BuiltinSensorFault):
+class Jump(Bias):  # a bias's constant offset (reading, offset profile) over the jump's duration
     """A displacement for a while, then the fix returns."""
 
     mode = "jump"
-
-    def reading(self, elapsed: float) -> tuple[float, bool]:
-        return float(self.settings.size), False
-
-    @classmethod
-    def offset_profile(cls, size: float, elapsed: Any) -> Any:
-        return size * np.ones_like(elapsed)
 
     @classmethod
     def draw(cls, kind: str, sample: Sample, sign: float) -> dict[str, float]:

@@ -39,14 +39,19 @@ METHOD_SECTIONS = ("estimator", "controller", "reconfiguration", "model")
 """The run-config sections a method may set (what it is); the draw sets the rest (what it faces)."""
 
 ACTIVE = {"estimator.kind": "ukf", "controller.rate_penalty": 1.0}
+ACCOMMODATE_ALL = {"reconfiguration.accommodation.mode": "all"}
+"""The diagnoser's declarations in force reach the controller per mode (:mod:`ftc_mj.reconfiguration.accommodation`);
+the oracle row is the path-following method given the truth instead, so the gap between them is the diagnosis's."""
 BUILTIN: dict[str, tuple[str, dict[str, Any]]] = {
     "paper": ("the paper's loop: UKF, NMPC with the paper's cost, feedback on (policy direct)",
               {"estimator.kind": "ukf", "controller.kind": "nmpc", "reconfiguration.policy": "direct",
                "controller.rate_penalty": 0.0}),
-    "safe": ("UKF, NMPC with the actuation-rate term, the safe policy (the default loop)",
-             {**ACTIVE, "controller.kind": "nmpc", "reconfiguration.policy": "safe"}),
-    "pathfollow": ("UKF, the path-following NMPC (pf-nmpc) with the actuation-rate term, the safe policy",
-                   {**ACTIVE, "controller.kind": "pf-nmpc", "reconfiguration.policy": "safe"}),
+    "safe": ("UKF, NMPC with the actuation-rate term, the safe policy (the default loop), every diagnosed mode "
+             "accommodated (a safe stop where the path is out of reach)",
+             {**ACTIVE, "controller.kind": "nmpc", "reconfiguration.policy": "safe", **ACCOMMODATE_ALL}),
+    "pathfollow": ("UKF, the path-following NMPC (pf-nmpc) with the actuation-rate term, the safe policy, every "
+                   "diagnosed mode accommodated (a safe stop where the path is out of reach)",
+                   {**ACTIVE, "controller.kind": "pf-nmpc", "reconfiguration.policy": "safe", **ACCOMMODATE_ALL}),
     "hybrid": ("UKF, the robust multi-stage NMPC re-weighted by the filter's posterior (hybrid FTC)",
                {**ACTIVE, "controller.kind": "robust-nmpc", "controller.robust.weighting": "posterior",
                 "reconfiguration.policy": "none"}),
@@ -63,7 +68,7 @@ REFERENCE_ROWS: dict[str, tuple[str, dict[str, Any]]] = {
                "its diagnosis from its onset, accommodated — a safe stop where the path is out of reach), no "
                "estimator",
                {**ACTIVE, "estimator.kind": "none", "controller.kind": "pf-nmpc", "reconfiguration.policy": "truth",
-                "reconfiguration.accommodation.mode": "all", "oracle": True}),
+                **ACCOMMODATE_ALL, "oracle": True}),
     "standstill": ("a floor, not a method: zero wheel-rate command throughout (the open loop at 0 rad/s), no "
                    "estimator", {"estimator.kind": "none", "controller.kind": "open-loop",
                                  "controller.open_loop_omega": [0.0, 0.0], "reconfiguration.policy": "none"}),

@@ -61,8 +61,8 @@ class AccommodationSettings(StrictModel):
     mode: Literal["radii", "all"] = "radii"
     """``radii``: only the reconfiguration policy's radii reach the controller (the behaviour before
     accommodation; every other fault is met by robustness alone). ``all``: every diagnosed mode is accommodated
-    and a fault that leaves the path out of reach stops the robot (module docstring); it needs a diagnosis
-    source — in this tree the truth, allowed with ``oracle = true``."""
+    and a fault that leaves the path out of reach stops the robot (module docstring); the declarations come from
+    the run's diagnoser (``[diagnosis]``), or from the truth with ``oracle = true``."""
     stop_effectiveness: ranged(0.0, 1.0) = 0.05
     """A servo diagnosed with at most this fraction of its gain and torque left stops the robot (m/s² of
     turning it can still give scale with it; at 5 % the shipped robot's servo carries 0.4 m/s² of lateral

@@ -69,7 +69,8 @@ def test_methods_digests_and_the_plan(tmp_path):
     ms = load_methods(list(BUILTIN))
     assert len({m.digest for m in ms}) == len(ms)
     same = load_method(_method(tmp_path, 'name = "mine"\n[settings]\nestimator = { kind = "ukf" }\n'
-                                         '"controller.rate_penalty" = 1.0\n"reconfiguration.policy" = "safe"\n'))
+                                         '"controller.rate_penalty" = 1.0\n"reconfiguration.policy" = "safe"\n'
+                                         '[settings.reconfiguration.accommodation]\nmode = "all"\n'))
     assert same.digest == load_method("safe").digest  # resolved settings, not the way they are written
     with pytest.raises(BadInput, match="given twice"):
         load_methods(["safe", "safe"])

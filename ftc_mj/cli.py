@@ -767,7 +767,7 @@ def bench(
     address: Annotated[str | None, typer.Option(help="Scheduler of a running Dask cluster, tcp://HOST:PORT.")] = None,
     version: Annotated[str, typer.Option("--benchmark", help="Benchmark definition: a shipped version, or a "
                                          "definition file (*.toml; its plugins may register fault classes).")
-                       ] = "ftc-v1",
+                       ] = "ftc-v2",
     healthy: Annotated[bool, typer.Option("--healthy", help="Run every draw without its faults (the check that "
                                                             "the healthy robot follows every drawn path).")] = False,
     compare: Annotated[int, typer.Option(help="Rerun comparisons of this many draws where the methods differ "
@@ -819,7 +819,7 @@ def bench(
                                  echo=lambda s: typer.echo(f"ftc-mj: {s}", err=True))
         if docs is not None:
             argv = dict(methods=methods, split=split.value, draws=draws, start=start or None, out=out,
-                        workers=workers, benchmark=None if version == "ftc-v1" else version, healthy=healthy,
+                        workers=workers, benchmark=version, healthy=healthy,
                         publish=publish)
             typer.echo(f"bench: wrote {_publish_bench(docs, path, out_dir, argv, version)}")
     except (BadInput, StudyInterruptedError, KeyboardInterrupt) as err:

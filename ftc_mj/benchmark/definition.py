@@ -29,6 +29,9 @@ from ..study.spec import HELD_OUT_START
 
 PATH_KINDS = ("circle", "figure8", "line")
 """The reference paths a draw can name (``reference.kind``)."""
+CURRENT_VERSION = "ftc-v2"
+"""The benchmark version a command, a draw or an episode uses when none is named: the published version whose
+judge cannot be fooled (``ftc-v1`` stays shipped, with its pinned draws and its near-path rule)."""
 SPLITS = ("dev", "test")
 """The splits whose entropy the definition holds: ``dev`` (development: tune and explore there) and ``test``
 (public, judged, never tuned on)."""
@@ -264,7 +267,7 @@ def parse_definition(data: dict[str, object], where: str) -> BenchmarkDefinition
         raise BadInput(f"{where}: {one_line(err)}") from None
 
 
-def load_definition(version: str = "ftc-v1") -> BenchmarkDefinition:
+def load_definition(version: str = CURRENT_VERSION) -> BenchmarkDefinition:
     """The definition of ``version``: a shipped version's name, or the path of a definition file (``*.toml``);
     read once per process."""
     if version not in _CACHE:

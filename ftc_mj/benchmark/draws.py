@@ -28,7 +28,7 @@ import numpy as np
 from ..config import RobotSettings
 from ..errors import BadInput
 from ..plant.faults import drawn_classes
-from .definition import PATH_KINDS, PRIVATE, RUN_SPLITS, BenchmarkDefinition, Range, load_definition
+from .definition import CURRENT_VERSION, PATH_KINDS, PRIVATE, RUN_SPLITS, BenchmarkDefinition, Range, load_definition
 from .private import private_entropy
 
 MAX_INDEX = 10**9
@@ -218,7 +218,7 @@ def draw_path(rng: np.random.Generator, d: BenchmarkDefinition) -> tuple[str, fl
     return kind, radius, direction, speed
 
 
-def draw(split: str, index: int, version: str = "ftc-v1", key: bytes | None = None) -> Draw:
+def draw(split: str, index: int, version: str = CURRENT_VERSION, key: bytes | None = None) -> Draw:
     """Draw ``index`` of ``split`` of benchmark ``version`` (a pure function; module docstring); the
     ``private`` split needs its ``key``."""
     if split not in RUN_SPLITS:

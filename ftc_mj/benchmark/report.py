@@ -239,7 +239,7 @@ def replay_command(bp: Any, method: str, draw_index: int) -> str:
     import shlex
 
     arg = next((m.argument for m in bp.methods if m.name == method), method)
-    definition = getattr(bp, "replay", {}).get("definition_file") or (None if bp.version == "ftc-v1" else bp.version)
+    definition = getattr(bp, "replay", {}).get("definition_file") or bp.version
     extra = f" --benchmark {shlex.quote(definition)}" if definition else ""
     return (f"ftc-mj bench {shlex.quote(arg)} --split {bp.split} --start {draw_index} --draws 1{extra}"
             + (" --healthy" if bp.healthy else ""))

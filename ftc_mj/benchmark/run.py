@@ -25,7 +25,7 @@ from ..io import atomic_path, write_json, writer_lock
 from ..study.plan import PlannedRun, StudyPlan, run_key
 from ..study.spec import AnalysisSpec, StudySpec
 from ..study.store import StudyStore
-from .definition import PRIVATE, RUN_SPLITS, JudgeRule, load_definition
+from .definition import CURRENT_VERSION, PRIVATE, RUN_SPLITS, JudgeRule, load_definition
 from .draws import MAX_INDEX, Draw, draw
 from .methods import Method
 from .private import private_key_id
@@ -89,7 +89,7 @@ def bench_run_key(cfg: Any, method: Method) -> str:
     return canonical_hash({"config": run_key(cfg), "code": method.code})[:16]
 
 
-def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str = "ftc-v1", start: int = 0,
+def plan_bench(methods: list[Method], split: str, n_draws: int, *, version: str = CURRENT_VERSION, start: int = 0,
                healthy: bool = False, private_key: bytes | None = None) -> BenchPlan:
     """Every (method, draw) run of draws ``start … start + n_draws - 1`` (validated; :class:`BadInput`); the
     private split's draws need its ``private_key`` (:mod:`.private`), of which the plan keeps only the id."""

@@ -1,6 +1,6 @@
 """Which run an episode of :class:`~ftc_mj.envs.DiffDriveEnv` is: the run config from ``reset``'s options.
 
-- ``{"split": "dev"|"test", "index": i}`` (and optionally ``"version"``, default ``ftc-v1``): the benchmark
+- ``{"split": "dev"|"test", "index": i}`` (and optionally ``"version"``, default ``ftc-v2``): the benchmark
   draw ``ftc_mj.benchmark.draws.draw(split, i, version)`` (its scenario, including its sensor-noise seed:
   a draw is the same run for every method);
 - ``{"scenario": NAME_OR_PATH}``: a built-in scenario or a scenario TOML file, as ``ftc-mj run`` reads it;
@@ -17,13 +17,13 @@ import copy
 from collections.abc import Mapping
 from typing import Any
 
-from ..benchmark.definition import SPLITS
+from ..benchmark.definition import CURRENT_VERSION, SPLITS
 from ..benchmark.draws import MAX_INDEX, Draw, draw
 from ..config import RunConfig, load_config, set_dotted, validate_config
 from ..errors import BadInput
 
 OPTION_KEYS = frozenset({"split", "index", "version", "scenario", "overrides"})
-DEFAULT_VERSION = "ftc-v1"
+DEFAULT_VERSION = CURRENT_VERSION
 """The benchmark version of a draw when the options name none."""
 
 

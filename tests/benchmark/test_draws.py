@@ -46,15 +46,16 @@ def test_two_draws_differ_in_at_least_six_factors(draws):
 
 def test_the_same_draw_in_a_new_process_and_pinned():
     code = ("import json; from ftc_mj.benchmark.draws import draw; "
-            "print(json.dumps([[draw(s, i).factors(), draw(s, i).scenario()] for s in ('dev', 'test') "
-            "for i in (0, 7, 123)], default=str))")
+            "print(json.dumps([[draw(s, i, 'ftc-v1').factors(), draw(s, i, 'ftc-v1').scenario()] "
+            "for s in ('dev', 'test') for i in (0, 7, 123)], default=str))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=REPO,
                          env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"}).stdout
-    here = [[draw(s, i).factors(), draw(s, i).scenario()] for s in ("dev", "test") for i in (0, 7, 123)]
+    here = [[draw(s, i, "ftc-v1").factors(), draw(s, i, "ftc-v1").scenario()]
+            for s in ("dev", "test") for i in (0, 7, 123)]
     assert json.loads(out) == json.loads(json.dumps(here, default=str))
     # the values ftc-v1 was published with: a change of the drawing code is a new version
-    assert canonical_hash([draw("dev", i).factors() for i in range(20)], 16) == PINNED_DEV
-    assert canonical_hash([draw("test", i).factors() for i in range(20)], 16) == PINNED_TEST
+    assert canonical_hash([draw("dev", i, "ftc-v1").factors() for i in range(20)], 16) == PINNED_DEV
+    assert canonical_hash([draw("test", i, "ftc-v1").factors() for i in range(20)], 16) == PINNED_TEST
 
 
 PINNED_DEV = "18b774217c07ed13"

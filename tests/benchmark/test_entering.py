@@ -58,8 +58,9 @@ def test_replay_commands_name_the_method_file_and_the_definition(tmp_path: Path)
     src.write_text('name = "mine"\n[settings]\n"reconfiguration.policy" = "direct"\n')
     mine = load_method(str(src))
     bp = plan_bench([mine, load_method("safe")], "dev", 1, start=3, healthy=True)
-    assert replay_command(bp, "safe", 3) == "ftc-mj bench safe --split dev --start 3 --draws 1 --healthy"
-    assert replay_command(bp, "mine", 3) == f"ftc-mj bench '{src.resolve()}' --split dev --start 3 --draws 1 --healthy"
+    tail = "--split dev --start 3 --draws 1 --benchmark ftc-v2 --healthy"  # the version named: a later default
+    assert replay_command(bp, "safe", 3) == f"ftc-mj bench safe {tail}"  # cannot change what it replays
+    assert replay_command(bp, "mine", 3) == f"ftc-mj bench '{src.resolve()}' {tail}"
     with pytest.raises(BadInput, match="no such built-in method"):
         load_method("mine")  # the bare name: what the report printed before
 
@@ -81,3 +82,18 @@ def test_the_benchmark_page_documents_method_files_and_the_builtins_settings() -
 
     page = (ROOT / "docs" / "benchmark.md").read_text()
     assert "\n".join([*METHOD_FILE, "", *builtin_settings()]) in page
+
+
+def test_every_entry_defaults_to_the_current_version() -> None:
+    """The bench command, a draw, a plan and a Gym episode name no version: they all get the current one."""
+    import inspect
+
+    from ftc_mj import cli
+    from ftc_mj.benchmark.definition import CURRENT_VERSION, load_definition
+    from ftc_mj.benchmark.draws import draw
+    from ftc_mj.envs.episode import DEFAULT_VERSION
+
+    assert inspect.signature(cli.bench).parameters["version"].default == CURRENT_VERSION == DEFAULT_VERSION
+    assert load_definition().version == CURRENT_VERSION
+    assert draw("dev", 0).factors() == draw("dev", 0, CURRENT_VERSION).factors()
+    assert plan_bench([load_method("safe")], "dev", 1).version == CURRENT_VERSION

@@ -74,7 +74,7 @@ def test_score_your_own_method_as_the_page_says(tmp_path: Path) -> None:
     assert sorted(scores["method"]) == ["blend-half", "blend-half", "feedback-off", "feedback-off"]
 
     report = (out / "dev-report.md").read_text()
-    replay = re.search(r"^\| blend-half \|.*`(ftc-mj bench [^`]+ --draws 1)` \|$", report, re.M)
+    replay = re.search(r"^\| blend-half \|.*`(ftc-mj bench [^`]+ --draws 1 --benchmark ftc-v2)` \|$", report, re.M)
     assert replay, report[:2000]
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()

@@ -123,18 +123,19 @@ def test_random_policy_and_nmpc_scored_by_the_same_scorer(nmpc_env, random_env, 
 
 
 def test_a_benchmark_draw_scored_for_the_nmpc_and_a_random_policy() -> None:
-    """Draw dev 2 (circle, right tyre deflating from 6.64 s, seed 769) on the kinematic plant, 14 s: the
+    """Draw dev 2 of ftc-v1 (circle, right tyre deflating from 6.64 s, seed 769) on the kinematic plant, 14 s: the
     episode is the draw's run (its config, its seed whatever ``seed`` says); the NMPC through the
     environment succeeds (within 0.5 m of the path from 5 s after the onset), random wheel rates do not;
     both as rows of the benchmark's scores, compared by its paired statistics."""
     env = DiffDriveEnv("scenario2", {"plant.kind": "kinematic", "duration": 14.0})
-    d = draw("dev", 2)
-    nmpc_episode(env, seed=5, options={"split": "dev", "index": 2})
+    d = draw("dev", 2, "ftc-v1")
+    v1 = {"split": "dev", "index": 2, "version": "ftc-v1"}
+    nmpc_episode(env, seed=5, options=v1)
     expected = validate_config({**d.scenario(), "plant": {**d.scenario()["plant"], "kind": "kinematic"},
                                 "duration": 14.0})
     assert env.config == expected and env.config.seed == d.seed == 769
     nmpc = env.episode_row("nmpc-through-env")
-    random_episode(env, 0, options={"split": "dev", "index": 2})
+    random_episode(env, 0, options=v1)
     random = env.episode_row("random")
     assert nmpc["success"] and nmpc["isolation"] == "correct" and nmpc["contouring_max"] < 0.5
     assert not random["success"] and random["contouring_rms"] > 1.0

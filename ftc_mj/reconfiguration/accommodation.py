@@ -104,6 +104,8 @@ class Accommodation:
         self._declared: frozenset[tuple[str, str, str]] = frozenset()
         self.free: int | None = None
         """The wheel (0 right, 1 left) whose servo alone is declared unresponsive, else ``None``."""
+        self.locked: int | None = None
+        """The wheel (0 right, 1 left) alone declared locked, else ``None``."""
 
     @property
     def stopping(self) -> bool:
@@ -130,6 +132,8 @@ class Accommodation:
         self.corrections, self.excluded = corrections, frozenset(excluded)
         free = [_SIDE[d.target] for d in diagnoses if (d.component, d.mode) == ("servo", "unresponsive")]
         self.free = free[0] if len(free) == 1 else None
+        locked = [_SIDE[d.target] for d in diagnoses if (d.component, d.mode) == ("servo", "lock")]
+        self.locked = locked[0] if len(locked) == 1 else None
         changed = not np.array_equal(eff, self.effectiveness)
         self.effectiveness = np.clip(eff, 0.0, 1.0)
         declared = frozenset(d.key for d in diagnoses)
@@ -199,14 +203,16 @@ class Accommodation:
                 rates: np.ndarray | None = None) -> ControlOutput:
         """The safe stop's command at ``t`` (s) (only while :attr:`stopping`): the first call starts the braking
         profile from the speed of the command in force (m/s, with ``radii``); with one servo declared
-        unresponsive its wheel, turning at the measured ``rates`` (rad/s), is left free and the other steers."""
+        unresponsive its wheel, turning at the measured ``rates`` (rad/s), is left free and the other steers; with
+        one wheel declared locked the other brakes at its torque limit and steers
+        (:meth:`~ftc_mj.control.stop.SafeStop.solve`)."""
         if not self._stop_started:
             speed = 0.0 if u_applied is None else 0.5 * float(np.asarray(radii, float) @ np.asarray(u_applied, float))
             self.stop.begin(t, speed)
             self._stop_started = True
         if self.state == AccommodationMode.STOPPING and t + 1e-9 >= self.stop.rest_time():
             self._enter(AccommodationMode.AT_REST, t, f"safe stop: planned speed 0 at {t:.2f} s", "info")
-        return self.stop.solve(t, pose, radii, u_applied, self.free, rates)
+        return self.stop.solve(t, pose, radii, u_applied, self.free, rates, self.locked)
 
 
 def _describe(d: Diagnosis) -> str:

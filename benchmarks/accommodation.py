@@ -86,7 +86,7 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     """Wilson score interval of ``k`` successes in ``n``."""
     p, d = k / n, 1.0 + z * z / n
     c, h = p + z * z / (2 * n), z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    return (c - h) / d, (c + h) / d
+    return max((c - h) / d, 0.0), min((c + h) / d, 1.0)
 
 
 def _share(k: int, n: int) -> str:
@@ -107,7 +107,7 @@ def table(rows: list[dict[str, Any]]) -> str:
                 continue
             e = [r["max_e"] if r["kind"] == "stop" else r["max_e_from_15"] for r in g]
             lines.append(f"| {case} ({g[0]['kind']}) | {loop} | {_share(sum(r['ok'] for r in g), len(g))} | "
-                         f"{_share(sum(r['at_rest'] for r in g), len(g))} | "
+                         f"{_share(sum(r['at_rest'] for r in g), len(g)) if g[0]['kind'] == 'stop' else '—'} | "
                          f"{st.median(e):.2f} [{min(e):.2f}, {max(e):.2f}] | "
                          f"{st.median(abs(r['v_at_15']) for r in g):.2f} | "
                          f"{st.median(r['liftoff_post'] for r in g):.2f} |")
@@ -128,7 +128,12 @@ def main() -> None:
     ap.add_argument("--seeds", default="0-4", help="seeds, e.g. 0-4 or 1000-1009 or 3,5 (default 0-4)")
     ap.add_argument("--cases", default=None, help="comma-separated fault names (default: all)")
     ap.add_argument("--out", default=None, help="also write the rows (JSON lines) here")
+    ap.add_argument("--rows", default=None, help="print the table of rows written by --out, run nothing")
     args = ap.parse_args()
+    if args.rows:
+        with open(args.rows) as f:
+            print(table([json.loads(line) for line in f]))
+        return
     cases = CASES if args.cases is None else {c: CASES[c] for c in args.cases.split(",")}
     rows = []
     for case, (over, duration, kind) in cases.items():

@@ -23,9 +23,9 @@ nominal robot times ``lateral_margin``, less the braking trade ``β`` per m/s² 
 *One wheel locked* (:meth:`SafeStop._locked`): the locked tyre skids, its drag slows the robot and yaws it
 towards the locked side; the planned profile would make the other wheel *push* whenever that drag alone
 brakes harder than the plan (scenario 2: the robot slowed at 3.2 m/s² with the other wheel on the 3 m/s²
-plan), which stops the robot later and yaws it further. So the other wheel is commanded below its measured rate — full braking torque — and its
-command is shifted by the heading error to the direction towards the path (less braking, then drive, where the
-robot must turn towards the locked side).
+plan), which stops the robot later and yaws it further. So the other wheel is commanded below its measured
+rate — full braking torque — and its command is shifted by the heading error to the direction towards the path
+(less braking, then drive, where the robot must turn towards the locked side).
 
 *One servo unresponsive* (:meth:`SafeStop._one_wheel`): the free wheel neither drives nor brakes; the other
 one steers, but never pushes the robot above the planned speed — faster than the plan, it brakes within the

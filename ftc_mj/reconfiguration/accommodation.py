@@ -63,6 +63,11 @@ class AccommodationSettings(StrictModel):
     accommodation; every other fault is met by robustness alone). ``all``: every diagnosed mode is accommodated
     and a fault that leaves the path out of reach stops the robot (module docstring); the declarations come from
     the run's diagnoser (``[diagnosis]``), or from the truth with ``oracle = true``."""
+    tyre: Literal["policy", "diagnosis"] = "policy"
+    """Where a diagnosed tyre's radius comes from (with ``mode = "all"``): ``policy`` — the reconfiguration
+    policy's radii, which may hold the nominal radius while the decision rule has not isolated the wheel even though
+    the diagnoser has declared the tyre; ``diagnosis`` — the declared size times the model's nominal radius, for
+    each wheel with a declared puncture (the policy's radii for the others)."""
     stop_effectiveness: ranged(0.0, 1.0) = 0.05
     """A servo diagnosed with at most this fraction of its gain and torque left stops the robot (m/s² of
     turning it can still give scale with it; at 5 % the shipped robot's servo carries 0.4 m/s² of lateral
@@ -100,6 +105,8 @@ class Accommodation:
         self.stop_reason: str | None = None
         self.corrections: dict[str, Diagnosis] = {}
         self.excluded: frozenset[str] = frozenset()
+        self.tyres: dict[int, float] = {}
+        """The declared tyre sizes (fraction of the nominal radius) per wheel (0 right, 1 left)."""
         self._stop_started = False
         self._declared: frozenset[tuple[str, str, str]] = frozenset()
         self.free: int | None = None
@@ -130,6 +137,8 @@ class Accommodation:
             if self.stop_reason is None:
                 self._check_stop(t, d)
         self.corrections, self.excluded = corrections, frozenset(excluded)
+        self.tyres = {_SIDE[d.target]: float(d.size) for d in diagnoses
+                      if (d.component, d.mode) == ("tyre", "puncture")}
         free = [_SIDE[d.target] for d in diagnoses if (d.component, d.mode) == ("servo", "unresponsive")]
         self.free = free[0] if len(free) == 1 else None
         locked = [_SIDE[d.target] for d in diagnoses if (d.component, d.mode) == ("servo", "lock")]
@@ -143,6 +152,16 @@ class Accommodation:
                                              else "nothing declared"))
         self._declared = declared
         return changed
+
+    def radii(self, radii: np.ndarray, nominal: float) -> np.ndarray:
+        """The radii [R_R, R_L] (m) for the controller: the policy's ``radii``, or with ``tyre = "diagnosis"`` the
+        declared size × ``nominal`` (m) for each wheel whose tyre is declared punctured."""
+        if self.settings.tyre != "diagnosis" or not self.tyres:
+            return radii
+        out = np.array(radii, dtype=float)
+        for i, size in self.tyres.items():
+            out[i] = nominal * size
+        return out
 
     def hand_actuator(self, t: float, controller: Any) -> None:
         """Give ``controller`` the actuator model (servo effectiveness per wheel) in force at ``t`` (s), with an

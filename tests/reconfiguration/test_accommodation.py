@@ -149,6 +149,20 @@ def test_sensor_offsets_are_removed_and_dropped_channels_excluded() -> None:
     assert acc.correct(3.1, Measurement(speed=10.5)).speed == pytest.approx(10.0)
 
 
+def test_a_declared_tyre_reaches_the_controller_only_when_asked() -> None:
+    """``tyre = "policy"`` (default): the policy's radii pass unchanged; ``"diagnosis"``: the declared size × the
+    nominal radius for the declared wheel, the policy's radius for the other."""
+    policy = np.array([2.0, 2.0])
+    declared = (_diag("tyre", "left", "puncture", 0.7, 10.0),)
+    acc = _accommodation()
+    acc.update(10.5, declared)
+    assert np.array_equal(acc.radii(policy, 2.0), policy)
+    acc = Accommodation(AccommodationSettings(mode="all", tyre="diagnosis"), _stop())
+    assert np.array_equal(acc.radii(policy, 2.0), policy)  # nothing declared yet
+    acc.update(10.5, declared)
+    assert np.allclose(acc.radii(np.array([1.9, 2.0]), 2.0), [1.9, 1.4])
+
+
 # ---------------------------------------------------------------- the stop law
 def test_the_stop_brakes_along_its_profile_within_the_traction_bound() -> None:
     """From 10 m/s at 3 m/s² (the controller's longitudinal bound caps the setting): the wheels' mean speed

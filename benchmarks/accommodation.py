@@ -8,7 +8,8 @@ wheel, at 10 s) and each seed, three loops (the settings of :mod:`ftc_mj.benchma
   (``[diagnosis]``) and ``reconfiguration.accommodation.mode = "all"``;
 - ``radii only``: the same with ``mode = "radii"`` (the loop before the accommodation);
 - ``oracle``: the benchmark's ``oracle`` row — the same controller told the truth (true pose and radii, the
-  configured faults as its diagnoses, ``oracle = true``), no estimator.
+  configured faults as its diagnoses, ``oracle = true``), no estimator;
+- ``tyre from diagnosis`` (only with ``--loops``): ``pathfollow`` with ``accommodation.tyre = "diagnosis"``.
 
 Seed ``i`` runs condition ``i mod 8``: circle radius 40/50/80/120 m × ccw/cw at ``min(10, sqrt(1.5 R))`` m/s (the
 ftc-v1 speed cap). Seeds 0–999 are development seeds; held-out seeds (≥ 1000) are for the acceptance after the
@@ -58,8 +59,11 @@ CASES: dict[str, tuple[dict[str, Any], float, str]] = {
 CONDITIONS = [(R, d) for R in (40.0, 50.0, 80.0, 120.0) for d in ("ccw", "cw")]
 LOOPS = {"accommodated": BUILTIN["pathfollow"][1],
          "radii only": {**BUILTIN["pathfollow"][1], "reconfiguration.accommodation.mode": "radii"},
-         "oracle": REFERENCE_ROWS["oracle"][1]}
-"""Loop name: its settings (the benchmark's ``pathfollow`` method, it with the radii only, its ``oracle`` row)."""
+         "oracle": REFERENCE_ROWS["oracle"][1],
+         "tyre from diagnosis": {**BUILTIN["pathfollow"][1], "reconfiguration.accommodation.tyre": "diagnosis"}}
+"""Loop name: its settings (the benchmark's ``pathfollow`` method, it with the radii only, its ``oracle`` row, and it
+with the declared tyre size as the radius — not run unless named in ``--loops``)."""
+DEFAULT_LOOPS = ("accommodated", "radii only", "oracle")
 
 
 def one_run(over: dict[str, Any], duration: float, kind: str, loop: str, seed: int) -> dict[str, Any]:
@@ -102,7 +106,7 @@ def table(rows: list[dict[str, Any]]) -> str:
              "|---|---|---|---|---|---|---|"]
     for case in dict.fromkeys(r["case"] for r in rows):
         for loop in LOOPS:
-            g = [r for r in rows if r["case"] == case and r["loop"] == loop]
+            g = [r for r in rows if r["case"] == case and r["loop"] == loop]  # loops not run have no rows
             if not g:
                 continue
             e = [r["max_e"] if r["kind"] == "stop" else r["max_e_from_15"] for r in g]
@@ -127,6 +131,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="0-4", help="seeds, e.g. 0-4 or 1000-1009 or 3,5 (default 0-4)")
     ap.add_argument("--cases", default=None, help="comma-separated fault names (default: all)")
+    ap.add_argument("--loops", default=",".join(DEFAULT_LOOPS), help=f"comma-separated loops of {list(LOOPS)}")
     ap.add_argument("--out", default=None, help="also write the rows (JSON lines) here")
     ap.add_argument("--rows", default=None, help="print the table of rows written by --out, run nothing")
     args = ap.parse_args()
@@ -137,7 +142,7 @@ def main() -> None:
     cases = CASES if args.cases is None else {c: CASES[c] for c in args.cases.split(",")}
     rows = []
     for case, (over, duration, kind) in cases.items():
-        for loop in LOOPS:
+        for loop in args.loops.split(","):
             for seed in seed_range(args.seeds):
                 row = {"case": case, "kind": kind, **one_run(over, duration, kind, loop, seed)}
                 rows.append(row)

@@ -7,13 +7,17 @@ the truth, :mod:`.oracle`) at every controller sample and decides, per mode:
 ==========================  =================================================================================
 diagnosed mode              accommodation
 ==========================  =================================================================================
-tyre ``puncture``           the radii, as the reconfiguration policy hands them over (:mod:`.policies`); a
-                            tyre left with at most ``stop_radius_fraction`` of its radius: safe stop
+tyre ``puncture``           the radii, as the reconfiguration policy hands them over (:mod:`.policies`), or
+                            with ``tyre = "diagnosis"`` the declared size × the nominal radius; a tyre left
+                            with at most ``stop_radius_fraction`` of its radius: safe stop
 servo ``loss``              the controller's actuator model scaled by the effectiveness ``e``
                             (``set_actuator_effectiveness``: the path-following NMPC's servo-compliance
-                            offset of that wheel grows by ``1/e``); ``e ≤ stop_effectiveness``: safe stop
+                            offset of that wheel grows by ``1/e``, its lateral and longitudinal bounds
+                            follow the weakest servo's torque, ``pathfollow_spec.servo_limited``);
+                            ``e ≤ stop_effectiveness``: safe stop
 servo ``lock``,             safe stop: a wheel that cannot turn, or turns only with the ground, cannot
-``unresponsive``            steer the robot along the path
+``unresponsive``            steer the robot along the path (the other wheel brakes and steers: the stop's
+                            one-wheel laws, :mod:`ftc_mj.control.stop`)
 sensor ``bias``, ``drift``  the reading corrected by the diagnosed offset (``size``, or ``size (t − onset)``)
                             before the filter sees it
 sensor ``dropout``;         the channel excluded from the filter (and a pose sensor's from the controller's

@@ -101,6 +101,7 @@ from .pathfollow_spec import (
     RobotLimits,
     compliance_offset,
     path_following_problem,
+    servo_limited,
     wheel_bounds,
 )
 from .reference import Path, path_errors, project
@@ -166,6 +167,8 @@ class PathFollowingNMPC(MPCLifecycle):
         if solver not in SOLVERS:
             raise ValueError(f"unknown path-following NMPC solver {solver!r}; expected one of {SOLVERS}")
         self.spec = spec
+        self._base_spec = spec
+        """The problem before the servos' bounds (:func:`servo_limited` makes :attr:`spec` from it)."""
         self.path = path
         self.solver_name = solver
         self.max_iter = int(max_iter)
@@ -179,11 +182,19 @@ class PathFollowingNMPC(MPCLifecycle):
         parameters of the built NLP and QP (:mod:`~ftc_mj.control.pathfollow_path`), so a built controller, reset,
         serves them exactly as one built for them (the simulation's cache relies on it: ``retargetable``); a
         problem of another structure (another path kind, another grid or weights) builds its solvers anew."""
-        spec = self.spec if spec is None else spec
-        if spec.problem != self.spec.problem and dataclasses.replace(
-                spec.problem, max_lateral_accel=self.spec.problem.max_lateral_accel) != self.spec.problem:
+        spec = self._base_spec if spec is None else spec
+        mine = self.spec.problem
+        if dataclasses.replace(spec.problem, max_lateral_accel=mine.max_lateral_accel,
+                               max_longitudinal_accel=mine.max_longitudinal_accel) != mine:
             raise ValueError("set_reference: the path-following NMPC's grid and robot cannot change")
-        self.spec, self.path = spec, path
+        self._base_spec, self.path = spec, path
+        self._set_problem(servo_limited(spec, self._effectiveness))
+
+    def _set_problem(self, spec: PathFollowingSpec) -> None:
+        """Solve ``spec`` on the current path from the next sample on (its bounds are bounds of the built NLP's
+        rows and read by the QP at every build; another structure builds the solvers anew)."""
+        path = self.path
+        self.spec = spec
         if nlp_structure(spec, path) != self._nlp.structure:
             self._build_solvers()
             return
@@ -219,14 +230,18 @@ class PathFollowingNMPC(MPCLifecycle):
         """The servos' remaining effectiveness [e_R, e_L] (fractions of gain and torque limit) for the next
         solves (the accommodation of a diagnosed servo loss): a servo at ``e`` yields ``1/e`` times as much
         under the same load, so its wheel's compliance offset is divided by ``e`` (floored at
-        :data:`MIN_EFFECTIVENESS`; a weaker servo is a safe stop's, not this controller's)."""
+        :data:`MIN_EFFECTIVENESS`; a weaker servo is a safe stop's, not this controller's), and the lateral and
+        longitudinal bounds follow the weakest servo's torque (:func:`servo_limited`)."""
         self._effectiveness = np.maximum(np.asarray(effectiveness, dtype=float), MIN_EFFECTIVENESS)
+        self._set_problem(servo_limited(self._base_spec, self._effectiveness))
 
     def _clear(self) -> None:
         super()._clear()  # plans are (t0, X (N,4), U (N,3))
         self._offset = np.zeros(2)
         self._interval: RadiusInterval | None = None
         self._effectiveness = np.ones(2)
+        if hasattr(self, "_nlp") and self.spec != self._base_spec:  # a reset forgets the servos' bounds too
+            self._set_problem(self._base_spec)
 
     def _reset_solvers(self) -> None:
         for solver in (self._nlp, self.qp, *(self._robust or ())):

@@ -20,13 +20,16 @@ ca = lazy_module("casadi")
 def nlp_structure(spec: PathFollowingSpec, path: Path, robust: bool = False) -> tuple:
     """What the graph of the path-following NLP of ``spec`` on ``path`` is built from: the spec without the
     numbers that are parameters or bounds of the NLP (desired speed, progress-speed bound, braking trade — only
-    whether it is zero —, lateral bound — only whether there is one —, yaw compliance, which the NLP does not
-    read), the path's kind (a path without parameters: the path itself) and ``robust``. Two problems of equal
-    structure share one IPOPT solver."""
+    whether it is zero —, lateral and longitudinal bounds — only whether there is one —, yaw compliance and
+    the servos' limits, which the NLP does not read), the path's kind (a path without parameters: the path
+    itself) and ``robust``. Two problems of equal structure share one IPOPT solver."""
     pr = spec.problem
     lat = None if pr.max_lateral_accel is None else 0.0
-    bare = dataclasses.replace(spec, problem=dataclasses.replace(pr, max_lateral_accel=lat), desired_speed=0.0,
-                               max_progress_speed=0.0, yaw_compliance=0.0, braking_trade=float(spec.braking_trade != 0))
+    lon = None if pr.max_longitudinal_accel is None else 0.0
+    bare = dataclasses.replace(spec, problem=dataclasses.replace(pr, max_lateral_accel=lat, max_longitudinal_accel=lon),
+                               desired_speed=0.0, max_progress_speed=0.0, yaw_compliance=0.0,
+                               braking_trade=float(spec.braking_trade != 0), servo_lateral_accel=None,
+                               servo_longitudinal_accel=None)
     return bare, path_kind(path) or path, bool(robust)
 
 
@@ -37,7 +40,8 @@ class PathNLP:
     parameters ``p = [x0, y0, psi0, s0, R_R, R_L, V_applied, V_des, β, path…]``: the initial state, the radii, the
     speed of the applied command, the desired speed (m/s), the braking trade and the path's numbers
     (:mod:`~ftc_mj.control.pathfollow_path`), so one solver serves every draw of a path kind
-    (:func:`nlp_structure`); the lateral bound and the progress-speed bound are bounds of the rows and variables
+    (:func:`nlp_structure`); the lateral and longitudinal bounds and the progress-speed bound are bounds of the rows
+    and variables
     (:meth:`set_problem`). Constraint rows as :class:`PathQP`'s, exact instead of linearised: collocation
     (4N), initial state (4), wheel-rate rates (2N), traction (4N + 4, or 2N), longitudinal acceleration (N)
     and the speed at ``t0`` relative to ``V_applied`` (1).
@@ -117,6 +121,8 @@ class PathNLP:
         if pr.max_longitudinal_accel is not None:
             g.append(dU[0, :].T * 0.5 * radii[0] + dU[1, :].T * 0.5 * radii[1])
             g.append(Vp[0, 0])  # speed at t0, within a_max T_s of the applied command's (bounds per solve)
+            start = sum(len(b) for b in lbg)
+            self._lon_rows = np.arange(start, start + N)
             lbg += [-pr.max_longitudinal_accel * np.ones(N), [-np.inf]]
             ubg += [pr.max_longitudinal_accel * np.ones(N), [np.inf]]
         self._lbg, self._ubg = np.concatenate(lbg), np.concatenate(ubg)
@@ -145,6 +151,9 @@ class PathNLP:
         self._ubx[6 * N:7 * N] = spec.max_progress_speed
         if self._rows.size:
             self._ubg[self._rows] = spec.problem.max_lateral_accel
+        if spec.problem.max_longitudinal_accel is not None:
+            self._lbg[self._lon_rows] = -spec.problem.max_longitudinal_accel
+            self._ubg[self._lon_rows] = spec.problem.max_longitudinal_accel
 
     def _interval_rows(self, g: list, spec: PathFollowingSpec, tau: ca.SX, corners: ca.SX, Uw: ca.SX,
                        rates: ca.Function) -> ca.SX:

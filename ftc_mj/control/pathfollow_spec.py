@@ -87,6 +87,12 @@ class RobotLimits:
     """Commanded minus actual yaw rate (rad/s) per m/s² of lateral acceleration with the nominal tyres (s/m)."""
     braking_trade: float
     """Loss of the lift-off limit per m/s² of braking (dimensionless)."""
+    servo_lateral_accel: float | None = None
+    """Lateral acceleration (m/s²) at which one healthy servo's torque limit carries the yaw couple
+    (:func:`ftc_mj.plant.limits.servo_limits`; ``None``: no servo, the kinematic plant)."""
+    servo_longitudinal_accel: float | None = None
+    """Longitudinal acceleration (m/s²) at which one healthy servo's torque limit carries its wheel's half
+    (``None``: no servo)."""
 
 
 @dataclass(frozen=True)
@@ -131,6 +137,8 @@ class PathFollowingSpec:
     sample_time: float  # s
     slack_penalty: float  # per m/s² of slack
     max_lag: float  # m, largest |lag| of the carried progress at t0 (0: re-projected at every sample)
+    servo_lateral_accel: float | None = None  # m/s², lateral bound a healthy servo allows (× the margin); None: none
+    servo_longitudinal_accel: float | None = None  # m/s², longitudinal bound a healthy servo allows; None: none
 
 
 def path_following_problem(problem: ProblemSpec, settings: PathFollowingSettings, desired_speed: float,
@@ -159,7 +167,32 @@ def path_following_problem(problem: ProblemSpec, settings: PathFollowingSettings
         yaw_compliance=lim.yaw_compliance if pf.compensate_yaw_compliance else 0.0,
         braking_trade=lim.braking_trade if pf.braking_trade else 0.0,
         sample_time=problem.sample_time, slack_penalty=pf.slack_penalty, max_lag=pf.max_lag,
+        servo_lateral_accel=(None if lim.servo_lateral_accel is None
+                             else pf.lateral_accel_margin * lim.servo_lateral_accel),
+        servo_longitudinal_accel=lim.servo_longitudinal_accel,
     )
+
+
+def servo_limited(spec: PathFollowingSpec, effectiveness: np.ndarray) -> PathFollowingSpec:
+    """The problem of ``spec`` with its bounds following the servos' remaining ``effectiveness`` [e_R, e_L]
+    (fractions of gain and torque limit; the accommodation of a diagnosed servo loss).
+
+    A servo at ``e`` has the torque ``e τ_max``, while the loads it must carry are the robot's: the yaw couple's
+    tyre force grows with the lateral acceleration ``a`` and the wheel's share of the driving or braking force
+    with ``dV/dt`` (:class:`~ftc_mj.plant.limits.ServoLimits`), so the weakest servo ``e = min(e_R, e_L)``
+    carries ``e a_s`` and ``e a_x,s``. The lateral bound becomes ``min(A, e · margin · a_s)`` and the
+    longitudinal ``min(a_lon, e a_x,s)``; with them the speed follows too, on a path of curvature ``κ`` at most
+    ``√(A_e / |κ|)`` (the traction rows bound ``V ψ̇``). Unchanged where ``spec`` has no servo numbers (the
+    kinematic plant) or no such bound."""
+    e = float(np.clip(np.min(effectiveness), 0.0, 1.0))
+    pr = spec.problem
+    lat, lon = pr.max_lateral_accel, pr.max_longitudinal_accel
+    if lat is not None and spec.servo_lateral_accel is not None:
+        lat = min(lat, e * spec.servo_lateral_accel)
+    if lon is not None and spec.servo_longitudinal_accel is not None:
+        lon = min(lon, e * spec.servo_longitudinal_accel)
+    return dataclasses.replace(spec, problem=dataclasses.replace(pr, max_lateral_accel=lat,
+                                                                 max_longitudinal_accel=lon))
 
 
 def compliance_offset(spec: PathFollowingSpec, u_applied: np.ndarray | None, radii: np.ndarray,

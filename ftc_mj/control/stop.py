@@ -19,8 +19,17 @@ nominal robot times ``lateral_margin``, less the braking trade ``β`` per m/s² 
 
 *Wheels.* ``(ω_R, ω_L) = ((V + b r)/R_R, (V − b r)/R_L)`` with the radii the controller is given, clipped to
 ``±omega_max`` and to ``omega_rate_max T_s`` from the command in force. At rest (``V = 0``) both are 0.
-A wheel that does not turn (a lock) ignores its command; the other one's still brakes and steers: a
-braking force on one side yaws the robot towards it, the sign the law assumes.
+
+*One wheel locked* (:meth:`SafeStop._locked`): the locked tyre skids, its drag slows the robot and yaws it
+towards the locked side; the planned profile would make the other wheel *push* whenever that drag alone
+brakes harder than the plan (scenario 2: the robot slowed at 3.2 m/s² with the other wheel on the 3 m/s²
+plan), which stops the robot later and yaws it further. So the other wheel is commanded below its measured
+rate — full braking torque — and its command is shifted by the heading error to the direction towards the path
+(less braking, then drive, where the robot must turn towards the locked side).
+
+*One servo unresponsive* (:meth:`SafeStop._one_wheel`): the free wheel neither drives nor brakes; the other
+one steers, but never pushes the robot above the planned speed — faster than the plan, it brakes within the
+traction bound, and the robot turns towards it as it slows.
 """
 
 from __future__ import annotations
@@ -47,6 +56,14 @@ class SafeStopSettings(StrictModel):
     """Natural length ``L`` (m) of the steering's error dynamics over the distance travelled."""
     damping: ranged(0.0, 5.0, lo_open=True) = 0.8
     """Damping ``ζ`` of the steering's error dynamics."""
+    lock_brake: ranged(0.0, 10.0, unit="rad/s") = 0.5
+    """With one wheel locked: how far below its measured rate (rad/s) the other wheel is commanded when the robot
+    heads where it should — beyond the shipped servo's saturation (``τ_max / k_v`` = 0.15 rad/s), i.e. its full
+    braking torque (:meth:`SafeStop._locked`)."""
+    lock_heading_gain: ranged(0.0, 100.0, unit="rad/s per rad") = 5.0
+    """With one wheel locked: the other wheel's command (rad/s) per rad of heading error to the direction towards
+    the path; 0.1 rad towards the locked side turns its full braking torque into full drive on the shipped
+    robot."""
 
 
 @dataclass(frozen=True)
@@ -96,31 +113,41 @@ class SafeStop:
         """When the planned speed reaches 0 (s)."""
         return self.t0 + self.v0 / self.deceleration
 
-    def yaw_rate(self, pose: np.ndarray, V: float, coasting: bool = False) -> float:
-        """The yaw rate (rad/s) that steers towards the path at speed ``V`` (m/s), within the traction bound (while
-        braking, or ``coasting`` without the braking trade)."""
-        if V <= 0.0:
-            return 0.0
+    def errors(self, pose: np.ndarray, V: float) -> tuple[float, float, float]:
+        """``(e_c, e_psi, κ_p)``: the contouring error (m, positive left), the heading error (rad) and the path's
+        curvature (1/m) at the path point nearest ``pose`` (searched around the last one, within the distance a
+        robot at ``V`` m/s may have gone)."""
         x, y, psi = (float(v) for v in pose[:3])
         guess = 0.0 if self.s is None else self.s
         self.s = project(self.path, x, y, guess, max(2.0 * V, 10.0) if self.s is not None else 1.0e3, step=0.5)
         g = self.path.geometry(np.array([self.s]))
         ec = float(path_errors(self.path, np.array([x]), np.array([y]), np.array([self.s]))[0][0])
-        e_psi = float(np.angle(np.exp(1j * (psi - float(g.heading[0])))))
-        kappa = float(g.curvature[0]) - self.k_heading * np.sin(e_psi) - self.k_contour * ec
+        return ec, float(np.angle(np.exp(1j * (psi - float(g.heading[0]))))), float(g.curvature[0])
+
+    def yaw_rate(self, pose: np.ndarray, V: float, coasting: bool = False) -> float:
+        """The yaw rate (rad/s) that steers towards the path at speed ``V`` (m/s), within the traction bound (while
+        braking, or ``coasting`` without the braking trade)."""
+        if V <= 0.0:
+            return 0.0
+        ec, e_psi, kappa_p = self.errors(pose, V)
+        kappa = kappa_p - self.k_heading * np.sin(e_psi) - self.k_contour * ec
         r_max = (self.max_lateral_coasting if coasting else self.max_lateral) / V
         return float(np.clip(V * kappa, -r_max, r_max))
 
     def solve(self, t: float, pose: np.ndarray, radii: np.ndarray, u_applied: np.ndarray | None = None,
-              free: int | None = None, rates: np.ndarray | None = None) -> ControlOutput:
+              free: int | None = None, rates: np.ndarray | None = None, locked: int | None = None) -> ControlOutput:
         """The wheel-rate command (rad/s) at ``t`` (s) from the pose [x, y, psi] (m, m, rad) and the radii
         [R_R, R_L] (m) the controller is given; ``u_applied`` is the command in force (rad/s). ``free`` (0 right,
         1 left): a wheel whose servo applies no torque, turning at the measured ``rates`` [omega_R, omega_L]
-        (rad/s): only the other one acts (:meth:`_one_wheel`)."""
+        (rad/s): only the other one acts (:meth:`_one_wheel`); ``locked``: a wheel that cannot turn, the other
+        one brakes and steers (:meth:`_locked`)."""
         lim = self.limits
         ok = bool(np.all(np.isfinite(pose)))
-        if free is not None and rates is not None and np.all(np.isfinite(rates)):
-            om = self._one_wheel(np.asarray(pose, dtype=float) if ok else None, radii, free, rates)
+        measured = rates is not None and bool(np.all(np.isfinite(rates)))
+        if locked is not None and measured:
+            om = self._locked(np.asarray(pose, dtype=float) if ok else None, radii, locked, rates)
+        elif free is not None and measured:
+            om = self._one_wheel(np.asarray(pose, dtype=float) if ok else None, radii, free, rates, self.speed(t))
         else:
             V = self.speed(t)
             r = self.yaw_rate(np.asarray(pose, dtype=float), V) if ok else 0.0
@@ -131,15 +158,49 @@ class SafeStop:
         om = np.clip(om, -lim.omega_max, lim.omega_max)
         return ControlOutput(omega=om, status="safe stop")
 
-    def _one_wheel(self, pose: np.ndarray | None, radii: np.ndarray, free: int, rates: np.ndarray) -> np.ndarray:
+    def _one_wheel(self, pose: np.ndarray | None, radii: np.ndarray, free: int, rates: np.ndarray,
+                   planned: float = np.inf) -> np.ndarray:
         """Steering with one wheel. The free wheel neither drives nor brakes: its ground speed ``v_f = R_f omega_f``
-        is what it is, and braking the other wheel would only spin the robot about it. So the other wheel's speed
-        is set for the yaw rate towards the path, ``v_R − v_L = 2 b r`` (within the traction bound without
-        braking), and the robot slows as the free wheel does (its bearing's damping, the rolling resistance)."""
+        is what it is. The other wheel's speed is set for the yaw rate towards the path, ``v_R − v_L = 2 b r``
+        (within the traction bound without braking), but never so that the robot's speed ``(v_R + v_L)/2`` exceeds
+        the ``planned`` one (m/s): a robot faster than the plan is slowed by braking that wheel, within the traction
+        bound of braking (``|r| ≤ (margin · A − β a) / V``), and turns towards it while it slows. The heading such a
+        stop turns through grows with ``ln(V_0/V)`` whatever the profile (the braking force on one side is the yaw
+        couple), so where the path turns towards the free wheel the robot leaves it on the other side — slowing,
+        instead of driving faster to turn with the path (docs/findings.md)."""
         b = self.limits.half_track
         v_free = float(radii[free]) * float(rates[free])
-        r = self.yaw_rate(pose, max(v_free, 0.0), coasting=True) if pose is not None else 0.0
+        V = max(v_free, 0.0)
+        r = self.yaw_rate(pose, V, coasting=True) if pose is not None else 0.0
         sign = 1.0 if free == 1 else -1.0  # v_R − v_L = 2 b r
+        v_other = v_free + sign * 2.0 * b * r
+        if V > 0.0 and v_other > 2.0 * planned - v_free:  # faster than the plan: brake, within the traction bound
+            v_other = min(v_other, max(2.0 * planned - v_free, v_free - 2.0 * b * self.max_lateral_coasting / V, 0.0))
         om = np.array(rates, dtype=float)
-        om[1 - free] = (v_free + sign * 2.0 * b * r) / float(radii[1 - free])
+        om[1 - free] = v_other / float(radii[1 - free])
+        return om
+
+    def _locked(self, pose: np.ndarray | None, radii: np.ndarray, locked: int, rates: np.ndarray) -> np.ndarray:
+        """Braking and steering with the one wheel that turns, the other locked and skidding. The locked tyre's
+        drag ``D`` (its friction, ≈ μ N) slows the robot and yaws it towards the locked side with ``b D``; the other
+        wheel's force ``u`` adds ``−u`` to the drag and ``± b u`` to the yaw moment. Its full braking torque stops
+        the robot soonest and yaws it least towards the locked side, so that is the law while the robot heads where
+        it should: the command ``lock_brake`` below the wheel's measured rate (a planned profile would make the
+        wheel push whenever the drag alone brakes harder than the plan). The heading error to the direction
+        ``ψ_d = θ(s) − atan(e_c / L)`` (towards the path over the settle length ``L``) shifts it by
+        ``lock_heading_gain`` per rad: heading too far away from the locked side, the wheel brakes less, then
+        drives (the yaw moment grows towards the locked side). The command never reverses the wheel; at rest it
+        is 0 (the servo holds the wheel)."""
+        w = 1 - locked
+        s = self.settings
+        om = np.zeros(2)
+        rate = float(rates[w])
+        if rate <= 0.0:
+            return om
+        turn = 0.0
+        if pose is not None:
+            ec, e_psi, _ = self.errors(pose, float(radii[w]) * rate)
+            d_psi = -float(np.arctan(ec / s.settle_length)) - e_psi  # ψ_d − ψ, rad (positive: turn left)
+            turn = (1.0 if w == 0 else -1.0) * s.lock_heading_gain * d_psi  # the right wheel's force yaws left
+        om[w] = float(np.clip(rate - s.lock_brake + turn, 0.0, rate + s.lock_brake))
         return om

@@ -139,3 +139,33 @@ def lateral_accel_limits(model: mujoco.MjModel) -> LateralLimits:
     return LateralLimits(rollover=a_roll, traction=a0,
                          braking_trade=(a0 - robot.traction(BRAKING_REF, a_roll)) / BRAKING_REF,
                          wheel_load=N0, load_transfer=k, yaw_compliance=M * x_G * R * R / (2.0 * b * b * kv))
+
+
+@dataclass(frozen=True)
+class ServoLimits:
+    """What one velocity servo's torque limit ``τ_max`` (N m) allows the robot, with its nominal gain and limit
+    (a servo left with the fraction ``e`` of both allows ``e`` times each: the torque scales, the loads do
+    not)."""
+
+    lateral: float
+    """Lateral acceleration (m/s²) at which the yaw couple's tyre force ``M a x_G / (2 b)`` (module docstring,
+    *Yaw compliance*) needs ``τ_max`` of one wheel: ``a_s = 2 b τ_max / (M x_G R) = τ_max R / (b k_v c)``."""
+    longitudinal: float
+    """Longitudinal acceleration (m/s²) at which one wheel's half of the force ``M a_x`` plus its tyre's spin
+    inertia ``I a_x / R`` needs ``τ_max``: ``a_x,s = τ_max / (M R / 2 + I / R)`` (both wheels share it: a
+    differential drive that pushed harder on one side would turn)."""
+
+
+def servo_limits(model: mujoco.MjModel) -> ServoLimits:
+    """The servo-torque limits of the level robot with its nominal tyres (:class:`ServoLimits`); ``model`` is a
+    compiled model of the built-in ``diffdrive.xml``."""
+    lat = lateral_accel_limits(model)
+    R = float(model.geom("wheel_left").size[0])
+    act = model.actuator("act_left")
+    kv, tau = float(act.gainprm[0]), float(act.forcerange[1])
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    b = 0.5 * abs(float(data.xpos[model.body("hub_left").id][1] - data.xpos[model.body("hub_right").id][1]))
+    M = float(np.sum(model.body_mass))
+    inertia = float(model.body_inertia[model.body("tyre_left").id][1])
+    return ServoLimits(lateral=tau * R / (b * kv * lat.yaw_compliance), longitudinal=tau / (0.5 * M * R + inertia / R))

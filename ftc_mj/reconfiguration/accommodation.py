@@ -7,13 +7,17 @@ the truth, :mod:`.oracle`) at every controller sample and decides, per mode:
 ==========================  =================================================================================
 diagnosed mode              accommodation
 ==========================  =================================================================================
-tyre ``puncture``           the radii, as the reconfiguration policy hands them over (:mod:`.policies`); a
-                            tyre left with at most ``stop_radius_fraction`` of its radius: safe stop
+tyre ``puncture``           the radii, as the reconfiguration policy hands them over (:mod:`.policies`), or
+                            with ``tyre = "diagnosis"`` the declared size × the nominal radius; a tyre left
+                            with at most ``stop_radius_fraction`` of its radius: safe stop
 servo ``loss``              the controller's actuator model scaled by the effectiveness ``e``
                             (``set_actuator_effectiveness``: the path-following NMPC's servo-compliance
-                            offset of that wheel grows by ``1/e``); ``e ≤ stop_effectiveness``: safe stop
+                            offset of that wheel grows by ``1/e``, its lateral and longitudinal bounds
+                            follow the weakest servo's torque, ``pathfollow_spec.servo_limited``);
+                            ``e ≤ stop_effectiveness``: safe stop
 servo ``lock``,             safe stop: a wheel that cannot turn, or turns only with the ground, cannot
-``unresponsive``            steer the robot along the path
+``unresponsive``            steer the robot along the path (the other wheel brakes and steers: the stop's
+                            one-wheel laws, :mod:`ftc_mj.control.stop`)
 sensor ``bias``, ``drift``  the reading corrected by the diagnosed offset (``size``, or ``size (t − onset)``)
                             before the filter sees it
 sensor ``dropout``;         the channel excluded from the filter (and a pose sensor's from the controller's
@@ -63,6 +67,11 @@ class AccommodationSettings(StrictModel):
     accommodation; every other fault is met by robustness alone). ``all``: every diagnosed mode is accommodated
     and a fault that leaves the path out of reach stops the robot (module docstring); the declarations come from
     the run's diagnoser (``[diagnosis]``), or from the truth with ``oracle = true``."""
+    tyre: Literal["policy", "diagnosis"] = "policy"
+    """Where a diagnosed tyre's radius comes from (with ``mode = "all"``): ``policy`` — the reconfiguration
+    policy's radii, which may hold the nominal radius while the decision rule has not isolated the wheel even though
+    the diagnoser has declared the tyre; ``diagnosis`` — the declared size times the model's nominal radius, for
+    each wheel with a declared puncture (the policy's radii for the others)."""
     stop_effectiveness: ranged(0.0, 1.0) = 0.05
     """A servo diagnosed with at most this fraction of its gain and torque left stops the robot (m/s² of
     turning it can still give scale with it; at 5 % the shipped robot's servo carries 0.4 m/s² of lateral
@@ -100,10 +109,14 @@ class Accommodation:
         self.stop_reason: str | None = None
         self.corrections: dict[str, Diagnosis] = {}
         self.excluded: frozenset[str] = frozenset()
+        self.tyres: dict[int, float] = {}
+        """The declared tyre sizes (fraction of the nominal radius) per wheel (0 right, 1 left)."""
         self._stop_started = False
         self._declared: frozenset[tuple[str, str, str]] = frozenset()
         self.free: int | None = None
         """The wheel (0 right, 1 left) whose servo alone is declared unresponsive, else ``None``."""
+        self.locked: int | None = None
+        """The wheel (0 right, 1 left) alone declared locked, else ``None``."""
 
     @property
     def stopping(self) -> bool:
@@ -128,8 +141,12 @@ class Accommodation:
             if self.stop_reason is None:
                 self._check_stop(t, d)
         self.corrections, self.excluded = corrections, frozenset(excluded)
+        self.tyres = {_SIDE[d.target]: float(d.size) for d in diagnoses
+                      if (d.component, d.mode) == ("tyre", "puncture")}
         free = [_SIDE[d.target] for d in diagnoses if (d.component, d.mode) == ("servo", "unresponsive")]
         self.free = free[0] if len(free) == 1 else None
+        locked = [_SIDE[d.target] for d in diagnoses if (d.component, d.mode) == ("servo", "lock")]
+        self.locked = locked[0] if len(locked) == 1 else None
         changed = not np.array_equal(eff, self.effectiveness)
         self.effectiveness = np.clip(eff, 0.0, 1.0)
         declared = frozenset(d.key for d in diagnoses)
@@ -139,6 +156,16 @@ class Accommodation:
                                              else "nothing declared"))
         self._declared = declared
         return changed
+
+    def radii(self, radii: np.ndarray, nominal: float) -> np.ndarray:
+        """The radii [R_R, R_L] (m) for the controller: the policy's ``radii``, or with ``tyre = "diagnosis"`` the
+        declared size × ``nominal`` (m) for each wheel whose tyre is declared punctured."""
+        if self.settings.tyre != "diagnosis" or not self.tyres:
+            return radii
+        out = np.array(radii, dtype=float)
+        for i, size in self.tyres.items():
+            out[i] = nominal * size
+        return out
 
     def hand_actuator(self, t: float, controller: Any) -> None:
         """Give ``controller`` the actuator model (servo effectiveness per wheel) in force at ``t`` (s), with an
@@ -199,14 +226,16 @@ class Accommodation:
                 rates: np.ndarray | None = None) -> ControlOutput:
         """The safe stop's command at ``t`` (s) (only while :attr:`stopping`): the first call starts the braking
         profile from the speed of the command in force (m/s, with ``radii``); with one servo declared
-        unresponsive its wheel, turning at the measured ``rates`` (rad/s), is left free and the other steers."""
+        unresponsive its wheel, turning at the measured ``rates`` (rad/s), is left free and the other steers; with
+        one wheel declared locked the other brakes at its torque limit and steers
+        (:meth:`~ftc_mj.control.stop.SafeStop.solve`)."""
         if not self._stop_started:
             speed = 0.0 if u_applied is None else 0.5 * float(np.asarray(radii, float) @ np.asarray(u_applied, float))
             self.stop.begin(t, speed)
             self._stop_started = True
         if self.state == AccommodationMode.STOPPING and t + 1e-9 >= self.stop.rest_time():
             self._enter(AccommodationMode.AT_REST, t, f"safe stop: planned speed 0 at {t:.2f} s", "info")
-        return self.stop.solve(t, pose, radii, u_applied, self.free, rates)
+        return self.stop.solve(t, pose, radii, u_applied, self.free, rates, self.locked)
 
 
 def _describe(d: Diagnosis) -> str:

@@ -27,7 +27,7 @@ from ..config import RunConfig
 from ..control.pathfollow_spec import RobotLimits
 from ..identity import run_identity
 from ..plant import build_model
-from ..plant.limits import lateral_accel_limits
+from ..plant.limits import lateral_accel_limits, servo_limits
 from ..plant.settings import PlantSettings
 from ..registry import controllers
 from ..resources import model_digest
@@ -84,20 +84,24 @@ def nominal_plant(cfg: RunConfig) -> PlantSettings:
 
 def robot_limits(cfg: RunConfig) -> RobotLimits:
     """The robot's numbers for the path-following NMPC (:func:`~ftc_mj.plant.limits.lateral_accel_limits`): its
-    lift-off lateral acceleration, the braking trade-off and the servos' yaw compliance, derived from the
-    nominal robot (:func:`nominal_plant`) — or, in an ``oracle`` run, from the plant that runs (the MJCF with the
-    config's edits; yaw compliance 0 on the kinematic plant, which follows the commanded rates exactly). Cached
-    per robot."""
+    lift-off lateral acceleration, the braking trade-off, the servos' yaw compliance and the accelerations one
+    servo's torque limit allows (:func:`~ftc_mj.plant.limits.servo_limits`; none on the kinematic plant), derived
+    from the nominal robot (:func:`nominal_plant`) — or, in an ``oracle`` run, from the plant that runs (the MJCF
+    with the config's edits; yaw compliance 0 on the kinematic plant, which follows the commanded rates exactly).
+    Cached per robot."""
     plant = cfg.plant if cfg.oracle else nominal_plant(cfg)
     ident = {**plant.model_dump(mode="json", exclude={"model_file"}), "model": model_digest(plant.model_file)}
     key = json.dumps([ident, cfg.robot.model_dump(mode="json")], sort_keys=True, default=str)
     if key not in _limits:
-        lim = lateral_accel_limits(build_model(plant, cfg.robot))
-        if len(_limits) >= _MAX_LIMITS:  # three floats each: a bounded memo, not a part
+        model = build_model(plant, cfg.robot)
+        lim, servo = lateral_accel_limits(model), servo_limits(model)
+        if len(_limits) >= _MAX_LIMITS:  # five floats each: a bounded memo, not a part
             _limits.pop(next(iter(_limits)))
-        _limits[key] = RobotLimits(lim.liftoff, lim.yaw_compliance, lim.braking_trade)
+        _limits[key] = RobotLimits(lim.liftoff, lim.yaw_compliance, lim.braking_trade, servo.lateral,
+                                   servo.longitudinal)
     lim = _limits[key]
-    return lim if plant.kind == "mujoco" else dataclasses.replace(lim, yaw_compliance=0.0)
+    return lim if plant.kind == "mujoco" else dataclasses.replace(lim, yaw_compliance=0.0, servo_lateral_accel=None,
+                                                                    servo_longitudinal_accel=None)
 
 
 def controller_for(cfg: RunConfig, reference: Any) -> Any:

@@ -441,6 +441,7 @@ class ClosedLoop:
             current = in_force(self.last_diagnosis.declared if self.last_diagnosis is not None else ())
         if acc.update(t, current):
             acc.hand_actuator(t, self.parts.controller)
+        self.model_radii = acc.radii(self.model_radii, self.cfg.model_wheel_radius)
         return self.model_radii
 
     def control(self, k: int, t: float, rd: SensorReading, radii: np.ndarray) -> ControlOutput:

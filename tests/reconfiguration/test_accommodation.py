@@ -149,6 +149,20 @@ def test_sensor_offsets_are_removed_and_dropped_channels_excluded() -> None:
     assert acc.correct(3.1, Measurement(speed=10.5)).speed == pytest.approx(10.0)
 
 
+def test_a_declared_tyre_reaches_the_controller_only_when_asked() -> None:
+    """``tyre = "policy"`` (default): the policy's radii pass unchanged; ``"diagnosis"``: the declared size × the
+    nominal radius for the declared wheel, the policy's radius for the other."""
+    policy = np.array([2.0, 2.0])
+    declared = (_diag("tyre", "left", "puncture", 0.7, 10.0),)
+    acc = _accommodation()
+    acc.update(10.5, declared)
+    assert np.array_equal(acc.radii(policy, 2.0), policy)
+    acc = Accommodation(AccommodationSettings(mode="all", tyre="diagnosis"), _stop())
+    assert np.array_equal(acc.radii(policy, 2.0), policy)  # nothing declared yet
+    acc.update(10.5, declared)
+    assert np.allclose(acc.radii(np.array([1.9, 2.0]), 2.0), [1.9, 1.4])
+
+
 # ---------------------------------------------------------------- the stop law
 def test_the_stop_brakes_along_its_profile_within_the_traction_bound() -> None:
     """From 10 m/s at 3 m/s² (the controller's longitudinal bound caps the setting): the wheels' mean speed
@@ -182,17 +196,57 @@ def test_the_stop_steers_towards_the_path() -> None:
 
 def test_with_a_free_wheel_the_other_one_steers() -> None:
     """Left servo unresponsive, the left wheel rolling at 5 rad/s (10 m/s on 2 m): its command is its own rate
-    (it can do nothing else), and the right one runs faster by ``2 b r`` for the counter-clockwise circle's
-    ``r = V/50``; the right free instead: the left one runs slower by the same."""
+    (it can do nothing else); the counter-clockwise circle's ``r = V/50`` would need the right one to run faster
+    by ``2 b r``, which would take the robot above the stop's plan (10 m/s at its start), so it runs at the free
+    wheel's speed; the right free instead: the left one runs slower by ``2 b r`` (braking, it may)."""
     acc = _accommodation()
     acc.update(10.0, (_diag("servo", "left", "unresponsive", 0.0, 10.0),))
     assert acc.free == 1 and acc.stopping
     pose, radii, rates = np.array([0.0, 0.0, 0.0]), np.array([2.0, 2.0]), np.array([5.0, 5.0])
     om = acc.command(10.0, pose, radii, rates, rates).omega
-    assert om[1] == 5.0 and 2.0 * om[0] - 10.0 == pytest.approx(2.0 * 1.0 * 10.0 / 50.0)
+    assert om[1] == 5.0 and om[0] == pytest.approx(5.0)
     stop = _stop()
+    stop.begin(10.0, 10.0)
     om = stop.solve(10.0, pose, radii, rates, free=0, rates=rates).omega
     assert om[0] == 5.0 and 10.0 - 2.0 * om[1] == pytest.approx(2.0 * 1.0 * 10.0 / 50.0)
+
+
+def test_with_a_free_wheel_a_robot_faster_than_the_plan_is_braked_not_pushed() -> None:
+    """Left servo unresponsive on the counter-clockwise circle (the path turns towards the free wheel, which only
+    a pushing right wheel could follow): once the robot is faster than the stop's plan, the right wheel brakes
+    within the traction bound, ``v_R = v_L − 2 b · 0.8 A / V``, instead of pushing; it never runs backwards."""
+    stop = _stop()
+    stop.begin(10.0, 10.0)
+    pose, radii, rates = np.array([0.0, 0.0, 0.0]), np.array([2.0, 2.0]), np.array([5.0, 5.0])
+    om = stop.solve(10.0, pose, radii, rates, free=1, rates=rates).omega  # on the plan: no push above it
+    assert om[0] == pytest.approx(5.0)
+    om = stop.solve(11.0, pose, radii, rates, free=1, rates=rates).omega  # plan at 7 m/s, robot at 10
+    assert 2.0 * om[0] == pytest.approx(10.0 - 2.0 * 0.8 * 3.92 / 10.0)
+    slow = np.array([0.2, 0.2])
+    om = stop.solve(14.0, pose, radii, slow, free=1, rates=slow).omega
+    assert om[0] == 0.0 and om[1] == 0.2
+
+
+@pytest.mark.parametrize("locked", [1, 0])
+def test_with_a_locked_wheel_the_other_brakes_at_its_limit_and_steers(locked: int) -> None:
+    """One wheel locked (left, then right), the other turning at 5 rad/s on the counter-clockwise circle: heading
+    along the path, it is commanded ``lock_brake`` (0.5 rad/s) below its rate (its servo's full braking torque);
+    heading 0.2 rad away from the locked side it drives (the drag's yaw towards the locked side then grows), heading
+    0.2 rad towards it, it brakes harder; the locked wheel is commanded 0, and nothing runs backwards."""
+    stop = _stop()
+    stop.begin(10.0, 10.0)
+    w = 1 - locked
+    radii, rates = np.array([2.0, 2.0]), np.array([5.0, 5.0])
+    rates[locked] = 0.0
+    om = stop.solve(10.0, np.array([0.0, 0.0, 0.0]), radii, rates, locked=locked, rates=rates).omega
+    assert om[locked] == 0.0 and om[w] == pytest.approx(4.5)
+    towards_locked = 0.2 if locked == 1 else -0.2  # heading error (rad) of a robot turned towards the locked side
+    away = stop.solve(10.1, np.array([0.0, 0.0, -towards_locked]), radii, rates, locked=locked, rates=rates).omega
+    assert away[w] == pytest.approx(5.5)  # 4.5 + 5 · 0.2, clipped to the rate + lock_brake
+    more = stop.solve(10.2, np.array([0.0, 0.0, towards_locked]), radii, rates, locked=locked, rates=rates).omega
+    assert more[w] == pytest.approx(3.5)
+    at_rest = stop.solve(10.3, np.zeros(3), radii, np.zeros(2), locked=locked, rates=np.zeros(2)).omega
+    assert np.array_equal(at_rest, [0.0, 0.0])
 
 
 # ---------------------------------------------------------------- closed loop

@@ -1,7 +1,8 @@
 """The diagnoser's fast path equals its reference bitwise: the same synthetic runs stepped through a
 :class:`~ftc_mj.estimation.diagnosis.ResidualDiagnoser` as shipped and through one with the reference
-history (tests/support/reference_history.py: one call per sum, no per-step batching) and without the per-fix
-memo of the GLR windows give the same statistics, alarms and declarations at every step and the same sums."""
+history (tests/support/reference_history.py: one call per sum, no per-step batching), without the per-fix
+memo of the GLR windows and without the quiet-step shortcut of the isolation give the same statistics,
+alarms and declarations at every step and the same sums."""
 
 from __future__ import annotations
 
@@ -75,6 +76,7 @@ def test_the_fast_history_equals_the_reference(fault: dict) -> None:
     fast, ref = ResidualDiagnoser(settings, context), ResidualDiagnoser(settings, context)
     ref.history = ReferenceHistory(ref.dt)
     ref._pairs = ref._window_pairs  # no memo
+    ref._quiet = lambda alarms: False  # every step isolates
     for z in inputs(fault, 20.0, 0.01, 0.02):
         a, b = fast.step(z), ref.step(z)
         assert a.alarms == b.alarms, z.t

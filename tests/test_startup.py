@@ -64,3 +64,10 @@ def test_pose_gate_quantile_is_scipys() -> None:
     assert gate_quantile(None) == math.inf
     for p in np.logspace(-12, -0.01, 200):
         assert math.isclose(gate_quantile(float(p)), float(chi2.isf(p, 2)), rel_tol=1e-14, abs_tol=0.0)
+
+
+def test_listing_the_studies_imports_no_scipy() -> None:
+    """``ftc-mj studies`` reaches the paper's verdicts, whose binomial interval imports ``scipy.stats`` (and
+    with it SciPy's linear algebra and special functions) only when it computes one."""
+    code = "from ftc_mj.cli import app\ntry:\n    app(['studies'])\nexcept SystemExit:\n    pass"
+    assert not {"scipy.linalg", "scipy.special"} & loaded_after(code)

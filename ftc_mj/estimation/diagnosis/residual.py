@@ -118,9 +118,13 @@ class ResidualDiagnoser:
                 since[c] = None
             elif since[c] is None:
                 since[c] = z.t
-        new = [] if self._quiet(alarms) else self._isolate(z.t)
+        if self._quiet(alarms):
+            return DiagnosisStep(statistics={c: r.stat for c, r in self.readings.items()}, alarms=alarms, new=[],
+                                 declared=list(self.declared))
+        new = self._isolate(z.t)  # (a declaration may read a channel again: the alarms after it are reported)
         self.declared.extend(new)
-        return DiagnosisStep(statistics={c: r.stat for c, r in self.readings.items()}, alarms=alarms, new=new,
+        return DiagnosisStep(statistics={c: r.stat for c, r in self.readings.items()},
+                             alarms={c: r.alarm for c, r in self.readings.items()}, new=new,
                              declared=list(self.declared))
 
     # ---------------------------------------------------------------- the channels

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 
 from ..lazy import lazy_module
@@ -30,10 +31,7 @@ def limit_blas_threads(n: int = 1) -> bool:
             ctypes.CDLL(str(bundled), mode=ctypes.RTLD_GLOBAL)
     except OSError:
         pass
-    try:  # SciPy's own OpenBLAS (the certified QP's LAPACK; SciPy is imported lazily) is loaded now, so that
-        import scipy.linalg.lapack  # noqa: F401  it is limited too (else dpotrf spins threads: ~1 s a solve)
-    except ImportError:
-        pass
+    load_scipy_openblas()
     try:
         with open("/proc/self/maps") as fh:
             libs = {ln.split()[-1] for ln in fh if "openblas" in ln.lower() and "/" in ln}
@@ -53,3 +51,31 @@ def limit_blas_threads(n: int = 1) -> bool:
                 break
     return ok
 
+
+
+def load_scipy_openblas() -> None:
+    """Load SciPy's own OpenBLAS (the certified QP's LAPACK; SciPy is imported lazily) now, so that
+    :func:`limit_blas_threads` limits it too (else ``dpotrf`` spins threads: ~1 s a solve).
+
+    A wheel's SciPy ships it in ``scipy.libs/``: loading that file with ``ctypes`` is the same library
+    object SciPy's LAPACK module links to when it is imported later (the dynamic loader keeps one copy per
+    file), without importing ``scipy.linalg`` (≈ 0.1–0.2 s of a short run's start-up). A SciPy built
+    against another BLAS (no ``scipy.libs/``) is imported as before."""
+    import ctypes
+
+    spec = importlib.util.find_spec("scipy")
+    if spec is None:
+        return
+    found = False
+    for folder in spec.submodule_search_locations or ():
+        for lib in sorted((Path(folder).parent / "scipy.libs").glob("libscipy_openblas*.so*")):
+            try:
+                ctypes.CDLL(str(lib))
+                found = True
+            except OSError:
+                continue
+    if not found:
+        try:
+            import scipy.linalg.lapack  # noqa: F401
+        except ImportError:
+            pass

@@ -164,12 +164,15 @@ def setup_from_settings(settings: FilterSettings | Table = None, sensors: Sensor
 
 def gate_quantile(probability: float | None) -> float:
     """The χ² quantile (upper tail ``probability``, 2 degrees of freedom): the NIS above which a right fix's
-    position is rejected with that probability (+inf for ``None``). Computed once per filter, not per step."""
+    position is rejected with that probability (+inf for ``None``). Computed once per filter, not per step.
+
+    χ²₂ is the exponential distribution of mean 2 (``P(X > x) = exp(−x/2)``), so the quantile is
+    ``−2 ln probability`` in closed form: no SciPy import (``scipy.stats`` costs a run ≈ 0.3–0.5 s of start-up).
+    It equals ``scipy.stats.chi2.isf(probability, 2)`` bitwise at the default 1e-4 and within 1e-14 relative
+    elsewhere (tests/estimation/test_setup_quantile.py)."""
     if probability is None:
         return math.inf
-    from scipy.stats import chi2
-
-    return float(chi2.isf(probability, 2))
+    return -2.0 * math.log(probability)
 
 
 def process_noise(diffusion: Sequence[float], dt: float) -> np.ndarray:

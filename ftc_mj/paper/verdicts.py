@@ -33,8 +33,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from scipy.stats import binomtest
-
 from ..study.stats import Estimate
 from .claims.checks import FAIL, NA, NOT_EVALUATED, NOT_REPRODUCED, NOT_RUN, PARTLY, PASS, REPRODUCED, Evidence, fmt
 
@@ -59,6 +57,8 @@ def pass_interval(k: int, n: int) -> Estimate:
     ``n`` is 0."""
     if n == 0:
         return Estimate(float("nan"), float("nan"), float("nan"), 0)
+    from scipy.stats import binomtest  # here, not at the module's import: `ftc-mj studies` lists without it
+
     ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
     return Estimate(k / n, float(ci.low), float(ci.high), n)
 

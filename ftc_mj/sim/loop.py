@@ -495,7 +495,7 @@ class ClosedLoop:
         acc = self.parts.accommodation
         if acc is not None:
             for name, value in zip(ACCOMMODATION_COLUMNS, (float(acc.state), *acc.effectiveness), strict=True):
-                self.trace.columns[name][k] = value
+                self.trace.write(k, name, value)
         self.rows = k + 1
 
     def fail(self, exc: Exception) -> None:

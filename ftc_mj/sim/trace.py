@@ -56,6 +56,7 @@ class TraceWriter:
         self._cross_track = cross_track
         self._written = 0  # rows whose truth is written
         self._ct_done = 0  # rows whose cross-track error is computed
+        self._diag: dict[tuple[str, str], np.ndarray | None] = {}  # :meth:`_diagnosis_column`'s lookups
 
     @property
     def columns(self) -> dict[str, np.ndarray]:
@@ -131,13 +132,15 @@ class TraceWriter:
         """The diagnoser's output at row ``k`` (a :class:`~ftc_mj.estimation.diagnosis.DiagnosisStep`): every
         channel's statistic and alarm flag (the channels of :data:`~ftc_mj.estimation.diagnosis.CHANNELS`), the
         number in alarm, and the latest declaration with the count."""
-        c = self.columns
+        c = self._cols  # not :attr:`columns`: the cross-track error is filled when the columns are read
         for name, value in step.statistics.items():  # a plug-in's own channels count in diag_alarms only
-            if f"diag_stat_{name}" in c:
-                c[f"diag_stat_{name}"][k] = value
+            col = self._diagnosis_column("stat", name)
+            if col is not None:
+                col[k] = value
         for name, alarm in step.alarms.items():
-            if f"diag_alarm_{name}" in c:
-                c[f"diag_alarm_{name}"][k] = float(alarm)
+            col = self._diagnosis_column("alarm", name)
+            if col is not None:
+                col[k] = float(alarm)
         c["diag_alarms"][k] = float(sum(step.alarms.values()))
         c["diag_count"][k] = float(len(step.declared))
         if step.declared:
@@ -149,6 +152,17 @@ class TraceWriter:
                 c[f"diag_{key}"][k] = getattr(d, key)
         else:
             c["diag_component"][k] = c["diag_target"][k] = c["diag_mode"][k] = 0.0
+
+    def _diagnosis_column(self, kind: str, channel: str) -> np.ndarray | None:
+        """The ``diag_<kind>_<channel>`` column, ``None`` if the trace has none (looked up once per channel)."""
+        key = (kind, channel)
+        if key not in self._diag:
+            self._diag[key] = self._cols.get(f"diag_{kind}_{channel}")
+        return self._diag[key]
+
+    def write(self, k: int, name: str, value: float) -> None:
+        """One cell: column ``name`` (added by the caller to :attr:`columns`) at row ``k``."""
+        self._cols[name][k] = value
 
     def excitation(self, k: int, dither: float) -> None:
         """The yaw-rate dither (rad/s) added to the command of row ``k``."""

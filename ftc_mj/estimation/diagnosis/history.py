@@ -19,6 +19,9 @@ import numpy as np
 SUMS = ("th_R", "th_L", "lag_R", "lag_L", "cmd_R", "cmd_L", "n_cmd", "v", "n_v", "g", "n_g",
         "see_R", "se_R", "sed_R", "sd_R", "see_L", "se_L", "sed_L", "sd_L", "n_reg")
 """The cumulative sums kept per step (module docstring)."""
+_PUSH_ORDER = ("th_R", "lag_R", "cmd_R", "see_R", "se_R", "sed_R", "sd_R",
+               "th_L", "lag_L", "cmd_L", "see_L", "se_L", "sed_L", "sd_L", "n_reg", "n_cmd", "v", "n_v", "g", "n_g")
+"""The order of :meth:`History._increments`'s values."""
 
 
 class History:
@@ -27,7 +30,12 @@ class History:
     def __init__(self, dt: float) -> None:
         self.dt = dt
         self.t: list[float] = []
+        self.k = -1
+        """The index of the latest step (−1 before the first)."""
         self.sums: dict[str, list[float]] = {name: [] for name in SUMS}
+        self._order = tuple(self.sums[name] for name in _PUSH_ORDER)  # the lists, in :meth:`_increments`'s order
+        self._regression = {side: tuple(self.sums[f"{name}_{side}"] for name in ("see", "se", "sed", "sd"))
+                            for side in "RL"}  # the lists :meth:`regression` reads
         self.fix_steps: list[int] = []
         self.fix_t: list[float] = []
         self.fix_pose: list[tuple[float, float, float]] = []  # x, y, ψ unwrapped
@@ -35,40 +43,20 @@ class History:
         self._last_omega: np.ndarray | None = None
         self._last_err: np.ndarray | None = None
 
-    @property
-    def k(self) -> int:
-        """The index of the latest step."""
-        return len(self.t) - 1
-
-    def _add(self, name: str, value: float) -> None:
-        seq = self.sums[name]
-        seq.append((seq[-1] if seq else 0.0) + value)
-
     def push(self, t: float, omega: np.ndarray, command: np.ndarray | None, speed: float | None,
              yaw_rate: float | None, pose: np.ndarray | None) -> None:
         """Add the step at ``t`` (s): wheel rates and command (rad/s), readings (m/s, rad/s; ``None``
         missing) and a pose fix ``[x, y, ψ]`` (m, m, rad) or ``None``."""
         self.t.append(t)
+        self.k += 1
         prev = self._last_omega if self._last_omega is not None else omega
-        for i, s in enumerate("RL"):
-            self._add(f"th_{s}", 0.5 * (prev[i] + omega[i]) * self.dt)
-            lag = 0.0 if command is None else float(command[i] - omega[i])
-            self._add(f"lag_{s}", lag)
-            self._add(f"cmd_{s}", 0.0 if command is None else abs(float(command[i])))
-            # the regression pairs (e_{k-1}, ω_k − ω_{k-1}) with e_{k-1} = command in force over the
-            # step minus ω_{k-1}
-            e = 0.0 if command is None else float(command[i] - prev[i])
-            d = float(omega[i] - prev[i]) if command is not None else 0.0
-            self._add(f"see_{s}", e * e)
-            self._add(f"se_{s}", e)
-            self._add(f"sed_{s}", e * d)
-            self._add(f"sd_{s}", d)
-        self._add("n_reg", 0.0 if command is None else 1.0)
-        self._add("n_cmd", 0.0 if command is None else 1.0)
-        self._add("v", 0.0 if speed is None else float(speed))
-        self._add("n_v", 0.0 if speed is None else 1.0)
-        self._add("g", 0.0 if yaw_rate is None else float(yaw_rate))
-        self._add("n_g", 0.0 if yaw_rate is None else 1.0)
+        sums = self._order
+        if self.k:  # every sum grows by its increment (one list append each, no lookup by name)
+            for seq, value in zip(sums, self._increments(prev, omega, command, speed, yaw_rate), strict=True):
+                seq.append(seq[-1] + value)
+        else:
+            for seq, value in zip(sums, self._increments(prev, omega, command, speed, yaw_rate), strict=True):
+                seq.append(0.0 + value)
         self._last_omega = np.asarray(omega, dtype=float)
         if pose is not None and all(math.isfinite(float(v)) for v in pose):
             psi = float(pose[2])
@@ -80,6 +68,27 @@ class History:
             self.fix_steps.append(self.k)
             self.fix_t.append(t)
             self.fix_pose.append(here)
+
+    def _increments(self, prev: np.ndarray, omega: np.ndarray, command: np.ndarray | None, speed: float | None,
+                    yaw_rate: float | None) -> tuple[float, ...]:
+        """This step's increment of every sum, in :data:`_PUSH_ORDER`: per wheel the angle turned (rad,
+        trapezoidal over ``prev`` → ``omega``), the lag and ``|command|`` (rad/s), and the regression's pair
+        ``(e_{k-1}, ω_k − ω_{k-1})`` with ``e_{k-1}`` the command in force over the step minus ``ω_{k-1}``
+        (its ``e²``, ``e``, ``e·d``, ``d``); then the counts of commands, the readings and their counts (a
+        missing one adds nothing)."""
+        dt = self.dt
+        thR, thL = 0.5 * (prev[0] + omega[0]) * dt, 0.5 * (prev[1] + omega[1]) * dt
+        if command is None:
+            zero = (0.0,) * 6
+            wheels = (thR, *zero, thL, *zero, 0.0, 0.0)
+        else:
+            cR, cL = command[0], command[1]
+            eR, eL = float(cR - prev[0]), float(cL - prev[1])
+            dR, dL = float(omega[0] - prev[0]), float(omega[1] - prev[1])
+            wheels = (thR, float(cR - omega[0]), abs(float(cR)), eR * eR, eR, eR * dR, dR,
+                      thL, float(cL - omega[1]), abs(float(cL)), eL * eL, eL, eL * dL, dL, 1.0, 1.0)
+        return (*wheels, 0.0 if speed is None else float(speed), 0.0 if speed is None else 1.0,
+                0.0 if yaw_rate is None else float(yaw_rate), 0.0 if yaw_rate is None else 1.0)
 
     def delta(self, name: str, j: int, k: int) -> float:
         """The sum ``name`` over the steps ``(j, k]``."""
@@ -104,11 +113,11 @@ class History:
     def regression(self, side: str, j: int, k: int) -> tuple[float, float] | None:
         """The servo regression ``Δω = α e − β`` of wheel ``side`` over steps ``(j, k]``: ``(α, var e)`` (1,
         (rad/s)²), ``None`` without commands or without spread of ``e`` (nothing to identify from)."""
-        n = self.delta("n_reg", j, k)
+        count = self.sums["n_reg"]
+        n = count[k] - count[j]
         if n < 10:
             return None
-        see, se = self.delta(f"see_{side}", j, k), self.delta(f"se_{side}", j, k)
-        sed, sd = self.delta(f"sed_{side}", j, k), self.delta(f"sd_{side}", j, k)
+        see, se, sed, sd = (seq[k] - seq[j] for seq in self._regression[side])
         var = see / n - (se / n) ** 2
         if var <= 1e-12:
             return None

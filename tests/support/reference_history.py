@@ -1,0 +1,119 @@
+"""The diagnoser's :class:`~ftc_mj.estimation.diagnosis.history.History` as it was before its per-step cost was
+cut (one ``_add`` call per sum and step, ``k`` a property): the reference its fast path must equal bitwise
+(tests/estimation/test_history_reference.py). Kept verbatim but for its name and this docstring."""
+
+from __future__ import annotations
+
+import bisect
+import math
+
+import numpy as np
+
+SUMS = ("th_R", "th_L", "lag_R", "lag_L", "cmd_R", "cmd_L", "n_cmd", "v", "n_v", "g", "n_g",
+        "see_R", "se_R", "sed_R", "sd_R", "see_L", "se_L", "sed_L", "sd_L", "n_reg")
+"""The cumulative sums kept per step (module docstring)."""
+
+
+class ReferenceHistory:
+    """The cumulative sums of a run, grown by :meth:`push` once per estimator step of ``dt`` seconds (reference)."""
+
+    def __init__(self, dt: float) -> None:
+        self.dt = dt
+        self.t: list[float] = []
+        self.sums: dict[str, list[float]] = {name: [] for name in SUMS}
+        self.fix_steps: list[int] = []
+        self.fix_t: list[float] = []
+        self.fix_pose: list[tuple[float, float, float]] = []  # x, y, ψ unwrapped
+        self.fix_s: list[float] = []  # arc length rolled forward since the first fix (m)
+        self._last_omega: np.ndarray | None = None
+        self._last_err: np.ndarray | None = None
+
+    @property
+    def k(self) -> int:
+        """The index of the latest step."""
+        return len(self.t) - 1
+
+    def _add(self, name: str, value: float) -> None:
+        seq = self.sums[name]
+        seq.append((seq[-1] if seq else 0.0) + value)
+
+    def push(self, t: float, omega: np.ndarray, command: np.ndarray | None, speed: float | None,
+             yaw_rate: float | None, pose: np.ndarray | None) -> None:
+        """Add the step at ``t`` (s): wheel rates and command (rad/s), readings (m/s, rad/s; ``None``
+        missing) and a pose fix ``[x, y, ψ]`` (m, m, rad) or ``None``."""
+        self.t.append(t)
+        prev = self._last_omega if self._last_omega is not None else omega
+        for i, s in enumerate("RL"):
+            self._add(f"th_{s}", 0.5 * (prev[i] + omega[i]) * self.dt)
+            lag = 0.0 if command is None else float(command[i] - omega[i])
+            self._add(f"lag_{s}", lag)
+            self._add(f"cmd_{s}", 0.0 if command is None else abs(float(command[i])))
+            # the regression pairs (e_{k-1}, ω_k − ω_{k-1}) with e_{k-1} = command in force over the
+            # step minus ω_{k-1}
+            e = 0.0 if command is None else float(command[i] - prev[i])
+            d = float(omega[i] - prev[i]) if command is not None else 0.0
+            self._add(f"see_{s}", e * e)
+            self._add(f"se_{s}", e)
+            self._add(f"sed_{s}", e * d)
+            self._add(f"sd_{s}", d)
+        self._add("n_reg", 0.0 if command is None else 1.0)
+        self._add("n_cmd", 0.0 if command is None else 1.0)
+        self._add("v", 0.0 if speed is None else float(speed))
+        self._add("n_v", 0.0 if speed is None else 1.0)
+        self._add("g", 0.0 if yaw_rate is None else float(yaw_rate))
+        self._add("n_g", 0.0 if yaw_rate is None else 1.0)
+        self._last_omega = np.asarray(omega, dtype=float)
+        if pose is not None and all(math.isfinite(float(v)) for v in pose):
+            psi = float(pose[2])
+            if self.fix_pose:  # unwrap against the previous fix
+                psi0 = self.fix_pose[-1][2]
+                psi = psi0 + (psi - psi0 + math.pi) % (2.0 * math.pi) - math.pi
+            here = (float(pose[0]), float(pose[1]), psi)
+            self.fix_s.append(self.fix_s[-1] + arc_between(self.fix_pose[-1], here)[0] if self.fix_pose else 0.0)
+            self.fix_steps.append(self.k)
+            self.fix_t.append(t)
+            self.fix_pose.append(here)
+
+    def delta(self, name: str, j: int, k: int) -> float:
+        """The sum ``name`` over the steps ``(j, k]``."""
+        seq = self.sums[name]
+        return seq[k] - seq[j]
+
+    def step_at(self, t: float) -> int | None:
+        """The last step at or before ``t`` (s), ``None`` before the first."""
+        if not self.t or t < self.t[0] - 1e-9:
+            return None
+        return min(self.k, int(math.floor((t - self.t[0]) / self.dt + 1e-6)))
+
+    def fix_at(self, t: float) -> int | None:
+        """The index of the last pose fix at or before ``t`` (s), ``None`` before the first."""
+        i = bisect.bisect_right(self.fix_t, t + 1e-9) - 1
+        return i if i >= 0 else None
+
+    def motion(self, j: int, k: int) -> tuple[float, float]:
+        """``(s, Δψ)``: the arc (m) rolled forward and the heading change (rad) from pose fix ``j`` to ``k``."""
+        return self.fix_s[k] - self.fix_s[j], self.fix_pose[k][2] - self.fix_pose[j][2]
+
+    def regression(self, side: str, j: int, k: int) -> tuple[float, float] | None:
+        """The servo regression ``Δω = α e − β`` of wheel ``side`` over steps ``(j, k]``: ``(α, var e)`` (1,
+        (rad/s)²), ``None`` without commands or without spread of ``e`` (nothing to identify from)."""
+        n = self.delta("n_reg", j, k)
+        if n < 10:
+            return None
+        see, se = self.delta(f"see_{side}", j, k), self.delta(f"se_{side}", j, k)
+        sed, sd = self.delta(f"sed_{side}", j, k), self.delta(f"sd_{side}", j, k)
+        var = see / n - (se / n) ** 2
+        if var <= 1e-12:
+            return None
+        return (sed / n - se * sd / n**2) / var, var
+
+
+def arc_between(a: tuple[float, float, float], b: tuple[float, float, float]) -> tuple[float, float]:
+    """``(s, Δψ)``: the arc length (m) the robot rolled forward from pose ``a`` to pose ``b`` (x, y, ψ
+    unwrapped) and its heading change (rad), for a constant curvature in between: the displacement along the
+    mean heading (the chord, without side-slip) times ``(Δψ/2) / sin(Δψ/2)``."""
+    dx, dy, dpsi = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    mid = 0.5 * (a[2] + b[2])
+    half = 0.5 * dpsi
+    factor = 1.0 if abs(half) < 1e-6 else half / math.sin(half)
+    return (dx * math.cos(mid) + dy * math.sin(mid)) * factor, dpsi

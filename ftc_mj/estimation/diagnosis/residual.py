@@ -35,6 +35,7 @@ from ...model.diagnosis import Diagnosis
 from .base import CHANNELS, DiagnosisInput, DiagnosisStep
 from .history import History
 from .settings import ResidualDiagnoserSettings
+from .shape import ShapeFit, shape_fit
 
 WHEEL_SIDES = {"R": "right", "L": "left"}
 
@@ -377,9 +378,9 @@ class ResidualDiagnoser:
 
     def _declare_sensor(self, t: float) -> Diagnosis | None:
         """A speed-sensor or gyro bias or drift once its alarm is confirmed and ``shape_min`` (s) has passed
-        since the GLR's onset and since the fitted one: mode, size and onset from :func:`onset_fit` of the
-        binned residual; a bias declared is fitted again every ``shape_min`` and re-declared as a drift if that
-        fits better."""
+        since the GLR's onset and since each shape's fitted one: mode, size and onset from :func:`.shape.shape_fit`
+        of the integrated residual; a bias declared is fitted again every ``shape_min`` and re-declared as a
+        drift once the drift's likelihood ratio over the bias exceeds ``drift_llr``."""
         for name, component, target in (("speed", "speed sensor", "speed"), ("gyro", "gyro", "yaw_rate")):
             r = self.readings[name]
             last = self._has(component)
@@ -390,57 +391,53 @@ class ResidualDiagnoser:
                                                               self.settings.shape_min - 1e-9):
                 continue
             self.refit[name] = t
-            fit = self._shape(name, t, r.onset if last is None else last.onset)
-            if fit is not None and t - fit[4] < self.settings.shape_min - 1e-9:
+            fit = self._shape(name, t)
+            if fit is not None and t - fit.latest < self.settings.shape_min - 1e-9:
                 continue  # too little since either model's fitted onset to tell a bias from a drift yet
-            if fit is not None and (last is None or fit[0] == "drift"):
-                mode, size, sigma, onset, _ = fit
-                return self._make(component, target, mode, Reading(r.stat, r.threshold, size, sigma, onset), t)
+            if fit is not None and (last is None or fit.mode == "drift"):
+                return self._make(component, target, fit.mode, Reading(r.stat, r.threshold, fit.size, fit.sigma,
+                                                                       fit.onset), t)
         return None
 
-    def _shape(self, name: str, t: float, onset: float) -> tuple[str, float, float, float, float] | None:
-        """:func:`onset_fit` of the ``speed`` or ``gyro`` channel's residual (the sensor's mean minus the pose's
-        arc or heading rate) over successive ``shape_bin`` (s) spans of the last ``fit_window`` (s) before
-        ``t``, the candidate onsets from ``shape_min`` before the GLR's ``onset`` (s) on."""
+    def integrated(self, name: str, t: float) -> tuple[np.ndarray, np.ndarray, float, float] | None:
+        """The ``speed`` (m) or ``gyro`` (rad) residual integrated from fix to fix over the last ``fit_window``
+        (s) before ``t`` (after ``launch``): the times (s) and values at the fixes, the fix's variance ``r``
+        and the sensor's random-walk variance ``q`` per second (:mod:`.shape`). An interval without samples
+        takes the previous interval's mean reading."""
         h, s = self.history, self.settings
-        grid = (t - np.arange(0.0, t - max(t - s.fit_window, s.launch) + 1e-9, s.shape_bin))[::-1]  # ends at t
-        fixes = sorted({f for f in (h.fix_at(g) for g in grid) if f is not None})
-        mids, values = [], []
-        for j, k in zip(fixes[:-1], fixes[1:], strict=True):
-            r = self.residual(name, j, k)
-            if r is not None:
-                mids.append(0.5 * (h.fix_t[j] + h.fix_t[k]))
-                values.append(r[0])
-        starts = np.arange(max(grid[0] + s.shape_bin, onset - s.shape_min), t - s.shape_bin, 0.05)
-        if len(values) < 6 or not starts.size:
+        first = h.fix_at(max(t - s.fit_window, s.launch))
+        last = len(h.fix_t) - 1
+        if first is None or last - first < 6:
             return None
-        return onset_fit(np.asarray(mids), np.asarray(values), starts, s.drift_margin)
+        key, sig = ("v", self.sigma_v) if name == "speed" else ("g", self.sigma_g or 0.0)
+        times, values, mean, rates, total = [h.fix_t[first]], [0.0], None, [], 0.0
+        for j in range(first, last):
+            a, b = h.fix_steps[j], h.fix_steps[j + 1]
+            span = h.fix_t[j + 1] - h.fix_t[j]
+            n = h.delta(f"n_{key}", a, b)
+            mean = h.delta(key, a, b) / n if n > 0 else mean
+            if mean is None or span <= 0.0:
+                return None
+            arc, dpsi = h.motion(j, j + 1)
+            move = arc if name == "speed" else dpsi
+            total += mean * span - move
+            rates.append(abs(move) / span)
+            times.append(h.fix_t[j + 1])
+            values.append(total)
+        floor = (s.speed_floor if name == "speed" else s.gyro_floor) * float(np.mean(rates))
+        r = self.pose_sigma[0 if name == "speed" else 1] ** 2
+        return np.asarray(times), np.asarray(values), r, sig**2 * self.dt + floor**2 * s.shape_bin
 
-
-def onset_fit(t: np.ndarray, e: np.ndarray, starts: np.ndarray, margin: float = 1.0
-              ) -> tuple[str, float, float, float, float]:
-    """``(mode, size, σ, onset)``: the least-squares fit of a residual ``e(t) = c + b h(t − t0)`` over the
-    candidate onsets ``starts`` (s) for an offset (``bias``: ``h`` the unit step, ``b`` the offset) and a
-    ``drift`` (``h(x) = x⁺``, an offset growing at ``b`` per s) — the model, the onset and the size with the
-    smallest residual sum of squares (a drift's divided by ``margin`` ≤ 1), the size's σ, and the later of the
-    two models' onsets (a decision needs data after both)."""
-    best: tuple[float, str, float, float, float] | None = None
-    latest = -math.inf
-    ec = e - e.mean()
-    for mode, power in (("bias", 0), ("drift", 1)):
-        x = t[None, :] - starts[:, None]
-        H = (x >= 0.0).astype(float) if power == 0 else np.clip(x, 0.0, None)
-        Hc = H - H.mean(axis=1, keepdims=True)
-        shh = np.einsum("ij,ij->i", Hc, Hc)
-        she = Hc @ ec
-        ok = shh > 1e-12
-        b = np.where(ok, she / np.where(ok, shh, 1.0), 0.0)
-        sse = np.where(ok, float(ec @ ec) - b * she, np.inf)
-        i = int(np.argmin(sse))
-        sigma = math.sqrt(max(sse[i], 0.0) / max(t.size - 2, 1) / shh[i]) if ok[i] else math.inf
-        latest = max(latest, float(starts[i]))
-        score = float(sse[i]) / (margin if mode == "drift" else 1.0)
-        if best is None or score < best[0]:
-            best = (score, mode, float(b[i]), sigma, float(starts[i]))
-    assert best is not None
-    return best[1], best[2], best[3], best[4], latest
+    def _shape(self, name: str, t: float) -> ShapeFit | None:
+        """:func:`.shape.shape_fit` of the ``speed`` or ``gyro`` channel's integrated residual (:meth:`integrated`),
+        the candidate onsets every ``shape_bin`` / 5 from ``shape_min`` after its first sample to
+        ``shape_bin`` before ``t``."""
+        s = self.settings
+        data = self.integrated(name, t)
+        if data is None:
+            return None
+        times, values, r, q = data
+        stride = max(1, math.ceil(times.size / s.fit_samples))  # the integral decimated: its Cholesky is O(n³)
+        times, values = times[::-1][::stride][::-1], values[::-1][::stride][::-1]
+        starts = np.arange(times[0] + s.shape_min, t - s.shape_bin, 0.2 * s.shape_bin)
+        return shape_fit(times, values, r, q, starts, s.drift_llr)

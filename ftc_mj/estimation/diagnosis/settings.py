@@ -90,12 +90,15 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """Time (s) after a sensor fault's estimated onset before bias and drift are told apart (and between two
     fits of a bias declared)."""
     shape_bin: ranged(0.05, 10.0, unit="s") = 0.5
-    """Span (s) of each mean residual the bias/drift fit reads."""
-    drift_margin: ranged(0.01, 1.0) = 0.5
-    """A sensor fault is a drift when the drift model's residual sum of squares is below this fraction of the
-    bias model's."""
-    fit_window: Seconds = 10.0
-    """The span (s) of integrated residual a sensor fault's bias/drift fit reads."""
+    """Correlation time (s) of the speed's and yaw rate's model floors in the bias/drift fit; its candidate onsets
+    are a fifth of it apart."""
+    drift_llr: ranged(0.0, 1.0e3) = 4.0
+    """A sensor fault is a drift when the drift's log-likelihood ratio over the bias (nats) exceeds this."""
+    fit_window: Seconds = 30.0
+    """The span (s) of integrated residual a sensor fault's bias/drift fit reads (the latest, after ``launch``)."""
+    fit_samples: ranged(10, 10000) = 300
+    """At most this many samples of the integrated residual enter the bias/drift fit (every n-th fix, the latest
+    kept): the fit's cost grows as their cube."""
 
 
 class NoDiagnoserSettings(DiagnosisSettings):

@@ -15,7 +15,9 @@ other fault moves:
 - ``lock_R``/``lock_L``: the wheel turns at under ``lock_ratio`` of its command;
 - ``speed``: the speed sensor's mean reading minus the pose's arc per second; ``gyro``: the gyro's mean
   minus the pose's heading change per second: the sensor's own faults only;
-- ``speed_dropout``/``gyro_dropout``: how long the sensor has delivered nothing.
+- ``speed_dropout``/``gyro_dropout``: how long the sensor has delivered nothing;
+- ``pose``: a displacement of the pose fixes against the track dead-reckoned from the encoders
+  (:mod:`.pose`); ``pose_dropout``: how long the pose sensor has delivered no fix, in its own intervals.
 
 The GLR of a mean shift ``D`` of variance ``σ²`` is ``D² / (2 σ²)``, maximised over the candidate change
 times :attr:`~.settings.ResidualDiagnoserSettings.windows` before the latest pose fix; σ² is the noise of
@@ -34,6 +36,7 @@ from ...context import RunContext
 from ...model.diagnosis import Diagnosis
 from .base import CHANNELS, DiagnosisInput, DiagnosisStep
 from .history import History
+from .pose import PoseStep, fix_interval, step_glr
 from .settings import ResidualDiagnoserSettings
 from .shape import ShapeFit, shape_fit
 
@@ -89,6 +92,8 @@ class ResidualDiagnoser:
         self.next_glr = 0.0
         self.declared: list[Diagnosis] = []
         self.pose_sigma = (self.R0 * settings.pose_floor, settings.pose_floor)
+        self.pose_step: PoseStep | None = None
+        self.pose_rms: list[float] = []  # the pose window's RMS model residual (m) at each evaluation
 
     # ---------------------------------------------------------------- the step
     def step(self, z: DiagnosisInput) -> DiagnosisStep:
@@ -111,6 +116,8 @@ class ResidualDiagnoser:
                 self.readings[f"tyre_{side}"] = self._tyre(side)
             self.readings["speed"] = self._sensor("speed")
             self.readings["gyro"] = self._sensor("gyro") if self.sigma_g is not None else QUIET
+            self.readings["pose"] = self._pose()
+        self.readings["pose_dropout"] = self._pose_dropout(z.t)
         for c, r in self.readings.items():
             if not r.alarm:
                 self.since[c] = None
@@ -133,6 +140,37 @@ class ResidualDiagnoser:
             self.readings[f"{name}_dropout"] = (Reading(self.missing[name], s.dropout_min - 1e-9,
                                                         self.missing[name], 0.0, onset)
                                                 if present else QUIET)
+
+    def _pose_dropout(self, t: float) -> Reading:
+        """How long (s) the pose sensor has delivered no fix, against ``pose_dropout_intervals`` of its interval
+        (at least ``dropout_min``)."""
+        h, s = self.history, self.settings
+        interval = fix_interval(h)
+        if interval is None:
+            return QUIET
+        missing = t - h.fix_t[-1]
+        return Reading(missing, max(s.dropout_min, s.pose_dropout_intervals * interval) - 1e-9, missing, 0.0,
+                       h.fix_t[-1] + interval)
+
+    def _pose(self) -> Reading:
+        """The GLR of a displacement of the pose fixes over the last ``pose_window`` (s) (:func:`.pose.step_glr`,
+        the fix's σ at least the median RMS residual of the windows so far), 0 for a displacement under
+        ``pose_min_offset`` σ or one that came with a change of the encoders' yaw rate against the fixes'
+        headings (a wheel's fault); the size: the displacement along the fault library's diagonal
+        (``(dx + dy) / √2``, m)."""
+        s, h = self.settings, self.history
+        a = h.fix_at(h.fix_t[-1] - s.pose_window)
+        sigma = max(self.pose_sigma[0], float(np.median(self.pose_rms)) if self.pose_rms else 0.0)
+        step = None if a is None else step_glr(h, a, len(h.fix_t) - 1, (self.R0, self.b),
+                                                     (sigma, self.pose_sigma[1]), s.pose_recent)
+        self.pose_step = step
+        if step is None:
+            return QUIET
+        self.pose_rms.append(step.rms)
+        del self.pose_rms[:-s.pose_rms_count]
+        small = math.hypot(*step.offset) < s.pose_min_offset * sigma or step.turn > s.threshold  # or a wheel
+        size = (step.offset[0] + step.offset[1]) * math.sqrt(0.5)
+        return Reading(0.0 if small else step.stat, s.pose_threshold, size, step.sigma, step.onset)
 
     def _lock(self, side: str) -> Reading:
         """``1 − |mean ω| / |mean command|`` over the last ``lock_window`` (s) of wheel ``side``."""
@@ -295,7 +333,10 @@ class ResidualDiagnoser:
     def _isolate(self, t: float) -> list[Diagnosis]:
         """At most one new declaration per step, from the confirmed alarms, in the order: dropouts, lock,
         servo, tyre, speed sensor, gyro (the isolation table of docs/fdi.md)."""
-        for maker in (self._declare_dropout, self._declare_servo, self._declare_tyre, self._declare_sensor):
+        for maker in (self._declare_dropout, self._declare_pose, self._declare_servo, self._declare_tyre,
+                      self._declare_sensor):
+            if maker in (self._declare_tyre, self._declare_sensor) and self._pose_first():
+                continue  # a displaced fix moves the arc and the heading the tyres' and sensors' residuals read
             d = maker(t)
             if d is not None:
                 return [d]
@@ -312,6 +353,48 @@ class ResidualDiagnoser:
             if r.alarm and (last is None or last.mode != "dropout" or last.onset < r.onset - 1e-9):
                 return self._make(component, target, "dropout", r, t)
         return None
+
+    def _pose_first(self) -> bool:
+        """The pose channel's alarm is up and no tyre alarm came before it."""
+        p = self.since["pose"]
+        tyres = [self.since[f"tyre_{side}"] for side in "RL"]
+        return p is not None and not any(s is not None and s < p - 1e-9 for s in tyres)
+
+    def _pose_blocked(self) -> bool:
+        """No pose displacement is declared after a tyre or servo fault (the dead-reckoned track then rolls on a
+        wheel that no longer measures the travel), while a lock or servo alarm is up, or after a tyre alarm that
+        came before the pose's."""
+        if self._has("tyre") is not None or self._has("servo") is not None:
+            return True
+        if any(self.readings[f"{c}_{side}"].alarm for c in ("lock", "servo") for side in "RL"):
+            return True
+        return self.since["pose"] is not None and not self._pose_first()
+
+    def _declare_pose(self, t: float) -> Diagnosis | None:
+        """A pose-sensor dropout at once; a displacement of its fixes once confirmed: a ``bias``, taken off the
+        fixes from its onset on (:meth:`.history.History.shift_fixes`) — or, when it takes a declared bias back
+        (the total displacement left is under half the declared one), a ``jump`` of the declared bias's size
+        and onset."""
+        r = self.readings["pose_dropout"]
+        last = self._has("pose sensor")
+        if r.alarm and (last is None or last.mode != "dropout" or last.onset < r.onset - 1e-9):
+            return self._make("pose sensor", "pose", "dropout", r, t)
+        step = self.pose_step
+        if not self._confirmed("pose", t) or step is None or self._pose_blocked():
+            return None
+        h = self.history
+        before = h.fix_offset
+        total = (before[0] + step.offset[0], before[1] + step.offset[1])
+        h.shift_fixes(step.fix, step.offset)
+        self.pose_step = None
+        for c in ("pose", "tyre_R", "tyre_L", "speed", "gyro"):  # read again from the corrected fixes
+            self.readings[c], self.since[c] = QUIET, None
+        if last is not None and last.mode == "bias" and math.hypot(*total) < 0.5 * math.hypot(*before):
+            return self._make("pose sensor", "pose", "jump", Reading(step.stat, self.settings.pose_threshold, last.size,
+                                                                    last.sigma, last.onset), t)
+        size = (total[0] + total[1]) * math.sqrt(0.5)
+        return self._make("pose sensor", "pose", "bias", Reading(step.stat, self.settings.pose_threshold, size,
+                                                                step.sigma, step.onset), t)
 
     def _declare_servo(self, t: float) -> Diagnosis | None:
         """A lock, else a servo loss or an unresponsive servo (re-declared as such if a loss's wheel stops

@@ -86,6 +86,21 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """The lock test needs a command of at least this fraction of ``robot.omega_max``."""
     dropout_min: ranged(0.0, 10.0, unit="s") = 0.05
     """A sensor that delivers nothing for this long (s) is declared dropped out."""
+    pose_window: Seconds = 3.0
+    """Window (s) of pose fixes the GLR of a displacement of the pose sensor reads."""
+    pose_recent: Seconds = 1.5
+    """A displacement's candidate onsets: the fixes of the last this long (s) of the window."""
+    pose_threshold: ranged(0.5, 1.0e3) = 20.0
+    """GLR threshold of a displacement of the pose fixes (log-likelihood ratio; a 6.3σ shift): the dead-reckoned
+    track it is tested against has its own error, which the fix's σ leaves out."""
+    pose_min_offset: ranged(0.0, 1.0e3) = 3.0
+    """A displacement of the pose fixes is tested when it exceeds this many σ of a fix (the larger of the
+    configured σ and the median RMS residual of the pose windows so far: the dead-reckoned track's own error)."""
+    pose_rms_count: ranged(1, 100000) = 200
+    """How many of the latest pose windows' RMS residuals give that median."""
+    pose_dropout_intervals: ranged(1.0, 1.0e3) = 3.0
+    """A pose sensor that delivers no fix for this many of its intervals (and ``dropout_min``) is declared
+    dropped out."""
     shape_min: ranged(0.0, 60.0, unit="s") = 2.0
     """Time (s) after a sensor fault's estimated onset before bias and drift are told apart (and between two
     fits of a bias declared)."""

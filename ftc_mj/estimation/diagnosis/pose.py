@@ -112,27 +112,32 @@ def step_glr(h: History, a: int, b: int, geometry: tuple[float, float], sigma: t
     base = [np.concatenate(c) for c in ((one, zero), (zero, one))]
     for M in (D, D1, D2):  # scale and heading errors, constant and growing over the window
         base += [np.concatenate((M[:, 0], M[:, 1])), np.concatenate((-M[:, 1], M[:, 0]))]
-    fit = _sse(np.column_stack(base), y)
-    rms = math.sqrt(fit / max(2 * n - len(base), 1))
-    best: PoseStep | None = None
+    B = np.column_stack(base)
+    Q, _ = np.linalg.qr(B)
+    y_perp = y - Q @ (Q.T @ y)  # the base projected out (Frisch–Waugh–Lovell: the rest is fitted on residuals)
+    yy = float(y_perp @ y_perp)
+    rms = math.sqrt(yy / max(2 * n - B.shape[1], 1))
+    best: tuple[float, int, np.ndarray, np.ndarray] | None = None
     for i0 in range(max(min_before, 1), n):
         if h.fix_t[b] - h.fix_t[fixes[i0]] > recent + 1e-9:
             continue
         after = (np.arange(n) >= i0).astype(float)
         K = (D - D[i0 - 1]) * after[:, None]  # a change of scale and rotation from the interval before i0
-        kink = [np.concatenate((K[:, 0], K[:, 1])), np.concatenate((-K[:, 1], K[:, 0]))]
-        step = [np.concatenate((after, zero)), np.concatenate((zero, after))]
-        X0 = np.column_stack(base + kink)
-        X1 = np.column_stack([*base, *kink, *step])
-        stat = (_sse(X0, y) - _sse(X1, y)) / (2.0 * sigma[0] ** 2)
-        if best is None or stat > best.stat:
-            coef, *_ = np.linalg.lstsq(X1, y, rcond=None)
-            d = coef[-2:]
-            cov = np.linalg.pinv(X1.T @ X1)[-2:, -2:] * sigma[0] ** 2
-            u = d / max(float(np.hypot(*d)), 1e-12)
-            best = PoseStep(float(stat), rms, (float(d[0]), float(d[1])), math.sqrt(max(float(u @ cov @ u), 0.0)),
-                            h.fix_t[fixes[i0]], fixes[i0], heading_kink(h, fixes, *geometry, i0, sigma[1]))
-    return best
+        A = np.column_stack([np.concatenate((K[:, 0], K[:, 1])), np.concatenate((-K[:, 1], K[:, 0])),
+                             np.concatenate((after, zero)), np.concatenate((zero, after))])
+        A = A - Q @ (Q.T @ A)
+        G, g = A.T @ A + 1e-12 * np.eye(4), A.T @ y_perp
+        Ginv = np.linalg.pinv(G)
+        kink = float(g[:2] @ np.linalg.pinv(G[:2, :2]) @ g[:2])
+        stat = (float(g @ Ginv @ g) - kink) / (2.0 * sigma[0] ** 2)  # SSE without the step minus SSE with it
+        if best is None or stat > best[0]:
+            best = (stat, i0, (Ginv @ g)[2:], Ginv[2:, 2:] * sigma[0] ** 2)
+    if best is None:
+        return None
+    stat, i0, d, cov = best
+    u = d / max(float(np.hypot(*d)), 1e-12)
+    return PoseStep(stat, rms, (float(d[0]), float(d[1])), math.sqrt(max(float(u @ cov @ u), 0.0)),
+                    h.fix_t[fixes[i0]], fixes[i0], heading_kink(h, fixes, *geometry, i0, sigma[1]))
 
 
 def fix_interval(h: History, last: int = 20) -> float | None:

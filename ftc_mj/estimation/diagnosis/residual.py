@@ -93,6 +93,7 @@ class ResidualDiagnoser:
         self.declared: list[Diagnosis] = []
         self.pose_sigma = (self.R0 * settings.pose_floor, settings.pose_floor)
         self.pose_step: PoseStep | None = None
+        self._interval: tuple[int, float | None] = (0, None)  # (fixes seen, the pose sensor's median interval)
         self.pose_rms: list[float] = []  # the pose window's RMS model residual (m) at each evaluation
 
     # ---------------------------------------------------------------- the step
@@ -145,7 +146,9 @@ class ResidualDiagnoser:
         """How long (s) the pose sensor has delivered no fix, against ``pose_dropout_intervals`` of its interval
         (at least ``dropout_min``)."""
         h, s = self.history, self.settings
-        interval = fix_interval(h)
+        if self._interval[0] != len(h.fix_t):  # the median interval again only with a new fix
+            self._interval = (len(h.fix_t), fix_interval(h))
+        interval = self._interval[1]
         if interval is None:
             return QUIET
         missing = t - h.fix_t[-1]

@@ -11,7 +11,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from ...fields import Options, StrictModel, component, options_of, ranged
+from ...fields import Options, StrictModel, component, options_of, ranged, ranged_int
 
 Seconds = ranged(0.01, 60.0, unit="s")
 
@@ -96,7 +96,7 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     pose_min_offset: ranged(0.0, 1.0e3) = 3.0
     """A displacement of the pose fixes is tested when it exceeds this many σ of a fix (the larger of the
     configured σ and the median RMS residual of the pose windows so far: the dead-reckoned track's own error)."""
-    pose_rms_count: ranged(1, 100000) = 200
+    pose_rms_count: ranged_int(1, 100000) = 200
     """How many of the latest pose windows' RMS residuals give that median."""
     pose_dropout_intervals: ranged(1.0, 1.0e3) = 3.0
     """A pose sensor that delivers no fix for this many of its intervals (and ``dropout_min``) is declared
@@ -111,7 +111,7 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """A sensor fault is a drift when the drift's log-likelihood ratio over the bias (nats) exceeds this."""
     fit_window: Seconds = 30.0
     """The span (s) of integrated residual a sensor fault's bias/drift fit reads (the latest, after ``launch``)."""
-    fit_samples: ranged(10, 10000) = 300
+    fit_samples: ranged_int(10, 10000) = 300
     """At most this many samples of the integrated residual enter the bias/drift fit (every n-th fix, the latest
     kept): the fit's cost grows as their cube."""
 

@@ -126,3 +126,16 @@ def test_every_change_of_the_controllers_model_or_mode_is_counted() -> None:
     assert m["diagnosis_acted_upon"] == {"policy": 1, "model_radii": 1, "degraded": 1, "accommodation": 1,
                                          "excitation": 1}
     assert m["diagnosis_alarms_acted_upon"] == 5
+
+
+def test_no_alarm_moves_the_controller_of_a_healthy_benchmark_draw() -> None:
+    """A healthy ftc-v2 draw under the ``safe`` method (policy, degraded mode, accommodation of every mode): no
+    declaration, no alarm, nothing acted upon."""
+    import ftc_mj
+    from ftc_mj.benchmark.draws import draw
+    from ftc_mj.benchmark.methods import load_method
+
+    cfg = load_method("safe").apply(draw("dev", 0, "ftc-v2").scenario(with_faults=False))
+    m = ftc_mj.run(cfg.model_copy(update={"duration": 12.0}), rrd=False).metrics
+    assert m["diagnoses"] == [] and m["diagnosis_alarm_episodes"] == 0
+    assert m["diagnosis_alarms_acted_upon"] == 0, m["diagnosis_acted_upon"]

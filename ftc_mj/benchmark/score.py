@@ -207,5 +207,5 @@ def score_run(config: RunConfig, trace: dict[str, np.ndarray], events: Sequence[
     else:
         out.update(dict.fromkeys(JUDGE_COLUMNS))
     out.update(diagnosis_scores(tr, fault_list(cfg.faults, cfg.plant_wheel_radius), cfg.sensors,
-                                cfg.model_wheel_radius))
+                                cfg.model_wheel_radius, events))
     return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}

@@ -68,14 +68,16 @@ def true_size(spec: FaultSpec, trace: Mapping[str, np.ndarray], row: int, nomina
 
 
 def _fault_entry(spec: FaultSpec, found: list[Diagnosis], trace: Mapping[str, np.ndarray], nominal: float,
-                 measured: tuple[str, ...]) -> dict[str, Any]:
+                 measured: tuple[str, ...], others: set[tuple[str, str]] | None = None) -> dict[str, Any]:
     """One true fault's scoring: its first declaration after the onset (detection); the diagnoser's final
     belief on the fault's component and target — its last declaration on them, else the first declaration
     after the onset — is the one compared (``declared``): isolated when its mode is right too (the delay: to
-    the first declaration of that key); its size against the truth."""
+    the first declaration of that key); its size against the truth. Declarations on the component and target of
+    another true fault of the run (``others``) are that fault's, not this one's."""
     key = true_key(spec)
     t = np.asarray(trace["t"], float)
-    after = [d for d in found if d.declared >= spec.onset - MATCH_TOLERANCE_S]
+    after = [d for d in found if d.declared >= spec.onset - MATCH_TOLERANCE_S
+             and (d.key[:2] == key[:2] or d.key[:2] not in (others or set()))]
     on_it = [d for d in after if d.key[:2] == key[:2]]
     final = on_it[-1] if on_it else (after[0] if after else None)
     correct = [d for d in after if d.key == key] if final is not None and final.key == key else []
@@ -104,19 +106,65 @@ def alarm_episodes(trace: Mapping[str, np.ndarray]) -> dict[str, int]:
     return out
 
 
+DEGRADED_EVENT = "degraded mode from the first alarm"
+"""The start of the event the degraded mode (:mod:`ftc_mj.reconfiguration.degraded`) writes when an alarm opens a
+radius interval for the controller."""
+
+
+def _episodes(flag: np.ndarray) -> int:
+    """How many times ``flag`` (bool per row) goes up, counting a first row already up."""
+    return int(np.sum(flag[1:] & ~flag[:-1]) + (1 if flag.size and flag[0] else 0))
+
+
+def _changes(x: np.ndarray) -> int:
+    """How many times the finite values of ``x`` change from row to row."""
+    x = x[np.isfinite(x)]
+    return int(np.sum(np.abs(np.diff(x)) > 1e-9)) if x.size else 0
+
+
+def alarms_acted_upon(trace: Mapping[str, np.ndarray], events: Sequence[Any] = ()) -> dict[str, int]:
+    """The alarms that changed the controller's model or mode in a run (issue 41, point 4), by what moved: the
+    policy's state (``reconfig_state``: a hold, a hand-over, a revert), the controller's radii leaving the ones it
+    started with (``R_*_model``: the policy's radius switch, the degraded mode's hand-over), the degraded mode's
+    radius interval opened by an alarm (its event), the accommodation's mode and actuator model
+    (``accommodation_mode``, ``actuator_effectiveness_*``) and the excitation dither added while a fault is
+    suspected (``excitation``). Each counts its changes (episodes for the radii and the dither); a healthy run
+    whose detectors stay quiet has none."""
+    def col(name: str) -> np.ndarray:
+        return np.asarray(trace.get(name, np.zeros(0)), float)
+
+    radii = [col(f"R_{s}_model") for s in "RL"]
+    moved = np.zeros(radii[0].size, bool)
+    for r in radii:
+        if r.size:
+            moved |= np.nan_to_num(np.abs(r - r[0]), nan=0.0) > 1e-9
+    texts = [str(e.get("text", "")) if isinstance(e, Mapping) else str(getattr(e, "text", "")) for e in events]
+    return {
+        "policy": _changes(col("reconfig_state")),
+        "model_radii": _episodes(moved),
+        "degraded": sum(text.startswith(DEGRADED_EVENT) for text in texts),
+        "accommodation": _changes(col("accommodation_mode")) + sum(
+            _changes(col(f"actuator_effectiveness_{s}")) for s in "RL"),
+        "excitation": _episodes(np.nan_to_num(np.abs(col("excitation")), nan=0.0) > 0.0),
+    }
+
+
 def diagnosis_metrics(trace: Mapping[str, np.ndarray], faults: Sequence[FaultSpec], sensors: Any,
-                      nominal_radius: float) -> dict[str, Any]:
+                      nominal_radius: float, events: Sequence[Any] = ()) -> dict[str, Any]:
     """The run's diagnosis metrics (``metrics.json``; empty without a diagnoser's columns): every declaration,
-    every true fault's detection, isolation and size error, the declarations no true fault explains, and the
-    alarm episodes per channel."""
+    every true fault's detection, isolation and size error, the declarations no true fault explains, the
+    alarm episodes per channel and the alarms acted upon (:func:`alarms_acted_upon`, from the trace and the
+    run's ``events``)."""
     if "diag_count" not in trace or not np.any(np.isfinite(np.asarray(trace["diag_count"], float))):
         return {}
     found = diagnoses_from_trace(trace)
     measured = measurements_of(sensors)
-    entries = [_fault_entry(s, found, trace, nominal_radius, measured) for s in faults]
+    entries = [_fault_entry(s, found, trace, nominal_radius, measured,
+                            {true_key(o)[:2] for o in faults if o is not s}) for s in faults]
     keys = {true_key(s): s.onset for s in faults}
     false = [d for d in found if d.key not in keys or d.declared < keys[d.key] - MATCH_TOLERANCE_S]
     alarms = alarm_episodes(trace)
+    acted = alarms_acted_upon(trace, events)
     return {
         "diagnoses": [d.as_dict() for d in found],
         "diagnosis_faults": entries,
@@ -125,6 +173,8 @@ def diagnosis_metrics(trace: Mapping[str, np.ndarray], faults: Sequence[FaultSpe
         "diagnosis_first_false_time": min((d.declared for d in false), default=None),
         "diagnosis_alarms": alarms,
         "diagnosis_alarm_episodes": int(sum(alarms.values())),
+        "diagnosis_acted_upon": acted,
+        "diagnosis_alarms_acted_upon": int(sum(acted.values())),
     }
 
 
@@ -177,18 +227,20 @@ def summary(runs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 
 DIAGNOSIS_SCORE_COLUMNS: tuple[str, ...] = (
     "diag_true", "diag_declared", "diag_isolation", "diag_observable", "diag_detection_delay",
-    "diag_isolation_delay", "diag_size_error", "diag_false_declarations", "diag_alarm_episodes")
+    "diag_isolation_delay", "diag_size_error", "diag_false_declarations", "diag_alarm_episodes",
+    "diag_acted_upon")
 """The benchmark's diagnosis scores of a draw (:func:`diagnosis_scores`)."""
 
 
 def diagnosis_scores(trace: Mapping[str, np.ndarray], faults: Sequence[FaultSpec], sensors: Any,
-                     nominal_radius: float) -> dict[str, Any]:
+                     nominal_radius: float, events: Sequence[Any] = ()) -> dict[str, Any]:
     """A draw's diagnosis scores (:data:`DIAGNOSIS_SCORE_COLUMNS`), for its *first* fault in the run: its key
     ``component/target/mode`` (``none`` without a fault), the first declaration after its onset, the verdict
     ``correct`` (component, target and mode right), ``wrong``, ``none`` (nothing declared) or ``n/a`` (no
     fault; a diagnoser-less run: every score ``None``), whether it is observable, the delays (s), the size
-    error (the mode's unit), the declarations no fault explains and the alarm episodes."""
-    m = diagnosis_metrics(trace, faults, sensors, nominal_radius)
+    error (the mode's unit), the declarations no fault explains, the alarm episodes and the alarms acted upon
+    (``diag_acted_upon``: :func:`alarms_acted_upon`, the run's ``events`` for the degraded mode's)."""
+    m = diagnosis_metrics(trace, faults, sensors, nominal_radius, events)
     if not m:
         return dict.fromkeys(DIAGNOSIS_SCORE_COLUMNS)
     entries = [e for e in m["diagnosis_faults"] if e["in_run"]]
@@ -206,5 +258,6 @@ def diagnosis_scores(trace: Mapping[str, np.ndarray], faults: Sequence[FaultSpec
         "diag_size_error": None if first is None else first.get("size_error"),
         "diag_false_declarations": m["diagnosis_false_declarations"],
         "diag_alarm_episodes": m["diagnosis_alarm_episodes"],
+        "diag_acted_upon": m["diagnosis_alarms_acted_upon"],
     }
     return out

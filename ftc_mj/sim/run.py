@@ -89,7 +89,7 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
     m.update(compute_metrics(record, res.trace, res.counters))
     m.update(fdi_sweep_metrics(record, res.trace))
     m.update(diagnosis_metrics(res.trace, fault_list(cfg.faults, cfg.plant_wheel_radius), cfg.sensors,
-                               cfg.model_wheel_radius))
+                               cfg.model_wheel_radius, res.events))
     # the radii the controller used departed from nominal at some sample (not just: a feeding policy)
     m["feedback"] = bool((m.get("reconfig_handed_fraction") or 0.0) > 0.0)
     t_bad = unstable_time(res.trace)

@@ -70,6 +70,10 @@ def drive(fault: dict, duration: float = 20.0, gyro: float | None = 0.01, pose_s
         if on and kind == "dropout":
             speed = None
         pose = np.array([x, y, psi]) + pose_sigma * rng.standard_normal(3)
+        if on and kind in ("pose_bias", "pose_jump") and t < fault["t"] + fault.get("duration", math.inf):
+            pose[:2] += fault["size"] * math.sqrt(0.5)  # along the 45° diagonal, as the fault library displaces it
+        if on and kind == "pose_dropout" and t < fault["t"] + fault["duration"]:
+            pose = None
         diag.step(DiagnosisInput(t=t, omega=omega.copy(), command=cmd.copy(), speed=speed, yaw_rate=yaw,
                                  pose=pose, pose_sigma=pose_sigma))
     return diag.declared
@@ -147,3 +151,27 @@ def test_a_puncture_without_a_gyro_is_isolated_from_a_noisy_10_hz_pose() -> None
                   pose_rate=10.0)
     assert {d.key for d in found} == {("tyre", "left", "puncture")}
     assert found[0].declared <= 12.0
+
+
+POSE = {"pose_sigma": 0.03, "pose_rate": 10.0}  # a 10 Hz pose sensor of σ 3 cm
+
+
+@pytest.mark.parametrize("size", [0.3, -1.5])
+def test_a_displaced_pose_sensor_is_a_pose_bias_with_its_offset(size: float) -> None:
+    found = drive({"kind": "pose_bias", "t": 10.0, "size": size}, **POSE)
+    assert [d.key for d in found] == [("pose sensor", "pose", "bias")]
+    assert 10.0 <= found[0].declared <= 11.5
+    assert found[0].size == pytest.approx(size, abs=0.1)
+
+
+def test_a_displacement_that_returns_is_a_pose_jump() -> None:
+    found = drive({"kind": "pose_jump", "t": 10.0, "size": 2.0, "duration": 2.0}, **POSE)
+    assert [d.key for d in found] == [("pose sensor", "pose", "bias"), ("pose sensor", "pose", "jump")]
+    assert found[-1].size == pytest.approx(2.0, abs=0.1) and found[-1].onset == pytest.approx(10.0, abs=0.2)
+    assert 12.0 <= found[-1].declared <= 13.5
+
+
+def test_missing_pose_fixes_are_a_pose_dropout_within_a_few_intervals() -> None:
+    found = drive({"kind": "pose_dropout", "t": 10.0, "duration": 3.0}, **POSE)
+    assert [d.key for d in found] == [("pose sensor", "pose", "dropout")]
+    assert 10.0 <= found[0].declared <= 10.45  # three 0.1 s intervals after the last fix

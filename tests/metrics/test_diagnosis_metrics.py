@@ -86,3 +86,56 @@ def test_confusion_and_rates_pool_runs() -> None:
     assert c[(("none", "", ""), "none")] == 1
     s = summary([good, wrong, clean])
     assert s["isolation_rate"] == 0.5 and s["false_declarations_per_hour"] == 0.0
+
+
+def test_a_declaration_of_another_true_fault_is_not_this_ones() -> None:
+    """Two faults in a run: the one declared is isolated; the other, never declared, is ``none``, not ``wrong``
+    with the first's declaration."""
+    servo = FaultSpec("actuator_loss", "right", 0.5, 0.3)
+    m = diagnosis_metrics(trace_with([bias()]), [servo, SPEC], GYRO, 2.0)
+    first, second = m["diagnosis_faults"]
+    assert first["declared"] is None and not first["isolated"]
+    assert second["isolated"]
+    assert diagnosis_scores(trace_with([bias()]), [servo, SPEC], GYRO, 2.0)["diag_isolation"] == "none"
+
+
+def acting_trace(**changes: tuple[int, str, float]) -> dict[str, np.ndarray]:
+    """A diagnosed trace whose controller-side columns hold their start values, changed from row ``k`` on as
+    ``changes`` say (column → (k, value))."""
+    tr = trace_with([])
+    for name, start in (("reconfig_state", 0.0), ("R_R_model", 2.0), ("R_L_model", 2.0), ("excitation", 0.0),
+                        ("accommodation_mode", 0.0), ("actuator_effectiveness_R", 1.0),
+                        ("actuator_effectiveness_L", 1.0)):
+        tr[name] = np.full(N, start)
+    for name, (k, value) in changes.items():
+        tr[name][k:] = value
+    return tr
+
+
+def test_nothing_is_acted_upon_when_no_alarm_moves_the_controller() -> None:
+    m = diagnosis_metrics(acting_trace(), [], GYRO, 2.0)
+    assert m["diagnosis_alarms_acted_upon"] == 0 and set(m["diagnosis_acted_upon"].values()) == {0}
+    assert diagnosis_scores(acting_trace(), [], GYRO, 2.0)["diag_acted_upon"] == 0
+
+
+def test_every_change_of_the_controllers_model_or_mode_is_counted() -> None:
+    tr = acting_trace(reconfig_state=(100, 2.0), R_L_model=(120, 1.5), actuator_effectiveness_R=(150, 0.5))
+    tr["excitation"][50:60] = 0.02  # a dither while a fault was suspected
+    events = [{"t": 0.9, "level": "warn", "text": "degraded mode from the first alarm: R_R in [1.8, 2.0] m"}]
+    m = diagnosis_metrics(tr, [], GYRO, 2.0, events)
+    assert m["diagnosis_acted_upon"] == {"policy": 1, "model_radii": 1, "degraded": 1, "accommodation": 1,
+                                         "excitation": 1}
+    assert m["diagnosis_alarms_acted_upon"] == 5
+
+
+def test_no_alarm_moves_the_controller_of_a_healthy_benchmark_draw() -> None:
+    """A healthy ftc-v2 draw under the ``safe`` method (policy, degraded mode, accommodation of every mode): no
+    declaration, no alarm, nothing acted upon."""
+    import ftc_mj
+    from ftc_mj.benchmark.draws import draw
+    from ftc_mj.benchmark.methods import load_method
+
+    cfg = load_method("safe").apply(draw("dev", 0, "ftc-v2").scenario(with_faults=False))
+    m = ftc_mj.run(cfg.model_copy(update={"duration": 12.0}), rrd=False).metrics
+    assert m["diagnoses"] == [] and m["diagnosis_alarm_episodes"] == 0
+    assert m["diagnosis_alarms_acted_upon"] == 0, m["diagnosis_acted_upon"]

@@ -27,7 +27,7 @@ MODE_CODES: dict[str, int] = {"": 0, **{m: i + 1 for i, m in enumerate(
 """Trace code of each mode (0: nothing declared)."""
 
 CHANNELS: tuple[str, ...] = ("tyre_R", "tyre_L", "servo_R", "servo_L", "lock_R", "lock_L", "speed", "gyro",
-                             "speed_dropout", "gyro_dropout")
+                             "speed_dropout", "gyro_dropout", "pose", "pose_dropout")
 """The built-in diagnoser's residual channels, one statistic and one alarm flag each in the trace."""
 
 DECLARATION_COLUMNS: tuple[str, ...] = (

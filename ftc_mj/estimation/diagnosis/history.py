@@ -40,6 +40,7 @@ class History:
         self.fix_t: list[float] = []
         self.fix_pose: list[tuple[float, float, float]] = []  # x, y, ψ unwrapped
         self.fix_s: list[float] = []  # arc length rolled forward since the first fix (m)
+        self.fix_offset = (0.0, 0.0)  # the diagnosed displacement of the pose sensor (m), taken off each fix
         self._last_omega: np.ndarray | None = None
         self._last_err: np.ndarray | None = None
 
@@ -63,7 +64,7 @@ class History:
             if self.fix_pose:  # unwrap against the previous fix
                 psi0 = self.fix_pose[-1][2]
                 psi = psi0 + (psi - psi0 + math.pi) % (2.0 * math.pi) - math.pi
-            here = (float(pose[0]), float(pose[1]), psi)
+            here = (float(pose[0]) - self.fix_offset[0], float(pose[1]) - self.fix_offset[1], psi)
             self.fix_s.append(self.fix_s[-1] + arc_between(self.fix_pose[-1], here)[0] if self.fix_pose else 0.0)
             self.fix_steps.append(self.k)
             self.fix_t.append(t)
@@ -89,6 +90,17 @@ class History:
                       thL, float(cL - omega[1]), abs(float(cL)), eL * eL, eL, eL * dL, dL, 1.0, 1.0)
         return (*wheels, 0.0 if speed is None else float(speed), 0.0 if speed is None else 1.0,
                 0.0 if yaw_rate is None else float(yaw_rate), 0.0 if yaw_rate is None else 1.0)
+
+    def shift_fixes(self, first: int, offset: tuple[float, float]) -> None:
+        """Take a displacement ``offset`` (m, world x, y) of the pose sensor off the fixes from index ``first``
+        on and off every later one (a diagnosed pose bias; its opposite when a jump returns), and roll the arc
+        lengths forward again from there."""
+        self.fix_offset = (self.fix_offset[0] + offset[0], self.fix_offset[1] + offset[1])
+        for i in range(first, len(self.fix_pose)):
+            x, y, psi = self.fix_pose[i]
+            self.fix_pose[i] = (x - offset[0], y - offset[1], psi)
+            if i > 0:
+                self.fix_s[i] = self.fix_s[i - 1] + arc_between(self.fix_pose[i - 1], self.fix_pose[i])[0]
 
     def delta(self, name: str, j: int, k: int) -> float:
         """The sum ``name`` over the steps ``(j, k]``."""

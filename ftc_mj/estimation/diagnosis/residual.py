@@ -15,7 +15,9 @@ other fault moves:
 - ``lock_R``/``lock_L``: the wheel turns at under ``lock_ratio`` of its command;
 - ``speed``: the speed sensor's mean reading minus the pose's arc per second; ``gyro``: the gyro's mean
   minus the pose's heading change per second: the sensor's own faults only;
-- ``speed_dropout``/``gyro_dropout``: how long the sensor has delivered nothing.
+- ``speed_dropout``/``gyro_dropout``: how long the sensor has delivered nothing;
+- ``pose``: a displacement of the pose fixes against the track dead-reckoned from the encoders
+  (:mod:`.pose`); ``pose_dropout``: how long the pose sensor has delivered no fix, in its own intervals.
 
 The GLR of a mean shift ``D`` of variance ``σ²`` is ``D² / (2 σ²)``, maximised over the candidate change
 times :attr:`~.settings.ResidualDiagnoserSettings.windows` before the latest pose fix; σ² is the noise of
@@ -34,7 +36,9 @@ from ...context import RunContext
 from ...model.diagnosis import Diagnosis
 from .base import CHANNELS, DiagnosisInput, DiagnosisStep
 from .history import History
+from .pose import PoseStep, fix_interval, step_glr
 from .settings import ResidualDiagnoserSettings
+from .shape import ShapeFit, shape_fit
 
 WHEEL_SIDES = {"R": "right", "L": "left"}
 
@@ -89,6 +93,9 @@ class ResidualDiagnoser:
         self.declared: list[Diagnosis] = []
         self.pose_sigma = (self.R0 * settings.pose_floor, settings.pose_floor)
         self._pairs_at: tuple[int, list[tuple[int, int, int | None]]] = (-1, [])  # (fixes, pairs): :meth:`_pairs`
+        self.pose_step: PoseStep | None = None
+        self._interval: tuple[int, float | None] = (0, None)  # (fixes seen, the pose sensor's median interval)
+        self.pose_rms: list[float] = []  # the pose window's RMS model residual (m) at each evaluation
 
     # ---------------------------------------------------------------- the step
     def step(self, z: DiagnosisInput) -> DiagnosisStep:
@@ -111,6 +118,8 @@ class ResidualDiagnoser:
                 self.readings[f"tyre_{side}"] = self._tyre(side)
             self.readings["speed"] = self._sensor("speed")
             self.readings["gyro"] = self._sensor("gyro") if self.sigma_g is not None else QUIET
+            self.readings["pose"] = self._pose()
+        self.readings["pose_dropout"] = self._pose_dropout(z.t)
         alarms = {c: r.alarm for c, r in self.readings.items()}
         since = self.since
         for c, alarm in alarms.items():
@@ -138,6 +147,39 @@ class ResidualDiagnoser:
             self.readings[f"{name}_dropout"] = (Reading(self.missing[name], s.dropout_min - 1e-9,
                                                         self.missing[name], 0.0, onset)
                                                 if present else QUIET)
+
+    def _pose_dropout(self, t: float) -> Reading:
+        """How long (s) the pose sensor has delivered no fix, against ``pose_dropout_intervals`` of its interval
+        (at least ``dropout_min``)."""
+        h, s = self.history, self.settings
+        if self._interval[0] != len(h.fix_t):  # the median interval again only with a new fix
+            self._interval = (len(h.fix_t), fix_interval(h))
+        interval = self._interval[1]
+        if interval is None:
+            return QUIET
+        missing = t - h.fix_t[-1]
+        return Reading(missing, max(s.dropout_min, s.pose_dropout_intervals * interval) - 1e-9, missing, 0.0,
+                       h.fix_t[-1] + interval)
+
+    def _pose(self) -> Reading:
+        """The GLR of a displacement of the pose fixes over the last ``pose_window`` (s) (:func:`.pose.step_glr`,
+        the fix's σ at least the median RMS residual of the windows so far), 0 for a displacement under
+        ``pose_min_offset`` σ or one that came with a change of the encoders' yaw rate against the fixes'
+        headings (a wheel's fault); the size: the displacement along the fault library's diagonal
+        (``(dx + dy) / √2``, m)."""
+        s, h = self.settings, self.history
+        a = h.fix_at(h.fix_t[-1] - s.pose_window)
+        sigma = max(self.pose_sigma[0], float(np.median(self.pose_rms)) if self.pose_rms else 0.0)
+        step = None if a is None else step_glr(h, a, len(h.fix_t) - 1, (self.R0, self.b),
+                                                     (sigma, self.pose_sigma[1]), s.pose_recent)
+        self.pose_step = step
+        if step is None:
+            return QUIET
+        self.pose_rms.append(step.rms)
+        del self.pose_rms[:-s.pose_rms_count]
+        small = math.hypot(*step.offset) < s.pose_min_offset * sigma or step.turn > s.threshold  # or a wheel
+        size = (step.offset[0] + step.offset[1]) * math.sqrt(0.5)
+        return Reading(0.0 if small else step.stat, s.pose_threshold, size, step.sigma, step.onset)
 
     def _lock(self, side: str) -> Reading:
         """``1 − |mean ω| / |mean command|`` over the last ``lock_window`` (s) of wheel ``side``."""
@@ -315,7 +357,10 @@ class ResidualDiagnoser:
     def _isolate(self, t: float) -> list[Diagnosis]:
         """At most one new declaration per step, from the confirmed alarms, in the order: dropouts, lock,
         servo, tyre, speed sensor, gyro (the isolation table of docs/fdi.md)."""
-        for maker in (self._declare_dropout, self._declare_servo, self._declare_tyre, self._declare_sensor):
+        for maker in (self._declare_dropout, self._declare_pose, self._declare_servo, self._declare_tyre,
+                      self._declare_sensor):
+            if maker in (self._declare_tyre, self._declare_sensor) and self._pose_first():
+                continue  # a displaced fix moves the arc and the heading the tyres' and sensors' residuals read
             d = maker(t)
             if d is not None:
                 return [d]
@@ -332,6 +377,48 @@ class ResidualDiagnoser:
             if r.alarm and (last is None or last.mode != "dropout" or last.onset < r.onset - 1e-9):
                 return self._make(component, target, "dropout", r, t)
         return None
+
+    def _pose_first(self) -> bool:
+        """The pose channel's alarm is up and no tyre alarm came before it."""
+        p = self.since["pose"]
+        tyres = [self.since[f"tyre_{side}"] for side in "RL"]
+        return p is not None and not any(s is not None and s < p - 1e-9 for s in tyres)
+
+    def _pose_blocked(self) -> bool:
+        """No pose displacement is declared after a tyre or servo fault (the dead-reckoned track then rolls on a
+        wheel that no longer measures the travel), while a lock or servo alarm is up, or after a tyre alarm that
+        came before the pose's."""
+        if self._has("tyre") is not None or self._has("servo") is not None:
+            return True
+        if any(self.readings[f"{c}_{side}"].alarm for c in ("lock", "servo") for side in "RL"):
+            return True
+        return self.since["pose"] is not None and not self._pose_first()
+
+    def _declare_pose(self, t: float) -> Diagnosis | None:
+        """A pose-sensor dropout at once; a displacement of its fixes once confirmed: a ``bias``, taken off the
+        fixes from its onset on (:meth:`.history.History.shift_fixes`) — or, when it takes a declared bias back
+        (the total displacement left is under half the declared one), a ``jump`` of the declared bias's size
+        and onset."""
+        r = self.readings["pose_dropout"]
+        last = self._has("pose sensor")
+        if r.alarm and (last is None or last.mode != "dropout" or last.onset < r.onset - 1e-9):
+            return self._make("pose sensor", "pose", "dropout", r, t)
+        step = self.pose_step
+        if not self._confirmed("pose", t) or step is None or self._pose_blocked():
+            return None
+        h = self.history
+        before = h.fix_offset
+        total = (before[0] + step.offset[0], before[1] + step.offset[1])
+        h.shift_fixes(step.fix, step.offset)
+        self.pose_step = None
+        for c in ("pose", "tyre_R", "tyre_L", "speed", "gyro"):  # read again from the corrected fixes
+            self.readings[c], self.since[c] = QUIET, None
+        if last is not None and last.mode == "bias" and math.hypot(*total) < 0.5 * math.hypot(*before):
+            return self._make("pose sensor", "pose", "jump", Reading(step.stat, self.settings.pose_threshold, last.size,
+                                                                    last.sigma, last.onset), t)
+        size = (total[0] + total[1]) * math.sqrt(0.5)
+        return self._make("pose sensor", "pose", "bias", Reading(step.stat, self.settings.pose_threshold, size,
+                                                                step.sigma, step.onset), t)
 
     def _declare_servo(self, t: float) -> Diagnosis | None:
         """A lock, else a servo loss or an unresponsive servo (re-declared as such if a loss's wheel stops
@@ -398,9 +485,9 @@ class ResidualDiagnoser:
 
     def _declare_sensor(self, t: float) -> Diagnosis | None:
         """A speed-sensor or gyro bias or drift once its alarm is confirmed and ``shape_min`` (s) has passed
-        since the GLR's onset and since the fitted one: mode, size and onset from :func:`onset_fit` of the
-        binned residual; a bias declared is fitted again every ``shape_min`` and re-declared as a drift if that
-        fits better."""
+        since the GLR's onset and since each shape's fitted one: mode, size and onset from :func:`.shape.shape_fit`
+        of the integrated residual; a bias declared is fitted again every ``shape_min`` and re-declared as a
+        drift once the drift's likelihood ratio over the bias exceeds ``drift_llr``."""
         for name, component, target in (("speed", "speed sensor", "speed"), ("gyro", "gyro", "yaw_rate")):
             r = self.readings[name]
             last = self._has(component)
@@ -411,57 +498,53 @@ class ResidualDiagnoser:
                                                               self.settings.shape_min - 1e-9):
                 continue
             self.refit[name] = t
-            fit = self._shape(name, t, r.onset if last is None else last.onset)
-            if fit is not None and t - fit[4] < self.settings.shape_min - 1e-9:
+            fit = self._shape(name, t)
+            if fit is not None and t - fit.latest < self.settings.shape_min - 1e-9:
                 continue  # too little since either model's fitted onset to tell a bias from a drift yet
-            if fit is not None and (last is None or fit[0] == "drift"):
-                mode, size, sigma, onset, _ = fit
-                return self._make(component, target, mode, Reading(r.stat, r.threshold, size, sigma, onset), t)
+            if fit is not None and (last is None or fit.mode == "drift"):
+                return self._make(component, target, fit.mode, Reading(r.stat, r.threshold, fit.size, fit.sigma,
+                                                                       fit.onset), t)
         return None
 
-    def _shape(self, name: str, t: float, onset: float) -> tuple[str, float, float, float, float] | None:
-        """:func:`onset_fit` of the ``speed`` or ``gyro`` channel's residual (the sensor's mean minus the pose's
-        arc or heading rate) over successive ``shape_bin`` (s) spans of the last ``fit_window`` (s) before
-        ``t``, the candidate onsets from ``shape_min`` before the GLR's ``onset`` (s) on."""
+    def integrated(self, name: str, t: float) -> tuple[np.ndarray, np.ndarray, float, float] | None:
+        """The ``speed`` (m) or ``gyro`` (rad) residual integrated from fix to fix over the last ``fit_window``
+        (s) before ``t`` (after ``launch``): the times (s) and values at the fixes, the fix's variance ``r``
+        and the sensor's random-walk variance ``q`` per second (:mod:`.shape`). An interval without samples
+        takes the previous interval's mean reading."""
         h, s = self.history, self.settings
-        grid = (t - np.arange(0.0, t - max(t - s.fit_window, s.launch) + 1e-9, s.shape_bin))[::-1]  # ends at t
-        fixes = sorted({f for f in (h.fix_at(g) for g in grid) if f is not None})
-        mids, values = [], []
-        for j, k in zip(fixes[:-1], fixes[1:], strict=True):
-            r = self.residual(name, j, k)
-            if r is not None:
-                mids.append(0.5 * (h.fix_t[j] + h.fix_t[k]))
-                values.append(r[0])
-        starts = np.arange(max(grid[0] + s.shape_bin, onset - s.shape_min), t - s.shape_bin, 0.05)
-        if len(values) < 6 or not starts.size:
+        first = h.fix_at(max(t - s.fit_window, s.launch))
+        last = len(h.fix_t) - 1
+        if first is None or last - first < 6:
             return None
-        return onset_fit(np.asarray(mids), np.asarray(values), starts, s.drift_margin)
+        key, sig = ("v", self.sigma_v) if name == "speed" else ("g", self.sigma_g or 0.0)
+        times, values, mean, rates, total = [h.fix_t[first]], [0.0], None, [], 0.0
+        for j in range(first, last):
+            a, b = h.fix_steps[j], h.fix_steps[j + 1]
+            span = h.fix_t[j + 1] - h.fix_t[j]
+            n = h.delta(f"n_{key}", a, b)
+            mean = h.delta(key, a, b) / n if n > 0 else mean
+            if mean is None or span <= 0.0:
+                return None
+            arc, dpsi = h.motion(j, j + 1)
+            move = arc if name == "speed" else dpsi
+            total += mean * span - move
+            rates.append(abs(move) / span)
+            times.append(h.fix_t[j + 1])
+            values.append(total)
+        floor = (s.speed_floor if name == "speed" else s.gyro_floor) * float(np.mean(rates))
+        r = self.pose_sigma[0 if name == "speed" else 1] ** 2
+        return np.asarray(times), np.asarray(values), r, sig**2 * self.dt + floor**2 * s.shape_bin
 
-
-def onset_fit(t: np.ndarray, e: np.ndarray, starts: np.ndarray, margin: float = 1.0
-              ) -> tuple[str, float, float, float, float]:
-    """``(mode, size, σ, onset)``: the least-squares fit of a residual ``e(t) = c + b h(t − t0)`` over the
-    candidate onsets ``starts`` (s) for an offset (``bias``: ``h`` the unit step, ``b`` the offset) and a
-    ``drift`` (``h(x) = x⁺``, an offset growing at ``b`` per s) — the model, the onset and the size with the
-    smallest residual sum of squares (a drift's divided by ``margin`` ≤ 1), the size's σ, and the later of the
-    two models' onsets (a decision needs data after both)."""
-    best: tuple[float, str, float, float, float] | None = None
-    latest = -math.inf
-    ec = e - e.mean()
-    for mode, power in (("bias", 0), ("drift", 1)):
-        x = t[None, :] - starts[:, None]
-        H = (x >= 0.0).astype(float) if power == 0 else np.clip(x, 0.0, None)
-        Hc = H - H.mean(axis=1, keepdims=True)
-        shh = np.einsum("ij,ij->i", Hc, Hc)
-        she = Hc @ ec
-        ok = shh > 1e-12
-        b = np.where(ok, she / np.where(ok, shh, 1.0), 0.0)
-        sse = np.where(ok, float(ec @ ec) - b * she, np.inf)
-        i = int(np.argmin(sse))
-        sigma = math.sqrt(max(sse[i], 0.0) / max(t.size - 2, 1) / shh[i]) if ok[i] else math.inf
-        latest = max(latest, float(starts[i]))
-        score = float(sse[i]) / (margin if mode == "drift" else 1.0)
-        if best is None or score < best[0]:
-            best = (score, mode, float(b[i]), sigma, float(starts[i]))
-    assert best is not None
-    return best[1], best[2], best[3], best[4], latest
+    def _shape(self, name: str, t: float) -> ShapeFit | None:
+        """:func:`.shape.shape_fit` of the ``speed`` or ``gyro`` channel's integrated residual (:meth:`integrated`),
+        the candidate onsets every ``shape_bin`` / 5 from ``shape_min`` after its first sample to
+        ``shape_bin`` before ``t``."""
+        s = self.settings
+        data = self.integrated(name, t)
+        if data is None:
+            return None
+        times, values, r, q = data
+        stride = max(1, math.ceil(times.size / s.fit_samples))  # the integral decimated: its Cholesky is O(n³)
+        times, values = times[::-1][::stride][::-1], values[::-1][::stride][::-1]
+        starts = np.arange(times[0] + s.shape_min, t - s.shape_bin, 0.2 * s.shape_bin)
+        return shape_fit(times, values, r, q, starts, s.drift_llr)

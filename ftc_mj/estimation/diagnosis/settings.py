@@ -11,7 +11,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from ...fields import Options, StrictModel, component, options_of, ranged
+from ...fields import Options, StrictModel, component, options_of, ranged, ranged_int
 
 Seconds = ranged(0.01, 60.0, unit="s")
 
@@ -86,16 +86,34 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """The lock test needs a command of at least this fraction of ``robot.omega_max``."""
     dropout_min: ranged(0.0, 10.0, unit="s") = 0.05
     """A sensor that delivers nothing for this long (s) is declared dropped out."""
+    pose_window: Seconds = 3.0
+    """Window (s) of pose fixes the GLR of a displacement of the pose sensor reads."""
+    pose_recent: Seconds = 1.5
+    """A displacement's candidate onsets: the fixes of the last this long (s) of the window."""
+    pose_threshold: ranged(0.5, 1.0e3) = 20.0
+    """GLR threshold of a displacement of the pose fixes (log-likelihood ratio; a 6.3σ shift): the dead-reckoned
+    track it is tested against has its own error, which the fix's σ leaves out."""
+    pose_min_offset: ranged(0.0, 1.0e3) = 3.0
+    """A displacement of the pose fixes is tested when it exceeds this many σ of a fix (the larger of the
+    configured σ and the median RMS residual of the pose windows so far: the dead-reckoned track's own error)."""
+    pose_rms_count: ranged_int(1, 100000) = 200
+    """How many of the latest pose windows' RMS residuals give that median."""
+    pose_dropout_intervals: ranged(1.0, 1.0e3) = 3.0
+    """A pose sensor that delivers no fix for this many of its intervals (and ``dropout_min``) is declared
+    dropped out."""
     shape_min: ranged(0.0, 60.0, unit="s") = 2.0
     """Time (s) after a sensor fault's estimated onset before bias and drift are told apart (and between two
     fits of a bias declared)."""
     shape_bin: ranged(0.05, 10.0, unit="s") = 0.5
-    """Span (s) of each mean residual the bias/drift fit reads."""
-    drift_margin: ranged(0.01, 1.0) = 0.5
-    """A sensor fault is a drift when the drift model's residual sum of squares is below this fraction of the
-    bias model's."""
-    fit_window: Seconds = 10.0
-    """The span (s) of integrated residual a sensor fault's bias/drift fit reads."""
+    """Correlation time (s) of the speed's and yaw rate's model floors in the bias/drift fit; its candidate onsets
+    are a fifth of it apart."""
+    drift_llr: ranged(0.0, 1.0e3) = 4.0
+    """A sensor fault is a drift when the drift's log-likelihood ratio over the bias (nats) exceeds this."""
+    fit_window: Seconds = 30.0
+    """The span (s) of integrated residual a sensor fault's bias/drift fit reads (the latest, after ``launch``)."""
+    fit_samples: ranged_int(10, 10000) = 300
+    """At most this many samples of the integrated residual enter the bias/drift fit (every n-th fix, the latest
+    kept): the fit's cost grows as their cube."""
 
 
 class NoDiagnoserSettings(DiagnosisSettings):

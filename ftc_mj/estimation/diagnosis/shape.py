@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import solve_triangular
 
 
 @dataclass(frozen=True)
@@ -60,6 +59,8 @@ def shape_fit(t: np.ndarray, e: np.ndarray, r: float, q: float, starts: np.ndarr
     ``None`` with fewer than six samples or no onset that leaves samples on both sides."""
     if t.size < 6 or starts.size == 0:
         return None
+    from scipy.linalg import solve_triangular  # here: a run that never fits a shape does not import SciPy's LAPACK
+
     tau = t - t[0]
     cov = r * np.eye(t.size) + q * np.minimum.outer(tau, tau) + 1e-12 * np.eye(t.size)
     L = np.linalg.cholesky(cov)

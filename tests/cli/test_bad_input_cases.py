@@ -332,7 +332,9 @@ def test_ctrl_c_on_a_study_is_one_line(tmp_path: Path) -> None:
     """SIGINT to the whole process group, as a terminal's Ctrl-C sends it: the worker processes ignore
     it, the client cancels, keeps what finished and says so in one line (exit 130)."""
     study = tmp_path / "s.toml"
-    study.write_text('name = "c"\nscenario = "scenario1"\nseeds = 400\n[base]\nduration = 2.0\n'
+    # enough runs that the study cannot end before the signal: on a loaded machine with cold numba caches the
+    # workers compiled for ~20 s and then ran all of 400 two-second runs before the first row was seen (exit 0)
+    study.write_text('name = "c"\nscenario = "scenario1"\nseeds = 2000\n[base]\nduration = 5.0\n'
                      '"controller.kind" = "open-loop"\n')
     out = tmp_path / "out"
     env = {**os.environ, "OMP_NUM_THREADS": "1"}

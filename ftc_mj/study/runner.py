@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import contextlib
 import json
+import signal
+import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator
@@ -239,6 +241,29 @@ def _persister(store: StudyStore, report: StudyReport,
     return persist
 
 
+@contextlib.contextmanager
+def _interrupt_flag() -> Iterator[threading.Event]:
+    """A Ctrl-C (SIGINT) sets the event as well as raising :class:`KeyboardInterrupt`: the raise lands wherever
+    the main thread is, and where that is a finaliser or a callback the interpreter swallows it (measured: a fresh
+    clone under load ran a whole study after the signal); the loops below check the event after every run, so the
+    interrupt is acted upon at the next finished run at the latest. Outside the main thread nothing changes."""
+    flag = threading.Event()
+
+    def handler(signum: int, frame: Any) -> None:
+        flag.set()
+        raise KeyboardInterrupt
+
+    try:
+        old = signal.signal(signal.SIGINT, handler)
+    except ValueError:  # not the main thread
+        yield flag
+        return
+    try:
+        yield flag
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 def _run_serial(todo: list[PlannedRun], kw: dict[str, Any], persist: Callable[..., None],
                 advance: Callable[[], None], store: StudyStore, report: StudyReport, plan: StudyPlan) -> None:
     """Compute the runs one after the other in this process."""
@@ -246,9 +271,12 @@ def _run_serial(todo: list[PlannedRun], kw: dict[str, Any], persist: Callable[..
     store.log("start", invocation=report.invocation, todo=len(todo), done_before=report.already_done,
               backend="serial")
     try:
-        for run in todo:
-            persist(run, run_one(run.config, run.key, **kw))
-            advance()
+        with _interrupt_flag() as interrupted:
+            for run in todo:
+                persist(run, run_one(run.config, run.key, **kw))
+                advance()
+                if interrupted.is_set():
+                    raise KeyboardInterrupt
     except KeyboardInterrupt:
         store.log("interrupted", invocation=report.invocation, computed=len(report.computed))
         raise StudyInterruptedError(_interrupted_msg(report, plan)) from None
@@ -284,15 +312,18 @@ def _run_dask(client: Any, todo: list[PlannedRun], kw: dict[str, Any], persist: 
         by_key[fut.key] = run
         futures.append(fut)
     try:
-        for fut in as_completed(futures):
-            run = by_key[fut.key]
-            try:
-                result = fut.result()
-            except Exception as err:  # noqa: BLE001 - e.g. KilledWorker: recorded as a failed row
-                result = failed_result(f"{type(err).__name__}: {err}")
-            persist(run, result)
-            fut.release()
-            advance()
+        with _interrupt_flag() as interrupted:
+            for fut in as_completed(futures):
+                run = by_key[fut.key]
+                try:
+                    result = fut.result()
+                except Exception as err:  # noqa: BLE001 - e.g. KilledWorker: recorded as a failed row
+                    result = failed_result(f"{type(err).__name__}: {err}")
+                persist(run, result)
+                fut.release()
+                advance()
+                if interrupted.is_set():
+                    raise KeyboardInterrupt
     except KeyboardInterrupt:
         for f in futures:
             f.cancel()

@@ -97,23 +97,19 @@ def _fault_entry(spec: FaultSpec, found: list[Diagnosis], trace: Mapping[str, np
     return e
 
 
+def _episodes(flag: np.ndarray) -> int:
+    """How many times ``flag`` (bool per row) goes up, counting a first row already up."""
+    return int(np.sum(flag[1:] & ~flag[:-1]) + (1 if flag.size and flag[0] else 0))
+
+
 def alarm_episodes(trace: Mapping[str, np.ndarray]) -> dict[str, int]:
     """How many times each channel's alarm went up (0 → 1) in the run."""
-    out = {}
-    for c in CHANNELS:
-        a = np.nan_to_num(np.asarray(trace.get(f"diag_alarm_{c}", []), float)) > 0.5
-        out[c] = int(np.sum(a[1:] & ~a[:-1]) + (1 if a.size and a[0] else 0))
-    return out
+    return {c: _episodes(np.nan_to_num(np.asarray(trace.get(f"diag_alarm_{c}", []), float)) > 0.5) for c in CHANNELS}
 
 
 DEGRADED_EVENT = "degraded mode from the first alarm"
 """The start of the event the degraded mode (:mod:`ftc_mj.reconfiguration.degraded`) writes when an alarm opens a
 radius interval for the controller."""
-
-
-def _episodes(flag: np.ndarray) -> int:
-    """How many times ``flag`` (bool per row) goes up, counting a first row already up."""
-    return int(np.sum(flag[1:] & ~flag[:-1]) + (1 if flag.size and flag[0] else 0))
 
 
 def _changes(x: np.ndarray) -> int:

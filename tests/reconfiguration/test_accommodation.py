@@ -214,7 +214,8 @@ def test_with_a_free_wheel_the_other_one_steers() -> None:
 def test_with_a_free_wheel_a_robot_faster_than_the_plan_is_braked_not_pushed() -> None:
     """Left servo unresponsive on the counter-clockwise circle (the path turns towards the free wheel, which only
     a pushing right wheel could follow): once the robot is faster than the stop's plan, the right wheel brakes
-    within the traction bound, ``v_R = v_L − 2 b · 0.8 A / V``, instead of pushing; it never runs backwards."""
+    within the traction bound, ``v_R = v_L − 2 b · 0.8 A / V``, instead of pushing; it never runs backwards, and
+    keeps rolling at ``one_wheel_roll`` (0.2) of the free wheel's speed (:mod:`tests.control.test_stop_one_wheel`)."""
     stop = _stop()
     stop.begin(10.0, 10.0)
     pose, radii, rates = np.array([0.0, 0.0, 0.0]), np.array([2.0, 2.0]), np.array([5.0, 5.0])
@@ -224,7 +225,7 @@ def test_with_a_free_wheel_a_robot_faster_than_the_plan_is_braked_not_pushed() -
     assert 2.0 * om[0] == pytest.approx(10.0 - 2.0 * 0.8 * 3.92 / 10.0)
     slow = np.array([0.2, 0.2])
     om = stop.solve(14.0, pose, radii, slow, free=1, rates=slow).omega
-    assert om[0] == 0.0 and om[1] == 0.2
+    assert om[0] == pytest.approx(0.2 * 0.2) and om[1] == 0.2
 
 
 @pytest.mark.parametrize("locked", [1, 0])

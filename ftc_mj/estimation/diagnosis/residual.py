@@ -9,7 +9,9 @@ other fault moves:
 - ``tyre_R``/``tyre_L``: the arc each wheel's contact point rolled between two pose fixes
   (``s ± b Δψ``) over the angle its encoder turned (``R0 Δθ``) — its rolling ratio, a fraction of the
   nominal radius — after a candidate change against the window before it: a puncture only;
-- ``servo_R``/``servo_L``: the gain ``α`` of the wheel's response to its command (the regression
+- ``servo_R``/``servo_L``: a step of the wheel's lag behind its command at unchanged wheel rates, the other
+  wheel's lag unchanged (:mod:`.servo`: the same motion carries the same load, so the lag ratio is the gain
+  ratio); else the gain ``α`` of the wheel's response to its command (the regression
   ``Δω_k = α (ω_cmd − ω)_{k−1} − β``) after a candidate change over the gain before it: a servo loss or an
   unresponsive servo only (a puncture raises it);
 - ``lock_R``/``lock_L``: the wheel turns at under ``lock_ratio`` of its command;

@@ -23,6 +23,7 @@ reads; :func:`lag_step` is the test.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -104,8 +105,8 @@ def _candidate(settings: ResidualDiagnoserSettings, side: str, before: dict[str,
 
 
 def lag_step(settings: ResidualDiagnoserSettings, sums: LagSums, times: list[float], side: str,
-             step_at) -> LagStep | None:
-    """The strongest lag step of wheel ``side`` (:func:`_candidate`) over the candidate change times
+             step_at: Callable[[float], int | None]) -> LagStep | None:
+    """The strongest lag step of wheel ``side`` (``_candidate``) over the candidate change times
     ``servo_afters`` (s) before the latest step ``times[-1]``, each against the ``reference_window`` before it
     (starting after ``launch``, at least as long as the test window); ``None`` when no candidate passes the
     gates. ``step_at(t)`` gives the last step at or before ``t`` (:meth:`.history.History.step_at`)."""

@@ -150,13 +150,17 @@ def test_sensor_offsets_are_removed_and_dropped_channels_excluded() -> None:
 
 
 def test_a_declared_tyre_reaches_the_controller_only_when_asked() -> None:
-    """``tyre = "policy"`` (default): the policy's radii pass unchanged; ``"diagnosis"``: the declared size × the
-    nominal radius for the declared wheel, the policy's radius for the other."""
+    """``tyre = "policy"`` (default): the policy's radii pass unchanged where it has handed a radius over, and a
+    declared tyre it still holds at the nominal radius (its decision rule has not isolated the wheel) takes the
+    declared size; ``"diagnosis"``: the declared size × the nominal radius for the declared wheel, the policy's
+    radius for the other."""
     policy = np.array([2.0, 2.0])
     declared = (_diag("tyre", "left", "puncture", 0.7, 10.0),)
     acc = _accommodation()
+    assert np.array_equal(acc.radii(policy, 2.0), policy)  # nothing declared yet
     acc.update(10.5, declared)
-    assert np.array_equal(acc.radii(policy, 2.0), policy)
+    assert np.allclose(acc.radii(policy, 2.0), [2.0, 1.4])  # the policy holds nominal: the declared size
+    assert np.allclose(acc.radii(np.array([2.0, 1.1]), 2.0), [2.0, 1.1])  # handed over: the policy's
     acc = Accommodation(AccommodationSettings(mode="all", tyre="diagnosis"), _stop())
     assert np.array_equal(acc.radii(policy, 2.0), policy)  # nothing declared yet
     acc.update(10.5, declared)

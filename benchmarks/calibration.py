@@ -35,7 +35,7 @@ import numpy as np
 
 from ftc_mj.config import RunConfig, load_config
 from ftc_mj.estimation.base import Measurement
-from ftc_mj.metrics.alarm_rates import LAUNCH_S, RATES_FILE, Rate, censored_rate, run_lengths
+from ftc_mj.metrics.alarm_rates import LAUNCH_S, RATES_FILE, RULE_SETTINGS, Rate, censored_rate, run_lengths
 from ftc_mj.metrics.fdi import cumulative_kl, lorden_delays
 from ftc_mj.sim.loop import simulate
 from ftc_mj.wiring.decision import build_change_detectors, calibrated_threshold
@@ -45,7 +45,6 @@ SENSORS = {"speed": {}, "speed+yaw": {"sensors.yaw_rate_sigma": 0.01}}
 BASE = {"plant.kind": "mujoco", "reconfiguration.policy": "none", "duration": 30.0,
         "estimator.decision.statistics": True}
 DETECTORS = ("cusum", "glr")
-SETTINGS = ("arl0", "cusum_shift", "glr_window", "k_sigma", "min_drop", "dwell")
 
 
 def config(sensors: str, seed: int, **extra: Any) -> RunConfig:
@@ -143,7 +142,7 @@ def table(rates: dict[str, dict[str, dict[str, Rate]]], design: float) -> list[s
 def stored(rates: dict[str, dict[str, dict[str, Rate]]], cfg: RunConfig, runs: int) -> dict[str, Any]:
     """The data file's content: the after-launch rates per sensor set and rule, with the settings they hold for."""
     d = cfg.estimator.decision
-    settings = {k: float(getattr(d, k)) for k in SETTINGS}
+    settings = {k: float(getattr(d, k)) for k in RULE_SETTINGS}
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                          cwd=Path(__file__).parent).stdout.strip()
     out: dict[str, Any] = {"written_by": "benchmarks/calibration.py", "commit": rev, "runs": runs,

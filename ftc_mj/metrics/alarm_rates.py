@@ -26,6 +26,8 @@ from typing import Any
 
 RATES_FILE = "data/calibration/alarm_rates.json"
 """The measured rates, relative to the package (written by ``benchmarks/calibration.py``)."""
+RULE_SETTINGS = ("arl0", "cusum_shift", "glr_window", "k_sigma", "min_drop", "dwell")
+"""The ``[estimator.decision]`` settings a measured rate holds for (a rule's threshold depends on them)."""
 LAUNCH_S = 5.0
 """End (s) of the launch: the rates the benchmark's bound uses are measured from here on (its faults start at
 6 s or later)."""
@@ -93,10 +95,9 @@ def sensor_set(gyro: bool) -> str:
 
 def measured_arl0(rule: str, gyro: bool, settings: dict[str, float]) -> float | None:
     """The mean time between false alarms (s) of decision ``rule`` measured after the launch on the MuJoCo
-    plant with the sensor set (``gyro``), when it was measured with the same threshold ``settings`` (the
-    decision's ``arl0``, ``cusum_shift``, ``glr_window``, ``k_sigma``, ``min_drop``, ``dwell``); ``None``
-    otherwise. Without an alarm: the lower end of its 95 % interval (exposure / 3.69), the shortest mean
-    time the measurement allows."""
+    plant with the sensor set (``gyro``), when it was measured with the same threshold ``settings``
+    (:data:`RULE_SETTINGS`); ``None`` otherwise (a rule or setting not measured). Without an alarm: the lower
+    end of its 95 % interval (exposure / 3.69), the shortest mean time the measurement allows."""
     row = _table().get("after_launch", {}).get(sensor_set(gyro), {}).get(rule)
     if row is None or any(abs(float(settings.get(k, math.nan)) - v) > 1e-9 for k, v in row["settings"].items()):
         return None

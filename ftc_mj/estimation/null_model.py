@@ -15,20 +15,23 @@ effective-radius errors as fractions of ``R0``, the single-wheel equivalent of t
    step behind: at step ``k`` the residual generator takes the measurement of ``k - 1`` with the rates
    measured at ``k - 1`` (the rates the estimator hands over at ``k``). The yaw-rate residual below 0.3 g
    is then 0.016–0.04 % of ``R0`` rms (0.001–0.002 rad/s); the price is one step (0.01 s) of delay.
-2. **Tyre slip near the grip limit.** When the demanded acceleration ``q`` (g; lateral ``V ψ̇`` and
-   longitudinal ``ΔV/dt`` at nominal radii, from the wheel rates: known from the command, no state needed)
-   approaches the tyres' grip a wheel slips: its effective rolling radius departs from the nominal one,
-   0.12 % rms at 0.30–0.33 g, 0.3 % at 0.33–0.36 g, 0.7 % at 0.36–0.40 g, 1.2–2.6 % above 0.40 g, and
-   for 0.1 s after the demand falls back below 0.40 g (0.6 % rms in the first 0.05 s, 0.2 % in the next).
-   A slip of wheel ``i`` moves the measurements exactly as a change of its radius does, so it enters as
-   random effective-radius noise of σ ``s(q) · R0`` per wheel along the radius columns ``h_i`` of the
-   measurement Jacobian, ``S ← S + Σ_i (s(q) R0)² h_i h_iᵀ``, with ``s`` the piecewise-linear
-   :data:`SLIP_FRACTION` (about twice the measured rms: the slip is correlated over tenths of a second,
-   which white noise of its rms does not describe) and ``q`` the largest demand of the last
-   :data:`HOLD_S`. From :data:`BLIND_G` on the speed and yaw rate are not used at all (the generator
-   only predicts, the detectors hold): the slip is several per cent there.
+2. **Tyre slip near the grip limit.** When the demanded lateral acceleration ``q = |V ψ̇| / g`` (at nominal
+   radii, from the wheel rates the command produced: no state needed) approaches the tyres' grip a wheel
+   slips: its effective rolling radius departs from the nominal one, 0.12 % rms at 0.30–0.33 g, 0.3 % at
+   0.33–0.36 g, 0.7 % at 0.36–0.40 g, 1.2–2.6 % above 0.40 g, and for 0.1 s after the demand falls back
+   below 0.40 g (0.6 % rms in the first 0.05 s, 0.2 % in the next). A slip of wheel ``i`` moves the
+   measurements exactly as a change of its radius does, so it enters as random effective-radius noise of
+   σ ``s(q) · R0`` per wheel along the radius columns ``h_i`` of the measurement Jacobian,
+   ``S ← S + Σ_i (s(q) R0)² h_i h_iᵀ``, with ``s`` the piecewise-linear :data:`SLIP_FRACTION` (1.2–2 × the
+   measured rms: the slip is correlated over tenths of a second, which white noise of its rms does not
+   describe) and ``q`` the largest demand of the last :data:`HOLD_S`. A speed or yaw-rate channel whose
+   slip noise exceeds :data:`BLIND_RATIO` of its sensor's σ is not used (the generator only predicts, the
+   detectors hold). The longitudinal demand ``ΔV/dt`` is left out: the wheel rates of a punctured tyre
+   jump (the servo spins the smaller wheel faster), which would read as a demand of several g and blind
+   the detectors at the very puncture they are there to see.
 
-Every number is a fraction of the nominal radius or of g, so a rescaled robot gets the same rule. The
+Every number is a fraction of the nominal radius, of g or of the sensor's σ, so a rescaled robot gets the
+same rule. The
 rule costs sensitivity to a radius change only while the robot is at its grip limit, where a slip and a
 puncture look alike. The run lengths it gives are measured on the physical plant by
 ``benchmarks/calibration.py`` (docs/fdi.md, "Calibration on the physical plant").
@@ -69,13 +72,11 @@ class NullModel:
     knots: tuple[tuple[float, float], ...] = SLIP_FRACTION
     """``(q g, fraction of R0)`` knots of the effective-radius noise."""
 
-    def demand(self, u: np.ndarray, u_prev: np.ndarray | None) -> float:
-        """Demanded acceleration (g) at wheel rates ``u`` (rad/s) after ``u_prev``: ``sqrt(a_lat² + a_lon²) / g``
-        with ``a_lat = V ψ̇`` and ``a_lon = ΔV / dt`` at nominal radii."""
+    def demand(self, u: np.ndarray) -> float:
+        """Demanded lateral acceleration (g) at wheel rates ``u`` (rad/s): ``|V ψ̇| / g`` at nominal radii."""
         V = 0.5 * self.R0 * (u[0] + u[1])
         w = self.R0 * (u[0] - u[1]) / (2.0 * self.b)
-        a_lon = 0.0 if u_prev is None else 0.5 * self.R0 * ((u[0] - u_prev[0]) + (u[1] - u_prev[1])) / self.dt
-        return math.hypot(V * w, a_lon) / G
+        return abs(V * w) / G
 
     def slip_sigma(self, q: float) -> float:
         """σ (m) of each wheel's effective-radius noise at a demanded acceleration of ``q`` g."""

@@ -15,11 +15,12 @@ effective-radius errors as fractions of ``R0``, the single-wheel equivalent of t
    step behind: at step ``k`` the residual generator takes the measurement of ``k - 1`` with the rates
    measured at ``k - 1`` (the rates the estimator hands over at ``k``). The yaw-rate residual below 0.3 g
    is then 0.016–0.04 % of ``R0`` rms (0.001–0.002 rad/s); the price is one step (0.01 s) of delay.
-2. **Tyre slip near the grip limit.** When the demanded lateral acceleration ``q = |V ψ̇| / g`` (at nominal
-   radii, from the wheel rates the command produced: no state needed) approaches the tyres' grip a wheel
-   slips: its effective rolling radius departs from the nominal one, 0.12 % rms at 0.30–0.33 g, 0.3 % at
-   0.33–0.36 g, 0.7 % at 0.36–0.40 g, 1.2–2.6 % above 0.40 g, and for 0.1 s after the demand falls back
-   below 0.40 g (0.6 % rms in the first 0.05 s, 0.2 % in the next). A slip of wheel ``i`` moves the
+2. **Tyre slip near the grip limit.** When the demanded lateral acceleration ``q = |V ψ̇| / g`` (from the wheel
+   rates the command produced, at the residual generator's radii: nominal until a declared change)
+   approaches the tyres' grip a wheel slips: its effective rolling radius departs from the nominal one,
+   0.12 % rms at 0.30–0.33 g, 0.3 % at 0.33–0.36 g, 0.7 % at 0.36–0.40 g, 1.2–2.6 % above 0.40 g, and
+   for 0.1 s after the demand falls back below 0.40 g (0.6 % rms in the first 0.05 s, 0.2 % in the next).
+   A slip of wheel ``i`` moves the
    measurements exactly as a change of its radius does, so it enters as random effective-radius noise of
    σ ``s(q) · R0`` per wheel along the radius columns ``h_i`` of the measurement Jacobian,
    ``S ← S + Σ_i (s(q) R0)² h_i h_iᵀ``, with ``s`` the piecewise-linear :data:`SLIP_FRACTION` (1.2–2 × the
@@ -72,10 +73,12 @@ class NullModel:
     knots: tuple[tuple[float, float], ...] = SLIP_FRACTION
     """``(q g, fraction of R0)`` knots of the effective-radius noise."""
 
-    def demand(self, u: np.ndarray) -> float:
-        """Demanded lateral acceleration (g) at wheel rates ``u`` (rad/s): ``|V ψ̇| / g`` at nominal radii."""
-        V = 0.5 * self.R0 * (u[0] + u[1])
-        w = self.R0 * (u[0] - u[1]) / (2.0 * self.b)
+    def demand(self, u: np.ndarray, radii: np.ndarray) -> float:
+        """Demanded lateral acceleration (g) at wheel rates ``u`` (rad/s): ``|V ψ̇| / g`` at the wheel ``radii``
+        (m; the residual generator's, so that after a declared puncture the compensating rates are read at
+        the radius the tyre has)."""
+        V = 0.5 * (radii[0] * u[0] + radii[1] * u[1])
+        w = (radii[0] * u[0] - radii[1] * u[1]) / (2.0 * self.b)
         return abs(V * w) / G
 
     def slip_sigma(self, q: float) -> float:

@@ -151,7 +151,7 @@ class ChangeDetectors:
         demanded acceleration (g) held over :data:`~.null_model.HOLD_S`."""
         nm = self.null_model
         assert nm is not None
-        self._demands.append(nm.demand(u))
+        self._demands.append(nm.demand(u, np.asarray(self.residual.x, float)[3:5]))
         q = max(self._demands)
         z_then, self._z_prev = self._z_prev, z
         if z_then is None:

@@ -17,8 +17,8 @@ def test_a_rescaled_robot_gets_the_same_rule() -> None:
     the same fraction of the radius, and the same channels dropped for sensors of the same σ."""
     small, big = NullModel(R0=2.0, b=1.0, dt=0.01), NullModel(R0=4.0, b=1.0, dt=0.01)
     for u in (np.array([5.05, 4.95]), np.array([5.4, 4.6]), np.array([5.6, 4.3])):
-        q = small.demand(u)
-        assert q == big.demand(u / 2.0)
+        q = small.demand(u, np.array([2.0, 2.0]))
+        assert q == big.demand(u / 2.0, np.array([4.0, 4.0]))
         assert small.slip_sigma(q) / 2.0 == big.slip_sigma(q) / 4.0
         for ch, sigma in (("speed", 0.5), ("yaw", 0.01)):
             assert small.drops(q, u, sigma, ch) == big.drops(q, u / 2.0, sigma * 1.0, ch)
@@ -29,7 +29,7 @@ def test_demand_in_g_and_dropping_against_the_sensor_sigma() -> None:
     exceeds BLIND_RATIO sensor σ, so a precise gyro is dropped where a coarse speed sensor is kept."""
     nm = NullModel(R0=2.0, b=1.0, dt=0.01)
     u = np.array([(10.0 + 0.4) / 2.0, (10.0 - 0.4) / 2.0])
-    q = nm.demand(u)
+    q = nm.demand(u, np.array([2.0, 2.0]))
     assert abs(q - 4.0 / G) < 1e-12
     gain_yaw = np.hypot(*u) * 0.5
     assert nm.drops(q, u, 0.01, "yaw") == (nm.slip_sigma(q) * gain_yaw > BLIND_RATIO * 0.01)

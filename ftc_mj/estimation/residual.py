@@ -147,8 +147,9 @@ class ChangeDetectors:
     def _physical(self, t: float, u: np.ndarray, z: Measurement) -> tuple[float, Measurement, float]:
         """Under the physical null model (:mod:`.null_model`): the time (s) and measurement the generator
         takes with the rates ``u`` (rad/s) — the previous step's, measured when ``u`` was; nothing at the
-        first step —, a channel dropped where its slip noise dominates (:meth:`.NullModel.drops`), and the
-        demanded acceleration (g) held over :data:`~.null_model.HOLD_S`."""
+        first step —, a channel dropped where its slip noise dominates
+        (:meth:`.null_model.NullModel.drops`), and the demanded lateral acceleration (g) held over
+        :data:`~.null_model.HOLD_S`."""
         nm = self.null_model
         assert nm is not None
         self._demands.append(nm.demand(u, np.asarray(self.residual.x, float)[3:5]))

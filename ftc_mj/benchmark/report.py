@@ -379,7 +379,8 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
                 f"rank-biserial correlation only from {MIN_EFFECT_PAIRS} discordant pairs on. p-values here are not "
                 "adjusted (the verdicts are).", "",
                 *paired_table(rows, methods)]
-    out += ["## Bounds", "", "Detection delay over Lorden's bound at the rule's ARL0 (`estimator.decision.arl0`) "
+    out += ["## Bounds", "", "Detection delay over Lorden's bound at the rule's no-fault alarm rate measured on MuJoCo "
+            "(`benchmarks/calibration.py`; `estimator.decision.arl0` for a rule not measured) "
             "for the draw's first change; the filter's final radius error over the PCRB for constant radii since "
             "the last radius change.", "", *bounds_table(rows, methods), "", "## Runs that did not succeed", "",
             *failures(rows, bp), ""]

@@ -31,9 +31,13 @@ Reconfiguration
     ``reconfig_delay`` (s): first hand-over after the first onset —
     :func:`~ftc_mj.metrics.run.reconfiguration_metrics`.
 Bounds
-    ``lorden_delay_bound`` (s): Lorden's lower bound on the delay of any rule with mean time between false
-    alarms ``estimator.decision.arl0`` for this draw's first change: the first time the cumulative
-    Kullback–Leibler information of the change reaches ``log(ARL0 / dt)`` (:func:`~ftc_mj.metrics.fdi.lorden_delays`);
+    ``lorden_delay_bound`` (s): Lorden's lower bound on the delay of any rule with the mean time between false
+    alarms the run's decision rule has (:func:`bound_arl0`: the rule's no-fault alarm rate *measured* on the
+    MuJoCo plant after the launch with the draw's sensor set — with or without the gyro —, shipped with the
+    package by ``benchmarks/calibration.py``, :mod:`~ftc_mj.metrics.alarm_rates`; the configured
+    ``estimator.decision.arl0`` only for a rule or settings not measured) for this draw's first change: the
+    first time the cumulative Kullback–Leibler information of the change reaches ``log(ARL0 / dt)``
+    (:func:`~ftc_mj.metrics.fdi.lorden_delays`);
     the change is the true plant's departure from the nominal model (:func:`~ftc_mj.metrics.fdi.cumulative_kl`)
     or, for a sensor bias/drift, the injected offset over the sensor's σ; ``None`` when it is not reached
     within :data:`~ftc_mj.metrics.fdi.KL_PROFILE_S` (a dropout or an actuator fault the wheel-rate inputs explain).
@@ -56,6 +60,7 @@ from typing import Any
 import numpy as np
 
 from ..config import RunConfig
+from ..metrics.alarm_rates import RULE_SETTINGS, measured_arl0
 from ..metrics.detection import WHEEL_OF_CODE, declared_wheel_codes
 from ..metrics.diagnosis import DIAGNOSIS_SCORE_COLUMNS, diagnosis_scores
 from ..metrics.fdi import KL_PROFILE_S, cumulative_kl, lorden_delays
@@ -136,6 +141,19 @@ def sensor_kl(cfg: RunConfig, trace: dict[str, np.ndarray], fault: dict[str, Any
     return np.zeros(0) if offset is None else np.cumsum(0.5 * per_row * (offset / sigma) ** 2)
 
 
+def bound_arl0(cfg: RunConfig) -> float:
+    """The mean time between false alarms (s) Lorden's bound is taken at: that measured for the run's decision
+    rule (``auto``: ``mode`` for an IMM, ``sigma`` otherwise) under no fault after the launch, with or without the
+    gyro as the run has (:func:`~ftc_mj.metrics.alarm_rates.measured_arl0`), else ``estimator.decision.arl0``."""
+    d = cfg.estimator.decision
+    rule = d.rule
+    if rule == "auto":
+        rule = "mode" if str(cfg.estimator.kind).startswith("imm") else "sigma"
+    settings = {k: float(getattr(d, k)) for k in RULE_SETTINGS}
+    measured = measured_arl0(rule, cfg.sensors.yaw_rate_sigma is not None, settings)
+    return d.arl0 if measured is None else measured
+
+
 def bound_scores(cfg: RunConfig, record: RunRecord, trace: dict[str, np.ndarray],
                  faults: list[dict[str, Any]]) -> dict[str, Any]:
     """Lorden's delay bound (s) for the first change and the radius PCRB at the end (m; module docstring)."""
@@ -146,7 +164,7 @@ def bound_scores(cfg: RunConfig, record: RunRecord, trace: dict[str, np.ndarray]
         K = (sensor_kl(cfg, trace, f) if issubclass(fault_class(f["fault_class"]), SensorFault)
              else np.asarray(cumulative_kl(record.setup, trace, f["onset"]), float))
         if K.size:
-            d = float(lorden_delays(K, np.array([cfg.estimator.decision.arl0]), dt)[0])
+            d = float(lorden_delays(K, np.array([bound_arl0(cfg)]), dt)[0])
             out["lorden_delay_bound"] = d if math.isfinite(d) else None
     out.update(radius_bound(record, trace))
     return out

@@ -112,9 +112,11 @@ def mode_score(out: FilterOutput, R0: float, min_drop: float) -> tuple[str, floa
 class RuleStatistics:
     """Stateful per-step statistics of all rules for one run (see the module docstring)."""
 
-    def __init__(self, setup: FilterSetup, settings: DecisionSettings, rate: float, glr_window: int) -> None:
+    def __init__(self, setup: FilterSetup, settings: DecisionSettings, rate: float, glr_window: int,
+                 physical: bool = False) -> None:
         """``setup``: the filter whose outputs are fed; ``settings``: the ``[estimator.decision]`` section;
-        ``rate``: the filter rate (Hz); ``glr_window``: the GLR window (steps)."""
+        ``rate``: the filter rate (Hz); ``glr_window``: the GLR window (steps); ``physical``: the change
+        detectors whiten under the physical robot's null model (:class:`.residual.ChangeDetectors`)."""
         d = settings
         self.setup = setup
         self.dt = self.setup.dt
@@ -123,7 +125,7 @@ class RuleStatistics:
         n_dwell = int(round(d.dwell * rate)) + 1
         self._sigma_win = SlidingMin(n_dwell)
         self._mode_win = SlidingMin(n_dwell)
-        self.detectors = ChangeDetectors(setup, d.cusum_shift, d.isolation_llr, glr_window)
+        self.detectors = ChangeDetectors(setup, d.cusum_shift, d.isolation_llr, glr_window, physical)
 
     def update(self, t: float, out: FilterOutput, u: np.ndarray, dirs: RadiusDirections,
                z: Measurement | None = None) -> dict[str, float]:

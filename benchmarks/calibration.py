@@ -61,6 +61,7 @@ def replay(cfg: RunConfig, tr: dict[str, np.ndarray], kind: str, h: float, start
     t, v = tr["t"], tr["v_meas"]
     yaw = tr["yaw_rate_meas"] if cfg.sensors.yaw_rate_sigma is not None else None
     om = np.column_stack([tr["omega_R_meas"], tr["omega_L_meas"]])
+    radii = np.column_stack([tr["R_R_hat"], tr["R_L_hat"]])  # the estimator's, the null model reads the demand at
     alarms: list[float] = []
     fresh = start <= 0.0
     for k in range(t.size):
@@ -68,7 +69,7 @@ def replay(cfg: RunConfig, tr: dict[str, np.ndarray], kind: str, h: float, start
             det.restart()
             fresh = True
         det.step(float(t[k]), om[k - 1] if k else om[0], Measurement(
-            speed=float(v[k]), yaw_rate=None if yaw is None else float(yaw[k])))
+            speed=float(v[k]), yaw_rate=None if yaw is None else float(yaw[k])), radii[k])
         g = det.cusum_stat if kind == "cusum" else det.glr_stat
         if logged and not alarms and not math.isclose(g, float(tr[f"{kind}_stat"][k]), rel_tol=1e-9, abs_tol=1e-9):
             raise AssertionError(f"{kind} replay differs from the logged statistic at t = {t[k]:.2f} s")

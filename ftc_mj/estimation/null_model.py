@@ -16,7 +16,10 @@ effective-radius errors as fractions of ``R0``, the single-wheel equivalent of t
    measured at ``k - 1`` (the rates the estimator hands over at ``k``). The yaw-rate residual below 0.3 g
    is then 0.016–0.04 % of ``R0`` rms (0.001–0.002 rad/s); the price is one step (0.01 s) of delay.
 2. **Tyre slip near the grip limit.** When the demanded lateral acceleration ``q = |V ψ̇| / g`` (from the wheel
-   rates the command produced, at the residual generator's radii: nominal until a declared change)
+   rates the command produced, at the lower of the demands at the residual generator's radii — nominal
+   until a declared change — and at the estimator's radius estimates: each set lags the truth in its own
+   way, the generator's until it is re-anchored, the estimator's in the transient of a change, and a
+   lagging radius reads the controller's compensating rates as a demand of several g)
    approaches the tyres' grip a wheel slips: its effective rolling radius departs from the nominal one,
    0.12 % rms at 0.30–0.33 g, 0.3 % at 0.33–0.36 g, 0.7 % at 0.36–0.40 g, 1.2–2.6 % above 0.40 g, and
    for 0.1 s after the demand falls back below 0.40 g (0.6 % rms in the first 0.05 s, 0.2 % in the next).

@@ -140,7 +140,7 @@ class RuleStatistics:
         s["sigma_wheel"] = float(code)
         if out.mode_probs is not None:
             self._mode(out, s)
-        self._change(t, u, z, s)
+        self._change(t, u, z, s, np.asarray(out.x, float)[3:5])
         return s
 
     def _mode(self, out: FilterOutput, s: dict[str, float]) -> None:
@@ -151,11 +151,13 @@ class RuleStatistics:
         s["mode_stat"] = self._mode_win.push(p if ok else 0.0)
         s["mode_wheel"] = float(WHEEL_CODES[best] if ok else 0)
 
-    def _change(self, t: float, u: np.ndarray, z: Measurement | None, s: dict[str, float]) -> None:
-        """CUSUM and GLR of the residual generator (advanced when a measurement is given)."""
+    def _change(self, t: float, u: np.ndarray, z: Measurement | None, s: dict[str, float],
+                radii: np.ndarray) -> None:
+        """CUSUM and GLR of the residual generator (advanced when a measurement is given; the null model's
+        demand read at the estimator's ``radii``, m)."""
         det = self.detectors
         if z is not None:
-            det.step(t, u, z)
+            det.step(t, u, z, radii)
         if det.white is not None:
             s["white_innovation_1"] = float(det.white[0])
             if det.white.size > 1 and self.setup.yaw_rate_sigma is not None:

@@ -8,7 +8,7 @@ import numpy as np
 from ftc_mj.estimation import Measurement
 from ftc_mj.estimation.null_model import BLIND_RATIO, G, NullModel
 from ftc_mj.model.kinematics import KinematicModel
-from ftc_mj.wiring.decision import build_change_detectors, physical_plant
+from ftc_mj.wiring.decision import build_change_detectors, physical_null_model
 from tests.estimation.filters import decision_cfg
 
 
@@ -51,7 +51,7 @@ def test_the_physical_detectors_are_white_on_a_truth_measured_at_the_rates_of_it
     u = np.stack([5.05 + 0.05 * np.sin(1.3 * t), 4.95 + 0.05 * np.sin(1.3 * t + 0.4)], axis=1)
     x = np.array([0.0, 0.0, 0.0, 2.0, 2.0])
     det = build_change_detectors(cfg)
-    assert physical_plant(cfg) and det.null_model is not None  # the default plant is MuJoCo
+    assert physical_null_model(cfg) and det.null_model is not None  # the method's default
     E = []
     for k in range(n):
         x = m.step(x, u[k])

@@ -41,6 +41,12 @@ Bounds
     the change is the true plant's departure from the nominal model (:func:`~ftc_mj.metrics.fdi.cumulative_kl`)
     or, for a sensor bias/drift, the injected offset over the sensor's σ; ``None`` when it is not reached
     within :data:`~ftc_mj.metrics.fdi.KL_PROFILE_S` (a dropout or an actuator fault the wheel-rate inputs explain).
+    ``tyre_alarm_delay`` (s): the first *alarm* of the diagnoser's tyre detectors after the first onset — the
+    first row from the onset on with the ``tyre_R`` or ``tyre_L`` channel's statistic at or above its threshold
+    (``diag_alarm_tyre_*``, declared or not; 0 when one is already up at the onset) — beside
+    ``detection_delay``, the first *declaration* (after the rule's dwell and confirmation): Lorden's bound
+    bounds the delay of an alarm of a detector at a false-alarm rate, which is the alarm's, not the
+    declaration's (:func:`tyre_alarm_delay`); ``None`` without a fault, a diagnoser or such an alarm.
     ``radius_pcrb_R/L`` (m): the posterior Cramér–Rao bound at the end of the run on each radius for the
     model that generated the data (radii constant between the truth's changes,
     :func:`~ftc_mj.estimation.pcrb.data_model_bound`), as the run recorded it once (the trace's
@@ -75,7 +81,8 @@ from .definition import JudgeRule
 from .judge import JUDGE_COLUMNS, judge_run
 
 SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "liftoff_s", "false_alarm", "detected",
-                 "detection_delay", "isolation", "reconfig_delay", "lorden_delay_bound", "radius_pcrb_R",
+                 "detection_delay", "isolation", "reconfig_delay", "lorden_delay_bound", "tyre_alarm_delay",
+                 "radius_pcrb_R",
                  "radius_pcrb_L", "radius_error_R", "radius_error_L", "solver_fallbacks", "status", *JUDGE_COLUMNS,
                  *DIAGNOSIS_SCORE_COLUMNS)
 """The keys :func:`score_run` returns (``None`` where a score does not apply)."""
@@ -122,6 +129,25 @@ def fdi_scores(trace: dict[str, np.ndarray], faults: list[dict[str, Any]]) -> di
     return {"false_alarm": bool(np.any(begin & (t < t0))), "detected": t_det is not None if faults else None,
             "detection_delay": None if t_det is None else t_det - t0,
             "isolation": isolation_verdict(code, t, faults)}
+
+
+TYRE_ALARMS = ("diag_alarm_tyre_R", "diag_alarm_tyre_L")
+"""The trace's alarm flags of the diagnoser's tyre detectors (1 while the channel's statistic is at or above
+its threshold)."""
+
+
+def tyre_alarm_delay(trace: dict[str, np.ndarray], faults: list[dict[str, Any]]) -> float | None:
+    """Seconds from the first fault's onset to the first row from it on with a tyre detector's alarm up
+    (:data:`TYRE_ALARMS`); ``None`` without a fault, without the columns (no diagnoser) or without such an alarm."""
+    if not faults or not all(c in trace for c in TYRE_ALARMS):
+        return None
+    t = np.asarray(trace["t"], float)
+    up = np.zeros(t.size, bool)
+    for c in TYRE_ALARMS:
+        up |= np.nan_to_num(np.asarray(trace[c], float)) > 0.5
+    t0 = faults[0]["onset"]
+    hit = np.flatnonzero(up & (t >= t0))
+    return float(t[hit[0]] - t0) if hit.size else None
 
 
 def sensor_kl(cfg: RunConfig, trace: dict[str, np.ndarray], fault: dict[str, Any]) -> np.ndarray:
@@ -219,6 +245,7 @@ def score_run(config: RunConfig, trace: dict[str, np.ndarray], events: Sequence[
     rc = reconfiguration_metrics(tr, faults[0]["onset"] if faults else None)
     out["reconfig_delay"] = rc.get("reconfig_handover_delay")
     out.update(bound_scores(cfg, record, tr, faults))
+    out["tyre_alarm_delay"] = tyre_alarm_delay(tr, faults)
     if rule is not None and rule.rule == "progress":
         alive = bool(status == "ok" and not plant["tipped"])
         out.update(judge_run(cfg, record, tr, [f["onset"] for f in faults], out["success"], alive, rule))

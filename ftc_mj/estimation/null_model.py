@@ -16,10 +16,10 @@ effective-radius errors as fractions of ``R0``, the single-wheel equivalent of t
    measured at ``k - 1`` (the rates the estimator hands over at ``k``). The yaw-rate residual below 0.3 g
    is then 0.016–0.04 % of ``R0`` rms (0.001–0.002 rad/s); the price is one step (0.01 s) of delay.
 2. **Tyre slip near the grip limit.** When the demanded lateral acceleration ``q = |V ψ̇| / g`` (from the wheel
-   rates the command produced, at the lower of the demands at the residual generator's radii — nominal
-   until a declared change — and at the estimator's radius estimates: each set lags the truth in its own
-   way, the generator's until it is re-anchored, the estimator's in the transient of a change, and a
-   lagging radius reads the controller's compensating rates as a demand of several g)
+   rates the command produced, at the residual generator's radii — nominal until a declared change —, or
+   the lower of that and the demand at the estimator's radius estimates where the two depart by more than
+   :data:`RADIUS_GAP` of ``R0``: the generator lags a change until it is re-anchored, and a lagging radius
+   reads the controller's compensating rates as a demand of several g)
    approaches the tyres' grip a wheel slips: its effective rolling radius departs from the nominal one,
    0.12 % rms at 0.30–0.33 g, 0.3 % at 0.33–0.36 g, 0.7 % at 0.36–0.40 g, 1.2–2.6 % above 0.40 g, and
    for 0.1 s after the demand falls back below 0.40 g (0.6 % rms in the first 0.05 s, 0.2 % in the next).
@@ -55,6 +55,13 @@ SLIP_FRACTION: tuple[tuple[float, float], ...] = ((0.0, 0.0003), (0.20, 0.0005),
                                                   (0.60, 0.032))
 """Knots ``(q, s)`` of the effective-radius noise: σ ``s · R0`` per wheel (fraction of the nominal radius) at
 a demanded acceleration of ``q`` g; linear between knots, constant beyond the last."""
+RADIUS_GAP = 0.05
+"""The demand is read at the estimator's radii instead of the residual generator's only where the two depart by
+more than this fraction of the nominal radius on a wheel (half the smallest declared drop, ``min_drop`` 0.1 m
+of a 2 m wheel): a radius change the generator has not caught up with. Below it the generator's radii stand —
+the estimator reads a wheel's slip as a change of its radius, which lowers the demand it implies exactly when
+the tyre slips (with the lower of the two demands everywhere, ARL0 / design fell from 0.83 to 0.36 on replays
+of dev seeds 0–9 with the gyro)."""
 HOLD_S = 0.1
 """How long (s) a demand counts after it: a tyre that slipped takes that long to grip again."""
 BLIND_RATIO = 2.0

@@ -44,7 +44,7 @@ from .change import (
 )
 from .ekf import EKF
 from .measurements import channels
-from .null_model import HOLD_S, NullModel
+from .null_model import HOLD_S, RADIUS_GAP, NullModel
 from .setup import FilterSetup
 
 _EYE5 = np.eye(5)
@@ -152,18 +152,20 @@ class ChangeDetectors:
         takes with the rates ``u`` (rad/s) — the previous step's, measured when ``u`` was; nothing at the
         first step —, a channel dropped where its slip noise dominates
         (:meth:`.null_model.NullModel.drops`), and the demanded lateral acceleration (g) held over
-        :data:`~.null_model.HOLD_S`: the lower of the demands at the generator's radii and at the
-        estimator's ``radii`` (m, when given). The generator's radii stay at their last re-anchoring, so
+        :data:`~.null_model.HOLD_S`: at the generator's radii, or the lower of that and the demand at the
+        estimator's ``radii`` (m, when given) where they depart from the generator's by more than
+        :data:`~.null_model.RADIUS_GAP` of the nominal radius. The generator's radii stay at their last re-anchoring, so
         after a puncture re-anchored on a tyre still settling the controller's compensating rates read at
         them as a demand of several g, the yaw channel is dropped, the detectors hold and nothing re-anchors
         them — a blind state that lasted until a second puncture was 2 s old (scenario 3 with the gyro, dev
         seeds 0–2: 2.06 s; with the lower demand 0.77 s, as with the kinematic null model); the estimator
         follows the radii but overshoots in the first tenths of a second of a change, when the generator's
-        radii still hold the demand down."""
+        radii still hold the demand down, and reads a slip as a radius change — hence the gap."""
         nm = self.null_model
         assert nm is not None
-        q_now = nm.demand(u, np.asarray(self.residual.x, float)[3:5])
-        if radii is not None:
+        own = np.asarray(self.residual.x, float)[3:5]
+        q_now = nm.demand(u, own)
+        if radii is not None and np.max(np.abs(np.asarray(radii, float) - own)) > RADIUS_GAP * nm.R0:
             q_now = min(q_now, nm.demand(u, np.asarray(radii, float)))
         self._demands.append(q_now)
         q = max(self._demands)

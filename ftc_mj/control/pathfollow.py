@@ -194,9 +194,9 @@ class PathFollowingNMPC(MPCLifecycle):
         a new draw's path, desired speed and robot limits. The path's numbers and the desired speed are
         parameters of the built NLP and QP (:mod:`~ftc_mj.control.pathfollow_path`), so a built controller, reset,
         serves them exactly as one built for them (the simulation's cache relies on it: ``retargetable``); a
-        problem of another structure (another path kind, other weights — the actuation-rate weight of a draw whose
-        heading comes from pose fixes, :func:`path_following_spec`) builds its solvers anew; the grid cannot
-        change."""
+        problem of another structure (another path kind, other tracking weights) builds its solvers anew — the
+        actuation-rate weight (larger on a draw whose heading comes from pose fixes, :func:`path_following_spec`) is
+        a parameter too —; the grid cannot change."""
         spec = self._base_spec if spec is None else spec
         mine = self.spec.problem
         if dataclasses.replace(spec.problem, max_lateral_accel=mine.max_lateral_accel,

@@ -429,18 +429,23 @@ def test_the_actuation_rate_weight_follows_where_the_heading_comes_from(sensors:
 
 def test_a_controller_retargeted_to_another_actuation_rate_weight_plans_as_a_fresh_one() -> None:
     """A draw whose sensors change the actuation-rate weight (a cached controller moving between draws with and
-    without a gyro) builds new solvers and then plans bit for bit as a controller built for it."""
+    without a gyro) keeps its solvers — the weight is a parameter of the NLP and a number of the QP — and plans
+    bit for bit as a controller built for it."""
     spec = pf_spec(problem(rate_penalty=5.0, max_lateral_accel=3.0, max_longitudinal_accel=3.0), desired_speed=10.0,
                    braking_trade=0.75)
     ctl = PathFollowingNMPC(_spec(), CIRCLE)
     nlp = ctl._nlp
     ctl.set_reference(CIRCLE, spec)
-    assert ctl._nlp is not nlp
+    assert ctl._nlp is nlp
+    n = ctl.col.N  # the QP's wheel-rate-rate blocks carry the new weight: 5 x those of the weight-1 controller
+    unit = PathFollowingNMPC(_spec(), CIRCLE).qp.H0
+    for block in (slice(0, n), slice(n, 2 * n)):
+        np.testing.assert_allclose(ctl.qp.H0[block, block], 5.0 * unit[block, block], rtol=1e-12, atol=0.0)
     fresh = PathFollowingNMPC(spec, CIRCLE)
     for c in (ctl, fresh):
         c.reset()
     radii, pose, u = np.array([2.0, 1.9]), np.array([0.3, -0.4, 0.25]), None
-    for t in (0.0, 0.1):
+    for t in (0.0, 0.1, 0.2, 0.3, 0.4):  # the IPOPT seed, then the real-time iteration's QPs
         a, b = ctl.solve(t, pose, radii, u), fresh.solve(t, pose, radii, u)
         assert not a.fallback and np.array_equal(a.omega, b.omega)
         u = a.omega

@@ -42,6 +42,8 @@ class PoseStep:
     sigma: float
     onset: float
     fix: int
+    axis_sigma: tuple[float, float] = (math.nan, math.nan)
+    """σ of the displacement along world x and y (m): the square roots of its covariance's diagonal."""
     turn: float = 0.0
     """The GLR of a change of the encoders' yaw rate against the fixes' headings at the same fix (a tyre or a
     servo changed, not the pose sensor: a position fault leaves the heading alone)."""
@@ -136,8 +138,10 @@ def step_glr(h: History, a: int, b: int, geometry: tuple[float, float], sigma: t
         return None
     stat, i0, d, cov = best
     u = d / max(float(np.hypot(*d)), 1e-12)
+    axes = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     return PoseStep(stat, rms, (float(d[0]), float(d[1])), math.sqrt(max(float(u @ cov @ u), 0.0)),
-                    h.fix_t[fixes[i0]], fixes[i0], heading_kink(h, fixes, *geometry, i0, sigma[1]))
+                    h.fix_t[fixes[i0]], fixes[i0], (float(axes[0]), float(axes[1])),
+                    heading_kink(h, fixes, *geometry, i0, sigma[1]))
 
 
 def fix_interval(h: History, last: int = 20) -> float | None:

@@ -173,6 +173,25 @@ def test_a_pose_offset_is_subtracted_from_the_fixes_and_withdrawn_when_it_return
     assert "position" in acc.excluded
 
 
+def _pose_at(declared: float, offset: tuple[float, float]) -> Diagnosis:
+    return Diagnosis("pose sensor", "pose", "bias", sum(offset) * 0.5**0.5, 0.01, 1.0, declared, 30.0, 20.0, offset,
+                     (0.01, 0.01))
+
+
+def test_a_pose_offset_is_corrected_once_settled_and_not_after_too_many_declarations() -> None:
+    """A new offset excludes the fixes for ``pose_settle`` (0.5 s), then corrects them (with an event); the
+    fourth displacement declared in a run (``pose_max_declarations`` 3) excludes the pose sensor for good."""
+    acc = _accommodation()
+    acc.update(1.5, (_pose_at(1.4, (0.3, 0.3)),))
+    assert "position" in acc.excluded
+    acc.update(1.9, (_pose_at(1.4, (0.3, 0.3)),))
+    assert "position" not in acc.excluded and "position" in acc.corrections
+    assert acc.events[-1].text.endswith("fixes corrected by (0.3, 0.3) m")
+    for k, t in enumerate((3.0, 5.0, 7.0)):
+        acc.update(t + 1.0, (_pose_at(t, (0.3 + k, 0.3)),))
+    assert "position" in acc.excluded and "position" not in acc.corrections
+
+
 def test_the_truth_carries_a_pose_offset_along_the_diagonal() -> None:
     """The oracle's pose bias carries its displacement as the offset vector, σ 0; a schedule above the nominal
     radius is declared at size 1 (the record holds tyre sizes in (0, 1])."""

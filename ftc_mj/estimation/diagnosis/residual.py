@@ -481,7 +481,8 @@ class ResidualDiagnoser:
         (s), relative to the one before the change, when it is below ``last``'s by ``tyre_min_drop`` and 3σ;
         at most once per ``tyre_update_window``. A ratio that leaves the physical range (0, 1] — the wheel turns
         one way while the contact point rolls the other or not at all: a spin or a skid once the loop has lost
-        the path, not a tyre — says nothing of the tyre: the declared size stands."""
+        the path, not a tyre — says nothing of the tyre, nor does one measured while the other wheel slips too
+        (:meth:`_rolls`): the declared size then stands."""
         s, h = self.settings, self.history
         if t - last.declared < s.tyre_update_window - 1e-9 or not h.fix_t:
             return None
@@ -494,8 +495,24 @@ class ResidualDiagnoser:
         sigma = math.sqrt(now[1] + s.tyre_floor**2)
         if last.size - size < max(s.tyre_min_drop, 3.0 * sigma) or not _physical(size):
             return None  # a tyre does not re-inflate (a ratio back up is a skid) nor roll on a radius ≤ 0
+        if not self._rolls(WHEEL_SIDES["L" if side == "R" else "R"], j, k):
+            return None  # the other wheel slips too: the rolling ratios say nothing of a tyre
         return self._make("tyre", last.target, "puncture", Reading(last.statistic, last.threshold, size, sigma,
                                                                     last.onset), t)
+
+    def _rolls(self, target: str, j: int, k: int) -> bool:
+        """Wheel ``target``'s rolling ratio between pose fixes ``j`` and ``k`` is the one its tyre should give —
+        its declared size times its reference ratio, or 1 — within ``tyre_min_drop_second`` and 3σ (the other
+        tyre's tilt moves its contact point that much): it rolls without slip, so the no-slip model that turns a
+        rolling ratio into a tyre size holds there. A wheel that turned too little says nothing (True)."""
+        s = self.settings
+        side = target[0].upper()
+        ratio = self._ratio(side, j, k)
+        if ratio is None:
+            return True
+        declared = self._has("tyre", target)
+        expected = 1.0 if declared is None else declared.size * self.tyre_reference[side]
+        return abs(ratio[0] - expected) <= max(s.tyre_min_drop_second, 3.0 * math.sqrt(ratio[1] + s.tyre_floor**2))
 
     def _declare_sensor(self, t: float) -> Diagnosis | None:
         """A speed-sensor or gyro bias or drift once its alarm is confirmed and ``shape_min`` (s) has passed

@@ -20,6 +20,7 @@ from ftc_mj.estimation.diagnosis import (
 )
 from ftc_mj.model.diagnosis import Diagnosis
 from ftc_mj.model.sensors import SensorSettings
+from ftc_mj.sim.summary import diagnosis_lines
 from ftc_mj.sim.trace import TraceWriter
 
 DT, R0, B = 0.01, 2.0, 1.0
@@ -233,6 +234,8 @@ def test_the_record_bounds_a_tyre_size_and_round_trips_its_offset() -> None:
         Diagnosis("pose sensor", "pose", "bias", 0.2, 0.01, 1.0, 1.5, 20.0, 12.5, offset=(0.1, 0.1))
     d = Diagnosis("pose sensor", "pose", "bias", -0.3, 0.02, 10.0, 10.4, 30.0, 20.0, (-0.2, -0.22), (0.015, 0.02))
     assert Diagnosis.from_dict(json.loads(json.dumps(d.as_dict()))) == d
+    (line,) = diagnosis_lines({"diagnoses": [d.as_dict()]})
+    assert line.endswith("size -0.3, offset (-0.2, -0.22) m (onset 10.00 s)")
     old = {k: v for k, v in d.as_dict().items() if not k.startswith("offset")}  # a record written before them
     assert Diagnosis.from_dict(old).offset is None
     w, step = TraceWriter(2), type("S", (), {"statistics": {}, "alarms": {}})()

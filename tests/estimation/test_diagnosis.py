@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -238,9 +239,10 @@ def test_the_record_bounds_a_tyre_size_and_round_trips_its_offset() -> None:
     assert line.endswith("size -0.3, offset (-0.2, -0.22) m (onset 10.00 s)")
     old = {k: v for k, v in d.as_dict().items() if not k.startswith("offset")}  # a record written before them
     assert Diagnosis.from_dict(old).offset is None
-    w, step = TraceWriter(2), type("S", (), {"statistics": {}, "alarms": {}})()
-    for k, declared in enumerate(([Diagnosis("tyre", "left", "puncture", 0.5, 0.01, 1.0, 1.2, 20.0, 12.5)],
-                                  [Diagnosis("tyre", "left", "puncture", 0.5, 0.01, 1.0, 1.2, 20.0, 12.5), d])):
+    w, step = TraceWriter(3), type("S", (), {"statistics": {}, "alarms": {}})()
+    tyre = Diagnosis("tyre", "left", "puncture", 0.5, 0.01, 1.0, 1.2, 20.0, 12.5)
+    unbounded = SimpleNamespace(**{**tyre.as_dict(), "size": -0.4, "declared": 12.0})  # as an older version wrote
+    for k, declared in enumerate(([tyre], [tyre, d], [tyre, d, unbounded])):
         step.declared = declared
         w.diagnosis(k, step)
-    assert diagnoses_from_trace(w.columns) == [*declared]
+    assert diagnoses_from_trace(w.columns) == [tyre, d]  # the tyre below 0 of an older trace is left out

@@ -108,15 +108,19 @@ def code_of(codes: dict[str, int], code: float) -> str:
 
 def diagnoses_from_trace(trace: dict[str, np.ndarray]) -> list[Diagnosis]:
     """The declarations of a run rebuilt from its trace's :data:`DECLARATION_COLUMNS` (none without them):
-    one at each row where ``diag_count`` grows."""
+    one at each row where ``diag_count`` grows. A tyre declared outside (0, 1] of its radius — a trace written
+    before the record bounded tyre sizes — is left out: no tyre has that size."""
     if "diag_count" not in trace:
         return []
     count = np.nan_to_num(np.asarray(trace["diag_count"], float), nan=0.0)
     rows = np.flatnonzero(np.diff(np.concatenate([[0.0], count])) > 0)
     out = []
     for i in rows:
+        component = code_of(COMPONENT_CODES, trace["diag_component"][i])
+        if component == "tyre" and not 0.0 < float(trace["diag_size"][i]) <= 1.0:
+            continue
         out.append(Diagnosis(
-            component=code_of(COMPONENT_CODES, trace["diag_component"][i]),
+            component=component,
             target=code_of(TARGET_CODES, trace["diag_target"][i]),
             mode=code_of(MODE_CODES, trace["diag_mode"][i]),
             **{k: float(trace[f"diag_{k}"][i]) for k in ("size", "sigma", "onset", "declared", "statistic",

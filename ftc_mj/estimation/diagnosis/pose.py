@@ -10,7 +10,11 @@ offset: four parameters) plus the fix noise. A displacement ``d`` from fix ``i0`
 ``d H(i − i0)``; a puncture or a skid from ``i0`` changes the scale and rotation from there (a kink), which
 the alternative leaves free, so only an immediate displacement that stays is a step. The statistic is the
 GLR of the step (two parameters, the fix's σ known): the drop of the residual sum of squares over
-``2 σ²``, maximised over the recent candidate fixes (Willsky & Jones' window-limited GLR).
+``2 σ²``, maximised over the recent candidate fixes (Willsky & Jones' window-limited GLR). The displacement's
+estimate and onset are those of the step alone (the kink held at zero, maximised over the same candidates): with
+few displaced fixes in the window a kink and a step together fit them with a step far off — a 2.8 m jump was
+first estimated at −1.45 m, onset 0.3 s early, on dev draw 201 — while the step alone is the least-squares
+displacement of the fixes after it.
 """
 
 from __future__ import annotations
@@ -29,13 +33,14 @@ class PoseStep:
 
     Attributes:
         stat: its GLR (log-likelihood ratio).
-        offset: the displacement ``(dx, dy)`` (m, world frame).
+        offset: the displacement ``(dx, dy)`` (m, world frame): the step alone's (module docstring).
         sigma: σ of the displacement's length (m).
-        onset: time (s) of the first displaced fix.
+        onset: time (s) of the first displaced fix (the step alone's best candidate).
         fix: that fix's index in the history.
     """
 
     stat: float
+    """The GLR of the step with the kink left free (log-likelihood ratio)."""
     rms: float
     """The RMS residual (m) of the window without a step (the track's model error with the fix noise)."""
     offset: tuple[float, float]
@@ -99,9 +104,10 @@ def _sse(X: np.ndarray, y: np.ndarray) -> float:
 def step_glr(h: History, a: int, b: int, geometry: tuple[float, float], sigma: tuple[float, float],
              recent: float, min_before: int = 5, most: int = 40) -> PoseStep | None:
     """The GLR of a displacement of the fixes ``a … b`` (module docstring; at most ``most`` of them, every n-th
-    with the last) at each candidate fix ``i0`` at most ``recent`` (s) before the last one and at least
-    ``min_before`` fixes after the first, with the fixes' σ ``sigma`` (m per axis, rad), for the robot's nominal
-    radius and half track ``geometry`` (m); ``None`` without a candidate."""
+    with the last), and the displacement's estimate from the step alone, at each candidate fix ``i0`` at most
+    ``recent`` (s) before the last one and at least ``min_before`` fixes after the first, with the fixes' σ
+    ``sigma`` (m per axis, rad), for the robot's nominal radius and half track ``geometry`` (m); ``None`` without a
+    candidate."""
     fixes = list(range(b, a - 1, -math.ceil((b - a + 1) / most)))[::-1]
     n = len(fixes)
     if n < min_before + 3:
@@ -119,7 +125,8 @@ def step_glr(h: History, a: int, b: int, geometry: tuple[float, float], sigma: t
     y_perp = y - Q @ (Q.T @ y)  # the base projected out (Frisch–Waugh–Lovell: the rest is fitted on residuals)
     yy = float(y_perp @ y_perp)
     rms = math.sqrt(yy / max(2 * n - B.shape[1], 1))
-    best: tuple[float, int, np.ndarray, np.ndarray] | None = None
+    best: tuple[float, int] | None = None
+    size: tuple[float, int, np.ndarray, np.ndarray] | None = None
     for i0 in range(max(min_before, 1), n):
         if h.fix_t[b] - h.fix_t[fixes[i0]] > recent + 1e-9:
             continue
@@ -133,15 +140,20 @@ def step_glr(h: History, a: int, b: int, geometry: tuple[float, float], sigma: t
         kink = float(g[:2] @ np.linalg.pinv(G[:2, :2]) @ g[:2])
         stat = (float(g @ Ginv @ g) - kink) / (2.0 * sigma[0] ** 2)  # SSE without the step minus SSE with it
         if best is None or stat > best[0]:
-            best = (stat, i0, (Ginv @ g)[2:], Ginv[2:, 2:] * sigma[0] ** 2)
-    if best is None:
+            best = (stat, i0)
+        Gs = np.linalg.pinv(G[2:, 2:])
+        step_only = float(g[2:] @ Gs @ g[2:])
+        if size is None or step_only > size[0]:
+            size = (step_only, i0, Gs @ g[2:], Gs * sigma[0] ** 2)
+    if best is None or size is None:
         return None
-    stat, i0, d, cov = best
+    stat, kinked = best
+    _, i0, d, cov = size
     u = d / max(float(np.hypot(*d)), 1e-12)
     axes = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     return PoseStep(stat, rms, (float(d[0]), float(d[1])), math.sqrt(max(float(u @ cov @ u), 0.0)),
                     h.fix_t[fixes[i0]], fixes[i0], (float(axes[0]), float(axes[1])),
-                    heading_kink(h, fixes, *geometry, i0, sigma[1]))
+                    heading_kink(h, fixes, *geometry, kinked, sigma[1]))
 
 
 def fix_interval(h: History, last: int = 20) -> float | None:

@@ -28,14 +28,33 @@ from .history import History
 
 
 @dataclass(frozen=True)
+class Displacement:
+    """A displacement of the fixes estimated by the step alone (module docstring): what a declaration says.
+
+    Attributes:
+        offset: ``(dx, dy)`` (m, world frame).
+        sigma: σ of its length (m).
+        axis_sigma: σ along world x and y (m).
+        onset: time (s) of the first displaced fix.
+        fix: that fix's index in the history.
+    """
+
+    offset: tuple[float, float]
+    sigma: float
+    axis_sigma: tuple[float, float]
+    onset: float
+    fix: int
+
+
+@dataclass(frozen=True)
 class PoseStep:
     """The most likely displacement of the fixes in a window.
 
     Attributes:
         stat: its GLR (log-likelihood ratio).
-        offset: the displacement ``(dx, dy)`` (m, world frame): the step alone's (module docstring).
+        offset: the displacement ``(dx, dy)`` (m, world frame) fitted with the kink.
         sigma: σ of the displacement's length (m).
-        onset: time (s) of the first displaced fix (the step alone's best candidate).
+        onset: time (s) of the first displaced fix.
         fix: that fix's index in the history.
     """
 
@@ -47,8 +66,9 @@ class PoseStep:
     sigma: float
     onset: float
     fix: int
-    axis_sigma: tuple[float, float] = (math.nan, math.nan)
-    """σ of the displacement along world x and y (m): the square roots of its covariance's diagonal."""
+    alone: Displacement | None = None
+    """The displacement estimated by the step alone, which a declaration takes (``offset``, ``onset`` and ``fix``
+    above are the kink-robust fit's, which decide whether the step is one)."""
     turn: float = 0.0
     """The GLR of a change of the encoders' yaw rate against the fixes' headings at the same fix (a tyre or a
     servo changed, not the pose sensor: a position fault leaves the heading alone)."""
@@ -125,8 +145,8 @@ def step_glr(h: History, a: int, b: int, geometry: tuple[float, float], sigma: t
     y_perp = y - Q @ (Q.T @ y)  # the base projected out (Frisch–Waugh–Lovell: the rest is fitted on residuals)
     yy = float(y_perp @ y_perp)
     rms = math.sqrt(yy / max(2 * n - B.shape[1], 1))
-    best: tuple[float, int] | None = None
-    size: tuple[float, int, np.ndarray, np.ndarray] | None = None
+    best: tuple[float, int, np.ndarray, np.ndarray] | None = None
+    alone: tuple[float, int, np.ndarray, np.ndarray] | None = None
     for i0 in range(max(min_before, 1), n):
         if h.fix_t[b] - h.fix_t[fixes[i0]] > recent + 1e-9:
             continue
@@ -140,20 +160,29 @@ def step_glr(h: History, a: int, b: int, geometry: tuple[float, float], sigma: t
         kink = float(g[:2] @ np.linalg.pinv(G[:2, :2]) @ g[:2])
         stat = (float(g @ Ginv @ g) - kink) / (2.0 * sigma[0] ** 2)  # SSE without the step minus SSE with it
         if best is None or stat > best[0]:
-            best = (stat, i0)
-        Gs = np.linalg.pinv(G[2:, 2:])
-        step_only = float(g[2:] @ Gs @ g[2:])
-        if size is None or step_only > size[0]:
-            size = (step_only, i0, Gs @ g[2:], Gs * sigma[0] ** 2)
-    if best is None or size is None:
+            best = (stat, i0, (Ginv @ g)[2:], Ginv[2:, 2:] * sigma[0] ** 2)
+        Gs = np.linalg.pinv(G[2:, 2:])  # the step alone, the kink held at zero
+        fit = float(g[2:] @ Gs @ g[2:])
+        if alone is None or fit > alone[0]:
+            alone = (fit, i0, Gs @ g[2:], Gs * sigma[0] ** 2)
+    if best is None or alone is None:
         return None
-    stat, kinked = best
-    _, i0, d, cov = size
+    stat, i0, d, cov = best
+    return PoseStep(stat, rms, (float(d[0]), float(d[1])), _length_sigma(d, cov), h.fix_t[fixes[i0]], fixes[i0],
+                    _displacement(h, fixes, *alone[1:]), heading_kink(h, fixes, *geometry, i0, sigma[1]))
+
+
+def _length_sigma(d: np.ndarray, cov: np.ndarray) -> float:
+    """σ (m) of the length of displacement ``d`` (m) of covariance ``cov`` (m²)."""
     u = d / max(float(np.hypot(*d)), 1e-12)
+    return math.sqrt(max(float(u @ cov @ u), 0.0))
+
+
+def _displacement(h: History, fixes: list[int], i0: int, d: np.ndarray, cov: np.ndarray) -> Displacement:
+    """The :class:`Displacement` ``d`` (m) of covariance ``cov`` (m²) from window fix ``i0`` on."""
     axes = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    return PoseStep(stat, rms, (float(d[0]), float(d[1])), math.sqrt(max(float(u @ cov @ u), 0.0)),
-                    h.fix_t[fixes[i0]], fixes[i0], (float(axes[0]), float(axes[1])),
-                    heading_kink(h, fixes, *geometry, kinked, sigma[1]))
+    return Displacement((float(d[0]), float(d[1])), _length_sigma(d, cov), (float(axes[0]), float(axes[1])),
+                        h.fix_t[fixes[i0]], fixes[i0])
 
 
 def fix_interval(h: History, last: int = 20) -> float | None:

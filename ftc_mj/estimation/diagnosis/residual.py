@@ -413,23 +413,23 @@ class ResidualDiagnoser:
         if r.alarm and (last is None or last.mode != "dropout" or last.onset < r.onset - 1e-9):
             return self._make("pose sensor", "pose", "dropout", r, t)
         step = self.pose_step
-        if not self._confirmed("pose", t) or step is None or self._pose_blocked():
+        if not self._confirmed("pose", t) or step is None or step.alone is None or self._pose_blocked():
             return None
-        h = self.history
+        h, alone = self.history, step.alone
         before = h.fix_offset
-        total = (before[0] + step.offset[0], before[1] + step.offset[1])
+        total = (before[0] + alone.offset[0], before[1] + alone.offset[1])
         returned = last is not None and last.mode == "bias" and math.hypot(*total) < 0.5 * math.hypot(*before)
-        h.shift_fixes(step.fix, (-before[0], -before[1]) if returned else step.offset)
+        h.shift_fixes(alone.fix, (-before[0], -before[1]) if returned else alone.offset)
         self.pose_step = None
         for c in ("pose", "tyre_R", "tyre_L", "speed", "gyro"):  # read again from the corrected fixes
             self.readings[c], self.since[c] = QUIET, None
-        vector = {"offset": h.fix_offset, "offset_sigma": step.axis_sigma}
+        vector = {"offset": h.fix_offset, "offset_sigma": alone.axis_sigma}
         if returned:
             return self._make("pose sensor", "pose", "jump", Reading(step.stat, self.settings.pose_threshold, last.size,
                                                                     last.sigma, last.onset), t, **vector)
         size = (total[0] + total[1]) * math.sqrt(0.5)
         return self._make("pose sensor", "pose", "bias", Reading(step.stat, self.settings.pose_threshold, size,
-                                                                step.sigma, step.onset), t, **vector)
+                                                                alone.sigma, alone.onset), t, **vector)
 
     def _declare_servo(self, t: float) -> Diagnosis | None:
         """A lock, else a servo loss or an unresponsive servo (re-declared as such if a loss's wheel stops

@@ -16,6 +16,7 @@ unused for 14 days are pruned), or a temporary folder removed at the end when py
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import tempfile
@@ -81,6 +82,9 @@ def dask_client() -> Iterator[Any]:
         yield client
 
 
+MODULE_DURATIONS = Path(__file__).with_name("module_durations.json")
+"""Each test module's summed duration (s) in a full warm session (``python tests/module_durations.py`` writes it
+from pytest's cache): the order of a session without durations of its own."""
 DURATIONS_KEY = "ftc-mj/durations"
 """pytest-cache key of every test's last duration (s, setup + call + teardown), by node id."""
 _DURATIONS: dict[str, float] = {}
@@ -93,7 +97,9 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     cache; a test never timed counts as 1 s), so that the two workers' last tests are short ones and they
     finish together (greedy longest-processing-time scheduling); a module's tests stay together and in their
     order, so its module-scoped fixtures are built as before. Every worker reads the same cache, so the order
-    is the same in each, as pytest-xdist requires."""
+    is the same in each, as pytest-xdist requires. Without a last session (a fresh clone, as CI runs it) the
+    modules' durations shipped in :data:`MODULE_DURATIONS` order them instead, so the longest modules still
+    start first."""
     on_cluster = {id(item) for item in items if "dask_client" in getattr(item, "fixturenames", ())}
     for item in items:
         if id(item) in on_cluster:
@@ -104,6 +110,9 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         module = item.nodeid.split("::", 1)[0]
         module_time[module] = module_time.get(module, 0.0) + float(last.get(item.nodeid, 1.0))
+    if not last:
+        shipped = json.loads(MODULE_DURATIONS.read_text()) if MODULE_DURATIONS.exists() else {}
+        module_time = {m: float(shipped.get(m, t)) for m, t in module_time.items()}
     items.sort(key=lambda item: (id(item) not in on_cluster, -module_time[item.nodeid.split("::", 1)[0]]))  # stable
 
 

@@ -31,12 +31,22 @@ Reconfiguration
     ``reconfig_delay`` (s): first hand-over after the first onset —
     :func:`~ftc_mj.metrics.run.reconfiguration_metrics`.
 Bounds
-    ``lorden_delay_bound`` (s): Lorden's lower bound on the delay of any rule with mean time between false
-    alarms ``estimator.decision.arl0`` for this draw's first change: the first time the cumulative
-    Kullback–Leibler information of the change reaches ``log(ARL0 / dt)`` (:func:`~ftc_mj.metrics.fdi.lorden_delays`);
+    ``lorden_delay_bound`` (s): Lorden's lower bound on the delay of any rule with the mean time between false
+    alarms the run's decision rule has (:func:`bound_arl0`: the rule's no-fault alarm rate *measured* on the
+    MuJoCo plant after the launch with the draw's sensor set — with or without the gyro —, shipped with the
+    package by ``benchmarks/calibration.py``, :mod:`~ftc_mj.metrics.alarm_rates`; the configured
+    ``estimator.decision.arl0`` only for a rule or settings not measured) for this draw's first change: the
+    first time the cumulative Kullback–Leibler information of the change reaches ``log(ARL0 / dt)``
+    (:func:`~ftc_mj.metrics.fdi.lorden_delays`);
     the change is the true plant's departure from the nominal model (:func:`~ftc_mj.metrics.fdi.cumulative_kl`)
     or, for a sensor bias/drift, the injected offset over the sensor's σ; ``None`` when it is not reached
     within :data:`~ftc_mj.metrics.fdi.KL_PROFILE_S` (a dropout or an actuator fault the wheel-rate inputs explain).
+    ``tyre_alarm_delay`` (s): the first *alarm* of the diagnoser's tyre detectors after the first onset — the
+    first row from the onset on with the ``tyre_R`` or ``tyre_L`` channel's statistic at or above its threshold
+    (``diag_alarm_tyre_*``, declared or not; 0 when one is already up at the onset) — beside
+    ``detection_delay``, the first *declaration* (after the rule's dwell and confirmation): Lorden's bound
+    bounds the delay of an alarm of a detector at a false-alarm rate, which is the alarm's, not the
+    declaration's (:func:`tyre_alarm_delay`); ``None`` without a fault, a diagnoser or such an alarm.
     ``radius_pcrb_R/L`` (m): the posterior Cramér–Rao bound at the end of the run on each radius for the
     model that generated the data (radii constant between the truth's changes,
     :func:`~ftc_mj.estimation.pcrb.data_model_bound`), as the run recorded it once (the trace's
@@ -56,6 +66,7 @@ from typing import Any
 import numpy as np
 
 from ..config import RunConfig
+from ..metrics.alarm_rates import RULE_SETTINGS, measured_arl0
 from ..metrics.detection import WHEEL_OF_CODE, declared_wheel_codes
 from ..metrics.diagnosis import DIAGNOSIS_SCORE_COLUMNS, diagnosis_scores
 from ..metrics.fdi import KL_PROFILE_S, cumulative_kl, lorden_delays
@@ -70,7 +81,8 @@ from .definition import JudgeRule
 from .judge import JUDGE_COLUMNS, judge_run
 
 SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "liftoff_s", "false_alarm", "detected",
-                 "detection_delay", "isolation", "reconfig_delay", "lorden_delay_bound", "radius_pcrb_R",
+                 "detection_delay", "isolation", "reconfig_delay", "lorden_delay_bound", "tyre_alarm_delay",
+                 "radius_pcrb_R",
                  "radius_pcrb_L", "radius_error_R", "radius_error_L", "solver_fallbacks", "status", *JUDGE_COLUMNS,
                  *DIAGNOSIS_SCORE_COLUMNS)
 """The keys :func:`score_run` returns (``None`` where a score does not apply)."""
@@ -119,6 +131,25 @@ def fdi_scores(trace: dict[str, np.ndarray], faults: list[dict[str, Any]]) -> di
             "isolation": isolation_verdict(code, t, faults)}
 
 
+TYRE_ALARMS = ("diag_alarm_tyre_R", "diag_alarm_tyre_L")
+"""The trace's alarm flags of the diagnoser's tyre detectors (1 while the channel's statistic is at or above
+its threshold)."""
+
+
+def tyre_alarm_delay(trace: dict[str, np.ndarray], faults: list[dict[str, Any]]) -> float | None:
+    """Seconds from the first fault's onset to the first row from it on with a tyre detector's alarm up
+    (:data:`TYRE_ALARMS`); ``None`` without a fault, without the columns (no diagnoser) or without such an alarm."""
+    if not faults or not all(c in trace for c in TYRE_ALARMS):
+        return None
+    t = np.asarray(trace["t"], float)
+    up = np.zeros(t.size, bool)
+    for c in TYRE_ALARMS:
+        up |= np.nan_to_num(np.asarray(trace[c], float)) > 0.5
+    t0 = faults[0]["onset"]
+    hit = np.flatnonzero(up & (t >= t0))
+    return float(t[hit[0]] - t0) if hit.size else None
+
+
 def sensor_kl(cfg: RunConfig, trace: dict[str, np.ndarray], fault: dict[str, Any]) -> np.ndarray:
     """Cumulative KL information (nats per row) of a sensor fault from its onset: ``Σ ½ (offset/σ)²`` with the
     injected offset (m/s or rad/s, its class's
@@ -136,6 +167,19 @@ def sensor_kl(cfg: RunConfig, trace: dict[str, np.ndarray], fault: dict[str, Any
     return np.zeros(0) if offset is None else np.cumsum(0.5 * per_row * (offset / sigma) ** 2)
 
 
+def bound_arl0(cfg: RunConfig) -> float:
+    """The mean time between false alarms (s) Lorden's bound is taken at: that measured for the run's decision
+    rule (``auto``: ``mode`` for an IMM, ``sigma`` otherwise) under no fault after the launch, with or without the
+    gyro as the run has (:func:`~ftc_mj.metrics.alarm_rates.measured_arl0`), else ``estimator.decision.arl0``."""
+    d = cfg.estimator.decision
+    rule = d.rule
+    if rule == "auto":
+        rule = "mode" if str(cfg.estimator.kind).startswith("imm") else "sigma"
+    settings = {k: float(getattr(d, k)) for k in RULE_SETTINGS}
+    measured = measured_arl0(rule, cfg.sensors.yaw_rate_sigma is not None, settings)
+    return d.arl0 if measured is None else measured
+
+
 def bound_scores(cfg: RunConfig, record: RunRecord, trace: dict[str, np.ndarray],
                  faults: list[dict[str, Any]]) -> dict[str, Any]:
     """Lorden's delay bound (s) for the first change and the radius PCRB at the end (m; module docstring)."""
@@ -146,7 +190,7 @@ def bound_scores(cfg: RunConfig, record: RunRecord, trace: dict[str, np.ndarray]
         K = (sensor_kl(cfg, trace, f) if issubclass(fault_class(f["fault_class"]), SensorFault)
              else np.asarray(cumulative_kl(record.setup, trace, f["onset"]), float))
         if K.size:
-            d = float(lorden_delays(K, np.array([cfg.estimator.decision.arl0]), dt)[0])
+            d = float(lorden_delays(K, np.array([bound_arl0(cfg)]), dt)[0])
             out["lorden_delay_bound"] = d if math.isfinite(d) else None
     out.update(radius_bound(record, trace))
     return out
@@ -201,6 +245,7 @@ def score_run(config: RunConfig, trace: dict[str, np.ndarray], events: Sequence[
     rc = reconfiguration_metrics(tr, faults[0]["onset"] if faults else None)
     out["reconfig_delay"] = rc.get("reconfig_handover_delay")
     out.update(bound_scores(cfg, record, tr, faults))
+    out["tyre_alarm_delay"] = tyre_alarm_delay(tr, faults)
     if rule is not None and rule.rule == "progress":
         alive = bool(status == "ok" and not plant["tipped"])
         out.update(judge_run(cfg, record, tr, [f["onset"] for f in faults], out["success"], alive, rule))

@@ -145,9 +145,22 @@ class PathFollowingNMPCSettings(NMPCSettings):
 def path_following_spec(settings: PathFollowingNMPCSettings, context: RunContext, desired_speed: float,
                         limits: RobotLimits | None = None) -> PathFollowingSpec:
     """The path-following problem (:func:`~ftc_mj.control.pathfollow_spec.path_following_problem`) of the
-    ``pf-nmpc`` settings at ``desired_speed`` (m/s) on the grid of their tracking problem and the run context."""
-    return path_following_problem(tracking_problem(settings, context), settings.path_following, desired_speed,
-                                  limits)
+    ``pf-nmpc`` settings at ``desired_speed`` (m/s) on the grid of their tracking problem and the run context; the
+    actuation-rate weight is ``fix_heading_rate_penalty`` when the context's sensors give the controller a heading
+    from pose fixes without a gyro (:func:`heading_from_fixes`)."""
+    pf = settings.path_following
+    if pf.fix_heading_rate_penalty is not None and heading_from_fixes(context.sensors):
+        pf = pf.model_copy(update={"rate_penalty": pf.fix_heading_rate_penalty})
+    return path_following_problem(tracking_problem(settings, context), pf, desired_speed, limits)
+
+
+def heading_from_fixes(sensors: object) -> bool:
+    """Whether the controller's heading is the filter's estimate from pose fixes with no yaw-rate gyro between them
+    (``sensors.pose_source = "sensor"`` and no ``yaw_rate_sigma``): what the robot's own sensor set says, not the
+    plant."""
+    return (getattr(sensors, "pose_source", "truth") == "sensor"
+            and getattr(sensors, "position_sigma", None) is not None
+            and getattr(sensors, "yaw_rate_sigma", None) is None)
 
 
 class PathFollowingNMPC(MPCLifecycle):
@@ -181,11 +194,14 @@ class PathFollowingNMPC(MPCLifecycle):
         a new draw's path, desired speed and robot limits. The path's numbers and the desired speed are
         parameters of the built NLP and QP (:mod:`~ftc_mj.control.pathfollow_path`), so a built controller, reset,
         serves them exactly as one built for them (the simulation's cache relies on it: ``retargetable``); a
-        problem of another structure (another path kind, another grid or weights) builds its solvers anew."""
+        problem of another structure (another path kind, other tracking weights) builds its solvers anew — the
+        actuation-rate weight (larger on a draw whose heading comes from pose fixes, :func:`path_following_spec`) is
+        a parameter too —; the grid cannot change."""
         spec = self._base_spec if spec is None else spec
         mine = self.spec.problem
         if dataclasses.replace(spec.problem, max_lateral_accel=mine.max_lateral_accel,
-                               max_longitudinal_accel=mine.max_longitudinal_accel) != mine:
+                               max_longitudinal_accel=mine.max_longitudinal_accel,
+                               rate_penalty=mine.rate_penalty) != mine:
             raise ValueError("set_reference: the path-following NMPC's grid and robot cannot change")
         self._base_spec, self.path = spec, path
         self._set_problem(servo_limited(spec, self._effectiveness))

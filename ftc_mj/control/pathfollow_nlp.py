@@ -19,14 +19,15 @@ ca = lazy_module("casadi")
 
 def nlp_structure(spec: PathFollowingSpec, path: Path, robust: bool = False) -> tuple:
     """What the graph of the path-following NLP of ``spec`` on ``path`` is built from: the spec without the
-    numbers that are parameters or bounds of the NLP (desired speed, progress-speed bound, braking trade — only
-    whether it is zero —, lateral and longitudinal bounds — only whether there is one —, yaw compliance and
-    the servos' limits, which the NLP does not read), the path's kind (a path without parameters: the path
-    itself) and ``robust``. Two problems of equal structure share one IPOPT solver."""
+    numbers that are parameters or bounds of the NLP (desired speed, progress-speed bound, actuation-rate weight,
+    braking trade — only whether it is zero —, lateral and longitudinal bounds — only whether there is one —,
+    yaw compliance and the servos' limits, which the NLP does not read), the path's kind (a path without
+    parameters: the path itself) and ``robust``. Two problems of equal structure share one IPOPT solver."""
     pr = spec.problem
     lat = None if pr.max_lateral_accel is None else 0.0
     lon = None if pr.max_longitudinal_accel is None else 0.0
-    bare = dataclasses.replace(spec, problem=dataclasses.replace(pr, max_lateral_accel=lat, max_longitudinal_accel=lon),
+    bare = dataclasses.replace(spec, problem=dataclasses.replace(pr, max_lateral_accel=lat, max_longitudinal_accel=lon,
+                                                                 rate_penalty=0.0),
                                desired_speed=0.0, max_progress_speed=0.0, yaw_compliance=0.0,
                                braking_trade=float(spec.braking_trade != 0), servo_lateral_accel=None,
                                servo_longitudinal_accel=None)
@@ -37,8 +38,9 @@ class PathNLP:
     """The full NLP for IPOPT (built once on an SX graph).
 
     ``w = [x(N), y(N), psi(N), s(N), omega_R(N), omega_L(N), v(N), σ]`` (the model's wheel rates),
-    parameters ``p = [x0, y0, psi0, s0, R_R, R_L, V_applied, V_des, β, path…]``: the initial state, the radii, the
-    speed of the applied command, the desired speed (m/s), the braking trade and the path's numbers
+    parameters ``p = [x0, y0, psi0, s0, R_R, R_L, V_applied, V_des, β, r, path…]``: the initial state, the radii,
+    the speed of the applied command, the desired speed (m/s), the braking trade, the actuation-rate weight ``r``
+    (``rate_penalty``, s³) and the path's numbers
     (:mod:`~ftc_mj.control.pathfollow_path`), so one solver serves every draw of a path kind
     (:func:`nlp_structure`); the lateral and longitudinal bounds and the progress-speed bound are bounds of the rows
     and variables
@@ -59,8 +61,8 @@ class PathNLP:
         n_tau = N if robust else 0
         self._i_draw = 7 + (4 if robust else 0)  # index of V_des in p
         w = ca.SX.sym("w", 7 * N + 1 + n_tau)
-        p = ca.SX.sym("p", self._i_draw + 2 + parameter_count(path))
-        J, g = self._graph(spec, symbolic_path(path, p[self._i_draw + 2:]), w, p)
+        p = ca.SX.sym("p", self._i_draw + 3 + parameter_count(path))
+        J, g = self._graph(spec, symbolic_path(path, p[self._i_draw + 3:]), w, p)
         self._lbx = np.concatenate([-np.inf * np.ones(6 * N), np.zeros(N + 1 + n_tau)])
         self._ubx = np.concatenate([np.inf * np.ones(6 * N), np.zeros(N), SLACK_MAX * np.ones(1 + n_tau)])
         opts = ipopt_options(max_iter, cold_time_budget, time_budget)
@@ -96,7 +98,7 @@ class PathNLP:
         J = ca.mtimes(Wq, spec.q_contour * ec**2 + spec.q_lag * el**2 + spec.q_heading * eh**2
                       + spec.q_progress * (U[2, :].T - V_des) ** 2)
         dU = ca.mtimes(U, D.T) / h  # 3 x N, d/dt
-        J += pr.rate_penalty * ca.sum2(Wq * ca.sum1(dU[:2, :] ** 2))
+        J += p[self._i_draw + 2] * ca.sum2(Wq * ca.sum1(dU[:2, :] ** 2))  # the actuation-rate weight
         J += spec.progress_rate_penalty * ca.sum2(Wq * dU[2, :] ** 2)
         J += spec.slack_penalty * sig + sig**2
         Vp = rates(Xfull, U[:2, :])  # 2 x N
@@ -146,7 +148,8 @@ class PathNLP:
             raise ValueError("the path-following NLP was built for a problem of another structure")
         self.spec, self.path = spec, path
         pp = path_parameters(path)
-        self._draw = np.concatenate([[spec.desired_speed, spec.braking_trade], [] if pp is None else pp])
+        self._draw = np.concatenate([[spec.desired_speed, spec.braking_trade, spec.problem.rate_penalty],
+                                     [] if pp is None else pp])
         N = self.col.N
         self._ubx[6 * N:7 * N] = spec.max_progress_speed
         if self._rows.size:

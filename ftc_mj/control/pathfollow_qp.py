@@ -57,9 +57,7 @@ class PathQP:
         Dh = col.D / h
         # constant Hessian and gradient: wheel-rate rates, progress speed and its rate, slack
         H0 = np.zeros((n, n))
-        R = 2.0 * pr.rate_penalty * (Dh.T * W) @ Dh
-        H0[:N, :N] += R
-        H0[N:2 * N, N:2 * N] += R
+        self._rate_form = (Dh.T * W, Dh)  # the actuation-rate cost's factors; its weight is set per draw
         H0[2 * N:3 * N, 2 * N:3 * N] += 2.0 * spec.progress_rate_penalty * (Dh.T * W) @ Dh
         H0[2 * N:3 * N, 2 * N:3 * N] += np.diag(2.0 * spec.q_progress * W)
         H0[self.i_sig, self.i_sig] = 2.0
@@ -98,14 +96,18 @@ class PathQP:
 
     def set_problem(self, spec: PathFollowingSpec, path: Path) -> None:
         """Build the QPs of ``spec`` on ``path`` from now on (a new draw): the same structure as the built one
-        (:func:`~ftc_mj.control.pathfollow_nlp.nlp_structure`; ``ValueError`` otherwise), its desired speed and
-        progress-speed bound; the lateral bound and the braking trade are read at every build."""
+        (:func:`~ftc_mj.control.pathfollow_nlp.nlp_structure`; ``ValueError`` otherwise), its desired speed,
+        progress-speed bound and actuation-rate weight; the lateral bound and the braking trade are read at every
+        build."""
         if nlp_structure(spec, path, self.robust) != self._structure:
             raise ValueError("the path-following QP was built for a problem of another structure")
         self.spec, self.path = spec, path
         N = self.col.N
         self.g0[2 * N:3 * N] = -2.0 * spec.q_progress * self.col.W * spec.desired_speed
         self.ubx[2 * N:3 * N] = spec.max_progress_speed
+        R = 2.0 * spec.problem.rate_penalty * self._rate_form[0] @ self._rate_form[1]
+        self.H0[:N, :N] = R
+        self.H0[N:2 * N, N:2 * N] = R
 
     def reset(self) -> None:
         """Forget the active-set guess and the last robust QP's multipliers (a reused solver then behaves like a

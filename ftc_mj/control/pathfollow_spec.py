@@ -43,6 +43,14 @@ class PathFollowingSettings(StrictModel):
     Without it the controller is not usable on the MuJoCo robot: the wheel-rate plans chatter between their
     bounds, the servos cannot follow and the robot leaves the path (27.6 m off and 361 solver failures on
     scenario 2 in one run with 0; docs/findings.md)."""
+    fix_heading_rate_penalty: NonNegFloat | None = 5.0
+    """The actuation-rate weight (as ``rate_penalty``) used instead of ``rate_penalty`` when the controller's heading
+    comes from pose fixes without a yaw-rate gyro (``sensors.pose_source = "sensor"``, no ``yaw_rate_sigma``): the
+    filter's heading then carries the fixes' noise (σ 0.04 rad, correlated over 0.1–0.2 s, against 0.018 rad
+    averaged over 1 s: the yaw rate between fixes comes from the wheel radii, whose estimates the fixes jolt), and
+    at weight 1 the plan answers each excursion with a turn to the lateral bound that the robot then has to undo
+    (scenario 2, dev seeds 0–3: 0.16–0.86 m off before the fault; with 5, 0.14–0.43 m; docs/findings.md).
+    ``None`` = ``rate_penalty`` always."""
     progress_rate_penalty: NonNegFloat = 0.1
     """Weight (s³/m²) on the squared rate of the progress speed."""
     max_lag: ranged(0.0, 100.0, unit="m") = 0.0

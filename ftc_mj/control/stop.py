@@ -29,7 +29,16 @@ rate — full braking torque — and its command is shifted by the heading error
 
 *One servo unresponsive* (:meth:`SafeStop._one_wheel`): the free wheel neither drives nor brakes; the other
 one steers, but never pushes the robot above the planned speed — faster than the plan, it brakes within the
-traction bound, and the robot turns towards it as it slows.
+traction bound, and the robot turns towards it as it slows. It cannot bring the robot to rest: the working wheel's
+ground force ``F`` acts at its contact and the tyres' lateral forces along the axle through it, so the angular
+momentum about that contact, ``H = M_rr r ∓ b M_vv v`` (``M_vv`` the mass, ``M_rr`` the yaw inertia about the
+axle midpoint, both with the wheels' spin inertia; ``v``, ``r`` the axle midpoint's speed and the yaw rate), changes
+only by ``H' = −m x_G r u`` (``m x_G``: mass × the centre of mass's lead on the axle; ``u``: the working wheel's
+ground speed). Braking that wheel to rest leaves the robot pivoting about it at ``r = H / (M_rr + b² M_vv)`` for
+ever (0.43 V₀ rad/s on the shipped robot); the fastest any law sheds ``H`` falls with ``H²`` (``1/|H|`` grows by at
+most ``m x_G / (4 b M_vv (M_rr + b² M_vv))`` per s, 1/6448 on the shipped robot), so at rest takes minutes, not
+seconds (docs/findings.md). So the working wheel does not brake to rest but to ``one_wheel_roll`` of the free
+wheel's speed: the robot circles a fixed point at ``b (1 + k)/(1 − k)`` while ``H`` decays.
 """
 
 from __future__ import annotations
@@ -60,6 +69,12 @@ class SafeStopSettings(StrictModel):
     """With one wheel locked: how far below its measured rate (rad/s) the other wheel is commanded when the robot
     heads where it should — beyond the shipped servo's saturation (``τ_max / k_v`` = 0.15 rad/s), i.e. its full
     braking torque (:meth:`SafeStop._locked`)."""
+    one_wheel_roll: ranged(0.0, 1.0, hi_open=True) = 0.2
+    """With one servo unresponsive: the least fraction of the free wheel's ground speed at which the other wheel keeps
+    rolling forward while it brakes (:meth:`SafeStop.one_wheel_floor`). 0 brakes it to rest, where the robot pivots
+    about it for ever (the braking force cannot change the angular momentum about its contact); ``k`` > 0 lets the
+    robot circle at ``b (1 + k)/(1 − k)`` (1.5 m at 0.2) around a fixed point while its spin decays as ``1/t``
+    (docs/findings.md)."""
     lock_heading_gain: ranged(0.0, 100.0, unit="rad/s per rad") = 5.0
     """With one wheel locked: the other wheel's command (rad/s) per rad of heading error to the direction towards
     the path; 0.1 rad towards the locked side turns its full braking torque into full drive on the shipped
@@ -163,22 +178,40 @@ class SafeStop:
         """Steering with one wheel. The free wheel neither drives nor brakes: its ground speed ``v_f = R_f omega_f``
         is what it is. The other wheel's speed is set for the yaw rate towards the path, ``v_R − v_L = 2 b r``
         (within the traction bound without braking), but never so that the robot's speed ``(v_R + v_L)/2`` exceeds
-        the ``planned`` one (m/s): a robot faster than the plan is slowed by braking that wheel, within the traction
-        bound of braking (``|r| ≤ (margin · A − β a) / V``), and turns towards it while it slows. The heading such a
+        the ``planned`` one (m/s): a robot faster than the plan is slowed by braking that wheel, within the coasting
+        traction bound (``|r| ≤ margin · A / v_f``) and never below ``one_wheel_roll`` × ``v_f``
+        (:meth:`one_wheel_floor`), and turns towards it while it slows. The heading such a
         stop turns through grows with ``ln(V_0/V)`` whatever the profile (the braking force on one side is the yaw
         couple), so where the path turns towards the free wheel the robot leaves it on the other side — slowing,
-        instead of driving faster to turn with the path (docs/findings.md)."""
+        instead of driving faster to turn with the path (docs/findings.md). A free wheel rolling backwards
+        (``v_f < 0``) is met by braking the other wheel to rest: backwards, with the centre of mass ahead of the
+        axle, any rolling between 0 and ``v_f`` makes the angular momentum grow (``H' = −m x_G r u``), and following
+        ``v_f`` would coast the robot straight on for ever; braked, it pivots about that wheel."""
         b = self.limits.half_track
         v_free = float(radii[free]) * float(rates[free])
+        om = np.array(rates, dtype=float)
+        if v_free < 0.0:
+            om[1 - free] = 0.0
+            return om
         V = max(v_free, 0.0)
         r = self.yaw_rate(pose, V, coasting=True) if pose is not None else 0.0
         sign = 1.0 if free == 1 else -1.0  # v_R − v_L = 2 b r
         v_other = v_free + sign * 2.0 * b * r
         if V > 0.0 and v_other > 2.0 * planned - v_free:  # faster than the plan: brake, within the traction bound
-            v_other = min(v_other, max(2.0 * planned - v_free, v_free - 2.0 * b * self.max_lateral_coasting / V, 0.0))
-        om = np.array(rates, dtype=float)
+            v_other = min(v_other, max(2.0 * planned - v_free, self.one_wheel_floor(V), 0.0))
         om[1 - free] = v_other / float(radii[1 - free])
         return om
+
+    def one_wheel_floor(self, v_free: float) -> float:
+        """The least ground speed (m/s) the working wheel brakes to while the free wheel rolls forward at ``v_free``
+        (m/s, > 0): the larger of the traction bound and ``one_wheel_roll`` × ``v_free``. The traction bound holds
+        the yaw rate ``(v_free − u) / (2 b)`` towards the working wheel within the coasting bound ``A / v_free``
+        (the free wheel's speed standing for the robot's, which is lower: measured on the plant, the robot's actual
+        ``(u + v_free)/2`` in that bound lifts a wheel for up to 0.36 s, dev draw 28). Rolling forward (``k > 0``)
+        while the robot turns towards the working wheel is what sheds the angular momentum braking cannot (module
+        docstring): the robot then circles at ``b (1 + k)/(1 − k)`` around a fixed point."""
+        b, a = self.limits.half_track, self.max_lateral_coasting
+        return max(v_free - 2.0 * b * a / v_free, self.settings.one_wheel_roll * v_free)
 
     def _locked(self, pose: np.ndarray | None, radii: np.ndarray, locked: int, rates: np.ndarray) -> np.ndarray:
         """Braking and steering with the one wheel that turns, the other locked and skidding. The locked tyre's

@@ -275,17 +275,20 @@ def measurement_jacobian(setup: FilterSetup, x: np.ndarray, u: np.ndarray, kinds
 
 
 def linearise_step(setup: FilterSetup, x: np.ndarray, P: np.ndarray, y: np.ndarray, S: np.ndarray,
-                   u: np.ndarray, used: tuple[int, ...] | None = None) -> Linearisation | None:
+                   u: np.ndarray, used: tuple[int, ...] | None = None, H: np.ndarray | None = None
+                   ) -> Linearisation | None:
     """The detectors' view of a filter step with posterior ``(x, P)``, innovation ``y`` and its covariance
     ``S`` over the channels the step used (``used``: their codes, when the caller knows them), predicted
     with wheel rates ``u`` (rad/s); ``None`` if the step carries no usable innovation (not a complete
     channel set — a channel dropped —, ``S`` not positive definite, non-finite). ``used`` keeps a step
     whose channel count matches a complete set by chance from being read as that set (a position fix
-    while speed and gyro drop out has two channels, as speed + gyro has)."""
+    while speed and gyro drop out has two channels, as speed + gyro has); ``H``: the step's measurement
+    Jacobian when the caller has it (:func:`measurement_jacobian`)."""
     kinds = channel_kinds(setup, int(y.size))
     if kinds is None or (used is not None and tuple(used) != kinds):
         return None
-    H = measurement_jacobian(setup, x, u, kinds)
+    if H is None:
+        H = measurement_jacobian(setup, x, u, kinds)
     m = len(kinds)
     e, W, A = np.empty(m), np.empty((m, 5)), np.empty((5, 5))
     ok = _linearise(np.asarray(P, float), np.asarray(y, float), np.asarray(S, float), H,

@@ -265,7 +265,7 @@ class ChangeRule:
             raise ValueError(f"decision rule {self.name!r} needs its change detectors (built by the decision factory)")
         if step.z is None or step.omega is None:
             raise ValueError(f"decision rule {self.name!r} needs the step's measurement and wheel rates")
-        det.step(step.t, step.omega, step.z)
+        det.step(step.t, step.omega, step.z, np.asarray(step.out.x, float)[3:5])
         if self._settle_until is None:
             if (det.cusum_stat if self.name == "cusum" else det.glr_stat) >= self.threshold:
                 self._alarm_time = step.t

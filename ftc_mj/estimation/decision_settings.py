@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import Field
 
 from ..fields import Flag, Fraction, NonNegFloat, Options, PosFloat, StrictModel, component, options_of
@@ -45,6 +47,17 @@ class DecisionSettings(StrictModel):
     re-anchor the residual generator and add no wheel: on the physical plant a puncture is followed by a
     transient the constant-radius model cannot explain (the tyre settling, wheel slip, the controller's
     reaction), which the detectors would otherwise read as further changes."""
+    null_model: Literal["physical", "ideal"] = "physical"
+    """``cusum``/``glr`` (and their logged statistics): what the change detectors take a healthy robot to be —
+    a method's choice about the robot it is built for, never read from the simulator that runs.
+    ``physical``: the physical robot's null model (:mod:`ftc_mj.estimation.null_model`): the residual
+    generator one filter step behind the estimator (the body follows the wheels within a step), and tyre slip
+    near the grip limit as effective-radius noise, σ a fraction of the nominal radius that grows with the
+    demanded lateral acceleration (in g), a speed or yaw-rate channel unused where that noise exceeds twice
+    its sensor's σ; the thresholds keep their design ARL0 on the MuJoCo robot (docs/fdi.md, "Calibration on
+    the physical plant"). ``ideal``: the no-slip kinematic model alone, exact for a robot that is that model
+    (the kinematic plant), where the physical null model only costs a step of delay and sensitivity at
+    high lateral acceleration."""
     isolation_llr: PosFloat = 4.6
     """``cusum``/``glr``: a wheel is isolated when its hypothesis leads the runner-up by this log-likelihood
     ratio (nats; 4.6 ≈ 99:1 odds); otherwise the declared wheel is ``'unknown'``."""

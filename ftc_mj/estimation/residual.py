@@ -26,14 +26,25 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections import deque
 
 import numpy as np
 
 from ..model.kinematics import numpy_step_jacobian
-from .base import Measurement
-from .change import HYPOTHESES, InnovationCUSUM, JumpGLR, isolate, linearise_step
+from .base import FilterOutput, Measurement
+from .change import (
+    HYPOTHESES,
+    InnovationCUSUM,
+    JumpGLR,
+    Linearisation,
+    channel_kinds,
+    isolate,
+    linearise_step,
+    measurement_jacobian,
+)
 from .ekf import EKF
 from .measurements import channels
+from .null_model import HOLD_S, RADIUS_GAP, NullModel
 from .setup import FilterSetup
 
 _EYE5 = np.eye(5)
@@ -72,11 +83,20 @@ class ChangeDetectors:
     declaration.
     """
 
-    def __init__(self, setup: FilterSetup, shift: float, isolation_llr: float, glr_window: int) -> None:
+    def __init__(self, setup: FilterSetup, shift: float, isolation_llr: float, glr_window: int,
+                 physical: bool = False) -> None:
         """``setup``: the estimator's parameters; ``shift``: CUSUM design shift (σ); ``isolation_llr``:
-        the lead (nats) a hypothesis needs to be isolated; ``glr_window``: onsets considered (steps)."""
+        the lead (nats) a hypothesis needs to be isolated; ``glr_window``: onsets considered (steps);
+        ``physical``: whiten under the physical robot's null model (:mod:`.null_model`: the one-step lag
+        removed, tyre slip near the grip limit as effective-radius noise), else under the kinematic
+        model alone (exact on the kinematic plant, where the null model changes nothing but the lag)."""
         self.residual = ResidualGenerator(setup)
         self.setup = self.residual.setup
+        self.null_model = (NullModel(self.setup.nominal_radius, self.setup.model.b, self.setup.dt) if physical
+                           else None)
+        self._u_prev: np.ndarray | None = None
+        self._z_prev: Measurement | None = None
+        self._demands: deque[float] = deque(maxlen=max(1, int(round(HOLD_S / self.setup.dt))))
         self.isolation_llr = isolation_llr
         self._window = glr_window
         self.cusum = InnovationCUSUM(shift)
@@ -93,15 +113,19 @@ class ChangeDetectors:
         """Half the GLR window (s): how long a declared change is watched before its size is booked."""
         return 0.5 * self._window * self.setup.dt
 
-    def step(self, t: float, u: np.ndarray, z: Measurement) -> None:
+    def step(self, t: float, u: np.ndarray, z: Measurement, radii: np.ndarray | None = None) -> None:
         """Advance the generator with wheel rates ``u`` (rad/s) and the measurement ``z`` of time ``t`` (s);
-        the detectors advance on steps with a usable innovation and hold otherwise."""
+        the detectors advance on steps with a usable innovation and hold otherwise. ``radii``: the
+        estimator's radius estimates ``[R_R, R_L]`` (m) the null model reads the demand at (``None``: the
+        generator's own radii, :meth:`_physical`)."""
         u = np.asarray(u, float)
+        q = 0.0
+        if self.null_model is not None:
+            t, z, q = self._physical(t, u, z, radii)
         out = self.residual.step(u, z)
         x = np.asarray(out.x, float)
-        lin = None if out.rejected else linearise_step(self.setup, x, np.asarray(out.P, float),
-                                                        np.asarray(out.innovation, float), np.asarray(out.S, float), u,
-                                                        channels(self.setup, z)[2])
+        lin = None if out.rejected else self._linearise(x, out, u, channels(self.setup, z)[2], q)
+        self._u_prev = u
         if lin is not None:
             self.white = lin.e
             e = lin.e[None, :]
@@ -122,6 +146,49 @@ class ChangeDetectors:
                 self.glr_drop = self.glr_onset = math.nan
         self._x_prev = x
 
+    def _physical(self, t: float, u: np.ndarray, z: Measurement, radii: np.ndarray | None
+                  ) -> tuple[float, Measurement, float]:
+        """Under the physical null model (:mod:`.null_model`): the time (s) and measurement the generator
+        takes with the rates ``u`` (rad/s) — the previous step's, measured when ``u`` was; nothing at the
+        first step —, a channel dropped where its slip noise dominates
+        (:meth:`.null_model.NullModel.drops`), and the demanded lateral acceleration (g) held over
+        :data:`~.null_model.HOLD_S`: at the generator's radii, or the lower of that and the demand at the
+        estimator's ``radii`` (m, when given) where they depart from the generator's by more than
+        :data:`~.null_model.RADIUS_GAP` of the nominal radius. The generator's radii stay at their last re-anchoring, so
+        after a puncture re-anchored on a tyre still settling the controller's compensating rates read at
+        them as a demand of several g, the yaw channel is dropped, the detectors hold and nothing re-anchors
+        them — a blind state that lasted until a second puncture was 2 s old (scenario 3 with the gyro, dev
+        seeds 0–2: 2.06 s; with the lower demand 0.77 s, as with the kinematic null model); the estimator
+        follows the radii but overshoots in the first tenths of a second of a change, when the generator's
+        radii still hold the demand down, and reads a slip as a radius change — hence the gap."""
+        nm = self.null_model
+        assert nm is not None
+        own = np.asarray(self.residual.x, float)[3:5]
+        q_now = nm.demand(u, own)
+        if radii is not None and np.max(np.abs(np.asarray(radii, float) - own)) > RADIUS_GAP * nm.R0:
+            q_now = min(q_now, nm.demand(u, np.asarray(radii, float)))
+        self._demands.append(q_now)
+        q = max(self._demands)
+        z_then, self._z_prev = self._z_prev, z
+        if z_then is None:
+            return t - self.setup.dt, Measurement(speed=None), q
+        st = self.setup
+        speed = None if nm.drops(q, u, st.speed_sigma, "speed") else z_then.speed
+        yaw = None if nm.drops(q, u, st.yaw_rate_sigma, "yaw") else z_then.yaw_rate
+        return t - st.dt, dataclasses.replace(z_then, speed=speed, yaw_rate=yaw), q
+
+    def _linearise(self, x: np.ndarray, out: FilterOutput, u: np.ndarray, used: tuple[int, ...], q: float
+                   ) -> Linearisation | None:
+        """The detectors' view of the generator's step (:func:`.change.linearise_step`), its innovation
+        covariance first widened by the :attr:`null_model`'s slip noise at the demanded acceleration ``q`` (g)."""
+        y, S = np.asarray(out.innovation, float), np.asarray(out.S, float)
+        kinds = channel_kinds(self.setup, int(y.size))
+        if self.null_model is None or kinds is None or tuple(used) != kinds:
+            return linearise_step(self.setup, x, np.asarray(out.P, float), y, S, u, used)
+        H = measurement_jacobian(self.setup, x, u, kinds)
+        S = self.null_model.covariance(S, H, q)
+        return linearise_step(self.setup, x, np.asarray(out.P, float), y, S, u, used, H)
+
     def wheel(self, kind: str) -> str | None:
         """The ``cusum`` or ``glr`` statistic's isolation: the hypothesis leading the runner-up by
         ``isolation_llr``, ``'unknown'`` when none does (with speed alone on a steady circle the
@@ -137,6 +204,11 @@ class ChangeDetectors:
             phi, c = self.glr.jump()
             nu = self.glr.estimate()[1]
             self.residual.correct(nu * phi, phi / math.sqrt(c))
+        self.restart()
+
+    def restart(self) -> None:
+        """Restart both detectors from zero, the residual generator untouched (a fresh start of their run
+        lengths)."""
         self.cusum = InnovationCUSUM(self.cusum.shift)
         self.glr = JumpGLR(self._window)
         self.cusum_per_hypothesis = np.zeros(len(HYPOTHESES))

@@ -112,9 +112,11 @@ def mode_score(out: FilterOutput, R0: float, min_drop: float) -> tuple[str, floa
 class RuleStatistics:
     """Stateful per-step statistics of all rules for one run (see the module docstring)."""
 
-    def __init__(self, setup: FilterSetup, settings: DecisionSettings, rate: float, glr_window: int) -> None:
+    def __init__(self, setup: FilterSetup, settings: DecisionSettings, rate: float, glr_window: int,
+                 physical: bool = False) -> None:
         """``setup``: the filter whose outputs are fed; ``settings``: the ``[estimator.decision]`` section;
-        ``rate``: the filter rate (Hz); ``glr_window``: the GLR window (steps)."""
+        ``rate``: the filter rate (Hz); ``glr_window``: the GLR window (steps); ``physical``: the change
+        detectors whiten under the physical robot's null model (:class:`.residual.ChangeDetectors`)."""
         d = settings
         self.setup = setup
         self.dt = self.setup.dt
@@ -123,7 +125,7 @@ class RuleStatistics:
         n_dwell = int(round(d.dwell * rate)) + 1
         self._sigma_win = SlidingMin(n_dwell)
         self._mode_win = SlidingMin(n_dwell)
-        self.detectors = ChangeDetectors(setup, d.cusum_shift, d.isolation_llr, glr_window)
+        self.detectors = ChangeDetectors(setup, d.cusum_shift, d.isolation_llr, glr_window, physical)
 
     def update(self, t: float, out: FilterOutput, u: np.ndarray, dirs: RadiusDirections,
                z: Measurement | None = None) -> dict[str, float]:
@@ -138,7 +140,7 @@ class RuleStatistics:
         s["sigma_wheel"] = float(code)
         if out.mode_probs is not None:
             self._mode(out, s)
-        self._change(t, u, z, s)
+        self._change(t, u, z, s, np.asarray(out.x, float)[3:5])
         return s
 
     def _mode(self, out: FilterOutput, s: dict[str, float]) -> None:
@@ -149,11 +151,13 @@ class RuleStatistics:
         s["mode_stat"] = self._mode_win.push(p if ok else 0.0)
         s["mode_wheel"] = float(WHEEL_CODES[best] if ok else 0)
 
-    def _change(self, t: float, u: np.ndarray, z: Measurement | None, s: dict[str, float]) -> None:
-        """CUSUM and GLR of the residual generator (advanced when a measurement is given)."""
+    def _change(self, t: float, u: np.ndarray, z: Measurement | None, s: dict[str, float],
+                radii: np.ndarray) -> None:
+        """CUSUM and GLR of the residual generator (advanced when a measurement is given; the null model's
+        demand read at the estimator's ``radii``, m)."""
         det = self.detectors
         if z is not None:
-            det.step(t, u, z)
+            det.step(t, u, z, radii)
         if det.white is not None:
             s["white_innovation_1"] = float(det.white[0])
             if det.white.size > 1 and self.setup.yaw_rate_sigma is not None:

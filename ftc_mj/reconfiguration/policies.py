@@ -21,7 +21,8 @@ Built-in policies:
     conditioned on the other radius being nominal); radii are clamped to [``min_radius``, nominal] and rate-limited to
     ``max_rate`` — and an isolated wheel's radius *grows* by at most ``max_growth_rate``: a punctured
     tyre does not re-inflate, and an estimate that climbs back quickly is the filter leaving the
-    kinematic model's domain (a lifted wheel; the measured case is in docs/findings.md). A declared
+    kinematic model's domain (a lifted wheel; the measured case is in docs/findings.md); a *fall* within
+    ``noise_band`` σ of the estimate is followed at that rate too (no ratchet on a noisy estimate). A declared
     but unidentified fault *holds* the radii in use. Filter trouble *reverts* to the radii handed over
     (as rate-limited, i.e. as the controller used them) at least ``trust_lag`` before it (or
     nominal); a withdrawn decision reverts to nominal.
@@ -83,6 +84,15 @@ class ReconfigurationSettings(StrictModel):
     from a transient undershoot (0.2 m in 4 s). Reverts (filter trouble, withdrawn decision) are not
     limited by it. Chosen by the rule of the built-in study ``tune_growth`` on the development seeds
     0–9 (docs/studies.md)."""
+    noise_band: NonNegFloat = 4.0
+    """Half-width, in standard deviations of the filter's estimate of an isolated wheel's radius (conditioned as
+    handed over), of the band in which a *fall* of the estimate below the radius in use is taken as the
+    estimate's noise and follows at ``max_growth_rate`` only, like a rise: only a fall beyond it is handed over
+    at ``max_rate``. Without it the asymmetric limits are a ratchet on a noisy estimate — every dip is taken at
+    once, every recovery at 0.05 m/s — and the radius in use settles below the estimate's mean: 3–4 % below a
+    50 % tyre with the speed sensor and 10 Hz pose fixes but no gyro (dev seeds 0–1, docs/findings.md), which
+    the path-following NMPC's traction bound turns into a 4–5 m excursion. At 2 σ the estimate's dips (nearly
+    white at the 10 Hz fixes) still crossed the band every few seconds; 4 σ is beyond them. 0 = the ratchet."""
     condition_on_healthy: Literal["auto"] | Flag = "auto"
     """With one wheel isolated, hand over the filter's estimate of its radius *conditioned on the other wheel's
     radius being nominal* (``R_iso + P_io / P_oo (R_nom − R_other)``, the Gaussian posterior given what the
@@ -210,6 +220,7 @@ class SafePolicy(ReconfigurationPolicy):
         self.condition_on_healthy = rc.condition_on_healthy is True
         self.max_step = rc.max_rate / context.controller_rate
         self.max_grow = min(rc.max_growth_rate, rc.max_rate) / context.controller_rate
+        self.noise_band = rc.noise_band
         self._nis: deque[float] = deque(maxlen=max(1, round(rc.nis_window * context.estimator_rate)))
         self._nis_sum = 0.0
         self.spike_nis_ratio = rc.spike_nis_ratio
@@ -279,14 +290,19 @@ class SafePolicy(ReconfigurationPolicy):
                 why, tag = f"surprising innovation (NIS/dim {recent_nis:.1f})", "spike"
             self._enter(ReconfigState.HOLD, tag, t, "warn", f"reconfiguration hold: {why}")
             return self._move(self._current)
+        sd = sig.copy()  # the σ (m) of each radius as handed over
         if self.condition_on_healthy and iso.count(True) == 1:
-            est = self._conditioned(est, out.P, iso.index(True))
+            i = iso.index(True)
+            est, sd[i] = self._conditioned(est, out.P, i), self._conditioned_std(out.P, i)
         target = np.where(iso, np.clip(est, self.min_radius, self.nominal), self.nominal)
         self._enter(ReconfigState.HANDED, str(decision.wheel), t, "info",
                     f"reconfiguration hand-over ({decision.wheel}): R_R {target[0]:.2f} m, R_L {target[1]:.2f} m")
-        # an isolated wheel's radius grows no faster than max_growth_rate (a puncture does not re-inflate);
-        # a wheel the decision no longer isolates returns to nominal at the full rate
-        in_use = self._move(target, np.where(iso, self.max_grow, self.max_step))
+        # an isolated wheel's radius grows no faster than max_growth_rate (a puncture does not re-inflate), and
+        # falls no faster either while the fall lies within the estimate's noise band (no ratchet); a wheel the
+        # decision no longer isolates returns to nominal at the full rate
+        noise = np.asarray(iso) & (target >= self._current - self.noise_band * sd)
+        in_use = self._move(target, np.where(iso, self.max_grow, self.max_step),
+                            np.where(noise, self.max_grow, self.max_step))
         # what is trusted is what the controller was given, not the target the rate limits held back:
         # a revert must not jump to an estimate the growth limit refused
         self._trusted.append((t, in_use.copy()))
@@ -304,17 +320,29 @@ class SafePolicy(ReconfigurationPolicy):
         out[i] = est[i] + p_io / p_oo * (self.nominal[o] - est[o])
         return out
 
+    @staticmethod
+    def _conditioned_std(P: np.ndarray, i: int) -> float:
+        """Standard deviation (m) of radius ``i`` given the other radius (:meth:`_conditioned`):
+        ``√(P_ii − P_io² / P_oo)``; the marginal one if the covariance is not usable."""
+        o = 1 - i
+        p_ii, p_oo, p_io = float(P[3 + i, 3 + i]), float(P[3 + o, 3 + o]), float(P[3 + i, 3 + o])
+        if not (np.isfinite(p_oo) and np.isfinite(p_io) and p_oo > 0.0):
+            return float(np.sqrt(max(p_ii, 0.0)))
+        return float(np.sqrt(max(p_ii - p_io * p_io / p_oo, 0.0)))
+
     def _enter(self, state: ReconfigState, why: str, t: float, level: str, text: str) -> None:
         """Switch to ``state`` for reason ``why``; an event when either changes."""
         if (state, why) != (self.state, self._why):
             self.state, self._why = state, why
             self.events.append(Event(t, level, text))
 
-    def _move(self, target: np.ndarray, max_grow: float | np.ndarray | None = None) -> np.ndarray:
-        """Step the radii in use towards ``target`` by at most ``max_step`` down and ``max_grow`` (per wheel;
-        default ``max_step``) up."""
+    def _move(self, target: np.ndarray, max_grow: float | np.ndarray | None = None,
+              max_fall: float | np.ndarray | None = None) -> np.ndarray:
+        """Step the radii in use towards ``target`` by at most ``max_fall`` down and ``max_grow`` up (m per
+        sample, per wheel; each default ``max_step``)."""
         up = self.max_step if max_grow is None else max_grow
-        self._current = self._current + np.clip(target - self._current, -self.max_step, up)
+        down = self.max_step if max_fall is None else max_fall
+        self._current = self._current + np.clip(target - self._current, -down, up)
         return self._current.copy()
 
     def _last_trusted(self, t: float) -> np.ndarray:

@@ -120,15 +120,24 @@ def build_decision_rule(cfg: RunConfig, setup: FilterSetup | None = None) -> Dec
     return decision_rules.create(d.rule, d, run_context(cfg), *extra, run_config=cfg)
 
 
+def physical_null_model(cfg: RunConfig) -> bool:
+    """The run's change detectors whiten under the physical robot's null model
+    (:mod:`~ftc_mj.estimation.null_model`): the method's declared ``estimator.decision.null_model``, never the
+    plant that runs (a method does not know which simulator it is on)."""
+    return cfg.estimator.decision.null_model == "physical"
+
+
 def build_change_detectors(cfg: RunConfig, setup: FilterSetup | None = None) -> ChangeDetectors:
     """The run's residual generator with its CUSUM and GLR (:mod:`~ftc_mj.estimation.residual`)."""
     d = cfg.estimator.decision
-    return ChangeDetectors(_setup(cfg, setup), d.cusum_shift, d.isolation_llr, glr_window_of(cfg))
+    return ChangeDetectors(_setup(cfg, setup), d.cusum_shift, d.isolation_llr, glr_window_of(cfg),
+                           physical_null_model(cfg))
 
 
 def build_rule_statistics(cfg: RunConfig, setup: FilterSetup | None = None) -> RuleStatistics:
     """Every rule's per-step statistics for the run's filter."""
-    return RuleStatistics(_setup(cfg, setup), cfg.estimator.decision, cfg.estimator.rate, glr_window_of(cfg))
+    return RuleStatistics(_setup(cfg, setup), cfg.estimator.decision, cfg.estimator.rate, glr_window_of(cfg),
+                          physical_null_model(cfg))
 
 
 def build_fault_decision(cfg: RunConfig, rule: DecisionRule | None = None, *,

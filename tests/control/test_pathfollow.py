@@ -406,3 +406,46 @@ def test_a_retargeted_controller_plans_as_a_fresh_one(other: str) -> None:
         assert np.array_equal(a.omega, b.omega) and np.array_equal(a.predicted, b.predicted)
         u = a.omega
         assert a.telemetry["pf_speed_desired"] == path.speed and a.telemetry["pf_lateral_bound"] == 2.5
+
+
+@pytest.mark.parametrize(("sensors", "weight"), [
+    ({}, 1.0),  # the paper's speed sensor: the true pose to the controller
+    ({"sensors.position_sigma": 0.05, "sensors.pose_source": "sensor"}, 5.0),  # heading from fixes, no gyro
+    ({"sensors.position_sigma": 0.05, "sensors.pose_source": "sensor", "sensors.yaw_rate_sigma": 0.01}, 1.0),
+    ({"sensors.position_sigma": 0.05}, 1.0),  # fixes to the filter, the true pose to the controller
+    ({"sensors.position_sigma": 0.05, "sensors.pose_source": "sensor",
+      "controller.path_following.fix_heading_rate_penalty": None}, 1.0),
+])
+def test_the_actuation_rate_weight_follows_where_the_heading_comes_from(sensors: dict, weight: float) -> None:
+    """The plan's actuation-rate weight is ``fix_heading_rate_penalty`` exactly when the controller's heading is
+    the filter's estimate from pose fixes with no gyro between them — a property of the robot's sensor set."""
+    from ftc_mj.config import run_context
+    from ftc_mj.control.pathfollow import path_following_spec
+
+    cfg = load_config("scenario2", {"controller.kind": "pf-nmpc", "controller.path_following.max_lateral_accel": 3.0,
+                                    **sensors})
+    assert path_following_spec(cfg.controller, run_context(cfg), 10.0).problem.rate_penalty == weight
+
+
+def test_a_controller_retargeted_to_another_actuation_rate_weight_plans_as_a_fresh_one() -> None:
+    """A draw whose sensors change the actuation-rate weight (a cached controller moving between draws with and
+    without a gyro) keeps its solvers — the weight is a parameter of the NLP and a number of the QP — and plans
+    bit for bit as a controller built for it."""
+    spec = pf_spec(problem(rate_penalty=5.0, max_lateral_accel=3.0, max_longitudinal_accel=3.0), desired_speed=10.0,
+                   braking_trade=0.75)
+    ctl = PathFollowingNMPC(_spec(), CIRCLE)
+    nlp = ctl._nlp
+    ctl.set_reference(CIRCLE, spec)
+    assert ctl._nlp is nlp
+    n = ctl.col.N  # the QP's wheel-rate-rate blocks carry the new weight: 5 x those of the weight-1 controller
+    unit = PathFollowingNMPC(_spec(), CIRCLE).qp.H0
+    for block in (slice(0, n), slice(n, 2 * n)):
+        np.testing.assert_allclose(ctl.qp.H0[block, block], 5.0 * unit[block, block], rtol=1e-12, atol=0.0)
+    fresh = PathFollowingNMPC(spec, CIRCLE)
+    for c in (ctl, fresh):
+        c.reset()
+    radii, pose, u = np.array([2.0, 1.9]), np.array([0.3, -0.4, 0.25]), None
+    for t in (0.0, 0.1, 0.2, 0.3, 0.4):  # the IPOPT seed, then the real-time iteration's QPs
+        a, b = ctl.solve(t, pose, radii, u), fresh.solve(t, pose, radii, u)
+        assert not a.fallback and np.array_equal(a.omega, b.omega)
+        u = a.omega

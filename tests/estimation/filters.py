@@ -40,7 +40,7 @@ def make_filter(kind: str, cfg: RunConfig, *, reference: bool = False, **imm: An
     return (NumpyIMM if reference else IMM)(setup, cfg.estimator, member, **imm)
 
 
-def decision_cfg(rule: str, gyro: float | None, **decision: float) -> RunConfig:
+def decision_cfg(rule: str, gyro: float | None, **decision: float | str) -> RunConfig:
     """A run config with the decision ``rule`` (statistics on), a gyro of σ ``gyro`` (rad/s; ``None``:
     speed only) and further ``[estimator.decision]`` settings."""
     return RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro},

@@ -30,8 +30,8 @@ def test_residual_generator_innovations_are_white_on_a_fault_free_truth() -> Non
     N(0, I) — variance 1 and no lag-1 correlation per channel (6000 samples: standard errors 0.018 and
     0.013; tolerances 0.08 and 0.06, > 4σ) — whatever the estimator, while the UKF's own gyro channel,
     whose random-walk radius model overstates S, has a whitened variance far below 1."""
-    cfg = decision_cfg("glr", 0.01)
-    det = build_change_detectors(cfg)
+    cfg = decision_cfg("glr", 0.01, null_model="ideal")
+    det = build_change_detectors(cfg)  # the ideal (kinematic) null model, exact on a kinematic truth
     ukf = make_filter("ukf", cfg)
     u_all, v, w = excited_data(6000, seed=3, yaw_sigma=0.01, fault=False)
     E, E_ukf = [], []

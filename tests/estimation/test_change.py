@@ -26,7 +26,8 @@ def _run(cfg: RunConfig, n: int = 500, seed: int = 1, after_first: int | None = 
          drops: dict[int, tuple[int, float]] | None = None) -> tuple[list, FaultDecision]:
     """UKF + decision on the kinematic model with constant wheel rates (a 50 m circle at 10 m/s) and a left
     drop of ``DROP`` before step ``ONSET`` (or ``drops``: step -> (state index 3 = right / 4 = left, drop
-    in m) applied before it); returns the decision states and the decision."""
+    in m) applied before it); returns the decision states and the decision. The truth is the kinematic
+    model, so the callers' detectors take it as their null model (``null_model = "ideal"``)."""
     drops = {ONSET: (4, DROP)} if drops is None else drops
     rng = np.random.default_rng(seed)
     m = KinematicModel(b=1.0, dt=0.01)
@@ -57,7 +58,7 @@ def test_glr_estimates_onset_size_and_wheel(gyro: float | None) -> None:
     collinear: the wheel stays unknown and only the drop's effect on the speed is identified — the leading
     hypothesis (whichever leads by round-off) must explain the left drop's ``0.8 ω_L / 2`` through its own
     ``|H f|``."""
-    states, dec = _run(decision_cfg("glr", gyro), after_first=0)  # stopped at the declaration
+    states, dec = _run(decision_cfg("glr", gyro, null_model="ideal"), after_first=0)  # stopped at the declaration
     g = np.array([s.statistics["glr_stat"] for s in states])
     alarm = int(np.argmax(g >= dec.threshold))
     assert ONSET <= alarm <= ONSET + 3
@@ -83,7 +84,7 @@ def test_glr_estimates_onset_size_and_wheel(gyro: float | None) -> None:
 def test_change_rule_alarms_at_the_first_crossing_of_its_logged_statistic(rule: str) -> None:
     """The live rule and the sweep agree: the rule's first alarm is the first step whose logged statistic
     reaches the calibrated threshold; it declares when that alarm has settled, and stays declared."""
-    states, dec = _run(decision_cfg(rule, 0.01))
+    states, dec = _run(decision_cfg(rule, 0.01, null_model="ideal"))
     g = np.array([s.statistics[f"{rule}_stat"] for s in states])
     alarm = int(np.argmax(g >= dec.threshold))
     assert dec.rule_impl.alarms[0][0] == pytest.approx(alarm * 0.01)
@@ -178,7 +179,7 @@ def test_a_position_fix_without_speed_and_gyro_is_not_read_as_speed_and_gyro() -
 def _wheels_after_drops(drops: dict[int, tuple[int, float]], n: int = 1000,
                         seed: int = 3) -> tuple[list, FaultDecision]:
     """The GLR rule's declared wheel at each step of :func:`_run` with the gyro (σ 0.01 rad/s)."""
-    states, dec = _run(decision_cfg("glr", 0.01), n=n, seed=seed, drops=drops)
+    states, dec = _run(decision_cfg("glr", 0.01, null_model="ideal"), n=n, seed=seed, drops=drops)
     return [s.wheel for s in states], dec
 
 

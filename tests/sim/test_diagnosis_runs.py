@@ -28,6 +28,18 @@ def test_a_servo_loss_is_diagnosed_in_a_mujoco_run_and_reaches_every_record() ->
     assert any("servo left loss" in line for line in diagnosis_lines(m))
 
 
+def test_a_servo_loss_under_the_path_following_nmpc_is_declared_by_the_load_test() -> None:
+    """The `pathfollow` method's loop (pf-nmpc, every mode accommodated): its smooth commands give the servo
+    regression nothing to identify from, the lag step at the same wheel rates gives the gain (docs/fdi.md)."""
+    overrides = {"duration": 13.0, "controller.kind": "pf-nmpc", "controller.rate_penalty": 1.0,
+                 "reconfiguration.policy": "safe", "reconfiguration.accommodation.mode": "all"}
+    m = ftc_mj.run(ftc_mj.load_config("actuator_loss", overrides), rrd=False).metrics
+    fault = m["diagnosis_faults"][0]
+    assert fault["declared"] == "servo/left/loss" and 0.0 < fault["isolation_delay"] < 2.0
+    assert abs(fault["size_error"]) <= 0.2 * 0.5  # within 20 % of the remaining gain (0.5); measured +0.006
+    assert m["diagnosis_false_declarations"] == 0
+
+
 def test_without_a_diagnoser_nothing_is_declared_nor_scored() -> None:
     run = ftc_mj.run(ftc_mj.load_config("scenario1", {"duration": 1.0, "diagnosis.kind": "none"}), rrd=False)
     assert "diagnoses" not in run.metrics

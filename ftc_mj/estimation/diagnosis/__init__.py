@@ -2,8 +2,8 @@
 
 :mod:`.base` holds what a diagnoser is handed and returns and the trace columns of its declarations and
 alarms; :mod:`.residual` the built-in structured-residual diagnoser, :mod:`.history` its running sums,
-:mod:`.shape` its bias/drift test, :mod:`.pose` its pose-sensor channel, :mod:`.settings` the
-``[diagnosis]`` section's models. The vocabulary and the
+:mod:`.shape` its bias/drift test, :mod:`.pose` its pose-sensor channel, :mod:`.servo` its servo load test,
+:mod:`.settings` the ``[diagnosis]`` section's models. The vocabulary and the
 :class:`~ftc_mj.model.diagnosis.Diagnosis` record are :mod:`ftc_mj.model.diagnosis`'s.
 """
 

@@ -51,7 +51,7 @@ class PoseStep:
     """The most likely displacement of the fixes in a window.
 
     Attributes:
-        stat: its GLR (log-likelihood ratio).
+        stat: its GLR, the kink left free (log-likelihood ratio).
         offset: the displacement ``(dx, dy)`` (m, world frame) fitted with the kink.
         sigma: σ of the displacement's length (m).
         onset: time (s) of the first displaced fix.
@@ -59,7 +59,6 @@ class PoseStep:
     """
 
     stat: float
-    """The GLR of the step with the kink left free (log-likelihood ratio)."""
     rms: float
     """The RMS residual (m) of the window without a step (the track's model error with the fix noise)."""
     offset: tuple[float, float]
@@ -145,31 +144,17 @@ def step_glr(h: History, a: int, b: int, geometry: tuple[float, float], sigma: t
     y_perp = y - Q @ (Q.T @ y)  # the base projected out (Frisch–Waugh–Lovell: the rest is fitted on residuals)
     yy = float(y_perp @ y_perp)
     rms = math.sqrt(yy / max(2 * n - B.shape[1], 1))
-    best: tuple[float, int, np.ndarray, np.ndarray] | None = None
-    alone: tuple[float, int, np.ndarray, np.ndarray] | None = None
-    for i0 in range(max(min_before, 1), n):
-        if h.fix_t[b] - h.fix_t[fixes[i0]] > recent + 1e-9:
-            continue
-        after = (np.arange(n) >= i0).astype(float)
-        K = (D - D[i0 - 1]) * after[:, None]  # a change of scale and rotation from the interval before i0
-        A = np.column_stack([np.concatenate((K[:, 0], K[:, 1])), np.concatenate((-K[:, 1], K[:, 0])),
-                             np.concatenate((after, zero)), np.concatenate((zero, after))])
-        A = A - Q @ (Q.T @ A)
-        G, g = A.T @ A + 1e-12 * np.eye(4), A.T @ y_perp
-        Ginv = np.linalg.pinv(G)
-        kink = float(g[:2] @ np.linalg.pinv(G[:2, :2]) @ g[:2])
-        stat = (float(g @ Ginv @ g) - kink) / (2.0 * sigma[0] ** 2)  # SSE without the step minus SSE with it
-        if best is None or stat > best[0]:
-            best = (stat, i0, (Ginv @ g)[2:], Ginv[2:, 2:] * sigma[0] ** 2)
-        Gs = np.linalg.pinv(G[2:, 2:])  # the step alone, the kink held at zero
-        fit = float(g[2:] @ Gs @ g[2:])
-        if alone is None or fit > alone[0]:
-            alone = (fit, i0, Gs @ g[2:], Gs * sigma[0] ** 2)
-    if best is None or alone is None:
+    cand = np.asarray([i0 for i0 in range(max(min_before, 1), n)
+                       if h.fix_t[b] - h.fix_t[fixes[i0]] <= recent + 1e-9], dtype=int)
+    if cand.size == 0:
         return None
-    stat, i0, d, cov = best
-    return PoseStep(stat, rms, (float(d[0]), float(d[1])), _length_sigma(d, cov), h.fix_t[fixes[i0]], fixes[i0],
-                    _displacement(h, fixes, *alone[1:]), heading_kink(h, fixes, *geometry, i0, sigma[1]))
+    stat, d, cov = step_statistics(D, cand, Q, y_perp)
+    j = int(np.argmax(stat))  # the first of equal maxima, as a running ``>`` keeps it
+    stat_j, i0 = float(stat[j]) / (2.0 * sigma[0] ** 2), int(cand[j])
+    k, d_alone, cov_alone = step_alone(n, cand, Q, y_perp)
+    alone = _displacement(h, fixes, k, d_alone, cov_alone * sigma[0] ** 2)
+    return PoseStep(stat_j, rms, (float(d[j][0]), float(d[j][1])), _length_sigma(d[j], cov[j] * sigma[0] ** 2),
+                    h.fix_t[fixes[i0]], fixes[i0], alone, heading_kink(h, fixes, *geometry, i0, sigma[1]))
 
 
 def _length_sigma(d: np.ndarray, cov: np.ndarray) -> float:
@@ -183,6 +168,42 @@ def _displacement(h: History, fixes: list[int], i0: int, d: np.ndarray, cov: np.
     axes = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     return Displacement((float(d[0]), float(d[1])), _length_sigma(d, cov), (float(axes[0]), float(axes[1])),
                         h.fix_t[fixes[i0]], fixes[i0])
+
+
+def step_alone(n: int, cand: np.ndarray, Q: np.ndarray, y_perp: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+    """The displacement of the fixes that best explains ``y_perp`` as a step alone (no kink) from one of the
+    candidate fixes ``cand`` of a window of ``n``, the base ``Q`` projected out (:func:`step_statistics`): that fix,
+    the step ``(dx, dy)`` (m) and its unscaled covariance (multiply by σ²)."""
+    after = (np.arange(n)[None, :] >= cand[:, None]).astype(float)  # (m, n)
+    zero = np.zeros_like(after)
+    A = np.stack([np.concatenate((after, zero), axis=1), np.concatenate((zero, after), axis=1)], axis=2)
+    A = A - Q @ (Q.T @ A)
+    G = np.linalg.pinv(np.swapaxes(A, 1, 2) @ A + 1e-12 * np.eye(2))
+    g = np.swapaxes(A, 1, 2) @ y_perp
+    k = int(np.argmax(np.einsum("mi,mij,mj->m", g, G, g)))
+    return int(cand[k]), G[k] @ g[k], G[k]
+
+
+def step_statistics(D: np.ndarray, cand: np.ndarray, Q: np.ndarray, y_perp: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each candidate fix ``i0`` of ``cand`` at once: the drop of the residual sum of squares (m²) that a
+    displacement from ``i0`` on explains beyond a change of scale and rotation there (a kink), its least-squares
+    displacement ``(dx, dy)`` (m) and its unscaled covariance (multiply by σ²), all with the orthonormal base
+    ``Q`` (the window's offset, scale and rotation) projected out of the regressors and of the residual
+    ``y_perp`` (``(2n,)``: x then y). ``D``: the dead-reckoned track (``(n, 2)``, m)."""
+    n = D.shape[0]
+    after = (np.arange(n)[None, :] >= cand[:, None]).astype(float)  # (m, n)
+    K = (D[None, :, :] - D[cand - 1][:, None, :]) * after[:, :, None]  # a change of scale and rotation from i0
+    zero = np.zeros_like(after)
+    A = np.stack([np.concatenate((K[..., 0], K[..., 1]), axis=1), np.concatenate((-K[..., 1], K[..., 0]), axis=1),
+                  np.concatenate((after, zero), axis=1), np.concatenate((zero, after), axis=1)], axis=2)
+    A = A - Q @ (Q.T @ A)
+    G = np.swapaxes(A, 1, 2) @ A + 1e-12 * np.eye(4)
+    g = np.swapaxes(A, 1, 2) @ y_perp
+    Ginv = np.linalg.pinv(G)
+    full = np.einsum("mi,mij,mj->m", g, Ginv, g)
+    kink = np.einsum("mi,mij,mj->m", g[:, :2], np.linalg.pinv(G[:, :2, :2]), g[:, :2])
+    return full - kink, np.einsum("mij,mj->mi", Ginv, g)[:, 2:], Ginv[:, 2:, 2:]
 
 
 def fix_interval(h: History, last: int = 20) -> float | None:

@@ -9,7 +9,9 @@ other fault moves:
 - ``tyre_R``/``tyre_L``: the arc each wheel's contact point rolled between two pose fixes
   (``s ± b Δψ``) over the angle its encoder turned (``R0 Δθ``) — its rolling ratio, a fraction of the
   nominal radius — after a candidate change against the window before it: a puncture only;
-- ``servo_R``/``servo_L``: the gain ``α`` of the wheel's response to its command (the regression
+- ``servo_R``/``servo_L``: a step of the wheel's lag behind its command at unchanged wheel rates, the other
+  wheel's lag unchanged (:mod:`.servo`: the same motion carries the same load, so the lag ratio is the gain
+  ratio); else the gain ``α`` of the wheel's response to its command (the regression
   ``Δω_k = α (ω_cmd − ω)_{k−1} − β``) after a candidate change over the gain before it: a servo loss or an
   unresponsive servo only (a puncture raises it);
 - ``lock_R``/``lock_L``: the wheel turns at under ``lock_ratio`` of its command;
@@ -37,6 +39,7 @@ from ...model.diagnosis import Diagnosis
 from .base import CHANNELS, DiagnosisInput, DiagnosisStep
 from .history import History
 from .pose import PoseStep, fix_interval, step_glr
+from .servo import LagStep, LagSums, lag_step
 from .settings import ResidualDiagnoserSettings
 from .shape import ShapeFit, shape_fit
 
@@ -89,6 +92,8 @@ class ResidualDiagnoser:
         gyro = getattr(sensors, "yaw_rate_sigma", None)
         self.sigma_g = None if gyro is None else float(gyro)
         self.history = History(self.dt)
+        self.lags = LagSums()
+        self.load_steps: dict[str, tuple[float, LagStep | None]] = {"R": (-math.inf, None), "L": (-math.inf, None)}
         self.readings: dict[str, Reading] = {c: QUIET for c in CHANNELS}
         self.since: dict[str, float | None] = {c: None for c in CHANNELS}
         self.missing = {"speed": 0.0, "gyro": 0.0}
@@ -111,6 +116,7 @@ class ResidualDiagnoser:
             if h.fix_t and z.t < h.fix_t[-1] + 1.0 / self.settings.pose_rate - 1e-9:
                 pose = None  # not due yet at pose_rate
         h.push(z.t, np.asarray(z.omega, float), z.command, z.speed, z.yaw_rate, pose)
+        self.lags.push(z.omega, z.command)
         floor_p, floor_psi = self.R0 * self.settings.pose_floor, self.settings.pose_floor
         self.pose_sigma = (max(z.pose_sigma, floor_p), max(z.pose_sigma, floor_psi))
         self._dropouts(z)
@@ -202,6 +208,19 @@ class ResidualDiagnoser:
         return Reading(1.0 - turn / cmd, 1.0 - s.lock_ratio, 0.0, 0.0, h.t[-1] - s.lock_window)
 
     def _servo(self, side: str) -> Reading:
+        """The servo channel: the load test's lag step (:mod:`.servo`, evaluated every ``glr_period``) when its
+        GLR exceeds ``threshold`` and it says at least ``servo_min_loss`` of the gain was lost — the size its gain
+        ratio — else the regression's reading (:meth:`_servo_regression`)."""
+        s, h = self.settings, self.history
+        at, found = self.load_steps[side]
+        if h.t[-1] >= at + s.glr_period - 1e-9:
+            found = lag_step(s, self.lags, h.t, side, h.step_at)
+            self.load_steps[side] = (h.t[-1], found)
+        if found is not None and found.glr > s.threshold and 1.0 - found.ratio >= s.servo_min_loss:
+            return Reading(1.0 - found.ratio, s.servo_min_loss - 1e-9, found.ratio, found.sigma, found.onset)
+        return self._servo_regression(side)
+
+    def _servo_regression(self, side: str) -> Reading:
         """``1 − g_after / g_before``: the fraction of the servo's gain lost over the last ``servo_window`` (s)
         against the ``reference_window`` before it. The gain is the regression's α while the command excites
         the wheel (the variance of ``ω_cmd − ω`` in the reference window above ``servo_min_excitation``);

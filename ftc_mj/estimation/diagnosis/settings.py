@@ -74,6 +74,26 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     servo_min_excitation: ranged(0.0, 1.0e3) = 1.0e-5
     """Below this variance ((rad/s)²) of ``ω_cmd − ω`` in the reference window the command does not excite the
     servo's regression: its gain is read from the mean lag instead."""
+    servo_afters: Annotated[list[Seconds], Field(min_length=1, max_length=16)] = Field(
+        default_factory=lambda: [1.0, 1.5, 2.0, 3.0, 4.0])
+    """The load test's candidate change times (:mod:`.servo`): this long (s) before now, each against the
+    ``reference_window`` before it."""
+    servo_min_loss: ranged(0.0, 1.0, lo_open=True, hi_open=True) = 0.15
+    """The load test alarms on a lag step that says at least this fraction of the servo's gain was lost."""
+    servo_motion_tol: ranged(0.0, 1.0) = 0.01
+    """The load test compares two windows only when each wheel's mean rate moved by at most this fraction of
+    the mean wheel rate (the same motion carries the same load)."""
+    servo_min_lag: ranged(0.0, 1.0) = 0.002
+    """The load test needs the lag before the change to be at least this fraction of the mean wheel rate (a
+    wheel that carries no load says nothing of its servo's gain)."""
+    servo_other_fraction: ranged(0.0, 10.0) = 0.3
+    """The load test needs the other wheel's lag to have changed by at most this fraction of the tested one's
+    change (a servo loss moves its own wheel's lag; a load change moves both)."""
+    servo_correlation: ranged(0.0, 60.0, unit="s") = 0.5
+    """Correlation time (s) of the lag's fluctuation about its mean (the loop's corrections): a window of ``T``
+    seconds holds ``T / servo_correlation`` independent samples of it."""
+    servo_lag_floor: ranged(0.0, 1.0) = 0.05
+    """σ of the healthy lag's mean between two windows at one operating point, a fraction of the lag."""
     unresponsive_below: ranged(0.0, 1.0) = 0.1
     """A servo fault whose size (remaining fraction) is below this is declared ``unresponsive``."""
     unresponsive_lag: ranged(0.0, 10.0) = 0.15

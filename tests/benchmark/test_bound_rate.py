@@ -1,0 +1,65 @@
+"""Lorden's bound of the benchmark's score is taken at the decision rule's no-fault alarm rate measured on the
+MuJoCo plant (``ftc_mj/data/calibration/alarm_rates.json``, written by ``benchmarks/calibration.py``); the tyre
+detectors' first alarm is scored beside the first declaration; the null model is the method's setting."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ftc_mj.benchmark.score import bound_arl0, tyre_alarm_delay
+from ftc_mj.config import RunConfig
+from ftc_mj.metrics.alarm_rates import RULE_SETTINGS, _table, measured_arl0
+from ftc_mj.wiring.decision import build_change_detectors, physical_null_model
+
+
+def _cfg(gyro: float | None, **decision: object) -> RunConfig:
+    return RunConfig.model_validate({"sensors": {"yaw_rate_sigma": gyro}, "estimator": {"decision": decision}})
+
+
+def test_the_shipped_rates_cover_both_sensor_sets_and_the_rules() -> None:
+    """The data file holds the after-launch rates of cusum, glr and sigma with and without the gyro, measured
+    with the default decision settings, each over 40 runs watched from 5 s to their last row (29.99 s): 999.6 s."""
+    table = _table()["after_launch"]
+    defaults = RunConfig().estimator.decision
+    for sensors in ("speed", "speed+yaw"):
+        for rule in ("cusum", "glr", "sigma"):
+            row = table[sensors][rule]
+            assert row["exposure"] >= 999.0
+            assert row["settings"] == {k: float(getattr(defaults, k)) for k in RULE_SETTINGS}
+
+
+def test_bound_at_the_measured_rate_of_the_run_rule_and_sensors() -> None:
+    """``auto`` with the UKF is the sigma rule; cusum/glr are looked up by name; the gyro picks the sensor set;
+    settings other than those measured (another ARL0) fall back to the configured ``arl0``."""
+    settings = {k: float(getattr(RunConfig().estimator.decision, k)) for k in RULE_SETTINGS}
+    for gyro in (None, 0.01):
+        assert bound_arl0(_cfg(gyro)) == measured_arl0("sigma", gyro is not None, settings)
+        for rule in ("cusum", "glr"):
+            got = bound_arl0(_cfg(gyro, rule=rule))
+            assert got == measured_arl0(rule, gyro is not None, settings) and got > 0.0
+    assert bound_arl0(_cfg(0.01, rule="glr", arl0=500.0)) == 500.0
+    assert measured_arl0("mode", True, settings) is None
+
+
+def test_tyre_alarm_delay_is_the_first_tyre_alarm_from_the_onset() -> None:
+    """The first row from the first onset on with either tyre detector's alarm up; an alarm that fell before
+    the onset is not it; ``None`` without a fault, without the columns or without an alarm after the onset."""
+    t = np.arange(0.0, 10.0, 0.01)
+    R = np.where((t > 2.0) & (t < 2.5), 1.0, 0.0)  # an alarm before the onset, down again at it
+    L = np.where(t >= 5.47, 1.0, 0.0)
+    trace = {"t": t, "diag_alarm_tyre_R": R, "diag_alarm_tyre_L": L}
+    faults = [{"onset": 5.0}]
+    assert tyre_alarm_delay(trace, faults) == pytest.approx(0.47, abs=1e-9)
+    assert tyre_alarm_delay(trace, []) is None
+    assert tyre_alarm_delay({"t": t}, faults) is None
+    assert tyre_alarm_delay({**trace, "diag_alarm_tyre_L": np.zeros_like(t)}, faults) is None
+
+
+def test_null_model_is_the_method_setting_never_the_plant() -> None:
+    """The detectors' null model follows ``estimator.decision.null_model`` whatever ``plant.kind`` is."""
+    for plant in ("kinematic", "mujoco"):
+        for null, physical in (("physical", True), ("ideal", False)):
+            cfg = RunConfig.model_validate({"plant": {"kind": plant}, "estimator": {"decision": {"null_model": null}}})
+            assert physical_null_model(cfg) is physical
+            assert (build_change_detectors(cfg).null_model is not None) is physical

@@ -18,12 +18,20 @@ component          target                  modes
 evidence. Sizes are in the mode's unit: a *fraction of the nominal* quantity for tyres (remaining radius
 / nominal radius) and servos (remaining gain / nominal gain; 0 for a lock or an unresponsive servo), so
 a rescaled robot is diagnosed the same; the sensor's unit for a sensor offset (m/s, rad/s, m) or its
-growth rate (per s); the duration so far (s) for a dropout.
+growth rate (per s); the duration so far (s) for a dropout. A tyre's size lies in (0, 1] (a tyre neither
+vanishes nor grows past its nominal radius): the record rejects any other, so no accommodation or stop law reads
+a radius ≤ 0.
+
+Where the mode displaces a reading that has more than one axis — a pose sensor's ``bias`` or ``jump`` moves the
+fix's (x, y) — the record also carries that displacement as a vector, :attr:`Diagnosis.offset` (m, world frame),
+with its σ per axis: the correction an accommodation subtracts from later fixes. Its scalar ``size`` stays the
+fault library's (the displacement along the 45° diagonal), so a scorer compares it with the truth as before.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import math
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -42,6 +50,10 @@ COMPONENT_TARGETS: dict[str, tuple[str, ...]] = {
 }
 """The targets of each component (a wheel side or the sensor's reading)."""
 
+OFFSET_MODES: frozenset[tuple[str, str]] = frozenset({("pose sensor", "bias"), ("pose sensor", "jump")})
+"""The *(component, mode)* pairs whose record may carry :attr:`Diagnosis.offset`: a displacement of the pose
+fix's (x, y)."""
+
 
 @dataclass(frozen=True)
 class Diagnosis:
@@ -57,6 +69,9 @@ class Diagnosis:
         declared: declaration time (s).
         statistic: the test statistic that crossed its threshold (its own unit, e.g. a log-likelihood ratio).
         threshold: that threshold (same unit).
+        offset: the displacement ``(dx, dy)`` (m, world frame) of the sensor's readings now, for a mode of
+            :data:`OFFSET_MODES` (``(0, 0)`` for a jump seen to return); ``None`` without one.
+        offset_sigma: its σ per axis ``(σx, σy)`` (m); given with ``offset`` and only with it.
     """
 
     component: str
@@ -68,6 +83,8 @@ class Diagnosis:
     declared: float
     statistic: float
     threshold: float
+    offset: tuple[float, float] | None = None
+    offset_sigma: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         modes = COMPONENT_MODES.get(self.component)
@@ -78,6 +95,25 @@ class Diagnosis:
         if self.target not in COMPONENT_TARGETS[self.component]:
             raise ValueError(f"diagnosis target {self.target!r}: not a target of {self.component} "
                              f"({', '.join(COMPONENT_TARGETS[self.component])})")
+        if self.component == "tyre" and not 0.0 < self.size <= 1.0:
+            raise ValueError(f"diagnosis of the {self.target} tyre: size {self.size!r} outside (0, 1] (a fraction of "
+                             "the nominal radius)")
+        self._check_offset()
+
+    def _check_offset(self) -> None:
+        """``offset`` and ``offset_sigma``: both or neither, two finite numbers each (σ ≥ 0), only for a mode of
+        :data:`OFFSET_MODES`; stored as tuples of floats (a JSON list round-trips)."""
+        if self.offset is None and self.offset_sigma is None:
+            return
+        if (self.component, self.mode) not in OFFSET_MODES:
+            raise ValueError(f"diagnosis {self.component} {self.mode}: no offset vector for this mode")
+        if self.offset is None or self.offset_sigma is None:
+            raise ValueError("diagnosis offset: give the offset and its sigma together")
+        offset, sigma = _pair(self.offset, "offset"), _pair(self.offset_sigma, "offset_sigma")
+        if min(sigma) < 0.0:
+            raise ValueError(f"diagnosis offset_sigma {sigma}: negative")
+        object.__setattr__(self, "offset", offset)
+        object.__setattr__(self, "offset_sigma", sigma)
 
     @property
     def key(self) -> tuple[str, str, str]:
@@ -85,8 +121,26 @@ class Diagnosis:
         return self.component, self.target, self.mode
 
     def as_dict(self) -> dict[str, Any]:
-        """The record as a flat dict (events, the run summary, JSON)."""
-        return asdict(self)
+        """The record as a dict (events, the run summary, JSON); the offset and its σ as two-element lists or
+        ``None``."""
+        out = asdict(self)
+        for key in ("offset", "offset_sigma"):
+            out[key] = None if out[key] is None else list(out[key])
+        return out
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Diagnosis:
+        """The record of :meth:`as_dict`'s ``d`` (a summary's or a JSON file's; a record written before the
+        offset fields has none)."""
+        return cls(**{k: d[k] for k in cls.__dataclass_fields__ if k in d})
+
+
+def _pair(v: Sequence[float], name: str) -> tuple[float, float]:
+    """``v`` as two finite floats (a ``ValueError`` names ``name`` otherwise)."""
+    out = tuple(float(x) for x in v)
+    if len(out) != 2 or not all(math.isfinite(x) for x in out):
+        raise ValueError(f"diagnosis {name} {v!r}: not two finite numbers")
+    return out[0], out[1]
 
 
 def in_force(declared: Iterable[Diagnosis]) -> tuple[Diagnosis, ...]:

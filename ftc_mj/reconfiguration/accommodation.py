@@ -21,9 +21,15 @@ servo ``lock``,             safe stop: a wheel that cannot turn, or turns only w
                             one-wheel laws, :mod:`ftc_mj.control.stop`)
 sensor ``bias``, ``drift``  the reading corrected by the diagnosed offset (``size``, or ``size (t − onset)``)
                             before the filter sees it
-sensor ``dropout``;         the channel excluded from the filter (and a pose sensor's from the controller's
-pose ``bias``, ``jump``     pose, which then is the filter's estimate): a pose offset's scalar size says
-                            nothing of its direction, so it cannot be subtracted
+pose ``bias``, ``jump``     the fixes' position corrected by the diagnosed displacement
+                            (:attr:`~ftc_mj.model.diagnosis.Diagnosis.offset`, ``(dx, dy)`` m) before the
+                            filter sees them — the controller's pose is the filter's, so both see the same
+                            corrected fixes; the diagnoser re-declares the offset as it re-estimates it (a
+                            jump seen to return: offset ``(0, 0)``, the correction withdrawn). A record
+                            without an offset, or whose σ (larger axis) exceeds ``pose_correct_sigma`` of its
+                            length: excluded, as a dropout
+sensor ``dropout``          the channel excluded from the filter (and a pose sensor's from the controller's
+                            pose, which then is the filter's estimate)
 ==========================  =================================================================================
 
 *Safe stop* (:class:`~ftc_mj.control.stop.SafeStop`): entered at the first sample after a declaration that
@@ -81,6 +87,19 @@ class AccommodationSettings(StrictModel):
     """A tyre diagnosed with at most this fraction of its radius left stops the robot: its wheel carries at most
     this fraction of the nominal speed at the servo's rate limit (0.7 m/s on the shipped robot at 2 %). Scenario 4's
     tyre ends at 5 % (0.1 m), where the path-following NMPC still follows the path at 1.78 m/s: not a stop."""
+    pose_settle: ranged(0.0, 10.0) = 0.5
+    """A pose offset is subtracted only once its declaration has stood this long (s); until then the pose sensor
+    is excluded. Right after a displacement the diagnoser's window holds few displaced fixes and its first
+    estimates of a large step can be far off (re-declared within tenths of a second: dev draws 201, 263)."""
+    pose_max_declarations: int = Field(3, ge=1, le=100)
+    """A pose sensor whose displacement has been declared (bias or jump) more than this many times in the run is
+    taken as unidentifiable and excluded for the rest of it: a displacement and its return are two declarations,
+    a refined estimate a third; more means the diagnoser's estimate cannot be trusted."""
+    pose_correct_sigma: ranged(0.0, 10.0) = 0.5
+    """A declared pose offset is subtracted from later fixes when its σ (the larger axis) is at most this fraction
+    of its length — the corrected fixes then keep at most half the displacement's error (RMS) — else the pose
+    sensor is excluded. The built-in diagnoser declares a displacement at ≥ 3σ of the fix, with an offset σ a few
+    times smaller, so its offsets are corrected."""
     stop: SafeStopSettings = Field(default_factory=SafeStopSettings)
 
 
@@ -110,6 +129,9 @@ class Accommodation:
         self.stop_reason: str | None = None
         self.corrections: dict[str, Diagnosis] = {}
         self.excluded: frozenset[str] = frozenset()
+        self._pose_declared: set[float] = set()  # the declaration times (s) of the pose displacements seen
+        self._pose_action = "none"
+        self._pose_last: float | None = None
         self.tyres: dict[int, float] = {}
         """The declared tyre sizes (fraction of the nominal radius) per wheel (0 right, 1 left)."""
         self._stop_started = False
@@ -127,6 +149,7 @@ class Accommodation:
     def update(self, t: float, diagnoses: Sequence[Diagnosis]) -> bool:
         """Take the declarations in force at ``t`` (s); returns whether the actuator model changed (then hand it
         to the controller: :meth:`hand_actuator`)."""
+        self._pose_changes(t, diagnoses)
         eff = np.ones(2)
         corrections: dict[str, Diagnosis] = {}
         excluded: set[str] = set()
@@ -134,11 +157,11 @@ class Accommodation:
             if d.component == "servo":
                 eff[_SIDE[d.target]] *= d.size if d.mode == "loss" else 0.0
             elif d.component in _CHANNEL:
-                channel = _CHANNEL[d.component]
-                if d.mode in ("bias", "drift") and channel != "position":
-                    corrections[channel] = d
-                else:
-                    excluded.add(channel)
+                action = self._sensor_action(d, t)
+                if action == "correct":
+                    corrections[_CHANNEL[d.component]] = d
+                elif action == "exclude":
+                    excluded.add(_CHANNEL[d.component])
             if self.stop_reason is None:
                 self._check_stop(t, d)
         self.corrections, self.excluded = corrections, frozenset(excluded)
@@ -152,11 +175,40 @@ class Accommodation:
         self.effectiveness = np.clip(eff, 0.0, 1.0)
         declared = frozenset(d.key for d in diagnoses)
         if not self.stopping and declared != self._declared:
+            what = ", ".join(_describe(d, self._sensor_action(d, t)) for d in diagnoses) or "nothing declared"
             self._enter(AccommodationMode.ACCOMMODATED if diagnoses else AccommodationMode.NOMINAL, t,
-                        "accommodation: " + (", ".join(_describe(d) for d in diagnoses) if diagnoses
-                                             else "nothing declared"))
+                        "accommodation: " + what)
         self._declared = declared
         return changed
+
+    def _sensor_action(self, d: Diagnosis, t: float) -> Literal["correct", "exclude", "none"]:
+        """What a sensor declaration ``d`` does to its channel at ``t`` (s): a speed or gyro bias or drift is
+        corrected; a pose bias or jump with a non-zero offset known to ``pose_correct_sigma`` of its length is
+        corrected once declared ``pose_settle`` ago, excluded before; a pose offset of ``(0, 0)`` (a jump seen to
+        return) does nothing; a dropout, a pose offset unknown or too uncertain to subtract, or a pose sensor
+        declared displaced more than ``pose_max_declarations`` times excludes the channel."""
+        s = self.settings
+        if d.component != "pose sensor":
+            return "correct" if d.mode in ("bias", "drift") else "exclude"
+        if d.mode == "dropout" or d.offset is None or len(self._pose_declared) > s.pose_max_declarations:
+            return "exclude"
+        length = float(np.hypot(*d.offset))
+        if length == 0.0:
+            return "none"
+        if t + 1e-9 < d.declared + s.pose_settle:
+            return "exclude"
+        return "correct" if max(d.offset_sigma) <= s.pose_correct_sigma * length else "exclude"
+
+    def _pose_changes(self, t: float, diagnoses: Sequence[Diagnosis]) -> None:
+        """Count the pose displacements declared so far and log an event when what is done with the pose fixes
+        changes without a new declaration (a settled offset corrected from now on)."""
+        pose = [d for d in diagnoses if d.component == "pose sensor"]
+        self._pose_declared.update(d.declared for d in pose if d.mode != "dropout")
+        action = self._sensor_action(pose[0], t) if pose else "none"
+        same = bool(pose) and pose[0].declared == self._pose_last  # (a new declaration has its own events)
+        if action != self._pose_action and same and not self.stopping:
+            self.events.append(Event(t, "warn", "accommodation: " + _describe(pose[0], action)))
+        self._pose_action, self._pose_last = action, pose[0].declared if pose else None
 
     def radii(self, radii: np.ndarray, nominal: float) -> np.ndarray:
         """The radii [R_R, R_L] (m) for the controller: the policy's ``radii``, or with ``tyre = "diagnosis"`` the
@@ -209,13 +261,18 @@ class Accommodation:
         self.events.append(Event(t, level if state != AccommodationMode.NOMINAL else "info", text))
 
     def correct(self, t: float, z: Measurement) -> Measurement:
-        """The readings at ``t`` (s) with the diagnosed offsets removed and the excluded channels absent."""
+        """The readings at ``t`` (s) with the diagnosed offsets removed (a pose fix's position less the declared
+        displacement ``(dx, dy)``, m) and the excluded channels absent."""
         if not self.corrections and not self.excluded:
             return z
         values: dict[str, Any] = {}
         for channel, d in self.corrections.items():
             v = getattr(z, channel)
-            if v is not None:
+            if v is None:
+                continue
+            if channel == "position":  # the fix's (x, y) less the declared displacement; its heading untouched
+                values[channel] = np.asarray(v, dtype=float) - np.asarray(d.offset, dtype=float)
+            else:
                 values[channel] = v - (d.size if d.mode == "bias" else d.size * max(t - d.onset, 0.0))
         for channel in self.excluded:
             values[channel] = None
@@ -244,16 +301,19 @@ class Accommodation:
         return self.stop.solve(t, pose, radii, u_applied, self.free, rates, self.locked)
 
 
-def _describe(d: Diagnosis) -> str:
+def _describe(d: Diagnosis, sensor: str) -> str:
     """``left servo loss (30%): effectiveness to the actuator model``: one declaration in an event, with what is done
-    about it."""
+    about it (``sensor``: :meth:`Accommodation._sensor_action` for a sensor's)."""
     size = f"{d.size:.0%}" if d.component in ("tyre", "servo") else f"{d.size:.3g}"
     if d.component == "tyre":
         action = "radii by the policy"
     elif d.component == "servo":
         action = "effectiveness to the actuator model" if d.mode == "loss" else "safe stop"
-    elif d.mode in ("bias", "drift") and d.component != "pose sensor":
-        action = "reading corrected"
+    elif sensor == "correct":
+        action = ("reading corrected" if d.offset is None else
+                  f"fixes corrected by ({d.offset[0]:.3g}, {d.offset[1]:.3g}) m")
+    elif sensor == "none":
+        action = "returned: fixes taken as they come"
     else:
         action = "excluded from the filter" + (" and the controller's pose" if d.component == "pose sensor" else "")
     return f"{d.target} {d.component} {d.mode} ({size}): {action}"

@@ -10,7 +10,10 @@ Each fault is declared at its onset (``onset = declared``, σ 0, no test statist
 ``threshold`` are NaN) and stays declared while it acts; its size is the truth at the time asked, in the
 units of :mod:`ftc_mj.model.diagnosis`: a tyre's remaining radius over nominal (a ramp's current value), a
 servo's remaining effectiveness (0 for a lock or an unresponsive servo), a sensor's offset (bias), its growth
-rate (drift, per s) or the dropout's duration so far (s). A sensor fault that ends is withdrawn at its end.
+rate (drift, per s) or the dropout's duration so far (s); a pose bias or jump also carries its displacement
+``(dx, dy)`` (m, along the fault library's diagonal) as the record's offset, σ 0. A tyre's size is at most 1
+(a schedule above the nominal radius is no puncture; the record holds sizes in (0, 1]). A sensor fault that ends
+is withdrawn at its end.
 A plug-in fault class whose (component, target, mode) is not in the shared vocabulary is not declared.
 """
 
@@ -18,8 +21,9 @@ from __future__ import annotations
 
 import math
 
-from ..model.diagnosis import COMPONENT_MODES, COMPONENT_TARGETS, Diagnosis
+from ..model.diagnosis import COMPONENT_MODES, COMPONENT_TARGETS, OFFSET_MODES, Diagnosis
 from ..plant.faults import FaultClass, FaultSettings, faults_of, wheel_index, wheel_schedules
+from ..plant.faults.sensor import POSE_DIRECTION
 
 NAN = float("nan")
 
@@ -39,14 +43,18 @@ class TruthDiagnoses:
         for f in self.faults:
             if t + 1e-9 < f.onset or t + 1e-9 >= f.onset + _duration(f):
                 continue
-            out.append(Diagnosis(component=f.component, target=f.target, mode=f.mode, size=self.size(f, t),
-                                 sigma=0.0, onset=f.onset, declared=f.onset, statistic=NAN, threshold=NAN))
+            size = self.size(f, t)
+            vector = {}
+            if (f.component, f.mode) in OFFSET_MODES:
+                vector = {"offset": (size * POSE_DIRECTION[0], size * POSE_DIRECTION[1]), "offset_sigma": (0.0, 0.0)}
+            out.append(Diagnosis(component=f.component, target=f.target, mode=f.mode, size=size,
+                                 sigma=0.0, onset=f.onset, declared=f.onset, statistic=NAN, threshold=NAN, **vector))
         return tuple(out)
 
     def size(self, f: FaultClass, t: float) -> float:
         """The size of fault ``f`` at ``t`` (s) in the diagnosis's unit (module docstring)."""
         if f.component == "tyre":
-            return self.schedules[wheel_index(f.target)].value(t) / self.nominal
+            return min(self.schedules[wheel_index(f.target)].value(t) / self.nominal, 1.0)
         if f.component == "servo":
             return float(f.settings.effectiveness) if f.mode == "loss" else 0.0
         if f.mode == "dropout":

@@ -412,9 +412,11 @@ class ClosedLoop:
         step = self.parts.diagnoser.step(z)
         self.trace.diagnosis(k, step)
         for d in step.new:
+            vector = "" if d.offset is None else (f", offset ({d.offset[0]:.3g}, {d.offset[1]:.3g}) ± "
+                                                  f"({d.offset_sigma[0]:.2g}, {d.offset_sigma[1]:.2g}) m")
             self.events.append(Event(t, "warn", f"diagnosis: {d.component} {d.target} {d.mode}, size {d.size:.3g} "
-                                                f"± {d.sigma:.2g}, onset {d.onset:.2f} s (statistic {d.statistic:.3g}"
-                                                f" > threshold {d.threshold:.3g})"))
+                                                f"± {d.sigma:.2g}{vector}, onset {d.onset:.2f} s (statistic "
+                                                f"{d.statistic:.3g} > threshold {d.threshold:.3g})"))
         self.last_diagnosis = step
         return step
 

@@ -114,11 +114,17 @@ def onset_lines(metrics: dict[str, Any], sample_s: float | None = None) -> list[
     return lines
 
 
+def _offset(d: dict[str, Any]) -> str:
+    """``, offset (dx, dy) m`` of a declaration that has one (a pose bias or jump), else ``""``."""
+    offset = d.get("offset")
+    return "" if offset is None else f", offset ({offset[0]:.3g}, {offset[1]:.3g}) m"
+
+
 def diagnosis_lines(metrics: dict[str, Any]) -> list[str]:
-    """One line per declaration of the diagnoser (component, target, mode, size, onset, declaration time) and,
-    for every configured fault, whether it was isolated."""
+    """One line per declaration of the diagnoser (component, target, mode, size, its offset vector (m) where it
+    has one, onset, declaration time) and, for every configured fault, whether it was isolated."""
     lines = [f"diagnosis at t = {d['declared']:.2f} s: {d['component']} {d['target']} {d['mode']}, size "
-             f"{_fmt(d['size'])} (onset {d['onset']:.2f} s)" for d in metrics.get("diagnoses") or []]
+             f"{_fmt(d['size'])}{_offset(d)} (onset {d['onset']:.2f} s)" for d in metrics.get("diagnoses") or []]
     for e in metrics.get("diagnosis_faults") or []:
         verdict = (f"isolated after {e['isolation_delay']:.2f} s" if e["isolated"]
                    else f"not isolated (first declaration: {e['declared'] or 'none'})")

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..control.base import ControlOutput
 from ..estimation.base import FilterOutput
-from ..estimation.diagnosis.base import COMPONENT_CODES, MODE_CODES, TARGET_CODES
+from ..estimation.diagnosis.base import COMPONENT_CODES, MODE_CODES, OFFSET_COLUMNS, TARGET_CODES
 from ..plant import SensorReading, Truth
 from ..telemetry.columns import BASE_COLUMNS, COVARIANCE_COLUMNS, POSE_GATE_COLUMN, STATE, WHEEL_CODES
 
@@ -150,6 +150,9 @@ class TraceWriter:
             c["diag_mode"][k] = MODE_CODES[d.mode]
             for key in ("size", "sigma", "onset", "declared", "statistic", "threshold"):
                 c[f"diag_{key}"][k] = getattr(d, key)
+            vector = (*d.offset, *d.offset_sigma) if d.offset is not None else (np.nan,) * 4
+            for name, value in zip(OFFSET_COLUMNS, vector, strict=True):
+                c[name][k] = value
         else:
             c["diag_component"][k] = c["diag_target"][k] = c["diag_mode"][k] = 0.0
 

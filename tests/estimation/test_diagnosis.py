@@ -4,7 +4,9 @@ survives the trace."""
 
 from __future__ import annotations
 
+import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -19,6 +21,7 @@ from ftc_mj.estimation.diagnosis import (
 )
 from ftc_mj.model.diagnosis import Diagnosis
 from ftc_mj.model.sensors import SensorSettings
+from ftc_mj.sim.summary import diagnosis_lines
 from ftc_mj.sim.trace import TraceWriter
 
 DT, R0, B = 0.01, 2.0, 1.0
@@ -31,10 +34,12 @@ def context(gyro: float | None = 0.01, speed_sigma: float = 0.3) -> RunContext:
 
 
 def drive(fault: dict, duration: float = 20.0, gyro: float | None = 0.01, pose_sigma: float = 0.02,
-          seed: int = 3, **settings: float) -> list[Diagnosis]:
+          seed: int = 3, fixes: list | None = None, **settings: float) -> list[Diagnosis]:
     """A unicycle on a 50 m circle at 10 m/s with first-order wheel servos (gain α per step) under a steady
-    load, exact kinematics and Gaussian sensors; ``fault``: ``{"kind": ..., "t": onset, ...}``; returns the
-    declarations."""
+    load, exact kinematics and Gaussian sensors; ``fault``: ``{"kind": ..., "t": onset, ...}`` (a puncture with
+    ``"reverse"``: from that time the pose moves backwards while the wheels roll forwards, as a robot that has
+    lost the path and skids); returns the declarations, and appends ``(t, fix, true position)`` of each pose
+    fix handed over to ``fixes``."""
     rng = np.random.default_rng(seed)
     diag = ResidualDiagnoser(ResidualDiagnoserSettings(**settings), context(gyro))
     x = y = psi = 0.0
@@ -69,6 +74,8 @@ def drive(fault: dict, duration: float = 20.0, gyro: float | None = 0.01, pose_s
             yaw += fault["bias"]
         if on and kind == "dropout":
             speed = None
+        if on and kind == "puncture" and t >= fault.get("reverse", math.inf):
+            x, y = x - 2.0 * v * math.cos(psi) * DT, y - 2.0 * v * math.sin(psi) * DT
         pose = np.array([x, y, psi]) + pose_sigma * rng.standard_normal(3)
         if on and kind in ("pose_bias", "pose_jump") and t < fault["t"] + fault.get("duration", math.inf):
             pose[:2] += fault["size"] * math.sqrt(0.5)  # along the 45° diagonal, as the fault library displaces it
@@ -76,6 +83,8 @@ def drive(fault: dict, duration: float = 20.0, gyro: float | None = 0.01, pose_s
             pose = None
         diag.step(DiagnosisInput(t=t, omega=omega.copy(), command=cmd.copy(), speed=speed, yaw_rate=yaw,
                                  pose=pose, pose_sigma=pose_sigma))
+        if fixes is not None and pose is not None and diag.history.fix_t and diag.history.fix_t[-1] == t:
+            fixes.append((t, pose[:2].copy(), np.array([x, y])))
     return diag.declared
 
 
@@ -175,3 +184,65 @@ def test_missing_pose_fixes_are_a_pose_dropout_within_a_few_intervals() -> None:
     found = drive({"kind": "pose_dropout", "t": 10.0, "duration": 3.0}, **POSE)
     assert [d.key for d in found] == [("pose sensor", "pose", "dropout")]
     assert 10.0 <= found[0].declared <= 10.45  # three 0.1 s intervals after the last fix
+
+
+@pytest.mark.parametrize("seed", [3, 4, 5])
+def test_a_pose_bias_corrected_by_its_offset_leaves_fixes_of_zero_mean_error(seed: int) -> None:
+    """The record carries the displacement as a vector ``(dx, dy)`` with its σ per axis; the fixes after the
+    declaration less that offset scatter about the true position with zero mean: each axis's mean error over the
+    N fixes lies within 4σ of 0, σ² = σ_axis² + σ_fix² / N (the offset's error is common to every fix)."""
+    fixes: list = []
+    size = 0.4
+    found = drive({"kind": "pose_bias", "t": 10.0, "size": size}, seed=seed, fixes=fixes, **POSE)
+    (d,) = found
+    assert d.offset is not None and min(d.offset_sigma) > 0.0
+    truth = size * math.sqrt(0.5)
+    assert all(abs(o - truth) <= 4.0 * s for o, s in zip(d.offset, d.offset_sigma, strict=True))
+    after = [(fix, true) for t, fix, true in fixes if t > d.declared]
+    errors = np.asarray([fix - np.asarray(d.offset) - true for fix, true in after])
+    n = len(errors)
+    assert n > 50
+    tolerance = 4.0 * np.sqrt(np.asarray(d.offset_sigma) ** 2 + POSE["pose_sigma"] ** 2 / n)
+    assert np.all(np.abs(errors.mean(axis=0)) <= tolerance)
+
+
+def test_a_returned_jump_withdraws_the_offset() -> None:
+    """A jump seen to return is re-declared with the offset ``(0, 0)``: the fixes are taken as they come."""
+    found = drive({"kind": "pose_jump", "t": 10.0, "size": 2.0, "duration": 2.0}, **POSE)
+    bias, jump = found
+    assert bias.offset == pytest.approx((2.0 * math.sqrt(0.5),) * 2, abs=0.1)
+    assert jump.offset == (0.0, 0.0)
+
+
+def test_a_tyre_is_never_declared_outside_its_physical_size() -> None:
+    """A 50 % left puncture, then the robot skids backwards while its wheels roll forwards (a loop that has lost
+    the path): the rolling ratio leaves (0, 1]; no declaration reads it — the declared size stands."""
+    found = drive({"kind": "puncture", "t": 5.0, "wheel": 1, "fraction": 0.5, "reverse": 9.0}, duration=16.0)
+    tyres = [d for d in found if d.component == "tyre"]
+    assert tyres and all(0.0 < d.size <= 1.0 for d in tyres)
+    assert tyres[-1].size == pytest.approx(0.5, abs=0.1)
+
+
+def test_the_record_bounds_a_tyre_size_and_round_trips_its_offset() -> None:
+    """A tyre's size lies in (0, 1]; an offset comes with its σ, on a pose bias or jump only, and survives the
+    dict/JSON form and the trace."""
+    for size in (0.0, -0.2, 1.2, math.nan):
+        with pytest.raises(ValueError, match=r"outside \(0, 1\]"):
+            Diagnosis("tyre", "left", "puncture", size, 0.01, 1.0, 1.5, 20.0, 12.5)
+    with pytest.raises(ValueError, match="no offset vector"):
+        Diagnosis("speed sensor", "speed", "bias", 0.2, 0.01, 1.0, 1.5, 20.0, 12.5, (0.2, 0.0), (0.01, 0.01))
+    with pytest.raises(ValueError, match="together"):
+        Diagnosis("pose sensor", "pose", "bias", 0.2, 0.01, 1.0, 1.5, 20.0, 12.5, offset=(0.1, 0.1))
+    d = Diagnosis("pose sensor", "pose", "bias", -0.3, 0.02, 10.0, 10.4, 30.0, 20.0, (-0.2, -0.22), (0.015, 0.02))
+    assert Diagnosis.from_dict(json.loads(json.dumps(d.as_dict()))) == d
+    (line,) = diagnosis_lines({"diagnoses": [d.as_dict()]})
+    assert line.endswith("size -0.3, offset (-0.2, -0.22) m (onset 10.00 s)")
+    old = {k: v for k, v in d.as_dict().items() if not k.startswith("offset")}  # a record written before them
+    assert Diagnosis.from_dict(old).offset is None
+    w, step = TraceWriter(3), type("S", (), {"statistics": {}, "alarms": {}})()
+    tyre = Diagnosis("tyre", "left", "puncture", 0.5, 0.01, 1.0, 1.2, 20.0, 12.5)
+    unbounded = SimpleNamespace(**{**tyre.as_dict(), "size": -0.4, "declared": 12.0})  # as an older version wrote
+    for k, declared in enumerate(([tyre], [tyre, d], [tyre, d, unbounded])):
+        step.declared = declared
+        w.diagnosis(k, step)
+    assert diagnoses_from_trace(w.columns) == [tyre, d]  # the tyre below 0 of an older trace is left out

@@ -149,6 +149,59 @@ def test_sensor_offsets_are_removed_and_dropped_channels_excluded() -> None:
     assert acc.correct(3.1, Measurement(speed=10.5)).speed == pytest.approx(10.0)
 
 
+def _pose(mode: str, offset: tuple[float, float], sigma: tuple[float, float] = (0.01, 0.01)) -> Diagnosis:
+    return Diagnosis("pose sensor", "pose", mode, sum(offset) * 0.5**0.5, 0.01, 1.0, 1.4, 30.0, 20.0, offset, sigma)
+
+
+def test_a_pose_offset_is_subtracted_from_the_fixes_and_withdrawn_when_it_returns() -> None:
+    """A declared pose bias with its offset: the fix's (x, y) less the offset, its heading untouched, the channel
+    kept (the controller's pose stays the loop's); a jump seen to return (offset 0) leaves the fixes as they come;
+    an offset whose σ exceeds ``pose_correct_sigma`` of its length, or one without an offset, excludes them."""
+    acc = _accommodation()
+    acc.update(2.0, (_pose("bias", (0.3, 0.3)),))
+    z = acc.correct(2.0, Measurement(speed=10.0, position=np.array([1.0, 2.0]), heading=0.4))
+    assert np.allclose(z.position, [0.7, 1.7]) and z.heading == 0.4 and z.speed == 10.0
+    assert "position" not in acc.excluded
+    assert np.array_equal(acc.controller_pose(np.array([1.0, 2.0, 0.2]), None), [1.0, 2.0, 0.2])
+    assert acc.events[-1].text.endswith("fixes corrected by (0.3, 0.3) m")
+    acc.update(4.0, (_pose("jump", (0.0, 0.0)),))
+    assert np.array_equal(acc.correct(4.0, Measurement(speed=10.0, position=np.array([1.0, 2.0]))).position, [1.0, 2.0])
+    assert acc.events[-1].text.endswith("returned: fixes taken as they come")
+    acc.update(5.0, (_pose("bias", (0.3, 0.0), (0.2, 0.01)),))  # σ 0.2 m > 0.5 × 0.3 m
+    assert acc.correct(5.0, Measurement(speed=10.0, position=np.array([1.0, 2.0]))).position is None
+    acc.update(6.0, (_diag("pose sensor", "pose", "bias", 0.3),))
+    assert "position" in acc.excluded
+
+
+def _pose_at(declared: float, offset: tuple[float, float]) -> Diagnosis:
+    return Diagnosis("pose sensor", "pose", "bias", sum(offset) * 0.5**0.5, 0.01, 1.0, declared, 30.0, 20.0, offset,
+                     (0.01, 0.01))
+
+
+def test_a_pose_offset_is_corrected_once_settled_and_not_after_too_many_declarations() -> None:
+    """A new offset excludes the fixes for ``pose_settle`` (0.5 s), then corrects them (with an event); the
+    fourth displacement declared in a run (``pose_max_declarations`` 3) excludes the pose sensor for good."""
+    acc = _accommodation()
+    acc.update(1.5, (_pose_at(1.4, (0.3, 0.3)),))
+    assert "position" in acc.excluded
+    acc.update(1.9, (_pose_at(1.4, (0.3, 0.3)),))
+    assert "position" not in acc.excluded and "position" in acc.corrections
+    assert acc.events[-1].text.endswith("fixes corrected by (0.3, 0.3) m")
+    for k, t in enumerate((3.0, 5.0, 7.0)):
+        acc.update(t + 1.0, (_pose_at(t, (0.3 + k, 0.3)),))
+    assert "position" in acc.excluded and "position" not in acc.corrections
+
+
+def test_the_truth_carries_a_pose_offset_along_the_diagonal() -> None:
+    """The oracle's pose bias carries its displacement as the offset vector, σ 0; a schedule above the nominal
+    radius is declared at size 1 (the record holds tyre sizes in (0, 1])."""
+    faults = FaultSettings(left=[[5.0, 2.2]], sensor=[{"sensor": "pose", "kind": "bias", "onset": 3.0, "size": -0.4}])
+    at = {d.key: d for d in TruthDiagnoses(faults, 2.0).diagnoses(6.0)}
+    assert at["pose sensor", "pose", "bias"].offset == pytest.approx((-0.4 * 0.5**0.5,) * 2)
+    assert at["pose sensor", "pose", "bias"].offset_sigma == (0.0, 0.0)
+    assert at["tyre", "left", "puncture"].size == 1.0
+
+
 def test_a_declared_tyre_reaches_the_controller_only_when_asked() -> None:
     """``tyre = "policy"`` (default): the policy's radii pass unchanged where it has handed a radius over, and a
     declared tyre it still holds at the nominal radius (its decision rule has not isolated the wheel) takes the

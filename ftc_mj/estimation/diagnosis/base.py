@@ -30,13 +30,18 @@ CHANNELS: tuple[str, ...] = ("tyre_R", "tyre_L", "servo_R", "servo_L", "lock_R",
                              "speed_dropout", "gyro_dropout", "pose", "pose_dropout")
 """The built-in diagnoser's residual channels, one statistic and one alarm flag each in the trace."""
 
+OFFSET_COLUMNS: tuple[str, ...] = ("diag_offset_x", "diag_offset_y", "diag_offset_sigma_x", "diag_offset_sigma_y")
+"""The latest declaration's :attr:`~ftc_mj.model.diagnosis.Diagnosis.offset` ``(dx, dy)`` and its σ per axis (m,
+world frame); NaN for a record without one."""
+
 DECLARATION_COLUMNS: tuple[str, ...] = (
     "diag_component", "diag_target", "diag_mode", "diag_size", "diag_sigma", "diag_onset", "diag_declared",
-    "diag_statistic", "diag_threshold", "diag_count")
+    "diag_statistic", "diag_threshold", "diag_count", *OFFSET_COLUMNS)
 """The latest declaration of the run at each row (codes :data:`COMPONENT_CODES`, :data:`TARGET_CODES`,
 :data:`MODE_CODES`; size and σ in the mode's unit; onset and declaration time in s; its statistic and
-threshold) and the number of declarations so far (``diag_count``): a new declaration is a row where the
-count grows, so the records are rebuilt from the trace alone (:func:`diagnoses_from_trace`)."""
+threshold; its offset vector and σ per axis, :data:`OFFSET_COLUMNS`) and the number of declarations so far
+(``diag_count``): a new declaration is a row where the count grows, so the records are rebuilt from the trace
+alone (:func:`diagnoses_from_trace`)."""
 
 DIAGNOSIS_COLUMNS: tuple[str, ...] = (*DECLARATION_COLUMNS, *(f"diag_stat_{c}" for c in CHANNELS),
                                       *(f"diag_alarm_{c}" for c in CHANNELS), "diag_alarms")
@@ -103,17 +108,33 @@ def code_of(codes: dict[str, int], code: float) -> str:
 
 def diagnoses_from_trace(trace: dict[str, np.ndarray]) -> list[Diagnosis]:
     """The declarations of a run rebuilt from its trace's :data:`DECLARATION_COLUMNS` (none without them):
-    one at each row where ``diag_count`` grows."""
+    one at each row where ``diag_count`` grows. A tyre declared outside (0, 1] of its radius — a trace written
+    before the record bounded tyre sizes — is left out: no tyre has that size."""
     if "diag_count" not in trace:
         return []
     count = np.nan_to_num(np.asarray(trace["diag_count"], float), nan=0.0)
     rows = np.flatnonzero(np.diff(np.concatenate([[0.0], count])) > 0)
     out = []
     for i in rows:
+        component = code_of(COMPONENT_CODES, trace["diag_component"][i])
+        if component == "tyre" and not 0.0 < float(trace["diag_size"][i]) <= 1.0:
+            continue
         out.append(Diagnosis(
-            component=code_of(COMPONENT_CODES, trace["diag_component"][i]),
+            component=component,
             target=code_of(TARGET_CODES, trace["diag_target"][i]),
             mode=code_of(MODE_CODES, trace["diag_mode"][i]),
             **{k: float(trace[f"diag_{k}"][i]) for k in ("size", "sigma", "onset", "declared", "statistic",
-                                                        "threshold")}))
+                                                        "threshold")},
+            **offset_from_trace(trace, i)))
     return out
+
+
+def offset_from_trace(trace: dict[str, np.ndarray], i: int) -> dict[str, tuple[float, float]]:
+    """Row ``i``'s declaration offset and its σ (:data:`OFFSET_COLUMNS`) as :class:`Diagnosis` keywords; none
+    when the trace has no such columns (written before them) or the record had no offset (NaN)."""
+    if any(c not in trace for c in OFFSET_COLUMNS):
+        return {}
+    x, y, sx, sy = (float(trace[c][i]) for c in OFFSET_COLUMNS)
+    if not np.isfinite(x):
+        return {}
+    return {"offset": (x, y), "offset_sigma": (sx, sy)}

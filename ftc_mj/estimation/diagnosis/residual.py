@@ -68,6 +68,11 @@ QUIET = Reading(0.0, math.inf)
 """A channel with nothing to say this step (no data, or not applicable)."""
 
 
+def _physical(size: float) -> bool:
+    """A tyre size (fraction of the nominal radius) a tyre can have: finite, above 0 and at most 1."""
+    return math.isfinite(size) and 0.0 < size <= 1.0
+
+
 class ResidualDiagnoser:
     """The structured-residual diagnoser (module docstring) for the robot of ``context``.
 
@@ -385,9 +390,10 @@ class ResidualDiagnoser:
                 return [d]
         return []
 
-    def _make(self, component: str, target: str, mode: str, r: Reading, t: float) -> Diagnosis:
+    def _make(self, component: str, target: str, mode: str, r: Reading, t: float, **vector: object) -> Diagnosis:
+        """The declaration of ``r`` at ``t`` (s); ``vector``: a pose offset and its σ per axis (m)."""
         return Diagnosis(component, target, mode, float(r.size), float(r.sigma), float(min(r.onset, t)), t,
-                         float(r.stat), float(r.threshold))
+                         float(r.stat), float(r.threshold), **vector)
 
     def _declare_dropout(self, t: float) -> Diagnosis | None:
         for name, component, target in (("speed", "speed sensor", "speed"), ("gyro", "gyro", "yaw_rate")):
@@ -417,27 +423,32 @@ class ResidualDiagnoser:
         """A pose-sensor dropout at once; a displacement of its fixes once confirmed: a ``bias``, taken off the
         fixes from its onset on (:meth:`.history.History.shift_fixes`) — or, when it takes a declared bias back
         (the total displacement left is under half the declared one), a ``jump`` of the declared bias's size
-        and onset."""
+        and onset, whose correction is withdrawn (the fixes from the return on are taken as they come). The
+        record's :attr:`~ftc_mj.model.diagnosis.Diagnosis.offset` is the total displacement taken off the fixes
+        from now on (``(0, 0)`` after a jump's return), with the latest step's σ per axis: the fixes are tested
+        again with it taken off, so a later step re-estimates it."""
         r = self.readings["pose_dropout"]
         last = self._has("pose sensor")
         if r.alarm and (last is None or last.mode != "dropout" or last.onset < r.onset - 1e-9):
             return self._make("pose sensor", "pose", "dropout", r, t)
         step = self.pose_step
-        if not self._confirmed("pose", t) or step is None or self._pose_blocked():
+        if not self._confirmed("pose", t) or step is None or step.alone is None or self._pose_blocked():
             return None
-        h = self.history
+        h, alone = self.history, step.alone
         before = h.fix_offset
-        total = (before[0] + step.offset[0], before[1] + step.offset[1])
-        h.shift_fixes(step.fix, step.offset)
+        total = (before[0] + alone.offset[0], before[1] + alone.offset[1])
+        returned = last is not None and last.mode == "bias" and math.hypot(*total) < 0.5 * math.hypot(*before)
+        h.shift_fixes(alone.fix, (-before[0], -before[1]) if returned else alone.offset)
         self.pose_step = None
         for c in ("pose", "tyre_R", "tyre_L", "speed", "gyro"):  # read again from the corrected fixes
             self.readings[c], self.since[c] = QUIET, None
-        if last is not None and last.mode == "bias" and math.hypot(*total) < 0.5 * math.hypot(*before):
+        vector = {"offset": h.fix_offset, "offset_sigma": alone.axis_sigma}
+        if returned:
             return self._make("pose sensor", "pose", "jump", Reading(step.stat, self.settings.pose_threshold, last.size,
-                                                                    last.sigma, last.onset), t)
+                                                                    last.sigma, last.onset), t, **vector)
         size = (total[0] + total[1]) * math.sqrt(0.5)
         return self._make("pose sensor", "pose", "bias", Reading(step.stat, self.settings.pose_threshold, size,
-                                                                step.sigma, step.onset), t)
+                                                                alone.sigma, alone.onset), t, **vector)
 
     def _declare_servo(self, t: float) -> Diagnosis | None:
         """A lock, else a servo loss or an unresponsive servo (re-declared as such if a loss's wheel stops
@@ -478,15 +489,19 @@ class ResidualDiagnoser:
             servo = self._has("servo")
             if servo is not None and servo.mode != "loss":
                 continue  # a dragged wheel skids: its rolling ratio says nothing of its tyre
-            if self._confirmed(f"tyre_{side}", t):
-                self.tyre_reference[side] = self.readings[f"tyre_{side}"].reference
-                return self._make("tyre", target, "puncture", self.readings[f"tyre_{side}"], t)
+            r = self.readings[f"tyre_{side}"]
+            if self._confirmed(f"tyre_{side}", t) and _physical(r.size):
+                self.tyre_reference[side] = r.reference
+                return self._make("tyre", target, "puncture", r, t)
         return None
 
     def _tyre_update(self, side: str, last: Diagnosis, t: float) -> Diagnosis | None:
         """``last``'s puncture with the size of the wheel's rolling ratio over the last ``tyre_update_window``
         (s), relative to the one before the change, when it is below ``last``'s by ``tyre_min_drop`` and 3σ;
-        at most once per ``tyre_update_window``."""
+        at most once per ``tyre_update_window``. A ratio that leaves the physical range (0, 1] — the wheel turns
+        one way while the contact point rolls the other or not at all: a spin or a skid once the loop has lost
+        the path, not a tyre — says nothing of the tyre, nor does one measured while the other wheel slips too
+        (:meth:`_rolls`): the declared size then stands."""
         s, h = self.settings, self.history
         if t - last.declared < s.tyre_update_window - 1e-9 or not h.fix_t:
             return None
@@ -497,10 +512,26 @@ class ResidualDiagnoser:
             return None
         size = now[0] / self.tyre_reference[side]
         sigma = math.sqrt(now[1] + s.tyre_floor**2)
-        if last.size - size < max(s.tyre_min_drop, 3.0 * sigma):
-            return None  # a tyre does not re-inflate: a ratio back up is a skid
+        if last.size - size < max(s.tyre_min_drop, 3.0 * sigma) or not _physical(size):
+            return None  # a tyre does not re-inflate (a ratio back up is a skid) nor roll on a radius ≤ 0
+        if not self._rolls(WHEEL_SIDES["L" if side == "R" else "R"], j, k):
+            return None  # the other wheel slips too: the rolling ratios say nothing of a tyre
         return self._make("tyre", last.target, "puncture", Reading(last.statistic, last.threshold, size, sigma,
                                                                     last.onset), t)
+
+    def _rolls(self, target: str, j: int, k: int) -> bool:
+        """Wheel ``target``'s rolling ratio between pose fixes ``j`` and ``k`` is the one its tyre should give —
+        its declared size times its reference ratio, or 1 — within ``tyre_min_drop_second`` and 3σ (the other
+        tyre's tilt moves its contact point that much): it rolls without slip, so the no-slip model that turns a
+        rolling ratio into a tyre size holds there. A wheel that turned too little says nothing (True)."""
+        s = self.settings
+        side = target[0].upper()
+        ratio = self._ratio(side, j, k)
+        if ratio is None:
+            return True
+        declared = self._has("tyre", target)
+        expected = 1.0 if declared is None else declared.size * self.tyre_reference[side]
+        return abs(ratio[0] - expected) <= max(s.tyre_min_drop_second, 3.0 * math.sqrt(ratio[1] + s.tyre_floor**2))
 
     def _declare_sensor(self, t: float) -> Diagnosis | None:
         """A speed-sensor or gyro bias or drift once its alarm is confirmed and ``shape_min`` (s) has passed

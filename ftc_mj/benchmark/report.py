@@ -387,7 +387,8 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
                 *paired_table(rows, methods)]
     out += ["## Bounds", "", "Detection delay (the first declaration) and the diagnoser's tyre detectors' first alarm "
             "after the onset over Lorden's bound at the rule's no-fault alarm rate measured on MuJoCo "
-            "(`benchmarks/calibration.py`; `estimator.decision.arl0` for a rule not measured) "
+            "(`benchmarks/calibration.py` in the source repository; `estimator.decision.arl0` for a rule not "
+            "measured) "
             "for the draw's first change; the filter's final radius error over the PCRB for constant radii since "
             "the last radius change.", "", *bounds_table(rows, methods), "", "## Runs that did not succeed", "",
             *failures(rows, bp), ""]

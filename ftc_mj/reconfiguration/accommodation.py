@@ -54,7 +54,7 @@ from pydantic import Field
 from ..control.base import ControlOutput
 from ..control.stop import SafeStop, SafeStopSettings
 from ..estimation.base import FilterOutput, Measurement
-from ..fields import StrictModel, ranged
+from ..fields import StrictModel, ranged, ranged_int
 from ..model.diagnosis import Diagnosis
 from ..telemetry import Event
 
@@ -91,7 +91,7 @@ class AccommodationSettings(StrictModel):
     """A pose offset is subtracted only once its declaration has stood this long (s); until then the pose sensor
     is excluded. Right after a displacement the diagnoser's window holds few displaced fixes and its first
     estimates of a large step can be far off (re-declared within tenths of a second: dev draws 201, 263)."""
-    pose_max_declarations: int = Field(3, ge=1, le=100)
+    pose_max_declarations: ranged_int(1, 100) = 3
     """A pose sensor whose displacement has been declared (bias or jump) more than this many times in the run is
     taken as unidentifiable and excluded for the rest of it: a displacement and its return are two declarations,
     a refined estimate a third; more means the diagnoser's estimate cannot be trusted."""

@@ -11,6 +11,7 @@ import pytest
 
 from ftc_mj.context import RunContext
 from ftc_mj.estimation.diagnosis import DiagnosisInput, ResidualDiagnoser, ResidualDiagnoserSettings
+from ftc_mj.estimation.diagnosis.history import History
 from ftc_mj.estimation.diagnosis.servo import LagSums, lag_step
 from ftc_mj.model.diagnosis import Diagnosis
 from ftc_mj.model.sensors import SensorSettings
@@ -84,14 +85,15 @@ def test_the_lag_step_estimates_a_known_gain_within_its_sigma() -> None:
     inside1 = 0
     for seed in range(100):
         rng = np.random.default_rng(seed)
-        sums, times = LagSums(), []
+        history = History(DT)
+        sums = LagSums(history)
         for k in range(800):  # 8 s: the loss at 6 s, 2 s after it
-            t = k * DT
-            lag_left = -0.04 / (0.6 if t >= 6.0 else 1.0) + 0.004 * rng.standard_normal()
+            lag_left = -0.04 / (0.6 if k * DT >= 6.0 else 1.0) + 0.004 * rng.standard_normal()
             omega = np.array([5.1, 4.9])
-            sums.push(omega, omega + np.array([0.04, lag_left]))
-            times.append(t)
-        found = lag_step(s, sums, times, "L", lambda t: min(799, int(math.floor(t / DT + 1e-6))))
+            command = omega + np.array([0.04, lag_left])
+            history.push(k * DT, omega, command, None, None, None)
+            sums.push(omega, command)
+        found = lag_step(s, sums, history.t, "L", history.step_at)
         assert found is not None
         assert abs(found.ratio - 0.6) <= 3.0 * found.sigma
         inside1 += abs(found.ratio - 0.6) <= found.sigma

@@ -14,6 +14,7 @@ import pytest
 
 from ftc_mj.context import RunContext
 from ftc_mj.estimation.diagnosis import DiagnosisInput, ResidualDiagnoser, ResidualDiagnoserSettings
+from ftc_mj.estimation.diagnosis.servo import LagSums
 from ftc_mj.model.sensors import SensorSettings
 from tests.support.reference_history import ReferenceHistory
 
@@ -75,6 +76,7 @@ def test_the_fast_history_equals_the_reference(fault: dict) -> None:
     settings = ResidualDiagnoserSettings()
     fast, ref = ResidualDiagnoser(settings, context), ResidualDiagnoser(settings, context)
     ref.history = ReferenceHistory(ref.dt)
+    ref.lags = LagSums(ref.history)  # the load test's extra sums beside the reference history
     ref._pairs = ref._window_pairs  # no memo
     ref._quiet = lambda alarms: False  # every step isolates
     for z in inputs(fault, 20.0, 0.01, 0.02):

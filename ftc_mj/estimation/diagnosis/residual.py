@@ -92,7 +92,7 @@ class ResidualDiagnoser:
         gyro = getattr(sensors, "yaw_rate_sigma", None)
         self.sigma_g = None if gyro is None else float(gyro)
         self.history = History(self.dt)
-        self.lags = LagSums()
+        self.lags = LagSums(self.history)
         self.load_steps: dict[str, tuple[float, LagStep | None]] = {"R": (-math.inf, None), "L": (-math.inf, None)}
         self.readings: dict[str, Reading] = {c: QUIET for c in CHANNELS}
         self.since: dict[str, float | None] = {c: None for c in CHANNELS}

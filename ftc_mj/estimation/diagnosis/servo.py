@@ -17,7 +17,7 @@ times ``servo_afters`` before now, each against the ``reference_window`` before 
 ``D = ℓ₁ − ℓ₀``, ``σ_D² = s₁² c / T₁ + s₀² c / T₀ + (servo_lag_floor ℓ₀)²`` with ``s²`` the lag's variance in
 each window and ``c`` = ``servo_correlation`` its correlation time (the loop's own fluctuation, not white),
 and the floor the healthy lag's variation at one operating point. :class:`LagSums` keeps the running sums it
-reads; :func:`lag_step` is the test.
+reads beside the history's; :func:`lag_step` is the test.
 """
 
 from __future__ import annotations
@@ -28,16 +28,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .history import History
 from .settings import ResidualDiagnoserSettings
 
-_KEYS = ("n", "w_R", "w_L", "l_R", "l_L", "ll_R", "ll_L")
+_KEYS = ("w_R", "w_L", "ll_R", "ll_L")
 
 
 class LagSums:
-    """Cumulative sums per estimator step (index as :class:`.history.History`'s steps) of the steps with a
-    command, each wheel's rate (rad/s), its lag ``ω_cmd − ω`` (rad/s) and the lag squared."""
+    """The running sums the load test needs beyond its :class:`.history.History`'s (which already keeps each
+    wheel's lag ``Σ (ω_cmd − ω)`` and the count of commanded steps, ``lag_*`` and ``n_cmd``): per estimator step
+    with a command, each wheel's rate (rad/s) and its lag squared. :meth:`push` follows the history's push of the
+    same step."""
 
-    def __init__(self) -> None:
+    def __init__(self, history: History) -> None:
+        self.history = history
         self.sums: dict[str, list[float]] = {k: [] for k in _KEYS}
 
     def push(self, omega: np.ndarray, command: np.ndarray | None) -> None:
@@ -46,7 +50,7 @@ class LagSums:
             inc = (0.0,) * len(_KEYS)
         else:
             lR, lL = float(command[0] - omega[0]), float(command[1] - omega[1])
-            inc = (1.0, float(omega[0]), float(omega[1]), lR, lL, lR * lR, lL * lL)
+            inc = (float(omega[0]), float(omega[1]), lR * lR, lL * lL)
         for k, v in zip(_KEYS, inc, strict=True):
             seq = self.sums[k]
             seq.append((seq[-1] if seq else 0.0) + v)
@@ -54,14 +58,14 @@ class LagSums:
     def window(self, j: int, k: int) -> dict[str, float] | None:
         """The means over steps ``(j, k]`` of each wheel's rate, lag and lag variance (``w_*``, ``l_*``,
         ``v_*``) and the step count ``n``; ``None`` with fewer than 10 commanded steps."""
-        s = self.sums
-        n = s["n"][k] - s["n"][j]
+        s, h = self.sums, self.history
+        n = h.delta("n_cmd", j, k)
         if n < 10:
             return None
         out = {"n": n}
         for side in "RL":
             out[f"w_{side}"] = (s[f"w_{side}"][k] - s[f"w_{side}"][j]) / n
-            mean = (s[f"l_{side}"][k] - s[f"l_{side}"][j]) / n
+            mean = h.delta(f"lag_{side}", j, k) / n
             out[f"l_{side}"] = mean
             out[f"v_{side}"] = max((s[f"ll_{side}"][k] - s[f"ll_{side}"][j]) / n - mean * mean, 0.0)
         return out

@@ -100,6 +100,8 @@ def open_client(workers: int, address: str | None, dashboard: str = "127.0.0.1:0
         yield client
     finally:
         with _quiet_distributed():
+            with contextlib.suppress(Exception):  # a worker that cannot answer is closed below all the same
+                client.run(_quiet_worker_logs, on_error="ignore")
             client.close()
             cluster.close()
 
@@ -135,11 +137,25 @@ def _sigint_ignored_by_children() -> Iterator[None]:
         signal.signal(signal.SIGINT, old)
 
 
+QUIET_LOGGERS = ("distributed", "tornado", "asyncio")
+"""The loggers silenced while a local cluster is torn down."""
+
+
+def _quiet_worker_logs() -> None:
+    """Run on each local worker before the cluster closes: a worker still computing a cancelled run (after a
+    Ctrl-C) outlives the scheduler by that run's length, and its heartbeat's "Failed to communicate with
+    scheduler" traceback is the expected end, not news for the user (seen: 31 lines after the one-line
+    interrupt message)."""
+    names = [n for n in list(logging.root.manager.loggerDict) if n.split(".")[0] in QUIET_LOGGERS]
+    for name in {*QUIET_LOGGERS, *names}:  # children with a level of their own (dask sets tornado.application's)
+        logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
 @contextlib.contextmanager
 def _quiet_distributed() -> Iterator[None]:
     """Silence distributed's and tornado's log lines while the cluster is torn down (closing comms of
     cancelled runs are expected)."""
-    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+    loggers = [logging.getLogger(n) for n in QUIET_LOGGERS]
     levels = [lg.level for lg in loggers]
     for lg in loggers:
         lg.setLevel(logging.CRITICAL)

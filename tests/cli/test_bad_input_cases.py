@@ -356,6 +356,25 @@ def test_ctrl_c_on_a_study_is_one_line(tmp_path: Path) -> None:
     assert len(lines) == 1 and lines[0].startswith("ftc-mj: interrupted: ") and "persisted" in lines[0], err
 
 
+def test_workers_are_quiet_while_the_cluster_closes() -> None:
+    """What each local worker runs before the cluster closes: a heartbeat failing against the closed scheduler
+    (a worker still computing a cancelled run after Ctrl-C) logs nothing, tornado's own-level child included
+    (the CI run that added this printed 31 lines of that traceback after the interrupt message)."""
+    import logging
+
+    from ftc_mj.study.cluster import QUIET_LOGGERS, _quiet_worker_logs
+
+    names = ["distributed.worker", "tornado.application", *QUIET_LOGGERS]
+    before = {n: logging.getLogger(n).level for n in names}
+    try:
+        logging.getLogger("tornado.application").setLevel(logging.ERROR)
+        _quiet_worker_logs()
+        assert not any(logging.getLogger(n).isEnabledFor(logging.ERROR) for n in names)
+    finally:
+        for n, level in before.items():
+            logging.getLogger(n).setLevel(level)  # setLevel, not the attribute: it clears the loggers' caches
+
+
 def test_leftovers_of_killed_runs_are_removed(tmp_path: Path) -> None:
     """Temporaries carry their writer's process id: those of dead processes go on the next run into the
     folder, a live writer's stay."""

@@ -22,7 +22,8 @@ Built-in policies:
     ``max_rate`` — and an isolated wheel's radius *grows* by at most ``max_growth_rate``: a punctured
     tyre does not re-inflate, and an estimate that climbs back quickly is the filter leaving the
     kinematic model's domain (a lifted wheel; the measured case is in docs/findings.md); a *fall* within
-    ``noise_band`` σ of the estimate is followed at that rate too (no ratchet on a noisy estimate). A declared
+    ``noise_band`` σ of the estimate is followed at that rate too (no ratchet on a noisy estimate) unless the
+    estimate's trend over ``trend_window`` falls faster than it (a tyre that keeps deflating). A declared
     but unidentified fault *holds* the radii in use. Filter trouble *reverts* to the radii handed over
     (as rate-limited, i.e. as the controller used them) at least ``trust_lag`` before it (or
     nominal); a withdrawn decision reverts to nominal.
@@ -93,6 +94,16 @@ class ReconfigurationSettings(StrictModel):
     50 % tyre with the speed sensor and 10 Hz pose fixes but no gyro (dev seeds 0–1, docs/findings.md), which
     the path-following NMPC's traction bound turns into a 4–5 m excursion. At 2 σ the estimate's dips (nearly
     white at the 10 Hz fixes) still crossed the band every few seconds; 4 σ is beyond them. 0 = the ratchet."""
+    trend_window: NonNegFloat = 2.0
+    """Window (s) of a least-squares line through each isolated wheel's handed-over target (the clamped, conditioned
+    estimate) at the controller's samples. Where that line falls faster than ``max_growth_rate``, the estimate is
+    falling, not noisy — a tyre that keeps deflating (ftc-v2's puncture ramps, 0.05–0.2 m/s) — and a fall within
+    ``noise_band`` is followed at ``max_rate`` like one beyond it; otherwise at ``max_growth_rate``. Without it the
+    radius in use fell ever further behind a ramp (0.1–0.25 m on ftc-v2 dev draw 49 without a gyro, 1.07 m off the
+    path); a stationary estimate's line is flat (its slope's σ 0.017 m/s over 2 s on that draw's 1.05 m tyre, 0.012
+    m/s for white noise of σ 0.03 m at 10 Hz), so its dips are still followed at ``max_growth_rate``. The line is
+    through the hand-overs of one declaration (holds in between pause it) and needs 90 % of the window. Chosen on
+    ftc-v2 dev draws 0–99 (docs/config-defaults.md). 0 = off."""
     condition_on_healthy: Literal["auto"] | Flag = "auto"
     """With one wheel isolated, hand over the filter's estimate of its radius *conditioned on the other wheel's
     radius being nominal* (``R_iso + P_io / P_oo (R_nom − R_other)``, the Gaussian posterior given what the
@@ -221,6 +232,11 @@ class SafePolicy(ReconfigurationPolicy):
         self.max_step = rc.max_rate / context.controller_rate
         self.max_grow = min(rc.max_growth_rate, rc.max_rate) / context.controller_rate
         self.noise_band = rc.noise_band
+        self.max_fall_rate = rc.max_rate
+        self.sample_time = 1.0 / context.controller_rate
+        self.trend_window = rc.trend_window
+        self._trend: deque[tuple[float, np.ndarray]] = deque()
+        self._trend_wheel: str | None = None
         self._nis: deque[float] = deque(maxlen=max(1, round(rc.nis_window * context.estimator_rate)))
         self._nis_sum = 0.0
         self.spike_nis_ratio = rc.spike_nis_ratio
@@ -298,17 +314,42 @@ class SafePolicy(ReconfigurationPolicy):
         self._enter(ReconfigState.HANDED, str(decision.wheel), t, "info",
                     f"reconfiguration hand-over ({decision.wheel}): R_R {target[0]:.2f} m, R_L {target[1]:.2f} m")
         # an isolated wheel's radius grows no faster than max_growth_rate (a puncture does not re-inflate), and
-        # falls no faster either while the fall lies within the estimate's noise band (no ratchet); a wheel the
-        # decision no longer isolates returns to nominal at the full rate
+        # falls no faster either while the fall lies within the estimate's noise band (no ratchet) and the estimate
+        # does not trend down faster than that (a ramp); a wheel the decision no longer isolates returns to
+        # nominal at the full rate
         noise = np.asarray(iso) & (target >= self._current - self.noise_band * sd)
+        in_band_fall = np.where(self._trend_fall(t, target, str(decision.wheel)) > self.max_grow, self.max_step,
+                                self.max_grow)
         in_use = self._move(target, np.where(iso, self.max_grow, self.max_step),
-                            np.where(noise, self.max_grow, self.max_step))
+                            np.where(noise, in_band_fall, self.max_step))
         # what is trusted is what the controller was given, not the target the rate limits held back:
         # a revert must not jump to an estimate the growth limit refused
         self._trusted.append((t, in_use.copy()))
         return in_use
 
     # ---------------------------------------------------------------- helpers
+    def _trend_fall(self, t: float, target: np.ndarray, wheel: str) -> np.ndarray:
+        """Record ``target`` (m, per wheel) of the hand-over of ``wheel`` at ``t`` (s) and return each wheel's
+        rate of fall in m per controller sample (comparable with ``max_grow``; ≥ 0, at most ``max_rate``'s) along
+        the least-squares line through the targets of the last ``trend_window`` (s); 0 until they span 90 % of it.
+        The targets of holds in between are missing, not a break (a wheel whose split σ sits at ``max_sigma``
+        flickers between hand-over and hold every few samples: ftc-v2 dev draw 49)."""
+        if self.trend_window <= 0.0:
+            return np.zeros(2)
+        if wheel != self._trend_wheel:
+            self._trend.clear()
+            self._trend_wheel = wheel
+        self._trend.append((t, target.copy()))
+        while self._trend[0][0] < t - self.trend_window - 1e-9:
+            self._trend.popleft()
+        if t - self._trend[0][0] < 0.9 * self.trend_window:
+            return np.zeros(2)
+        ts = np.fromiter((s[0] for s in self._trend), float, len(self._trend))
+        rs = np.array([s[1] for s in self._trend])
+        dt = ts - ts.mean()
+        slope = dt @ (rs - rs.mean(axis=0)) / (dt @ dt)  # m/s per wheel
+        return np.clip(-slope, 0.0, self.max_fall_rate) * self.sample_time
+
     def _conditioned(self, est: np.ndarray, P: np.ndarray, i: int) -> np.ndarray:
         """``est`` with radius ``i`` (0 R_R, 1 R_L) replaced by its Gaussian conditional mean given that the other
         radius is nominal (``condition_on_healthy``); unchanged if the covariance is not usable."""
@@ -334,6 +375,8 @@ class SafePolicy(ReconfigurationPolicy):
         """Switch to ``state`` for reason ``why``; an event when either changes."""
         if (state, why) != (self.state, self._why):
             self.state, self._why = state, why
+            if state in (ReconfigState.NOMINAL, ReconfigState.REVERTED):
+                self._trend.clear()  # a trend is of one declaration's targets (a hold only pauses it)
             self.events.append(Event(t, level, text))
 
     def _move(self, target: np.ndarray, max_grow: float | np.ndarray | None = None,

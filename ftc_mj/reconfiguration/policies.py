@@ -95,15 +95,16 @@ class ReconfigurationSettings(StrictModel):
     the path-following NMPC's traction bound turns into a 4–5 m excursion. At 2 σ the estimate's dips (nearly
     white at the 10 Hz fixes) still crossed the band every few seconds; 4 σ is beyond them. 0 = the ratchet."""
     trend_window: NonNegFloat = 2.0
-    """Window (s) of a least-squares line through each isolated wheel's handed-over target (the clamped, conditioned
-    estimate) at the controller's samples. Where that line falls faster than ``max_growth_rate``, the estimate is
-    falling, not noisy — a tyre that keeps deflating (ftc-v2's puncture ramps, 0.05–0.2 m/s) — and a fall within
-    ``noise_band`` is followed at ``max_rate`` like one beyond it; otherwise at ``max_growth_rate``. Without it the
-    radius in use fell ever further behind a ramp (0.1–0.25 m on ftc-v2 dev draw 49 without a gyro, 1.07 m off the
-    path); a stationary estimate's line is flat (its slope's σ 0.017 m/s over 2 s on that draw's 1.05 m tyre, 0.012
-    m/s for white noise of σ 0.03 m at 10 Hz), so its dips are still followed at ``max_growth_rate``. The line is
-    through the hand-overs of one declaration (holds in between pause it) and needs 90 % of the window. Chosen on
-    ftc-v2 dev draws 0–99 (docs/config-defaults.md). 0 = off."""
+    """Window (s) of a least-squares line through each wheel's radius as it would be handed over (the estimate,
+    conditioned as handed over, clamped), recorded at every controller sample whatever the state — so at a
+    declaration the estimate's trend before it is known at once; a filter reset starts the record afresh. Where an
+    isolated wheel's line falls faster than ``max_growth_rate``, the estimate is falling, not noisy — a tyre that
+    keeps deflating (ftc-v2's puncture ramps, 0.05–0.2 m/s) — and a fall within ``noise_band`` is followed at
+    ``max_rate`` like one beyond it; otherwise at ``max_growth_rate``. Without it the radius in use fell ever
+    further behind a ramp (0.1–0.25 m on ftc-v2 dev draw 49 without a gyro: 1.07 m off the path); a stationary
+    estimate's line is flat (its slope's σ 0.017 m/s over 2 s on that draw's 1.05 m tyre, 0.012 m/s for white noise
+    of σ 0.03 m at 10 Hz), so its dips are still followed at ``max_growth_rate``. The line needs 90 % of the window.
+    Chosen on ftc-v2 development draws (docs/config-defaults.md). 0 = off."""
     condition_on_healthy: Literal["auto"] | Flag = "auto"
     """With one wheel isolated, hand over the filter's estimate of its radius *conditioned on the other wheel's
     radius being nominal* (``R_iso + P_io / P_oo (R_nom − R_other)``, the Gaussian posterior given what the
@@ -236,7 +237,6 @@ class SafePolicy(ReconfigurationPolicy):
         self.sample_time = 1.0 / context.controller_rate
         self.trend_window = rc.trend_window
         self._trend: deque[tuple[float, np.ndarray]] = deque()
-        self._trend_wheel: str | None = None
         self._nis: deque[float] = deque(maxlen=max(1, round(rc.nis_window * context.estimator_rate)))
         self._nis_sum = 0.0
         self.spike_nis_ratio = rc.spike_nis_ratio
@@ -271,6 +271,7 @@ class SafePolicy(ReconfigurationPolicy):
             return self.nominal.copy()
         recent, self._recent_max = self._recent_max, 0.0
         est = np.asarray(out.x[3:5], dtype=float)
+        self._record_trend(t, out, est, filter_reset)
         return self._safe(t, out, est, decision, filter_reset, omega, recent)
 
     def _safe(self, t: float, out: FilterOutput, est: np.ndarray, decision: DecisionState | None,
@@ -318,8 +319,7 @@ class SafePolicy(ReconfigurationPolicy):
         # does not trend down faster than that (a ramp); a wheel the decision no longer isolates returns to
         # nominal at the full rate
         noise = np.asarray(iso) & (target >= self._current - self.noise_band * sd)
-        in_band_fall = np.where(self._trend_fall(t, target, str(decision.wheel)) > self.max_grow, self.max_step,
-                                self.max_grow)
+        in_band_fall = np.where(self._trend_fall(t) > self.max_grow, self.max_step, self.max_grow)
         in_use = self._move(target, np.where(iso, self.max_grow, self.max_step),
                             np.where(noise, in_band_fall, self.max_step))
         # what is trusted is what the controller was given, not the target the rate limits held back:
@@ -328,21 +328,28 @@ class SafePolicy(ReconfigurationPolicy):
         return in_use
 
     # ---------------------------------------------------------------- helpers
-    def _trend_fall(self, t: float, target: np.ndarray, wheel: str) -> np.ndarray:
-        """Record ``target`` (m, per wheel) of the hand-over of ``wheel`` at ``t`` (s) and return each wheel's
-        rate of fall in m per controller sample (comparable with ``max_grow``; ≥ 0, at most ``max_rate``'s) along
-        the least-squares line through the targets of the last ``trend_window`` (s); 0 until they span 90 % of it.
-        The targets of holds in between are missing, not a break (a wheel whose split σ sits at ``max_sigma``
-        flickers between hand-over and hold every few samples: ftc-v2 dev draw 49)."""
+    def _record_trend(self, t: float, out: FilterOutput, est: np.ndarray, filter_reset: bool) -> None:
+        """Keep each wheel's radius as it would be handed over (conditioned on the other wheel being nominal where
+        ``condition_on_healthy``, clamped) at ``t`` (s) for the last ``trend_window``, whatever the state: at a
+        declaration the trend of the estimate before it is known at once. A filter reset (its estimate jumps)
+        or a non-finite estimate starts the record afresh."""
         if self.trend_window <= 0.0:
-            return np.zeros(2)
-        if wheel != self._trend_wheel:
+            return
+        if filter_reset or not np.all(np.isfinite(est)):
             self._trend.clear()
-            self._trend_wheel = wheel
-        self._trend.append((t, target.copy()))
+            return
+        r = est.copy()
+        if self.condition_on_healthy:
+            r = np.array([self._conditioned(est, out.P, 0)[0], self._conditioned(est, out.P, 1)[1]])
+        self._trend.append((t, np.clip(r, self.min_radius, self.nominal)))
         while self._trend[0][0] < t - self.trend_window - 1e-9:
             self._trend.popleft()
-        if t - self._trend[0][0] < 0.9 * self.trend_window:
+
+    def _trend_fall(self, t: float) -> np.ndarray:
+        """Each wheel's rate of fall in m per controller sample (comparable with ``max_grow``; ≥ 0, at most
+        ``max_rate``'s) along the least-squares line through its radii of the last ``trend_window``
+        (:meth:`_record_trend`); 0 until they span 90 % of it."""
+        if not self._trend or t - self._trend[0][0] < 0.9 * self.trend_window:
             return np.zeros(2)
         ts = np.fromiter((s[0] for s in self._trend), float, len(self._trend))
         rs = np.array([s[1] for s in self._trend])
@@ -375,8 +382,6 @@ class SafePolicy(ReconfigurationPolicy):
         """Switch to ``state`` for reason ``why``; an event when either changes."""
         if (state, why) != (self.state, self._why):
             self.state, self._why = state, why
-            if state in (ReconfigState.NOMINAL, ReconfigState.REVERTED):
-                self._trend.clear()  # a trend is of one declaration's targets (a hold only pauses it)
             self.events.append(Event(t, level, text))
 
     def _move(self, target: np.ndarray, max_grow: float | np.ndarray | None = None,

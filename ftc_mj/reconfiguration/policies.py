@@ -95,16 +95,23 @@ class ReconfigurationSettings(StrictModel):
     the path-following NMPC's traction bound turns into a 4–5 m excursion. At 2 σ the estimate's dips (nearly
     white at the 10 Hz fixes) still crossed the band every few seconds; 4 σ is beyond them. 0 = the ratchet."""
     trend_window: NonNegFloat = 2.0
-    """Window (s) of a least-squares line through each wheel's radius as it would be handed over (the estimate,
+    """Window (s) of the least-squares lines through each wheel's radius as it would be handed over (the estimate,
     conditioned as handed over, clamped), recorded at every controller sample whatever the state — so at a
-    declaration the estimate's trend before it is known at once; a filter reset starts the record afresh. Where an
-    isolated wheel's line falls faster than ``max_growth_rate``, the estimate is falling, not noisy — a tyre that
-    keeps deflating (ftc-v2's puncture ramps, 0.05–0.2 m/s) — and a fall within ``noise_band`` is followed at
-    ``max_rate`` like one beyond it; otherwise at ``max_growth_rate``. Without it the radius in use fell ever
-    further behind a ramp (0.1–0.25 m on ftc-v2 dev draw 49 without a gyro: 1.07 m off the path); a stationary
-    estimate's line is flat (its slope's σ 0.017 m/s over 2 s on that draw's 1.05 m tyre, 0.012 m/s for white noise
-    of σ 0.03 m at 10 Hz), so its dips are still followed at ``max_growth_rate``. The line needs 90 % of the window.
-    Chosen on ftc-v2 development draws (docs/config-defaults.md). 0 = off."""
+    declaration the estimate's course before it is known at once; a filter reset starts the record afresh. Where an
+    isolated wheel's radius *falls steadily* — the lines through the whole window and through each half of it all
+    fall faster than ``max_growth_rate`` and none faster than ``trend_max_rate`` — the tyre keeps deflating (ftc-v2's
+    puncture ramps, 0.05–0.2 m/s) and a fall within ``noise_band`` is followed at ``max_rate`` like one beyond it;
+    otherwise at ``max_growth_rate``. Without it the radius in use fell ever further behind a ramp (0.1–0.25 m on
+    ftc-v2 dev draw 49 without a gyro: 1.07 m off the path). A stationary estimate's lines are flat (a 2 s line's
+    slope has σ 0.017 m/s on that draw's 1.05 m tyre; a 1 s half's, 0.04 m/s), so its dips are still followed at
+    ``max_growth_rate``. The line needs 90 % of the window. Chosen on development draws and seeds
+    (docs/config-defaults.md). 0 = off."""
+    trend_max_rate: PosFloat = 0.3
+    """Fastest fall (m/s) of the lines of ``trend_window`` taken as a tyre deflating: an estimate converging after
+    a step falls faster (0.5–2 m/s after a 1 m step) and then levels off, and following its convergence at
+    ``max_rate`` undershoots (scenario 2 without a gyro, the ``pathfollow`` settings, dev seeds 0–9: 0.5–3.8 m off
+    the path from 15 s, against 0.34–1.88 m with the step's fall left to the noise band). Above ftc-v2's fastest ramp
+    (0.2 m/s)."""
     condition_on_healthy: Literal["auto"] | Flag = "auto"
     """With one wheel isolated, hand over the filter's estimate of its radius *conditioned on the other wheel's
     radius being nominal* (``R_iso + P_io / P_oo (R_nom − R_other)``, the Gaussian posterior given what the
@@ -233,8 +240,8 @@ class SafePolicy(ReconfigurationPolicy):
         self.max_step = rc.max_rate / context.controller_rate
         self.max_grow = min(rc.max_growth_rate, rc.max_rate) / context.controller_rate
         self.noise_band = rc.noise_band
-        self.max_fall_rate = rc.max_rate
-        self.sample_time = 1.0 / context.controller_rate
+        self.max_grow_rate = min(rc.max_growth_rate, rc.max_rate)
+        self.trend_max_rate = rc.trend_max_rate
         self.trend_window = rc.trend_window
         self._trend: deque[tuple[float, np.ndarray]] = deque()
         self._nis: deque[float] = deque(maxlen=max(1, round(rc.nis_window * context.estimator_rate)))
@@ -319,7 +326,7 @@ class SafePolicy(ReconfigurationPolicy):
         # does not trend down faster than that (a ramp); a wheel the decision no longer isolates returns to
         # nominal at the full rate
         noise = np.asarray(iso) & (target >= self._current - self.noise_band * sd)
-        in_band_fall = np.where(self._trend_fall(t) > self.max_grow, self.max_step, self.max_grow)
+        in_band_fall = np.where(self._steady_fall(t), self.max_step, self.max_grow)
         in_use = self._move(target, np.where(iso, self.max_grow, self.max_step),
                             np.where(noise, in_band_fall, self.max_step))
         # what is trusted is what the controller was given, not the target the rate limits held back:
@@ -345,17 +352,17 @@ class SafePolicy(ReconfigurationPolicy):
         while self._trend[0][0] < t - self.trend_window - 1e-9:
             self._trend.popleft()
 
-    def _trend_fall(self, t: float) -> np.ndarray:
-        """Each wheel's rate of fall in m per controller sample (comparable with ``max_grow``; ≥ 0, at most
-        ``max_rate``'s) along the least-squares line through its radii of the last ``trend_window``
-        (:meth:`_record_trend`); 0 until they span 90 % of it."""
+    def _steady_fall(self, t: float) -> np.ndarray:
+        """Whether each wheel's radius (:meth:`_record_trend`) falls steadily at ``t`` (s): the least-squares lines
+        through the whole ``trend_window`` and through each of its halves all fall faster than ``max_growth_rate``
+        and none faster than ``trend_max_rate`` (m/s). False until the record spans 90 % of the window."""
         if not self._trend or t - self._trend[0][0] < 0.9 * self.trend_window:
-            return np.zeros(2)
+            return np.zeros(2, dtype=bool)
         ts = np.fromiter((s[0] for s in self._trend), float, len(self._trend))
         rs = np.array([s[1] for s in self._trend])
-        dt = ts - ts.mean()
-        slope = dt @ (rs - rs.mean(axis=0)) / (dt @ dt)  # m/s per wheel
-        return np.clip(-slope, 0.0, self.max_fall_rate) * self.sample_time
+        late = ts >= 0.5 * (ts[0] + ts[-1])
+        falls = np.array([-_slope(ts[p], rs[p]) for p in (slice(None), ~late, late)])  # m/s, (line, wheel)
+        return (falls.min(axis=0) > self.max_grow_rate) & (falls.max(axis=0) <= self.trend_max_rate)
 
     def _conditioned(self, est: np.ndarray, P: np.ndarray, i: int) -> np.ndarray:
         """``est`` with radius ``i`` (0 R_R, 1 R_L) replaced by its Gaussian conditional mean given that the other
@@ -398,6 +405,14 @@ class SafePolicy(ReconfigurationPolicy):
             if t_acc <= t - self.trust_lag:
                 return r
         return self.nominal
+
+
+def _slope(t: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Slope (per s) of the least-squares line through samples ``r`` (n, k) at times ``t`` (n,), per column;
+    0 for fewer than two distinct times."""
+    dt = t - t.mean()
+    den = float(dt @ dt)
+    return dt @ (r - r.mean(axis=0)) / den if den > 0.0 else np.zeros(r.shape[1])
 
 
 policies.register("none", NominalPolicy, origin=BUILTIN)

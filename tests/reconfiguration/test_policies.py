@@ -323,6 +323,25 @@ def test_safe_follows_an_estimate_that_keeps_falling(window: float, lo: float, h
     assert lo <= float(np.mean(lag)) <= hi
 
 
+def test_an_estimate_converging_after_a_step_is_no_trend() -> None:
+    """A 0.5 m step of the left radius whose estimate converges with a 0.4 s time constant (falls at up to 1.25 m/s),
+    with white noise of σ 0.03 m: the fall is faster than ``trend_max_rate`` (0.3 m/s) and then levels off, so the
+    radius in use is exactly what it is without the trend (``trend_window = 0``) — the noise band governs, as it
+    does a step's. With no ceiling on the trend the convergence is followed at ``max_rate`` and the sequences
+    differ."""
+    rate = load_config("scenario2").controller.rate
+    rng = np.random.default_rng(2)
+    est = [1.0 + 0.5 * np.exp(-max(k / rate - 3.0, 0.0) / 0.4) + 0.03 * rng.standard_normal()
+           for k in range(int(10 * rate))]
+
+    def used(**kw: float) -> list[float]:
+        fb = _fb("safe", max_rate=10.0, max_growth_rate=0.05, **kw)
+        return [float(_step(fb, k / rate, _out(2.0, r, 0.05), "left")[1]) for k, r in enumerate(est)]
+
+    assert used(trend_window=2.0) == used(trend_window=0.0)
+    assert used(trend_window=2.0, trend_max_rate=100.0) != used(trend_window=0.0)
+
+
 def test_safe_hands_a_fall_beyond_the_noise_band_over_at_once() -> None:
     """A fall of the estimate by more than ``noise_band`` σ (4 × 0.05 m) is a new fault size, not noise: it is
     handed over at ``max_rate``; one within the band follows at ``max_growth_rate``."""

@@ -23,7 +23,8 @@ Built-in policies:
     tyre does not re-inflate, and an estimate that climbs back quickly is the filter leaving the
     kinematic model's domain (a lifted wheel; the measured case is in docs/findings.md); a *fall* within
     ``noise_band`` σ of the estimate is followed at that rate too (no ratchet on a noisy estimate) unless the
-    estimate's trend over ``trend_window`` falls faster than it (a tyre that keeps deflating). A declared
+    estimate falls steadily over ``trend_window``, faster than that and no faster than ``trend_max_rate`` (a tyre
+    that keeps deflating). A declared
     but unidentified fault *holds* the radii in use. Filter trouble *reverts* to the radii handed over
     (as rate-limited, i.e. as the controller used them) at least ``trust_lag`` before it (or
     nominal); a withdrawn decision reverts to nominal.
@@ -323,7 +324,7 @@ class SafePolicy(ReconfigurationPolicy):
                     f"reconfiguration hand-over ({decision.wheel}): R_R {target[0]:.2f} m, R_L {target[1]:.2f} m")
         # an isolated wheel's radius grows no faster than max_growth_rate (a puncture does not re-inflate), and
         # falls no faster either while the fall lies within the estimate's noise band (no ratchet) and the estimate
-        # does not trend down faster than that (a ramp); a wheel the decision no longer isolates returns to
+        # does not fall steadily (a ramp: _steady_fall); a wheel the decision no longer isolates returns to
         # nominal at the full rate
         noise = np.asarray(iso) & (target >= self._current - self.noise_band * sd)
         in_band_fall = np.where(self._steady_fall(t), self.max_step, self.max_grow)

@@ -239,9 +239,9 @@ class SafePolicy(ReconfigurationPolicy):
         self.trust_lag = rc.trust_lag
         self.condition_on_healthy = rc.condition_on_healthy is True
         self.max_step = rc.max_rate / context.controller_rate
-        self.max_grow = min(rc.max_growth_rate, rc.max_rate) / context.controller_rate
+        self.max_grow_rate = min(rc.max_growth_rate, rc.max_rate)  # m/s
+        self.max_grow = self.max_grow_rate / context.controller_rate  # m per controller sample
         self.noise_band = rc.noise_band
-        self.max_grow_rate = min(rc.max_growth_rate, rc.max_rate)
         self.trend_max_rate = rc.trend_max_rate
         self.trend_window = rc.trend_window
         self._trend: deque[tuple[float, np.ndarray]] = deque()

@@ -221,3 +221,16 @@ def _sid(p: Any) -> int | None:
         return os.getsid(p.pid)
     except OSError:
         return None
+
+
+TRIM_AT_COLLECTION = os.environ.get("MALLOC_TRIM_THRESHOLD_")
+
+
+def test_local_workers_keep_glibc_trim_threshold(dask_client: Any) -> None:
+    """dask gives its workers ``MALLOC_TRIM_THRESHOLD_=65536`` (freed memory back to the system at once): a run
+    allocates and frees arrays every step and paid for it in page faults, a fifth of its CPU in the kernel.
+    The local cluster leaves glibc's own threshold, unless this process's environment named one (read when this
+    module was collected: a nanny writes dask's value into its parent's environment when it spawns)."""
+    expected = TRIM_AT_COLLECTION
+    seen = dask_client.run(lambda: os.environ.get("MALLOC_TRIM_THRESHOLD_"))
+    assert set(seen.values()) == {expected}, seen

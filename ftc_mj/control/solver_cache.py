@@ -65,6 +65,8 @@ stats = {"built": 0, "loaded": 0, "reused": 0}
 """This process's counts of solvers built afresh, loaded from the cache and reused from memory."""
 _in_memory: dict[str, tuple[str, ca.Function]] = {}
 """This process's solvers: structure (name and shapes) → (key, solver), the one most recently asked for."""
+_asked: dict[str, int] = {}
+"""When each kept solver was last asked for: the value of :func:`asked_count` then."""
 
 
 class EntryRejected(Exception):
@@ -277,13 +279,25 @@ def ipopt_solver(name: str, nlp: dict, opts: dict) -> ca.Function:
         del kept
         solver = disk_cached_solver(name, nlp, opts, key)
     _in_memory[structure] = (key, solver)
+    _asked[structure] = asked_count()
     return solver
 
 
-def forget_solvers() -> None:
+def asked_count() -> int:
+    """How many times this process has asked :func:`ipopt_solver` for a kept solver (with the cache on): a clock
+    for :func:`forget_solvers`."""
+    return sum(stats.values())
+
+
+def forget_solvers(not_asked_since: int | None = None) -> int:
     """Drop the solvers this process keeps in memory (the next controller loads its solver from the disk
-    cache again)."""
-    _in_memory.clear()
+    cache again); with ``not_asked_since`` (an earlier :func:`asked_count`) only those not asked for since then.
+    A controller that holds a solver keeps it all the same. Returns how many were dropped."""
+    gone = [s for s in _in_memory if not_asked_since is None or _asked.get(s, 0) <= not_asked_since]
+    for structure in gone:
+        _in_memory.pop(structure)
+        _asked.pop(structure, None)
+    return len(gone)
 
 
 def prune(folder: Path, max_age_s: float) -> int:

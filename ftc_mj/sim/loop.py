@@ -65,7 +65,7 @@ from ..wiring.reconfiguration import (
     build_policy,
     build_scenario_weighting,
 )
-from .cache import controller_for, plant_for, robot_limits
+from .cache import begin_run, controller_for, plant_for, robot_limits
 from .guards import BuildFailed, check_command, check_estimate
 from .record import build_record
 from .trace import TraceWriter
@@ -191,6 +191,7 @@ def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any]
     ``with_controller=False``: no controller (and no scenario weighting for one): an agent commands;
     ``plants``: the caller's own plant store instead of the per-process cache (:func:`.cache.plant_for`).
     The run's record (:func:`.record.build_record`) is built here, once, from the reference and the filter."""
+    begin_run()
     plant = plant_for(cfg, plants)
     sensors = Sensors(cfg.sensors, cfg.seed, cfg.faults)
     reference = build_reference(cfg)

@@ -39,6 +39,7 @@ def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     monkeypatch.delenv(SWITCH_ENV, raising=False)
     monkeypatch.setattr(solver_cache, "stats", {"built": 0, "loaded": 0})
     monkeypatch.setattr(solver_cache, "_in_memory", {})
+    monkeypatch.setattr(solver_cache, "_asked", {})
     return tmp_path / "solvers"
 
 
@@ -72,6 +73,20 @@ def test_one_solver_is_kept_per_structure(cache: Path) -> None:
     solver_cache.forget_solvers()
     ipopt_solver("t", rosenbrock(), OPTS)
     assert solver_cache.stats == {"built": 3, "loaded": 2, "reused": 1}
+
+
+def test_forget_keeps_the_solvers_asked_for_since(cache: Path) -> None:
+    """``forget_solvers(not_asked_since=c)`` drops the kept solvers last asked for before the clock read ``c`` and
+    keeps those asked for since (the per-process cache's memory budget keeps the current run's)."""
+    solver_cache.stats["reused"] = 0
+    ipopt_solver("t", rosenbrock(), OPTS)
+    ipopt_solver("u", rosenbrock(), OPTS)
+    c = solver_cache.asked_count()
+    ipopt_solver("u", rosenbrock(), OPTS)
+    assert solver_cache.forget_solvers(not_asked_since=c) == 1
+    assert [json.loads(s)[0] for s in solver_cache._in_memory] == ["u"]
+    assert solver_cache.forget_solvers(not_asked_since=solver_cache.asked_count()) == 1
+    assert not solver_cache._in_memory
 
 
 def test_a_loaded_solver_is_bitwise_the_fresh_build(cache: Path) -> None:

@@ -70,3 +70,31 @@ def test_path_following_draws_share_one_controller_and_one_solver_per_path_kind(
             if col != "solve_time_ms":
                 np.testing.assert_array_equal(fresh[col], trace[col], err_msg=col)
     assert not np.array_equal(reused[0]["pf_speed_desired"], reused[1]["pf_speed_desired"])
+
+
+def test_above_the_memory_budget_a_build_drops_the_other_methods_parts(monkeypatch) -> None:  # noqa: ANN001
+    """Two methods (the NMPC and the pf-nmpc) one after the other in one process: under the budget both are kept
+    and the first is reused when it comes back; above it (budget 0 MiB) the second's build drops the first's
+    controller and its solver (the run had not asked for it), so the first is built and loaded again — with a
+    trace bit for bit the one it gave before."""
+    a, b = {**DRAWS[0]}, {"controller.kind": "pf-nmpc", **PF_DRAWS[0]}
+    for budget, kept in ((10**6, 2), (0, 1)):
+        monkeypatch.setattr(cache, "MEMORY_BUDGET_MIB", budget)
+        cache.clear()
+        solver_cache.forget_solvers()
+        first = _trace(a)
+        _trace(b)
+        assert len(cache._controllers) == kept
+        builds, loads = cache.stats["controller_builds"], solver_cache.stats["loaded"] + solver_cache.stats["built"]
+        again = _trace(a)
+        assert cache.stats["controller_builds"] == builds + (kept == 1)
+        assert solver_cache.stats["loaded"] + solver_cache.stats["built"] == loads + (kept == 1)
+        for col in first:
+            if col != "solve_time_ms":
+                np.testing.assert_array_equal(again[col], first[col], err_msg=col)
+
+
+def test_resident_memory_is_read() -> None:
+    """The budget compares against this process's resident set: a positive number of MiB on Linux."""
+    rss = cache.resident_mib()
+    assert rss is not None and 10 < rss < 10**6

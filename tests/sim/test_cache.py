@@ -98,3 +98,16 @@ def test_resident_memory_is_read() -> None:
     """The budget compares against this process's resident set: a positive number of MiB on Linux."""
     rss = cache.resident_mib()
     assert rss is not None and 10 < rss < 10**6
+
+
+def test_above_the_budget_each_run_returns_free_pages_first(monkeypatch) -> None:  # noqa: ANN001
+    """Above the budget a run starts by handing the malloc arenas' free pages back (``malloc_trim(0)``, no
+    garbage collection); under it nothing is called."""
+    calls: list[int] = []
+    monkeypatch.setattr(cache, "_malloc_trim", lambda: calls.append)
+    monkeypatch.setattr(cache.gc, "collect", lambda: calls.append(-1))
+    for budget, expected in ((10**6, []), (0, [0])):
+        monkeypatch.setattr(cache, "MEMORY_BUDGET_MIB", budget)
+        calls.clear()
+        cache.begin_run()
+        assert calls == expected

@@ -26,13 +26,23 @@ ADDRESS_RE = re.compile(r"^tcp://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9]([A-Za-z0-9.\-]*
 CONNECT_TIMEOUT_S = 5.0
 HANDSHAKE_TIMEOUT_S = 6.0
 """Time (s) a scheduler at ``--address`` gets to accept the connection and answer dask's handshake."""
-WORKER_ENVIRON = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
-"""What a local worker process is not given of dask's defaults: glibc's trim threshold, which dask sets to 64 KiB
-so that freed memory goes back to the system at once. A run allocates and frees its small arrays every step, and
-with that threshold each came back as fresh pages: about 290 000 minor page faults a run and a fifth of a worker's
-CPU in the kernel (the six built-in methods on ftc-v2 dev draws 0-19, 2 workers: 27 s of system time per worker
-against 1.9 s without it, the runs' wall time 260 s against 203 s; docs/performance.md). A value the user sets in
-the environment (``MALLOC_TRIM_THRESHOLD_``) is inherited by the workers all the same."""
+LOCAL_CLUSTER_CONFIG = {
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "2s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
+"""dask settings of a local cluster that differ from dask's defaults, each for a measured cost:
+
+- glibc's malloc trim threshold is left to glibc (dask gives its workers ``MALLOC_TRIM_THRESHOLD_=65536``, so
+  that freed memory goes back to the system at once): a run allocates and frees its small arrays every step, and
+  each came back as fresh pages, about 290 000 minor page faults a run and a fifth of a worker's CPU in the kernel
+  (the six built-in methods on ftc-v2 dev draws 0-19, 2 workers: 27 s of system time per worker against 1.9 s
+  without it; the runs' wall time 260 s against 203 s). A value the user sets in the environment is inherited
+  by the workers all the same; the per-process cache returns free pages itself (:mod:`ftc_mj.sim.cache`).
+- The event loops' tick (20 ms), the scheduler's system monitor (0.5 s) and the memory monitor (0.1 s) run
+  every 1, 2 and 1 s: an idle cluster of 2 workers spent 0.68 s of the client's CPU and 0.49 s of each worker's
+  per 30 s with dask's intervals, 0.18 and 0.39 s with these (a 15-minute bench: about 20 s of CPU)."""
 DASHBOARD_RE = re.compile(r"^(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9]([A-Za-z0-9.\-]*[A-Za-z0-9])?)?:(\d{1,5})$")
 
 
@@ -100,7 +110,7 @@ def open_client(workers: int, address: str | None, dashboard: str = "127.0.0.1:0
     if workers < 1:
         raise BadInput("--workers: must be >= 1")
     _quiet_resource_tracker()
-    with _sigint_ignored_by_children(), dask.config.set(WORKER_ENVIRON):
+    with _sigint_ignored_by_children(), dask.config.set(LOCAL_CLUSTER_CONFIG):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                                dashboard_address=validate_dashboard(dashboard), silence_logs=logging.ERROR)
     client = Client(cluster)

@@ -56,8 +56,10 @@ def report_name(split: str, healthy: bool) -> str:
     return "healthy-check.md" if healthy else "leaderboard.md" if split in LEADERBOARD_SPLITS else "dev-report.md"
 
 
-def write_outputs(bp: Any, results: pl.DataFrame, out: Path, *, compare: int = 1, echo: Any = None) -> Path:
-    """Every output of the module docstring; returns the report's path."""
+def write_outputs(bp: Any, results: pl.DataFrame, out: Path, *, compare: int = 1, echo: Any = None,
+                  record: Any = None) -> Path:
+    """Every output of the module docstring; returns the report's path. ``record``: how the comparisons' runs are
+    simulated again (:func:`write_comparisons`)."""
     draws = pl.DataFrame([d.factors() for d in bp.draws], infer_schema_length=None)
     with atomic_path(out / "draws.parquet") as tmp:
         draws.write_parquet(tmp)
@@ -69,7 +71,7 @@ def write_outputs(bp: Any, results: pl.DataFrame, out: Path, *, compare: int = 1
     every = {} if bp.healthy else classes_of_draws(bp.draws)  # a draw in every class of its faults, as the table
     per_class = [{**r, "fault_class": c} for r in rows for c in every.get(r["draw"], (r["fault_class"],))]
     figures = draw_figures(per_class, [m.name for m in bp.methods], out / "figures", bp.classes)
-    compared = write_comparisons(bp, rows, out / "compare", compare) if compare > 0 else []
+    compared = write_comparisons(bp, rows, out / "compare", compare, record) if compare > 0 else []
     history = scoring_history(bp, out) if bp.split in LEADERBOARD_SPLITS else []
     text = render(bp, rows, figures, compared, computed_line(out), history)
     path = out / report_name(bp.split, bp.healthy)
@@ -463,23 +465,38 @@ def chosen_draws(rows: list[dict[str, Any]], n: int) -> list[int]:
     return [d for d, rs in sorted(by.items(), key=lambda kv: rank(kv[1]), reverse=True)][:n]
 
 
-def write_comparisons(bp: Any, rows: list[dict[str, Any]], folder: Path, n: int) -> list[Path]:
+def record_runs(jobs: list[tuple[Any, Path]]) -> list[Path]:
+    """Simulate each ``(config, run root)`` with its recording, one after the other in this process; the run
+    folders."""
+    from ..sim.run import execute
+
+    return [Path(execute(cfg, root, rrd=True).run_dir) for cfg, root in jobs]
+
+
+def write_comparisons(bp: Any, rows: list[dict[str, Any]], folder: Path, n: int, record: Any = None) -> list[Path]:
     """A Rerun comparison (:func:`~ftc_mj.rerun.overlay.write_comparison`) of every method on each chosen draw:
-    the runs are simulated again with recordings (a run is a pure function of its config: the same runs)."""
+    the runs are simulated again with recordings (a run is a pure function of its config: the same runs) by
+    ``record`` (``[(config, run root)] -> [run folder]``; default :func:`record_runs`, in this process)."""
     from ..rerun.overlay import write_comparison
-    from ..sim.run import execute, run_id_for
+    from ..sim.run import run_id_for
 
     if len(bp.methods) < 2:
         return []
-    out = []
+    dirs: dict[int, list[Path]] = {}
+    jobs: list[tuple[Any, Path]] = []
+    slots: list[tuple[int, int]] = []
     for k in chosen_draws(rows, n):
         d = next(x for x in bp.draws if x.index == k)
-        run_root = folder / "runs" / d.name
-        dirs = []
+        dirs[k] = []
         for m in bp.methods:
             cfg = m.apply(d.scenario(with_faults=not bp.healthy))
-            done = run_root / run_id_for(cfg)
-            dirs.append(done if (done / "trace.parquet").is_file() else execute(cfg, run_root, rrd=True).run_dir)
-        out.append(write_comparison(dirs, folder / f"draw-{k:06d}.rrd", [m.name for m in bp.methods],
-                                    recording_id=f"bench-{d.name}"))
-    return out
+            done = folder / "runs" / d.name / run_id_for(cfg)
+            dirs[k].append(done)
+            if not (done / "trace.parquet").is_file():
+                jobs.append((cfg, folder / "runs" / d.name))
+                slots.append((k, len(dirs[k]) - 1))
+    for (k, i), path in zip(slots, (record or record_runs)(jobs) if jobs else [], strict=True):
+        dirs[k][i] = path
+    names = {x.index: x.name for x in bp.draws}
+    return [write_comparison(ds, folder / f"draw-{k:06d}.rrd", [m.name for m in bp.methods],
+                             recording_id=f"bench-{names[k]}") for k, ds in dirs.items()]

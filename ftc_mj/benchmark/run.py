@@ -165,20 +165,40 @@ def run_bench(bp: BenchPlan, out: Path, *, workers: int = 2, address: str | None
     then write the outputs (:func:`~ftc_mj.benchmark.report.write_outputs`); returns the study report and
     the report file. Nothing is written before the folder is checked and the scheduler at ``address``
     answered; the folder has one writer (:func:`~ftc_mj.io.writer_lock`: a second bench or study on it
-    gets :class:`BadInput`)."""
+    gets :class:`BadInput`). A local cluster (no ``address``), started when runs are missing, also simulates
+    the comparisons' runs again (:func:`record_on`: its workers hold the methods' solvers, and two run at once)."""
     import contextlib
 
     from ..study.cluster import open_client
-    from ..study.runner import run_study
+    from ..study.runner import plan_todo, run_study
     from .report import write_outputs
 
     adopt_earlier_bench(bp, out)
-    StudyStore(out).check(bp.plan)
-    remote = open_client(workers, address) if address is not None else contextlib.nullcontext(None)
-    with remote as client, writer_lock(out):
+    store = StudyStore(out)
+    store.check(bp.plan)
+    local = address is None and bool(plan_todo(bp.plan, store)[0])
+    cluster = open_client(workers, address) if address is not None or local else contextlib.nullcontext(None)
+    with cluster as client, writer_lock(out):
         prepare_output(bp, out)
         run_fn = functools.partial(bench_run, rule=bp.rule)
         report = run_study(bp.plan, out, workers=workers, client=client, run_fn=run_fn, analyse=False,
-                           progress=progress, echo=echo)
+                           progress=progress, echo=echo, client_workers=workers if local else None)
         assert report.results is not None
-        return report, write_outputs(bp, report.results, out, compare=compare, echo=echo)
+        record = functools.partial(record_on, client) if local else None
+        return report, write_outputs(bp, report.results, out, compare=compare, echo=echo, record=record)
+
+
+def record_on(client: Any, jobs: list[tuple[Any, Path]]) -> list[Path]:
+    """:func:`~ftc_mj.benchmark.report.record_runs` on a local cluster's workers, one run a task (they write
+    the run folders on this machine). The configs travel as plain data and are validated in the worker, which
+    imports their plug-ins as it does for the bench's runs."""
+    futures = client.map(_record_one, [cfg.model_dump(mode="json") for cfg, _ in jobs],
+                         [str(root) for _, root in jobs], pure=False)
+    return [Path(p) for p in client.gather(futures)]
+
+
+def _record_one(config: dict[str, Any], root: str) -> str:
+    from ..config import validate_config
+    from .report import record_runs
+
+    return str(record_runs([(validate_config(config), Path(root))])[0])

@@ -127,6 +127,7 @@ def run_study(
     on_row: Callable[[dict[str, Any]], None] | None = None,
     dashboard: str = "127.0.0.1:0",
     echo: Callable[[str], None] | None = None,
+    client_workers: int | None = None,
 ) -> StudyReport:
     """Compute the plan's missing runs into ``out`` and collect/analyse the results.
 
@@ -136,7 +137,8 @@ def run_study(
     written. ``rrd = "compare"`` keeps every run's folder (like ``all``) and writes
     ``OUT/compare.rrd`` overlaying them (:func:`write_study_comparison`). ``echo`` receives one-line
     notes: quarantined rows, what a ``limit`` took and, with the progress bar, what starts (before the
-    first run finishes).
+    first run finishes); ``client_workers``: the number of worker processes of a given ``client`` that is a
+    local cluster (for that line).
     """
     say = echo or (lambda _s: None)
     store = StudyStore(out)
@@ -175,7 +177,7 @@ def run_study(
                 with ctx as cl:
                     hold()  # once the address answered: nothing is written before
                     if announce and not local:
-                        say(starting_line(len(todo), already, "the cluster's"))
+                        say(starting_line(len(todo), already, client_workers or "the cluster's"))
                     store.init(plan)
                     store.log("start", invocation=invocation, todo=len(todo), done_before=already,
                               backend=str(cl.scheduler.address) if hasattr(cl, "scheduler") else "dask")

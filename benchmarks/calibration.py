@@ -18,7 +18,14 @@ ARL0 = 1 / rate against the design ``estimator.decision.arl0``. The ``sigma`` ru
 ``k_sigma``) is measured the same way on its logged statistic (an alarm: an up-crossing). Lorden's bound is
 given for the 50 % left puncture at 10 s of one fault run per sensor set, at the measured ARL0 and at the
 design's. ``--write`` stores the after-launch rates in ``ftc_mj/data/calibration/alarm_rates.json``, which
-the benchmark's ``lorden_delay_bound`` reads.
+the benchmark's ``lorden_delay_bound`` reads. ``--first-seed`` moves the runs' seeds (held-out seeds measure
+the shipped detectors without tuning them).
+
+``--calibrate`` chooses the detectors' threshold offsets under the physical null model: on the no-fault runs
+of development seeds 0..``--runs``-1, each detector is replayed at its threshold on ``N(0, I)`` innovations
+plus each of :data:`OFFSETS`, and the offset whose after-launch mean time between false alarms is nearest the
+design (log scale) is written to ``ftc_mj/data/calibration/physical_offsets.json``, with every offset's counts
+(:func:`~ftc_mj.metrics.alarm_rates.physical_offset` reads it; the decision factory adds it to the threshold).
 """
 
 from __future__ import annotations
@@ -36,10 +43,19 @@ import numpy as np
 
 from ftc_mj.config import RunConfig, load_config
 from ftc_mj.estimation.base import Measurement
-from ftc_mj.metrics.alarm_rates import LAUNCH_S, RATES_FILE, RULE_SETTINGS, Rate, censored_rate, run_lengths
+from ftc_mj.metrics.alarm_rates import (
+    LAUNCH_S,
+    OFFSETS_FILE,
+    RATES_FILE,
+    RULE_SETTINGS,
+    Rate,
+    censored_rate,
+    chosen_offset,
+    run_lengths,
+)
 from ftc_mj.metrics.fdi import cumulative_kl, lorden_delays
 from ftc_mj.sim.loop import simulate
-from ftc_mj.wiring.decision import build_change_detectors, calibrated_threshold
+from ftc_mj.wiring.decision import build_change_detectors, calibrated_threshold, nominal_threshold
 from ftc_mj.wiring.estimation import setup_from_config
 
 SENSORS = {"speed": {}, "speed+yaw": {"sensors.yaw_rate_sigma": 0.01}}
@@ -54,10 +70,11 @@ def config(sensors: str, seed: int, **extra: Any) -> RunConfig:
 
 
 def replay(cfg: RunConfig, tr: dict[str, np.ndarray], kind: str, h: float, start: float, renew: bool,
-           logged: bool = False) -> list[float]:
+           logged: bool = False, peak: list[float] | None = None) -> list[float]:
     """Alarm times (s) of detector ``kind`` at threshold ``h`` replayed on the run's trace ``tr``: the residual
     generator from 0 s, the statistic restarted at ``start`` (s) and, with ``renew``, after every alarm;
-    ``logged``: check the statistic against the trace's logged one up to the first alarm (start 0 only)."""
+    ``logged``: check the statistic against the trace's logged one up to the first alarm (start 0 only);
+    ``peak``: a list that gets the statistic's largest value from ``start`` on."""
     det = build_change_detectors(cfg, setup_from_config(cfg))
     t, v = tr["t"], tr["v_meas"]
     yaw = tr["yaw_rate_meas"] if cfg.sensors.yaw_rate_sigma is not None else None
@@ -74,6 +91,8 @@ def replay(cfg: RunConfig, tr: dict[str, np.ndarray], kind: str, h: float, start
         g = det.cusum_stat if kind == "cusum" else det.glr_stat
         if logged and not alarms and not math.isclose(g, float(tr[f"{kind}_stat"][k]), rel_tol=1e-9, abs_tol=1e-9):
             raise AssertionError(f"{kind} replay differs from the logged statistic at t = {t[k]:.2f} s")
+        if fresh and peak is not None:
+            peak[:] = [max(peak[0], g)] if peak else [g]
         if fresh and g >= h:
             alarms.append(float(t[k]))
             if not renew:
@@ -90,10 +109,11 @@ def crossings(tr: dict[str, np.ndarray], column: str, h: float, start: float) ->
     return [float(x) for x in t[up]]
 
 
-def measure(sensors: str, runs: int) -> dict[str, dict[str, Rate]]:
-    """Rates per cell (``start``, ``after_launch``) and rule over ``runs`` no-fault runs (module docstring)."""
+def measure(sensors: str, seeds: range) -> dict[str, dict[str, Rate]]:
+    """Rates per cell (``start``, ``after_launch``) and rule over the no-fault runs of ``seeds`` (module
+    docstring)."""
     cells: dict[str, dict[str, list[tuple[float, bool]]]] = {"start": {}, "after_launch": {}}
-    for seed in range(runs):
+    for seed in seeds:
         cfg = config(sensors, seed)
         res = simulate(cfg, strict=True)
         tr = {k: np.asarray(v) for k, v in res.trace.items()}
@@ -109,6 +129,69 @@ def measure(sensors: str, runs: int) -> dict[str, dict[str, Rate]]:
         cells["start"].setdefault("sigma", []).extend(run_lengths(up0[:1], 0.0, up0[0] if up0 else end))
         cells["after_launch"].setdefault("sigma", []).extend(run_lengths(up, LAUNCH_S, end))
     return {cell: {rule: censored_rate(rl) for rule, rl in rules.items()} for cell, rules in cells.items()}
+
+
+OFFSETS = tuple(round(-3.0 + 0.25 * i, 2) for i in range(19))
+"""Threshold offsets (LLR units) tried by ``--calibrate``: -3 to +1.5 in steps of 0.25 (a step moves the mean time
+between false alarms by about e^0.25 = 1.28)."""
+
+
+def calibrate(sensors: str, seeds: range) -> dict[str, dict[float, dict[str, Rate]]]:
+    """Rates per detector, offset and cell (``start``, ``after_launch``) over no-fault runs of ``seeds``, at
+    the nominal threshold plus each of :data:`OFFSETS`: the first alarm from the run's logged statistic, the
+    renewed alarms after the launch by replay (only where the statistic reaches the threshold at all)."""
+    cells: dict[str, dict[float, dict[str, list[tuple[float, bool]]]]] = {k: {} for k in DETECTORS}
+    for seed in seeds:
+        cfg = config(sensors, seed)
+        res = simulate(cfg, strict=True)
+        tr = {k: np.asarray(v) for k, v in res.trace.items()}
+        end = float(tr["t"][-1])
+        for kind in DETECTORS:
+            h0, top = nominal_threshold(cfg, kind), []
+            replay(cfg, tr, kind, math.inf, LAUNCH_S, renew=False, peak=top)
+            for d in OFFSETS:
+                first = crossings(tr, f"{kind}_stat", h0 + d, 0.0)[:1]
+                after = replay(cfg, tr, kind, h0 + d, LAUNCH_S, renew=True) if top[0] >= h0 + d else []
+                cell = cells[kind].setdefault(d, {"start": [], "after_launch": []})
+                cell["start"].extend(run_lengths(first, 0.0, first[0] if first else end))
+                cell["after_launch"].extend(run_lengths(after, LAUNCH_S, end))
+    return {kind: {d: {c: censored_rate(rl) for c, rl in cl.items()} for d, cl in by.items()}
+            for kind, by in cells.items()}
+
+
+def calibrate_main(seeds: range, jobs: int) -> None:
+    """``--calibrate``: the offsets' curves on the development ``seeds``, printed, and the chosen offsets
+    written to :data:`~ftc_mj.metrics.alarm_rates.OFFSETS_FILE`."""
+    with ProcessPoolExecutor(min(jobs, len(SENSORS))) as ex:
+        curves = dict(zip(SENSORS, ex.map(calibrate, SENSORS, [seeds] * len(SENSORS)), strict=True))
+    design = config("speed", 0).estimator.decision.arl0
+    out: dict[str, Any] = {"written_by": "benchmarks/calibration.py --calibrate", "commit": _commit(),
+                           "runs": len(seeds), "design_arl0": design,
+                           "conditions": {"scenario": "scenario1", **BASE, "launch_s": LAUNCH_S,
+                                          "seeds": [seeds[0], seeds[-1]]},
+                           "offsets": {}, "curves": {}}
+    print("| sensors | rule | offset | first alarm: alarms / s, ARL0 [95 %] | after launch: alarms / s, ARL0 [95 %] |")
+    print("|---|---|---|---|---|")
+    for sensors, by_kind in curves.items():
+        for kind, curve in by_kind.items():
+            pick = chosen_offset({d: cells["after_launch"] for d, cells in curve.items()}, design)
+            out["offsets"].setdefault(sensors, {})[kind] = pick
+            out["curves"].setdefault(sensors, {})[kind] = {
+                f"{d:g}": {c: [r.alarms, round(r.exposure, 3)] for c, r in cells.items()} for d, cells in curve.items()}
+            for d, cells in curve.items():
+                a, b = cells["start"], cells["after_launch"]
+                print(f"| {sensors} | {kind} | {'**' if d == pick else ''}{d:+.2f}{'**' if d == pick else ''} | "
+                      f"{a.alarms} / {a.exposure:.0f}, {_fmt(a.arl0)} [{_fmt(a.arl0_interval[0])}, "
+                      f"{_fmt(a.arl0_interval[1])}] | {b.alarms} / {b.exposure:.0f}, {_fmt(b.arl0)} "
+                      f"[{_fmt(b.arl0_interval[0])}, {_fmt(b.arl0_interval[1])}] |")
+    path = Path(__file__).resolve().parents[1] / "ftc_mj" / OFFSETS_FILE
+    path.write_text(json.dumps(out, indent=1) + "\n")
+    print(f"\noffsets {out['offsets']}\nwrote {path}")
+
+
+def _commit() -> str:
+    return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                          cwd=Path(__file__).parent).stdout.strip()
 
 
 def lorden(sensors: str, arl0: dict[str, float]) -> dict[str, float]:
@@ -141,15 +224,13 @@ def table(rates: dict[str, dict[str, dict[str, Rate]]], design: float) -> list[s
     return rows
 
 
-def stored(rates: dict[str, dict[str, dict[str, Rate]]], cfg: RunConfig, runs: int) -> dict[str, Any]:
+def stored(rates: dict[str, dict[str, dict[str, Rate]]], cfg: RunConfig, seeds: range) -> dict[str, Any]:
     """The data file's content: the after-launch rates per sensor set and rule, with the settings they hold for."""
     d = cfg.estimator.decision
     settings = {k: float(getattr(d, k)) for k in RULE_SETTINGS}
-    rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                         cwd=Path(__file__).parent).stdout.strip()
-    out: dict[str, Any] = {"written_by": "benchmarks/calibration.py", "commit": rev, "runs": runs,
+    out: dict[str, Any] = {"written_by": "benchmarks/calibration.py", "commit": _commit(), "runs": len(seeds),
                            "conditions": {"scenario": "scenario1", **BASE, "launch_s": LAUNCH_S,
-                                          "seeds": [0, runs - 1], "estimator": cfg.estimator.kind},
+                                          "seeds": [seeds[0], seeds[-1]], "estimator": cfg.estimator.kind},
                            "after_launch": {}}
     for sensors, cells in rates.items():
         out["after_launch"][sensors] = {rule: {"alarms": r.alarms, "exposure": r.exposure, "rate": r.rate,
@@ -160,16 +241,27 @@ def stored(rates: dict[str, dict[str, dict[str, Rate]]], cfg: RunConfig, runs: i
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=40, help="no-fault runs of 30 s per sensor set (dev seeds 0..)")
+    ap.add_argument("--runs", type=int, default=40, help="no-fault runs of 30 s per sensor set")
+    ap.add_argument("--first-seed", type=int, default=0, help="the first run's seed (then +1 each run)")
     ap.add_argument("--jobs", type=int, default=2, help="processes (one sensor set each)")
     ap.add_argument("--write", action="store_true", help=f"store the after-launch rates in ftc_mj/{RATES_FILE}")
+    ap.add_argument("--calibrate", action="store_true",
+                    help=f"choose the threshold offsets on the (development) seeds, write ftc_mj/{OFFSETS_FILE}")
     args = ap.parse_args()
     t0 = time.perf_counter()
+    seeds = range(args.first_seed, args.first_seed + args.runs)
+    if args.calibrate:
+        if seeds[-1] >= 1000:
+            raise SystemExit("--calibrate: the offsets are chosen on development seeds (< 1000) only")
+        calibrate_main(seeds, args.jobs)
+        print(f"\nwall {time.perf_counter() - t0:.0f} s")
+        return
     with ProcessPoolExecutor(min(args.jobs, len(SENSORS))) as ex:  # one sensor set per process
-        rates = dict(zip(SENSORS, ex.map(measure, SENSORS, [args.runs] * len(SENSORS)), strict=True))
+        rates = dict(zip(SENSORS, ex.map(measure, SENSORS, [seeds] * len(SENSORS)), strict=True))
     cfg = config("speed", 0)
     design = cfg.estimator.decision.arl0
-    print(f"{args.runs} no-fault runs x 30 s per sensor set, MuJoCo, scenario 1, feedback off; design ARL0 "
+    print(f"{args.runs} no-fault runs x 30 s per sensor set (seeds {seeds[0]}-{seeds[-1]}), MuJoCo, scenario 1, "
+          f"feedback off; design ARL0 "
           f"{design:g} s\n")
     print("\n".join(table(rates, design)))
     print("\nLorden's bound (s), 50 % left puncture at 10 s, at the measured after-launch ARL0 and at the design:\n")
@@ -184,7 +276,7 @@ def main() -> None:
     if args.write:
         path = Path(__file__).resolve().parents[1] / "ftc_mj" / RATES_FILE
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(stored(rates, cfg, args.runs), indent=1) + "\n")
+        path.write_text(json.dumps(stored(rates, cfg, seeds), indent=1) + "\n")
         print(f"\nwrote {path}")
     print(f"\nwall {time.perf_counter() - t0:.0f} s")
 

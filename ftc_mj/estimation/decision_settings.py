@@ -54,10 +54,11 @@ class DecisionSettings(StrictModel):
     generator one filter step behind the estimator (the body follows the wheels within a step), and tyre slip
     near the grip limit as effective-radius noise, σ a fraction of the nominal radius that grows with the
     demanded lateral acceleration (in g), a speed or yaw-rate channel unused where that noise exceeds twice
-    its sensor's σ; the thresholds keep their design ARL0 on the MuJoCo robot (docs/fdi.md, "Calibration on
-    the physical plant"). ``ideal``: the no-slip kinematic model alone, exact for a robot that is that model
-    (the kinematic plant), where the physical null model only costs a step of delay and sensitivity at
-    high lateral acceleration."""
+    its sensor's σ; with a threshold offset per detector and sensor set measured on the MuJoCo robot
+    (:func:`~ftc_mj.metrics.alarm_rates.physical_offset`) the thresholds keep their design ARL0 there
+    (docs/fdi.md, "Calibration on the physical plant"). ``ideal``: the no-slip kinematic model alone, exact
+    for a robot that is that model (the kinematic plant), where the physical null model only costs a step of
+    delay and sensitivity at high lateral acceleration."""
     isolation_llr: PosFloat = 4.6
     """``cusum``/``glr``: a wheel is isolated when its hypothesis leads the runner-up by this log-likelihood
     ratio (nats; 4.6 ≈ 99:1 odds); otherwise the declared wheel is ``'unknown'``."""

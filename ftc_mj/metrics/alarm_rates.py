@@ -26,6 +26,9 @@ from typing import Any
 
 RATES_FILE = "data/calibration/alarm_rates.json"
 """The measured rates, relative to the package (written by ``benchmarks/calibration.py``)."""
+OFFSETS_FILE = "data/calibration/physical_offsets.json"
+"""The change detectors' threshold offsets on the physical robot, relative to the package (written by
+``benchmarks/calibration.py --calibrate``)."""
 RULE_SETTINGS = ("arl0", "cusum_shift", "glr_window", "k_sigma", "min_drop", "dwell")
 """The ``[estimator.decision]`` settings a measured rate holds for (a rule's threshold depends on them)."""
 LAUNCH_S = 5.0
@@ -82,10 +85,31 @@ def run_lengths(alarm_times: Iterable[float], start: float, end: float) -> list[
     return out
 
 
+def chosen_offset(curve: dict[float, Rate], design: float) -> float:
+    """The threshold offset (LLR units) of ``curve`` (offset -> the after-launch rate measured at it) whose mean
+    time between false alarms is nearest the ``design`` (s) on the log scale (the larger offset, the fewer
+    alarms, on a tie); 0 when no offset gave an alarm."""
+    finite = {d: r.arl0 for d, r in curve.items() if r.alarms}
+    if not finite:
+        return 0.0
+    return min(finite, key=lambda d: (round(abs(math.log(finite[d] / design)), 9), -d))
+
+
 @functools.cache
-def _table() -> dict[str, Any]:
-    path = resources.files("ftc_mj").joinpath(RATES_FILE)
+def _table(name: str = RATES_FILE) -> dict[str, Any]:
+    path = resources.files("ftc_mj").joinpath(name)
     return json.loads(path.read_text()) if path.is_file() else {}
+
+
+def physical_offset(kind: str, gyro: bool) -> float:
+    """Offset (log-likelihood-ratio units) added to the ``cusum`` or ``glr`` detector's threshold under the
+    physical null model with the sensor set (``gyro``): chosen on no-fault MuJoCo runs of the development seeds
+    so that the detector's mean time between false alarms after the launch is the design's
+    (``benchmarks/calibration.py --calibrate``; docs/fdi.md, "Calibration on the physical plant"). Measured at
+    the design ARL0 of 100 s and applied at any: on the LLR scale (``ARL0 ∝ e^h``, Lorden 1971) a null model
+    that makes the mean time a factor ``c`` of the design's at one design does so at every design, and
+    ``-log c`` corrects it at each. 0 where not measured."""
+    return float(_table(OFFSETS_FILE).get("offsets", {}).get(sensor_set(gyro), {}).get(kind, 0.0))
 
 
 def sensor_set(gyro: bool) -> str:

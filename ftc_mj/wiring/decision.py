@@ -21,6 +21,7 @@ from ..estimation.decision import AutoRule, ChangeRule, DecisionRule, FaultDecis
 from ..estimation.residual import ChangeDetectors, residual_setup
 from ..estimation.rule_statistics import DecisionSettings, RuleStatistics
 from ..estimation.setup import FilterSetup
+from ..metrics.alarm_rates import physical_offset
 from ..registry import BUILTIN, decision_rules
 from .estimation import setup_from_config
 
@@ -98,14 +99,27 @@ def glr_window_of(cfg: RunConfig) -> int:
     return glr_window_steps(cfg.estimator.decision.glr_window, cfg.estimator.rate)
 
 
-def calibrated_threshold(cfg: RunConfig, kind: str, setup: FilterSetup | None = None) -> float:
+def nominal_threshold(cfg: RunConfig, kind: str, setup: FilterSetup | None = None) -> float:
     """Threshold (log-likelihood-ratio units) of the ``cusum`` or ``glr`` rule of the run ``cfg`` for
-    ``decision.arl0`` (s) between false alarms: the largest of the thresholds calibrated at each operating
-    point of the reference (a figure-eight's two lobes), so the mean time between false alarms is at least
-    ``arl0`` on every part of the path."""
+    ``decision.arl0`` (s) between false alarms on ``N(0, I)`` innovations
+    (:func:`~ftc_mj.estimation.calibration.arl0_threshold`): the largest of the thresholds calibrated at each
+    operating point of the reference (a figure-eight's two lobes), so the mean time between false alarms is
+    at least ``arl0`` on every part of the path."""
     d = cfg.estimator.decision
     return max(arl0_threshold(kind, point, arl0=d.arl0, shift=d.cusum_shift, window=glr_window_of(cfg),
                               rate=cfg.estimator.rate) for point in nominal_points_of(cfg, setup))
+
+
+def calibrated_threshold(cfg: RunConfig, kind: str, setup: FilterSetup | None = None) -> float:
+    """Threshold (log-likelihood-ratio units) of the ``cusum`` or ``glr`` rule of the run: the
+    :func:`nominal_threshold` plus, under the physical null model (:func:`physical_null_model`), the offset
+    measured for the detector and the run's sensor set on the physical robot
+    (:func:`~ftc_mj.metrics.alarm_rates.physical_offset`: its mean time between false alarms equals the design's
+    there). The offset depends on the sensors the method has, never on the simulator that runs."""
+    h = nominal_threshold(cfg, kind, setup)
+    if physical_null_model(cfg):
+        h += physical_offset(kind, cfg.sensors.yaw_rate_sigma is not None)
+    return h
 
 
 def build_decision_rule(cfg: RunConfig, setup: FilterSetup | None = None) -> DecisionRule:

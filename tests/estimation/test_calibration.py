@@ -12,6 +12,7 @@ from ftc_mj.estimation import Measurement
 from ftc_mj.estimation.calibration import null_threshold, siegmund_arl0
 from ftc_mj.estimation.decision import ChangeRule
 from ftc_mj.estimation.rule_statistics import DecisionSettings
+from ftc_mj.metrics.alarm_rates import OFFSETS_FILE, Rate, _table, chosen_offset, physical_offset
 from ftc_mj.registry import decision_rules
 from ftc_mj.wiring.decision import (
     build_change_detectors,
@@ -19,6 +20,7 @@ from ftc_mj.wiring.decision import (
     calibrated_threshold,
     nominal_point_of,
     nominal_points_of,
+    nominal_threshold,
     reference_operating_points,
 )
 from tests.estimation.filters import decision_cfg, excited_data, make_filter
@@ -96,3 +98,41 @@ def test_a_figure_eight_is_calibrated_on_both_lobes() -> None:
     assert lobes == (nominal_point_of(cfg), nominal_point_of(cw)) and lobes[0] != lobes[1]
     h = calibrated_threshold(fig8, "glr")
     assert h == max(calibrated_threshold(cfg, "glr"), calibrated_threshold(cw, "glr"))
+
+
+def test_the_physical_null_model_adds_the_offset_measured_for_its_sensors() -> None:
+    """Under the physical null model a detector's threshold is the N(0, I) one plus the offset measured on the
+    MuJoCo robot for the run's sensor set; the ideal null model keeps the N(0, I) one. Speed only the shipped
+    offsets are negative: there the physical null model's slip noise made the N(0, I) thresholds' mean time
+    between false alarms 4-7 times the design's on the development seeds (docs/fdi.md)."""
+    for gyro in (None, 0.01):
+        for kind in ("cusum", "glr"):
+            cfg, ideal = decision_cfg(kind, gyro), decision_cfg(kind, gyro, null_model="ideal")
+            offset = physical_offset(kind, gyro is not None)
+            assert calibrated_threshold(cfg, kind) == nominal_threshold(cfg, kind) + offset
+            assert calibrated_threshold(ideal, kind) == nominal_threshold(ideal, kind)
+    assert physical_offset("cusum", False) < 0.0 and physical_offset("glr", False) < 0.0
+
+
+def test_the_shipped_offsets_are_the_rule_applied_to_their_own_counts() -> None:
+    """The data file keeps, for every offset tried, the after-launch alarms and seconds watched; each shipped
+    offset is what :func:`chosen_offset` picks from them, on development seeds only, over >= 1000 s per sensor
+    set."""
+    data = _table(OFFSETS_FILE)
+    assert data["conditions"]["seeds"][1] < 1000
+    for sensors, kinds in data["curves"].items():
+        for kind, curve in kinds.items():
+            rates = {float(d): Rate(a, e, a / e, 0.0, 0.0) for d, (a, e) in
+                     ((d, cells["after_launch"]) for d, cells in curve.items())}
+            assert min(r.exposure for r in rates.values()) >= 1000.0
+            assert data["offsets"][sensors][kind] == chosen_offset(rates, data["design_arl0"])
+
+
+def test_the_offset_nearest_the_design_on_the_log_scale_is_chosen() -> None:
+    """Mean times 50, 95 and 400 s against a design of 100 s: 95 s is nearest; 50 and 200 s are equally far on
+    the log scale and the larger offset (fewer alarms) wins; without any alarm the offset is 0."""
+    def rate(arl0: float) -> Rate:
+        return Rate(10, 10.0 * arl0, 1.0 / arl0, 0.0, 0.0)
+    assert chosen_offset({-1.0: rate(50.0), -0.5: rate(95.0), 0.0: rate(400.0)}, 100.0) == -0.5
+    assert chosen_offset({-1.0: rate(50.0), 0.0: rate(200.0)}, 100.0) == 0.0
+    assert chosen_offset({-1.0: Rate(0, 900.0, 0.0, 0.0, 0.1)}, 100.0) == 0.0

@@ -190,7 +190,8 @@ def calibrate_main(seeds: range, jobs: int) -> None:
 
 
 def _commit() -> str:
-    return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+    """The checkout's commit, ``-dirty`` when its working tree has changes (the data then came from neither)."""
+    return subprocess.run(["git", "describe", "--always", "--dirty", "--abbrev=7"], capture_output=True, text=True,
                           cwd=Path(__file__).parent).stdout.strip()
 
 

@@ -25,7 +25,7 @@ the shipped detectors without tuning them).
 of development seeds 0..``--runs``-1, each detector is replayed at its threshold on ``N(0, I)`` innovations
 plus each of :data:`OFFSETS`, and the offset whose after-launch mean time between false alarms is nearest the
 design (log scale) is written to ``ftc_mj/data/calibration/physical_offsets.json``, with every offset's counts
-(:func:`~ftc_mj.metrics.alarm_rates.physical_offset` reads it; the decision factory adds it to the threshold).
+(:func:`~ftc_mj.estimation.calibration.physical_offset` reads it; the decision factory adds it to the threshold).
 """
 
 from __future__ import annotations
@@ -43,9 +43,9 @@ import numpy as np
 
 from ftc_mj.config import RunConfig, load_config
 from ftc_mj.estimation.base import Measurement
+from ftc_mj.estimation.calibration import OFFSETS_FILE
 from ftc_mj.metrics.alarm_rates import (
     LAUNCH_S,
-    OFFSETS_FILE,
     RATES_FILE,
     RULE_SETTINGS,
     Rate,
@@ -161,7 +161,7 @@ def calibrate(sensors: str, seeds: range) -> dict[str, dict[float, dict[str, Rat
 
 def calibrate_main(seeds: range, jobs: int) -> None:
     """``--calibrate``: the offsets' curves on the development ``seeds``, printed, and the chosen offsets
-    written to :data:`~ftc_mj.metrics.alarm_rates.OFFSETS_FILE`."""
+    written to :data:`~ftc_mj.estimation.calibration.OFFSETS_FILE`."""
     with ProcessPoolExecutor(min(jobs, len(SENSORS))) as ex:
         curves = dict(zip(SENSORS, ex.map(calibrate, SENSORS, [seeds] * len(SENSORS)), strict=True))
     design = config("speed", 0).estimator.decision.arl0

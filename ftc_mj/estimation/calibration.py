@@ -23,8 +23,11 @@ long side for a GLR.
 from __future__ import annotations
 
 import functools
+import json
 import math
 from dataclasses import dataclass
+from importlib import resources
+from typing import Any
 
 import numpy as np
 
@@ -34,6 +37,9 @@ from .measurements import measure_jacobian
 from .pcrb import information_bound
 from .setup import FilterSetup
 
+OFFSETS_FILE = "data/calibration/physical_offsets.json"
+"""The change detectors' threshold offsets on the physical robot, relative to the package (written by
+``benchmarks/calibration.py --calibrate``)."""
 CALIBRATION_HORIZON_S = 200.0
 """Longest null run simulated (s); longer targets are extrapolated on the LLR scale."""
 NOMINAL_SETTLE_S = 20.0
@@ -168,3 +174,26 @@ def siegmund_arl0(h: float, shift: float) -> float:
     for a design shift ``shift`` (σ): ``(e^b - b - 1)/(δ²/2)``, ``b = h + 1.166 δ``."""
     b = h + 1.166 * shift
     return (math.exp(b) - b - 1.0) / (0.5 * shift * shift)
+
+
+@functools.cache
+def package_data(name: str) -> dict[str, Any]:
+    """The JSON data file ``name`` (relative to the package), ``{}`` when it is absent."""
+    path = resources.files("ftc_mj").joinpath(name)
+    return json.loads(path.read_text()) if path.is_file() else {}
+
+
+def sensor_set(gyro: bool) -> str:
+    """The calibration's key of a sensor set: ``speed`` or ``speed+yaw``."""
+    return "speed+yaw" if gyro else "speed"
+
+
+def physical_offset(kind: str, gyro: bool) -> float:
+    """Offset (log-likelihood-ratio units) added to the ``cusum`` or ``glr`` detector's threshold under the
+    physical null model with the sensor set (``gyro``): chosen on no-fault MuJoCo runs of the development seeds
+    so that the detector's mean time between false alarms after the launch is the design's
+    (``benchmarks/calibration.py --calibrate``; docs/fdi.md, "Calibration on the physical plant"). Measured at
+    the design ARL0 of 100 s and applied at any: on the LLR scale (``ARL0 ∝ e^h``, Lorden 1971) a null model
+    that makes the mean time a factor ``c`` of the design's at one design does so at every design, and
+    ``-log c`` corrects it at each. 0 where not measured."""
+    return float(package_data(OFFSETS_FILE).get("offsets", {}).get(sensor_set(gyro), {}).get(kind, 0.0))

@@ -55,7 +55,7 @@ class DecisionSettings(StrictModel):
     near the grip limit as effective-radius noise, σ a fraction of the nominal radius that grows with the
     demanded lateral acceleration (in g), a speed or yaw-rate channel unused where that noise exceeds twice
     its sensor's σ; with a threshold offset per detector and sensor set measured on the MuJoCo robot
-    (:func:`~ftc_mj.metrics.alarm_rates.physical_offset`) the thresholds keep their design ARL0 there
+    (:func:`~ftc_mj.estimation.calibration.physical_offset`) the thresholds keep their design ARL0 there
     (docs/fdi.md, "Calibration on the physical plant"). ``ideal``: the no-slip kinematic model alone, exact
     for a robot that is that model (the kinematic plant), where the physical null model only costs a step of
     delay and sensitivity at high lateral acceleration."""

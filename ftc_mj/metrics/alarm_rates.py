@@ -17,18 +17,15 @@ benchmark's score (:mod:`ftc_mj.benchmark.score`).
 from __future__ import annotations
 
 import functools
-import json
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
-from importlib import resources
 from typing import Any
+
+from ..estimation.calibration import package_data, sensor_set
 
 RATES_FILE = "data/calibration/alarm_rates.json"
 """The measured rates, relative to the package (written by ``benchmarks/calibration.py``)."""
-OFFSETS_FILE = "data/calibration/physical_offsets.json"
-"""The change detectors' threshold offsets on the physical robot, relative to the package (written by
-``benchmarks/calibration.py --calibrate``)."""
 RULE_SETTINGS = ("arl0", "cusum_shift", "glr_window", "k_sigma", "min_drop", "dwell")
 """The ``[estimator.decision]`` settings a measured rate holds for (a rule's threshold depends on them)."""
 LAUNCH_S = 5.0
@@ -96,25 +93,8 @@ def chosen_offset(curve: dict[float, Rate], design: float) -> float:
 
 
 @functools.cache
-def _table(name: str = RATES_FILE) -> dict[str, Any]:
-    path = resources.files("ftc_mj").joinpath(name)
-    return json.loads(path.read_text()) if path.is_file() else {}
-
-
-def physical_offset(kind: str, gyro: bool) -> float:
-    """Offset (log-likelihood-ratio units) added to the ``cusum`` or ``glr`` detector's threshold under the
-    physical null model with the sensor set (``gyro``): chosen on no-fault MuJoCo runs of the development seeds
-    so that the detector's mean time between false alarms after the launch is the design's
-    (``benchmarks/calibration.py --calibrate``; docs/fdi.md, "Calibration on the physical plant"). Measured at
-    the design ARL0 of 100 s and applied at any: on the LLR scale (``ARL0 ∝ e^h``, Lorden 1971) a null model
-    that makes the mean time a factor ``c`` of the design's at one design does so at every design, and
-    ``-log c`` corrects it at each. 0 where not measured."""
-    return float(_table(OFFSETS_FILE).get("offsets", {}).get(sensor_set(gyro), {}).get(kind, 0.0))
-
-
-def sensor_set(gyro: bool) -> str:
-    """The calibration's key of a sensor set: ``speed`` or ``speed+yaw``."""
-    return "speed+yaw" if gyro else "speed"
+def _table() -> dict[str, Any]:
+    return package_data(RATES_FILE)
 
 
 def measured_arl0(rule: str, gyro: bool, settings: dict[str, float]) -> float | None:

@@ -15,13 +15,12 @@ from __future__ import annotations
 
 from ..config import RunConfig, run_context
 from ..context import RunContext
-from ..estimation.calibration import NominalPoint, arl0_threshold, nominal_point
+from ..estimation.calibration import NominalPoint, arl0_threshold, nominal_point, physical_offset
 from ..estimation.change import glr_window_steps
 from ..estimation.decision import AutoRule, ChangeRule, DecisionRule, FaultDecision, ModeRule, SigmaRule
 from ..estimation.residual import ChangeDetectors, residual_setup
 from ..estimation.rule_statistics import DecisionSettings, RuleStatistics
 from ..estimation.setup import FilterSetup
-from ..metrics.alarm_rates import physical_offset
 from ..registry import BUILTIN, decision_rules
 from .estimation import setup_from_config
 
@@ -114,7 +113,7 @@ def calibrated_threshold(cfg: RunConfig, kind: str, setup: FilterSetup | None = 
     """Threshold (log-likelihood-ratio units) of the ``cusum`` or ``glr`` rule of the run: the
     :func:`nominal_threshold` plus, under the physical null model (:func:`physical_null_model`), the offset
     measured for the detector and the run's sensor set on the physical robot
-    (:func:`~ftc_mj.metrics.alarm_rates.physical_offset`: its mean time between false alarms equals the design's
+    (:func:`~ftc_mj.estimation.calibration.physical_offset`: its mean time between false alarms equals the design's
     there). The offset depends on the sensors the method has, never on the simulator that runs."""
     h = nominal_threshold(cfg, kind, setup)
     if physical_null_model(cfg):

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from ftc_mj.estimation import Measurement
-from ftc_mj.estimation.calibration import null_threshold, siegmund_arl0
+from ftc_mj.estimation.calibration import OFFSETS_FILE, null_threshold, package_data, physical_offset, siegmund_arl0
 from ftc_mj.estimation.decision import ChangeRule
 from ftc_mj.estimation.rule_statistics import DecisionSettings
-from ftc_mj.metrics.alarm_rates import OFFSETS_FILE, Rate, _table, chosen_offset, physical_offset
+from ftc_mj.metrics.alarm_rates import Rate, chosen_offset
 from ftc_mj.registry import decision_rules
 from ftc_mj.wiring.decision import (
     build_change_detectors,
@@ -118,7 +118,7 @@ def test_the_shipped_offsets_are_the_rule_applied_to_their_own_counts() -> None:
     """The data file keeps, for every offset tried, the after-launch alarms and seconds watched; each shipped
     offset is what :func:`chosen_offset` picks from them, on development seeds only, over >= 1000 s per sensor
     set."""
-    data = _table(OFFSETS_FILE)
+    data = package_data(OFFSETS_FILE)
     assert data["conditions"]["seeds"][1] < 1000
     for sensors, kinds in data["curves"].items():
         for kind, curve in kinds.items():

@@ -4,8 +4,9 @@ Strict mode: an exception inside a simulation fails the test that caused it inst
 as a failed run (the tests of the recorded failure turn it off). ``shared_runs``: the closed-loop runs
 of :data:`tests.support.shared_runs.SHARED_RUNS`, each simulated once per session on first use;
 ``policy_runs``: two of them written as run directories with recordings; ``dask_client``: the suite's
-one Dask cluster (under pytest-xdist every test that uses it runs in the same worker: the
-``xdist_group`` below, with ``--dist loadgroup`` from the pytest options).
+one Dask cluster. Under pytest-xdist (``--dist loadgroup --no-loadscope-reorder`` from the pytest options)
+every test that uses the cluster runs in one worker, and every other module's tests in one worker each, in
+order, so its module-scoped fixtures are built once: the ``xdist_group`` of :func:`pytest_collection_modifyitems`.
 
 Solver cache: the session's processes (xdist workers, CLI and example subprocesses, Dask workers)
 share the suite's own IPOPT solver cache (:mod:`ftc_mj.control.solver_cache`), never the user's: pytest's
@@ -90,35 +91,56 @@ DURATIONS_KEY = "ftc-mj/durations"
 _DURATIONS: dict[str, float] = {}
 
 
+DASK_GROUP = "dask"
+"""The ``xdist_group`` of the tests on the session's Dask cluster (``dask_client``)."""
+
+
+def _group(item: pytest.Item) -> str:
+    """The test's ``xdist_group``: :data:`DASK_GROUP` on the session's cluster, else its module's path."""
+    return DASK_GROUP if "dask_client" in getattr(item, "fixturenames", ()) else _module(item.nodeid)
+
+
+def _module(nodeid: str) -> str:
+    return nodeid.split("::", 1)[0]
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own, which names the group in the node id
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Tests on the session's Dask cluster share one xdist worker, so a parallel run (``-n 2``) still
-    starts one cluster; they are collected first, so that their worker takes the group (about 40 s) at the
-    start. The other modules follow longest first, by their tests' durations in the last session (pytest's
-    cache; a test never timed counts as 1 s), so that the two workers' last tests are short ones and they
-    finish together (greedy longest-processing-time scheduling); a module's tests stay together and in their
-    order, so its module-scoped fixtures are built as before. Every worker reads the same cache, so the order
-    is the same in each, as pytest-xdist requires. Without a last session (a fresh clone, as CI runs it) the
-    modules' durations shipped in :data:`MODULE_DURATIONS` order them instead, so the longest modules still
-    start first."""
-    on_cluster = {id(item) for item in items if "dask_client" in getattr(item, "fixturenames", ())}
-    for item in items:
-        if id(item) in on_cluster:
-            item.add_marker(pytest.mark.xdist_group("dask"))
+    """Tests on the session's Dask cluster are one xdist group, so a parallel run (``-n 2``) still starts one
+    cluster, and every other module is a group of its own, so its module-scoped fixtures are built once (xdist
+    would otherwise hand out single tests, and both workers build a module's fixtures). The cluster's tests are
+    collected first, so that their worker takes the group (about 40 s) at the start. The other modules follow
+    longest first, by their tests' durations in the last session (pytest's cache; a test never timed counts as
+    1 s), so that the two workers' last tests are short ones and they finish together (greedy
+    longest-processing-time scheduling; ``--no-loadscope-reorder`` keeps this order); a module's tests stay
+    together and in their order. Every worker reads the same cache, so the order is the same in each, as
+    pytest-xdist requires. Without a last session (a fresh clone, as CI runs it) the modules' durations shipped
+    in :data:`MODULE_DURATIONS` order them instead, so the longest modules still start first."""
+    groups = {id(item): _group(item) for item in items}
     cache = getattr(config, "cache", None)
     last = cache.get(DURATIONS_KEY, {}) if cache is not None else {}
     module_time: dict[str, float] = {}
     for item in items:
-        module = item.nodeid.split("::", 1)[0]
+        module = _module(item.nodeid)
         module_time[module] = module_time.get(module, 0.0) + float(last.get(item.nodeid, 1.0))
     if not last:
         shipped = json.loads(MODULE_DURATIONS.read_text()) if MODULE_DURATIONS.exists() else {}
         module_time = {m: float(shipped.get(m, t)) for m, t in module_time.items()}
-    items.sort(key=lambda item: (id(item) not in on_cluster, -module_time[item.nodeid.split("::", 1)[0]]))  # stable
+    items.sort(key=lambda item: (groups[id(item)] != DASK_GROUP, -module_time[_module(item.nodeid)]))  # stable
+    for item in items:
+        item.add_marker(pytest.mark.xdist_group(groups[id(item)]))
+
+
+def _ungrouped(nodeid: str) -> str:
+    """``nodeid`` without the ``@group`` suffix pytest-xdist gives a grouped test's id in its reports."""
+    head, sep, tail = nodeid.rpartition("@")
+    return head if sep and tail in (DASK_GROUP, _module(head)) else nodeid
 
 
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:
     """Note each test's duration (in the main process, where xdist's workers report)."""
-    _DURATIONS[report.nodeid] = _DURATIONS.get(report.nodeid, 0.0) + report.duration
+    key = _ungrouped(report.nodeid)
+    _DURATIONS[key] = _DURATIONS.get(key, 0.0) + report.duration
 
 
 def pytest_sessionfinish(session: pytest.Session) -> None:

@@ -3,9 +3,11 @@
     .venv/bin/python benchmarks/bench_bench.py [--rounds 3] [--duration 30] [--methods paper safe ...]
     .venv/bin/python benchmarks/bench_bench.py --throughput [--draws 4] [--workers 2] [--duration 10]
 
-**The draw table** (default): in one process, each round runs every method on a new dev draw as a bench
-worker runs it (:func:`~ftc_mj.benchmark.run.bench_run`, the per-process cache kept between runs as a worker
-keeps it; a warm-up run of each method first, not timed, so solvers and kernels come from their caches),
+**The draw table** (default): in one process, each method runs ``--rounds`` new dev draws one after the other,
+as a bench worker runs them (:func:`~ftc_mj.benchmark.run.bench_run`; ``ftc-mj bench`` plans its runs method by
+method; the per-process cache kept between runs as a worker keeps it; a warm-up run of the method first, not
+timed, so solvers and kernels come from their caches; ``--interleave``: each round runs every method once, so
+each run follows another method's and pays what switching costs: the memory budget's eviction and reloads),
 timed with ``time.process_time`` (CPU s), and then replays the run's plant commands on a copy of the drawn
 robot's initial ``MjData`` with bare ``mj_step`` for the same simulated time: *× bare physics* is the
 median over rounds of each round's ratio. The run's parts are timed inside it (class-level wrappers, the
@@ -141,18 +143,25 @@ def timed_draw(method: Any, index: int, duration: float) -> dict[str, float]:
     return row
 
 
-def draw_table(methods: list[str], rounds: int, duration: float, first: int) -> None:
-    """Print the draw table (module docstring): medians over ``rounds`` new draws per method."""
+def draw_table(methods: list[str], rounds: int, duration: float, first: int, interleave: bool = False) -> None:
+    """Print the draw table (module docstring): medians over ``rounds`` new draws per method, the methods one
+    after the other as a bench worker runs them (``ftc-mj bench`` plans its runs method by method), or with
+    ``interleave`` every method once per round (each run then follows another method's)."""
     ms = load_methods(methods)
-    for m in ms:  # warm-up: solvers, kernels and plant from their caches, as in a worker's later runs
-        timed_draw(m, first + rounds, min(duration, 2.0))
-    entries = solver_entries()
     rows: dict[str, list[dict[str, float]]] = {m.name: [] for m in ms}
-    for r in range(rounds):
+    if interleave:
+        for m in ms:  # warm-up: solvers, kernels and plant from their caches, as in a worker's later runs
+            timed_draw(m, first + rounds, min(duration, 2.0))
+    entries = solver_entries()
+    for r in range(rounds) if interleave else ():
         for m in ms:
             rows[m.name].append(timed_draw(m, first + r, duration))
-    print(f"CPU per {duration:g} s draw (dev draws {first}-{first + rounds - 1}, new to the process, each method "
-          f"after one warm-up draw); medians of {rounds} rounds\n")
+    for m in () if interleave else ms:
+        timed_draw(m, first + rounds, min(duration, 2.0))  # the method's warm-up, then its new draws
+        rows[m.name] = [timed_draw(m, first + r, duration) for r in range(rounds)]
+    order = "every method once per round" if interleave else "method by method, as a bench worker runs them"
+    print(f"CPU per {duration:g} s draw (dev draws {first}-{first + rounds - 1}, new to the process, {order}, each "
+          f"method after one warm-up draw); medians of {rounds} rounds\n")
     print("| method | CPU per draw s | × bare physics | floor s | × floor | physics | filter | QPs | IPOPT "
           "(solves) | IPOPT seed | solver build/load | bare mj_step |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
@@ -163,8 +172,8 @@ def draw_table(methods: list[str], rounds: int, duration: float, first: int) -> 
         print(f"| {name} | {med['cpu']:.2f} | {x_bare:.1f}× | {med['floor']:.2f} | {x_floor:.1f}× | "
               f"{med['physics']:.2f} | {med['filter']:.2f} | {med['QPs']:.2f} | {med['IPOPT']:.2f} "
               f"({med['ipopt_solves']:.0f}) | {med['seed']:.2f} | {med['solver build/load']:.2f} | {med['bare']:.2f} |")
-    print(f"\nsolver cache {solver_cache.cache_dir()}: {entries} entries after the warm-up, {solver_entries()} after "
-          f"the {rounds} rounds of new draws; peak RSS of this process "
+    print(f"\nsolver cache {solver_cache.cache_dir()}: {entries} entries before the timed draws, "
+          f"{solver_entries()} after the {rounds} rounds of new draws; peak RSS of this process "
           f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB")
 
 
@@ -207,6 +216,8 @@ def main() -> None:
     ap.add_argument("--methods", nargs="+", default=None, help="Default: every built-in (throughput: safe).")
     ap.add_argument("--duration", type=float, default=None, help="Simulated s per run (30; throughput: 10).")
     ap.add_argument("--rounds", type=int, default=3, help="Draw table: new draws per method.")
+    ap.add_argument("--interleave", action="store_true",
+                    help="Draw table: every method once per round instead of method by method (as a bench worker).")
     ap.add_argument("--first", type=int, default=10, help="Draw table: the first dev draw timed.")
     ap.add_argument("--draws", type=int, default=4, help="Throughput: dev draws per method.")
     ap.add_argument("--workers", type=int, default=2, help="Throughput: worker processes.")
@@ -217,7 +228,7 @@ def main() -> None:
         args.duration = args.duration or 10.0
         throughput(args)
     else:
-        draw_table(args.methods or list(BUILTIN), args.rounds, args.duration or 30.0, args.first)
+        draw_table(args.methods or list(BUILTIN), args.rounds, args.duration or 30.0, args.first, args.interleave)
 
 
 if __name__ == "__main__":

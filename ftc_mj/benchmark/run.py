@@ -165,8 +165,9 @@ def run_bench(bp: BenchPlan, out: Path, *, workers: int = 2, address: str | None
     then write the outputs (:func:`~ftc_mj.benchmark.report.write_outputs`); returns the study report and
     the report file. Nothing is written before the folder is checked and the scheduler at ``address``
     answered; the folder has one writer (:func:`~ftc_mj.io.writer_lock`: a second bench or study on it
-    gets :class:`BadInput`). A local cluster (no ``address``), started when runs are missing, also simulates
-    the comparisons' runs again (:func:`record_on`: its workers hold the methods' solvers, and two run at once)."""
+    gets :class:`BadInput`). When a local cluster (no ``address``) computed runs, the comparisons' runs are
+    simulated again ``workers`` at a time in processes of their own (:func:`record_apart`); otherwise in this
+    process."""
     import contextlib
 
     from ..study.cluster import open_client
@@ -184,17 +185,24 @@ def run_bench(bp: BenchPlan, out: Path, *, workers: int = 2, address: str | None
         report = run_study(bp.plan, out, workers=workers, client=client, run_fn=run_fn, analyse=False,
                            progress=progress, echo=echo, client_workers=workers if local else None)
         assert report.results is not None
-        record = functools.partial(record_on, client) if local else None
+        record = functools.partial(record_apart, processes=workers) if local else None
         return report, write_outputs(bp, report.results, out, compare=compare, echo=echo, record=record)
 
 
-def record_on(client: Any, jobs: list[tuple[Any, Path]]) -> list[Path]:
-    """:func:`~ftc_mj.benchmark.report.record_runs` on a local cluster's workers, one run a task (they write
-    the run folders on this machine). The configs travel as plain data and are validated in the worker, which
-    imports their plug-ins as it does for the bench's runs."""
-    futures = client.map(_record_one, [cfg.model_dump(mode="json") for cfg, _ in jobs],
-                         [str(root) for _, root in jobs], pure=False)
-    return [Path(p) for p in client.gather(futures)]
+def record_apart(jobs: list[tuple[Any, Path]], processes: int) -> list[Path]:
+    """:func:`~ftc_mj.benchmark.report.record_runs` in up to ``processes`` fresh processes of their own (spawned,
+    gone with the report), one run a task, not in the bench's workers: a recording starts the Rerun SDK, about
+    50 MiB that a process keeps, on top of the run, and in the workers, after their draws, it lifted the largest
+    to 669 and 751 MiB where the draws had kept them at 585 and 613 (the 200-draw leaderboard at 32a7645). The
+    configs travel as plain data and are validated in the process, which imports their plug-ins from the
+    ``sys.path`` it inherits."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=max(1, min(processes, len(jobs))),
+                             mp_context=multiprocessing.get_context("spawn")) as pool:
+        return [Path(p) for p in pool.map(_record_one, [cfg.model_dump(mode="json") for cfg, _ in jobs],
+                                          [str(root) for _, root in jobs])]
 
 
 def _record_one(config: dict[str, Any], root: str) -> str:

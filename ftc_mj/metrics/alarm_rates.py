@@ -16,7 +16,6 @@ benchmark's score (:mod:`ftc_mj.benchmark.score`).
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -92,9 +91,8 @@ def chosen_offset(curve: dict[float, Rate], design: float) -> float:
     return min(finite, key=lambda d: (round(abs(math.log(finite[d] / design)), 9), -d))
 
 
-@functools.cache
 def _table() -> dict[str, Any]:
-    return package_data(RATES_FILE)
+    return package_data(RATES_FILE)  # read once: package_data caches
 
 
 def measured_arl0(rule: str, gyro: bool, settings: dict[str, float]) -> float | None:

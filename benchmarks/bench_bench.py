@@ -149,16 +149,21 @@ def draw_table(methods: list[str], rounds: int, duration: float, first: int, int
     ``interleave`` every method once per round (each run then follows another method's)."""
     ms = load_methods(methods)
     rows: dict[str, list[dict[str, float]]] = {m.name: [] for m in ms}
-    if interleave:
-        for m in ms:  # warm-up: solvers, kernels and plant from their caches, as in a worker's later runs
-            timed_draw(m, first + rounds, min(duration, 2.0))
     entries = solver_entries()
-    for r in range(rounds) if interleave else ():
+
+    def warm_up(m: Any) -> None:  # solvers, kernels and plant from their caches, as in a worker's later runs
+        timed_draw(m, first + rounds, min(duration, 2.0))
+
+    if interleave:
         for m in ms:
-            rows[m.name].append(timed_draw(m, first + r, duration))
-    for m in () if interleave else ms:
-        timed_draw(m, first + rounds, min(duration, 2.0))  # the method's warm-up, then its new draws
-        rows[m.name] = [timed_draw(m, first + r, duration) for r in range(rounds)]
+            warm_up(m)
+        for r in range(rounds):
+            for m in ms:
+                rows[m.name].append(timed_draw(m, first + r, duration))
+    else:
+        for m in ms:
+            warm_up(m)
+            rows[m.name] = [timed_draw(m, first + r, duration) for r in range(rounds)]
     order = "every method once per round" if interleave else "method by method, as a bench worker runs them"
     print(f"CPU per {duration:g} s draw (dev draws {first}-{first + rounds - 1}, new to the process, {order}, each "
           f"method after one warm-up draw); medians of {rounds} rounds\n")

@@ -31,6 +31,7 @@ LOCAL_CLUSTER_CONFIG = {
     "distributed.admin.tick.interval": "1s",
     "distributed.admin.system-monitor.interval": "2s",
     "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.worker.profile.enabled": False,
 }
 """dask settings of a local cluster that differ from dask's defaults, each for a measured cost:
 
@@ -42,7 +43,11 @@ LOCAL_CLUSTER_CONFIG = {
   by the workers all the same; the per-process cache returns free pages itself (:mod:`ftc_mj.sim.cache`).
 - The event loops' tick (20 ms), the scheduler's system monitor (0.5 s) and the memory monitor (0.1 s) run
   every 1, 2 and 1 s: an idle cluster of 2 workers spent 0.68 s of the client's CPU and 0.49 s of each worker's
-  per 30 s with dask's intervals, 0.18 and 0.39 s with these (a 15-minute bench: about 20 s of CPU)."""
+  per 30 s with dask's intervals, 0.18 and 0.39 s with these (a 15-minute bench: about 20 s of CPU).
+- dask's statistical profiler is off in the workers: it samples the running task's stack every 10 ms (holding the
+  GIL while it walks it) and keeps a profile tree per second for the last ``distributed.admin.low-level-log-length``
+  (1000) seconds, twice (whole and per task): on the 200-draw leaderboard the workers peaked at 564 and 561 MiB
+  without it against 689 and 648 MiB with it (docs/performance.md)."""
 DASHBOARD_RE = re.compile(r"^(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9]([A-Za-z0-9.\-]*[A-Za-z0-9])?)?:(\d{1,5})$")
 
 

@@ -236,6 +236,17 @@ def test_local_workers_keep_glibc_trim_threshold(dask_client: Any) -> None:
     assert set(seen.values()) == {expected}, seen
 
 
+def test_local_workers_do_not_profile(dask_client: Any) -> None:
+    """dask's statistical profiler is off in the local cluster's workers (it walked each run's stack every 10 ms
+    and kept a tree per second of the last 1000 s, ``ftc_mj.study.cluster.LOCAL_CLUSTER_CONFIG``): a task that
+    runs 1.3 s, longer than the profiler's 1 s cycle after which its samples show, leaves none in the workers'
+    profile (about 100 with dask's default)."""
+    import time
+
+    dask_client.submit(time.sleep, 1.3, pure=False).result()
+    assert dask_client.profile()["count"] == 0
+
+
 def test_local_workers_monitor_memory_once_a_second(dask_client: Any) -> None:
     """The local cluster's slower housekeeping reaches the worker processes (dask's memory monitor polls every
     0.1 s by default; an idle worker spent 1.6 % of a core on housekeeping)."""

@@ -41,8 +41,9 @@ Bounds
     the change is the true plant's departure from the nominal model (:func:`~ftc_mj.metrics.fdi.cumulative_kl`)
     or, for a sensor bias/drift, the injected offset over the sensor's σ. It counts the speed and yaw-rate
     information only, not the pose fixes': a detector that reads the pose can come in under it (docs/fdi.md,
-    "Split by sensor set"). ``None`` when it is not reached
-    within :data:`~ftc_mj.metrics.fdi.KL_PROFILE_S` (a dropout or an actuator fault the wheel-rate inputs explain).
+    "Split by sensor set; the bound under the physical null model and with the pose fixes"). ``None`` when it is
+    not reached within :data:`~ftc_mj.metrics.fdi.KL_PROFILE_S` (a dropout or an actuator fault the wheel-rate
+    inputs explain).
     ``tyre_alarm_delay`` (s): the first *alarm* of the diagnoser's tyre detectors after the first onset — the
     first row from the onset on with the ``tyre_R`` or ``tyre_L`` channel's statistic at or above its threshold
     (``diag_alarm_tyre_*``, declared or not; 0 when one is already up at the onset) — beside

@@ -10,10 +10,13 @@ sensors' σ, :func:`~ftc_mj.metrics.fdi.cumulative_kl`) and the same bound with 
 detectors' physical null model (:mod:`ftc_mj.estimation.null_model`: each wheel's slip noise at the demanded
 lateral acceleration added along the radius columns, a channel whose slip noise exceeds twice its sensor's σ
 left out) and the bound with the pose fixes' information added (:func:`pose_kl`), then the median ratio alarm /
-bound per sensor set with the exact 95 % interval of the median (order
-statistics, binomial). The questions it answers: is the gap between the alarm and the bound the bound's null
-model (the healthy robot's slip counted as information) or the detector's information, and does a detector that
-reads the pose fixes beat a bound that leaves them out?
+bound per sensor set with the exact 95 % interval of the median (order statistics, binomial). Every rule's
+statistics are logged (which changes no decision of the run), so the estimator's CUSUM and GLR first alarms after
+the onset (at their calibrated thresholds) are printed too, each against the bound at its own measured no-fault
+alarm rate (:func:`~ftc_mj.metrics.alarm_rates.measured_arl0`). The questions it answers: is the gap between the
+alarm and the bound the bound's null model (the healthy robot's slip counted as information) or the detector's
+information; does a detector that reads the pose fixes beat a bound that leaves them out; how near the bound do
+the estimator's own change detectors come?
 """
 
 from __future__ import annotations
@@ -28,11 +31,14 @@ from scipy.stats import binom
 from ftc_mj.benchmark.draws import draw
 from ftc_mj.benchmark.methods import load_methods
 from ftc_mj.benchmark.score import bound_arl0, score_run
+from ftc_mj.config import RunConfig, validate_config
 from ftc_mj.estimation.null_model import HOLD_S, NullModel
 from ftc_mj.estimation.setup import FilterSetup
+from ftc_mj.metrics.alarm_rates import RULE_SETTINGS, measured_arl0
 from ftc_mj.metrics.fdi import KL_PROFILE_S, cumulative_kl, lorden_delays
 from ftc_mj.model.kinematics import body_rates
 from ftc_mj.sim.run import execute
+from ftc_mj.wiring.decision import calibrated_threshold
 
 
 def physical_kl(setup: FilterSetup, trace: dict[str, np.ndarray], onset: float) -> np.ndarray:
@@ -107,6 +113,43 @@ def median_interval(x: list[float]) -> tuple[float, float, float]:
     return statistics.median(s), s[max(lo - 1, 0)], s[min(hi, n - 1)]
 
 
+def measure(cfg: RunConfig) -> dict[str, float] | None:
+    """One run of ``cfg`` with every rule's statistics logged (logging only: the run's decisions are its
+    rule's): the first tyre alarm and the three bounds (s), and the estimator's CUSUM and GLR first alarms at
+    their calibrated thresholds with the bound at each one's measured no-fault alarm rate; ``None`` for a run
+    without a tyre alarm and a bound."""
+    data = cfg.model_dump(mode="json")
+    data["estimator"]["decision"]["statistics"] = True
+    cfg = validate_config(data)
+    out = execute(cfg, None, rrd=False)
+    rec, trace = out.result.record, out.result.trace
+    score = score_run(cfg, trace, out.result.events, status="ok", record=rec)
+    alarm, onset = score.get("tyre_alarm_delay"), rec.first_onset
+    if alarm is None or onset is None or score.get("lorden_delay_bound") is None:
+        return None
+    dt, gyro = rec.setup.dt, rec.setup.yaw_rate_sigma is not None
+    K = np.asarray(cumulative_kl(rec.setup, trace, onset))
+    arl0 = np.array([bound_arl0(cfg)])
+    row = {"gyro": float(gyro), "alarm": alarm, "bound": float(lorden_delays(K, arl0, dt)[0]),
+           "physical": float(lorden_delays(physical_kl(rec.setup, trace, onset), arl0, dt)[0]),
+           "every": float(lorden_delays(K + pose_kl(rec.setup, trace, onset, K.size), arl0, dt)[0])}
+    t = np.asarray(trace["t"], float)
+    k0 = int(np.searchsorted(t, onset - 1e-9))
+    settings = {k: float(getattr(cfg.estimator.decision, k)) for k in RULE_SETTINGS}
+    for kind in ("cusum", "glr"):
+        up = np.flatnonzero(np.asarray(trace[f"{kind}_stat"], float)[k0:] >= calibrated_threshold(cfg, kind))
+        row[kind] = float(t[k0 + up[0]] - onset) if up.size else math.nan
+        rate = measured_arl0(kind, gyro, settings) or cfg.estimator.decision.arl0
+        row[f"{kind}_bound"] = float(lorden_delays(K, np.array([rate]), dt)[0])
+    return row
+
+
+def ratio_cell(rows: list[dict[str, float]], num: str, den: str) -> str:
+    """The median of ``num / den`` over ``rows`` with its 95 % interval (a zero or missing bound left out)."""
+    ratios = [r[num] / r[den] for r in rows if r[den] > 0 and math.isfinite(r[den]) and math.isfinite(r[num])]
+    return "{:.1f} [{:.1f}, {:.1f}]".format(*median_interval(ratios)) if ratios else "—"
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--method", default="pathfollow")
@@ -115,39 +158,28 @@ def main() -> None:
     args = ap.parse_args()
     method = load_methods([args.method])[0]
     print(f"{args.method} on ftc-v2 dev draws {args.start}-{args.start + args.draws - 1}: tyre punctures with a "
-          "first tyre alarm and a bound\n")
-    print("| draw | sensors | first tyre alarm (s) | bound (s) | bound, physical null (s) | bound, with the pose (s) |")
-    print("|---|---|---|---|---|---|")
-    rows: dict[str, list[tuple[float, float, float, float]]] = {"speed": [], "speed+yaw": []}
+          "first tyre alarm and a bound (s)\n")
+    print("| draw | sensors | first tyre alarm | bound | bound, physical null | bound, with the pose | CUSUM | GLR |")
+    print("|---|---|---|---|---|---|---|---|")
+    rows: dict[str, list[dict[str, float]]] = {"speed": [], "speed+yaw": []}
     for i in range(args.start, args.start + args.draws):
-        cfg = method.apply(draw("dev", i).scenario())
-        out = execute(cfg, None, rrd=False)
-        rec, trace = out.result.record, out.result.trace
-        score = score_run(cfg, trace, out.result.events, status="ok", record=rec)
-        alarm, onset = score.get("tyre_alarm_delay"), rec.first_onset
-        if alarm is None or onset is None or score.get("lorden_delay_bound") is None:
+        r = measure(method.apply(draw("dev", i).scenario()))
+        if r is None:
             continue
-        arl0 = np.array([bound_arl0(cfg)])
-        bound = float(lorden_delays(np.asarray(cumulative_kl(rec.setup, trace, onset)), arl0, rec.setup.dt)[0])
-        physical = float(lorden_delays(physical_kl(rec.setup, trace, onset), arl0, rec.setup.dt)[0])
-        K = np.asarray(cumulative_kl(rec.setup, trace, onset))
-        K = K + pose_kl(rec.setup, trace, onset, K.size)
-        every = float(lorden_delays(K, arl0, rec.setup.dt)[0])
-        sensors = "speed" if rec.setup.yaw_rate_sigma is None else "speed+yaw"
-        rows[sensors].append((alarm, bound, physical, every))
-        print(f"| {i} | {sensors} | {alarm:.2f} | {bound:.2f} | {physical:.2f} | {every:.2f} |", flush=True)
-    print("\n| sensors | punctures | bound moved | median alarm / bound [95 %] "
-          "| median alarm / physical-null bound [95 %] | median alarm / bound with the pose fixes [95 %] |")
-    print("|---|---|---|---|---|---|")
+        sensors = "speed+yaw" if r["gyro"] else "speed"
+        rows[sensors].append(r)
+        print(f"| {i} | {sensors} | {r['alarm']:.2f} | {r['bound']:.2f} | {r['physical']:.2f} | {r['every']:.2f} "
+              f"| {r['cusum']:.2f} | {r['glr']:.2f} |", flush=True)
+    print("\nMedian ratio to the bound [95 %]:\n")
+    print("| sensors | punctures | bound moved by the null model | tyre alarm / bound | / physical-null bound "
+          "| / bound with the pose | CUSUM / its bound | GLR / its bound |")
+    print("|---|---|---|---|---|---|---|---|")
     for sensors, v in rows.items():
-        if not v:
-            continue
-        cells = []
-        for col in (1, 2, 3):
-            ratios = [r[0] / r[col] for r in v if r[col] > 0 and math.isfinite(r[col])]
-            cells.append("{:.1f} [{:.1f}, {:.1f}]".format(*median_interval(ratios)) if ratios else "—")
-        moved = sum(1 for r in v if r[1] != r[2])
-        print(f"| {sensors} | {len(v)} | {moved} | {cells[0]} | {cells[1]} | {cells[2]} |")
+        if v:
+            moved = sum(1 for r in v if r["bound"] != r["physical"])
+            cells = [ratio_cell(v, "alarm", d) for d in ("bound", "physical", "every")]
+            cells += [ratio_cell(v, k, f"{k}_bound") for k in ("cusum", "glr")]
+            print(f"| {sensors} | {len(v)} | {moved} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

@@ -108,7 +108,8 @@ def open_client(workers: int, address: str | None, dashboard: str = "127.0.0.1:0
             raise BadInput(f"--address {address}: cannot reach a dask scheduler within "
                            f"{CONNECT_TIMEOUT_S:g} s ({msg[:120]})") from None
         try:
-            yield client
+            with _sync_cancel_race_dropped():
+                yield client
         finally:
             client.close()
         return
@@ -120,13 +121,44 @@ def open_client(workers: int, address: str | None, dashboard: str = "127.0.0.1:0
                                dashboard_address=validate_dashboard(dashboard), silence_logs=logging.ERROR)
     client = Client(cluster)
     try:
-        yield client
+        with _sync_cancel_race_dropped():
+            yield client
     finally:
         with _quiet_distributed():
             with contextlib.suppress(Exception):  # a worker that cannot answer is closed below all the same
                 client.run(_quiet_worker_logs, on_error="ignore")
             client.close()
             cluster.close()
+
+
+class SyncCancelRace(logging.Filter):
+    """Drops tornado's log record of one race in ``distributed.utils.sync`` (distributed 2026.8): a Ctrl-C that
+    arrives before ``sync`` has started its coroutine schedules ``cancel()``, which reads the coroutine's
+    ``future`` before it was assigned and raises ``NameError``; tornado logs it, with its traceback, as an
+    "Exception in callback". Nothing was running to cancel, and the interrupted call raises
+    ``KeyboardInterrupt`` all the same, which the study handles with its one line. Only that record is dropped:
+    a ``NameError`` whose innermost frame is ``cancel`` in ``distributed/utils.py``."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info
+        if not exc or not isinstance(exc[1], NameError) or exc[2] is None:
+            return True
+        tb = exc[2]
+        while tb.tb_next is not None:
+            tb = tb.tb_next
+        code = tb.tb_frame.f_code
+        return not (code.co_name == "cancel" and code.co_filename.replace("\\", "/").endswith("distributed/utils.py"))
+
+
+@contextlib.contextmanager
+def _sync_cancel_race_dropped() -> Iterator[None]:
+    """:class:`SyncCancelRace` on tornado's callback-error logger while the client is open."""
+    logger, race = logging.getLogger("tornado.application"), SyncCancelRace()
+    logger.addFilter(race)
+    try:
+        yield
+    finally:
+        logger.removeFilter(race)
 
 
 TRACKER_WARNING = "ignore:resource_tracker:UserWarning:multiprocessing.resource_tracker"

@@ -8,6 +8,7 @@ Kept small for 2 shared cores: short durations, one seed, first and last value o
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import re
 import signal
@@ -254,3 +255,37 @@ def test_local_workers_monitor_memory_once_a_second(dask_client: Any) -> None:
 
     seen = dask_client.run(lambda: dask.config.get("distributed.worker.memory.monitor-interval"))
     assert set(seen.values()) == {"1s"}, seen
+
+
+def _record_raised_in(filename: str, name: str, exc: type[BaseException]) -> logging.LogRecord:
+    """tornado's "Exception in callback" record of ``exc`` raised by a function ``name`` compiled as ``filename``."""
+    scope: dict[str, Any] = {}
+    exec(compile(f"def {name}():\n    raise {exc.__name__}('x')\n", filename, "exec"), scope)  # noqa: S102
+    try:
+        scope[name]()
+    except BaseException:  # noqa: BLE001 - the record carries whatever was raised
+        info = sys.exc_info()
+    return logging.LogRecord("tornado.application", logging.ERROR, __file__, 1, "Exception in callback %r",
+                             ("cb",), info)
+
+
+def test_sync_cancel_race_drops_that_record_only() -> None:
+    """The filter drops tornado's record of distributed's ``sync`` ``cancel()`` race (a ``NameError`` raised in
+    ``cancel`` of ``distributed/utils.py``, which failed the Ctrl-C test's one-line check on a loaded clean
+    clone) and keeps any other error: another file, another function, another exception, no exception."""
+    from ftc_mj.study.cluster import SyncCancelRace
+
+    race = SyncCancelRace()
+    upstream = "/venv/site-packages/distributed/utils.py"
+    assert not race.filter(_record_raised_in(upstream, "cancel", NameError))
+    assert race.filter(_record_raised_in("/venv/site-packages/distributed/client.py", "cancel", NameError))
+    assert race.filter(_record_raised_in(upstream, "other", NameError))
+    assert race.filter(_record_raised_in(upstream, "cancel", ValueError))
+    assert race.filter(logging.LogRecord("tornado.application", logging.ERROR, __file__, 1, "plain", (), None))
+
+
+def test_the_client_drops_the_sync_cancel_race_while_open(dask_client: Any) -> None:
+    """The session's client (``open_client``) has the filter on tornado's callback-error logger."""
+    from ftc_mj.study.cluster import SyncCancelRace
+
+    assert any(isinstance(f, SyncCancelRace) for f in logging.getLogger("tornado.application").filters)

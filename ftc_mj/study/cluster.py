@@ -135,7 +135,8 @@ class SyncCancelRace(logging.Filter):
     """Drops tornado's log record of one race in ``distributed.utils.sync`` (distributed 2026.8): a Ctrl-C that
     arrives before ``sync`` has started its coroutine schedules ``cancel()``, which reads the coroutine's
     ``future`` before it was assigned and raises ``NameError``; tornado logs it, with its traceback, as an
-    "Exception in callback". Nothing was running to cancel, and the interrupted call raises
+    "Exception in callback". The coroutine had not started, so there was nothing yet to cancel (it runs later
+    and ends with the client, which the interrupted study closes), and the interrupted call raises
     ``KeyboardInterrupt`` all the same, which the study handles with its one line. Only that record is dropped:
     a ``NameError`` whose innermost frame is ``cancel`` in ``distributed/utils.py``."""
 

@@ -5,32 +5,31 @@ physical null model and the bound with the pose fixes' information beside the be
 
 Runs ``--method`` on ftc-v2 development draws ``--start``… as a bench worker runs them and, for every draw with a
 tyre puncture that has both a first tyre alarm (``tyre_alarm_delay``) and a bound, prints the alarm's delay, the
-benchmark's bound (``lorden_delay_bound``: the information of the true speed and yaw-rate departure at the
-sensors' σ, :func:`~ftc_mj.metrics.fdi.cumulative_kl`) and the same bound with the information counted under the
-detectors' physical null model (:mod:`ftc_mj.estimation.null_model`: each wheel's slip noise at the demanded
-lateral acceleration added along the radius columns, a channel whose slip noise exceeds twice its sensor's σ
-left out) and the bound with the pose fixes' information added (:func:`pose_kl`), then the median ratio alarm /
-bound per sensor set with the exact 95 % interval of the median (order statistics, binomial). Every rule's
+benchmark's bound (``lorden_delay_bound``: the information of the true speed and yaw-rate departure at the sensors'
+σ, :func:`~ftc_mj.metrics.fdi.cumulative_kl`) and the same bound with the information counted under the detectors'
+physical null model (:mod:`ftc_mj.estimation.null_model`: each wheel's slip noise at the demanded lateral
+acceleration added along the radius columns, a channel whose slip noise exceeds twice its sensor's σ left out) and
+the bound with the pose fixes' information added (:func:`pose_kl`), then the median ratio alarm / bound per sensor
+set with the 95 % order-statistic interval of the median (:func:`~ftc_mj.benchmark.stats.median_ci`). Every rule's
 statistics are logged (which changes no decision of the run), so the estimator's CUSUM and GLR first alarms after
 the onset (at their calibrated thresholds) are printed too, each against the bound at its own measured no-fault
 alarm rate (:func:`~ftc_mj.metrics.alarm_rates.measured_arl0`). The questions it answers: is the gap between the
 alarm and the bound the bound's null model (the healthy robot's slip counted as information) or the detector's
-information; does a detector that reads the pose fixes beat a bound that leaves them out; how near the bound do
-the estimator's own change detectors come?
+information; does a detector that reads the pose fixes beat a bound that leaves them out; how near the bound do the
+estimator's own change detectors come?
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import statistics
 
 import numpy as np
-from scipy.stats import binom
 
 from ftc_mj.benchmark.draws import draw
 from ftc_mj.benchmark.methods import load_methods
 from ftc_mj.benchmark.score import bound_arl0, score_run
+from ftc_mj.benchmark.stats import median_ci
 from ftc_mj.config import RunConfig, validate_config
 from ftc_mj.estimation.null_model import HOLD_S, NullModel
 from ftc_mj.estimation.setup import FilterSetup
@@ -104,15 +103,6 @@ def pose_kl(setup: FilterSetup, trace: dict[str, np.ndarray], onset: float, n: i
     return np.asarray(K)
 
 
-def median_interval(x: list[float]) -> tuple[float, float, float]:
-    """The median of ``x`` and its exact (distribution-free) 95 % interval: the order statistics whose ranks
-    the binomial(n, ½) quantiles give."""
-    s, n = sorted(x), len(x)
-    lo = int(binom.ppf(0.025, n, 0.5))
-    hi = int(binom.isf(0.025, n, 0.5))
-    return statistics.median(s), s[max(lo - 1, 0)], s[min(hi, n - 1)]
-
-
 def measure(cfg: RunConfig) -> dict[str, float] | None:
     """One run of ``cfg`` with every rule's statistics logged (logging only: the run's decisions are its
     rule's): the first tyre alarm and the three bounds (s), and the estimator's CUSUM and GLR first alarms at
@@ -145,9 +135,13 @@ def measure(cfg: RunConfig) -> dict[str, float] | None:
 
 
 def ratio_cell(rows: list[dict[str, float]], num: str, den: str) -> str:
-    """The median of ``num / den`` over ``rows`` with its 95 % interval (a zero or missing bound left out)."""
+    """The median of ``num / den`` over ``rows`` with its 95 % order-statistic interval
+    (:func:`~ftc_mj.benchmark.stats.median_ci`; a zero or missing bound left out)."""
     ratios = [r[num] / r[den] for r in rows if r[den] > 0 and math.isfinite(r[den]) and math.isfinite(r[num])]
-    return "{:.1f} [{:.1f}, {:.1f}]".format(*median_interval(ratios)) if ratios else "—"
+    if not ratios:
+        return "—"
+    m = median_ci(ratios)
+    return f"{m.mean:.1f} [{m.lo:.1f}, {m.hi:.1f}]"
 
 
 def main() -> None:

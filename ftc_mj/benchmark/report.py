@@ -391,8 +391,8 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
             "after the onset over Lorden's bound at the rule's no-fault alarm rate measured on MuJoCo "
             "(`benchmarks/calibration.py` in the source repository; `estimator.decision.arl0` for a rule not "
             "measured) "
-            "for the draw's first change, from the speed and yaw-rate information (the pose fixes' is not counted, "
-            "so a detector that reads them can come in under it: docs/fdi.md in the source repository); the "
+            "for the draw's first change, from the information of every measurement a method has: the speed, the "
+            "yaw rate and the pose fixes; the "
             "filter's final radius error over the PCRB for constant radii since the last radius change.", "",
             *bounds_table(rows, methods), "", "## Runs that did not succeed", "",
             *failures(rows, bp), ""]

@@ -38,10 +38,9 @@ Bounds
     ``estimator.decision.arl0`` only for a rule or settings not measured) for this draw's first change: the
     first time the cumulative Kullback–Leibler information of the change reaches ``log(ARL0 / dt)``
     (:func:`~ftc_mj.metrics.fdi.lorden_delays`);
-    the change is the true plant's departure from the nominal model (:func:`~ftc_mj.metrics.fdi.cumulative_kl`)
-    or, for a sensor bias/drift, the injected offset over the sensor's σ. It counts the speed and yaw-rate
-    information only, not the pose fixes': a detector that reads the pose can come in under it (docs/fdi.md,
-    "Split by sensor set; the bound under the physical null model and with the pose fixes"). ``None`` when it is
+    the change is the true plant's departure from the nominal model in the speed, the yaw rate and the pose fixes
+    (:func:`~ftc_mj.metrics.fdi.cumulative_kl`: every measurement the method has, so that no detector can come in
+    under it) or, for a sensor bias/drift, the injected offset over the sensor's σ. ``None`` when it is
     not reached within :data:`~ftc_mj.metrics.fdi.KL_PROFILE_S` (a dropout or an actuator fault the wheel-rate
     inputs explain).
     ``tyre_alarm_delay`` (s): the first *alarm* of the diagnoser's tyre detectors after the first onset — the

@@ -17,6 +17,11 @@ model predicts for the same wheel rates, ``[V, ψ̇]_true - [V, ψ̇](R0, ω)``,
 second before the onset (the model's bias on a fault-free robot), and ``R`` the sensor noise: the
 shift actually observed, whatever the plant does (on the MuJoCo robot a punctured tyre first slips
 and the chassis keeps its speed, so the shift builds up over tenths of a second instead of at once).
+With a pose sensor (the filter's ``position_sigma``) each fix adds its own information, independent of the
+speed sensor's and the gyro's noise: ``½ |δp|² / σ_p² + ½ δψ² / σ_ψ²``, ``δ`` the true pose's departure from the
+pose the nominal model dead-reckons from the onset's true pose with the true wheel rates (its speed and yaw rate
+shifted by their mean departure over the second before the onset, as above) — :func:`pose_information`. Without
+it a detector that reads the fixes could come in under the bound (docs/fdi.md).
 The list stops once ``K`` exceeds :data:`KL_CAP` or after :data:`KL_PROFILE_S` seconds;
 ``fdi_cumulative_kl_t`` holds the time (s) of each value.
 
@@ -70,23 +75,49 @@ def first_alarm_records(trace: dict[str, np.ndarray], rule: str, split_limit: fl
 
 def cumulative_kl(setup: FilterSetup, trace: dict[str, np.ndarray], onset: float) -> list[float]:
     """``K_n`` of the module docstring from the ``onset`` row (s) on, with the nominal model, the sensors' σ
-    and the step of the run's filter ``setup`` (the run record's)."""
+    (the pose fixes' among them) and the step of the run's filter ``setup`` (the run record's)."""
     t = np.asarray(trace["t"], float)
     R0 = setup.nominal_radius
     V0, yr0 = body_rates(R0, R0, np.asarray(trace["omega_R"], float), np.asarray(trace["omega_L"], float),
                          setup.model.b)
-    res = [(np.asarray(trace["v"], float) - V0) / setup.speed_sigma]
+    dv, dyr = np.asarray(trace["v"], float) - V0, np.asarray(trace["yaw_rate"], float) - yr0
+    res = [dv / setup.speed_sigma]
     if setup.yaw_rate_sigma is not None:
-        res.append((np.asarray(trace["yaw_rate"], float) - yr0) / setup.yaw_rate_sigma)
+        res.append(dyr / setup.yaw_rate_sigma)
     r = np.column_stack(res)
     k0 = int(np.searchsorted(t, onset - 1e-9))
     pre = (t >= onset - 1.0) & (t < onset)
     if not pre.any() or k0 >= t.size:
         return []
     d = r[k0: k0 + int(round(KL_PROFILE_S / setup.dt))] - r[pre].mean(axis=0)
-    K = np.cumsum(0.5 * np.sum(d * d, axis=1))
+    info = 0.5 * np.sum(d * d, axis=1)
+    if setup.position_sigma is not None:
+        info = info + pose_information(setup, trace, k0, info.size, V0 + dv[pre].mean(), yr0 + dyr[pre].mean())
+    K = np.cumsum(info)
     stop = np.flatnonzero(K > KL_CAP)
     return [float(v) for v in (K[: stop[0] + 1] if stop.size else K)]
+
+
+def pose_information(setup: FilterSetup, trace: dict[str, np.ndarray], k0: int, n: int, V: np.ndarray,
+                     yaw_rate: np.ndarray) -> np.ndarray:
+    """The pose fixes' information (nats) at each of the ``n`` rows from row ``k0``: at a row with a fix (the
+    trace's ``x_meas`` finite), ``½ ((x − x̂)² + (y − ŷ)²) / σ_p² + ½ wrap(ψ − ψ̂)² / σ_ψ²`` (the heading term
+    only when the fix has a heading σ), ``(x̂, ŷ, ψ̂)`` the pose dead-reckoned from row ``k0``'s true pose with the
+    model's speed ``V`` (m/s) and yaw rate ``yaw_rate`` (rad/s) per row — each row's pose from the rates of the
+    row before — and ``(x, y, ψ)`` the true pose: the shift of the fixes' mean away from the no-change model."""
+    t = np.asarray(trace["t"], float)
+    rows = slice(k0, min(t.size, k0 + n))
+    dt = setup.dt
+    x, y, psi = (np.asarray(trace[c], float)[rows] for c in ("x", "y", "psi"))
+    v, w = np.asarray(V, float)[rows][:-1], np.asarray(yaw_rate, float)[rows][:-1]
+    ph = psi[0] + dt * np.concatenate(([0.0], np.cumsum(w)))
+    xh = x[0] + dt * np.concatenate(([0.0], np.cumsum(v * np.cos(ph[:-1]))))
+    yh = y[0] + dt * np.concatenate(([0.0], np.cumsum(v * np.sin(ph[:-1]))))
+    info = 0.5 * ((x - xh) ** 2 + (y - yh) ** 2) / setup.position_sigma**2
+    if setup.heading_sigma is not None:
+        dpsi = (psi - ph + np.pi) % (2.0 * np.pi) - np.pi
+        info = info + 0.5 * dpsi**2 / setup.heading_sigma**2
+    return np.where(np.isfinite(np.asarray(trace["x_meas"], float)[rows]), info, 0.0)
 
 
 def lorden_delays(K: np.ndarray, arl0: np.ndarray, dt: float) -> np.ndarray:

@@ -105,13 +105,15 @@ def test_labels_of_servo_faults():
 
 
 def _trace(cfg, s_of_t, v_of_t, t_end: float) -> dict[str, np.ndarray]:
-    """A synthetic trace of a robot at arc length ``s_of_t(t)`` (m) on ``cfg``'s path, speed ``v_of_t(t)``."""
+    """A synthetic trace of a robot at arc length ``s_of_t(t)`` (m) on ``cfg``'s path, speed ``v_of_t(t)``; its
+    pose sensor delivered no fix (the judge does not read them; Lorden's bound then has no pose information)."""
     path = build_reference(cfg)
     t = np.arange(0.0, t_end + 1e-9, 0.01)
     x, y = _walk(path, s_of_t(t))
     n, v = t.size, v_of_t(t)
     omega = v / cfg.plant_wheel_radius
-    return {"t": t, "x": x, "y": y, "v": v, "omega_R": omega, "omega_L": omega, "yaw_rate": np.zeros(n),
+    return {"t": t, "x": x, "y": y, "psi": np.zeros(n), "x_meas": np.full(n, np.nan), "v": v, "omega_R": omega,
+            "omega_L": omega, "yaw_rate": np.zeros(n),
             "cross_track_error": path.cross_track(x, y),
             "R_R": np.full(n, cfg.plant_wheel_radius), "R_L": np.full(n, cfg.plant_wheel_radius),
             "plant_flags": np.zeros(n), "reconfig_state": np.zeros(n)}

@@ -19,8 +19,8 @@ form — and it is computed in covariance form, ``B = J⁻¹``::
 which also holds for a singular ``Q`` (radii known to be constant). Evaluating the Jacobians on the
 true trajectory is exact where they do not depend on the state: the speed and yaw-rate rows of
 ``H`` depend on the wheel rates only, and the radius rows of ``F`` are the identity, so with those
-sensors the radius block of the bound is exact; position fixes couple it to the pose through
-``F``'s dependence on ``psi`` and the radii.
+sensors the radius block of the bound is exact; pose fixes (position and heading) couple it to the pose
+through ``F``'s dependence on ``psi`` and the radii.
 
 The robot's Jacobians come from the one model definition (:mod:`ftc_mj.model.kinematics`, CasADi
 automatic differentiation). The time convention mirrors the filters: the bound at trace row ``k``
@@ -134,8 +134,9 @@ def linearise_trace(setup: FilterSetup, trace: dict[str, np.ndarray]) -> TraceLi
     """Jacobians of the kinematic model at the true states and wheel rates of every row of ``trace``.
 
     A channel enters row ``k`` when the trace holds a finite measurement of it there: ``v_meas`` (speed),
-    ``yaw_rate_meas`` (gyro), ``x_meas``/``y_meas`` (position fix). Noise levels are the configured
-    sensor σ of ``setup``, the model is the filters' (its half track and step).
+    ``yaw_rate_meas`` (gyro), ``x_meas``/``y_meas`` (position fix) and, with a fix, its heading when ``setup``
+    has a heading σ (the filters fuse it: :mod:`.measurements`). Noise levels are the configured sensor σ of
+    ``setup``, the model is the filters' (its half track and step).
     """
     model: KinematicModel = setup.model
     X = np.column_stack([np.asarray(trace[c], float) for c in STATE_COLUMNS])
@@ -157,6 +158,10 @@ def linearise_trace(setup: FilterSetup, trace: dict[str, np.ndarray]) -> TraceLi
             rows.append(np.broadcast_to(np.eye(5)[i], (n, 5)))
             present.append(fix)
             sig.append(setup.position_sigma)
+        if setup.heading_sigma is not None:  # the fix's heading, fused by the filters with the position
+            rows.append(np.broadcast_to(np.eye(5)[2], (n, 5)))
+            present.append(fix)
+            sig.append(setup.heading_sigma)
     allrows = np.stack(rows, axis=1)  # (n, channels, 5)
     var = np.square(np.asarray(sig, float))
     mask = np.column_stack(present)

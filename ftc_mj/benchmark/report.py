@@ -32,6 +32,7 @@ from .stats import (
     achieved_power,
     aggregate,
     holm,
+    median_ci,
     paired,
 )
 
@@ -220,25 +221,35 @@ def answers(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
 
 def bounds_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
     """Per method: detection delay (the first declaration) and the tyre detectors' first alarm
-    (``tyre_alarm_delay``) against Lorden's bound on the draws that have both, and the final radius errors
-    against the PCRB (medians of the ratio)."""
-    import numpy as np
+    (``tyre_alarm_delay``) over Lorden's bound on the draws that have both, and the worse wheel's final radius
+    error over its PCRB per draw: each the median over draws with its distribution-free 95 % interval
+    (:func:`~.stats.median_ci`; one value per draw, so the draws are the independent units). A bound of 0 (the
+    change's information crossed the threshold at its first row: no delay is a finite multiple of it) cannot be
+    divided by; such draws are counted apart, in brackets beside the count."""
 
-    def ratios(mine: list[dict[str, Any]], delay: str) -> list[float]:
-        return [r[delay] / r["lorden_delay_bound"] for r in mine if r.get(delay) is not None
-                and r.get("lorden_delay_bound")]
+    def ratios(mine: list[dict[str, Any]], delay: str) -> tuple[list[float], int]:
+        timed = [r for r in mine if r.get(delay) is not None and r.get("lorden_delay_bound") is not None]
+        return [r[delay] / r["lorden_delay_bound"] for r in timed if r["lorden_delay_bound"] > 0.0], \
+            sum(1 for r in timed if r["lorden_delay_bound"] == 0.0)
+
+    def count(n: int, zero: int) -> str:
+        return f"{n} (+{zero} with a zero bound)" if zero else str(n)
+
+    def cell(values: list[float]) -> str:
+        m = median_ci(values)
+        return "—" if not values else (f"{m.mean:.3g} [{m.lo:.3g}, {m.hi:.3g}]" if math.isfinite(m.lo)
+                                       else f"{m.mean:.3g}")
 
     body = []
     for m in methods:
         mine = [r for r in rows if r["method"] == m]
-        lo, al = ratios(mine, "detection_delay"), ratios(mine, "tyre_alarm_delay")
-        pc = [r[f"radius_error_{w}"] / r[f"radius_pcrb_{w}"] for r in mine for w in "RL"
-              if r.get(f"radius_pcrb_{w}") and r.get(f"radius_error_{w}") is not None]
-        body.append([m, len(lo), f"{np.median(lo):.3g}" if lo else "—", len(al), f"{np.median(al):.3g}" if al else "—",
-                     f"{np.median(pc):.3g}" if pc else "—"])
-    return table(["method", "detected draws with a bound", "median delay / Lorden bound",
-                  "tyre-alarmed draws with a bound", "median tyre alarm delay / Lorden bound",
-                  "median radius error / PCRB"], body)
+        (lo, lz), (al, az) = ratios(mine, "detection_delay"), ratios(mine, "tyre_alarm_delay")
+        pc = [max(r[f"radius_error_{w}"] / r[f"radius_pcrb_{w}"] for w in "RL") for r in mine
+              if all(r.get(f"radius_pcrb_{w}") and r.get(f"radius_error_{w}") is not None for w in "RL")]
+        body.append([m, count(len(lo), lz), cell(lo), count(len(al), az), cell(al), cell(pc)])
+    return table(["method", "detected draws with a bound", "median delay / Lorden bound [95 %]",
+                  "tyre-alarmed draws with a bound", "median tyre alarm delay / Lorden bound [95 %]",
+                  "median worse wheel's radius error / PCRB [95 %]"], body)
 
 
 def replay_command(bp: Any, method: str, draw_index: int) -> str:
@@ -392,8 +403,9 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
             "(`benchmarks/calibration.py` in the source repository; `estimator.decision.arl0` for a rule not "
             "measured) "
             "for the draw's first change, from the information of every measurement a method has: the speed, the "
-            "yaw rate and the pose fixes; the "
-            "filter's final radius error over the PCRB for constant radii since the last radius change.", "",
+            "yaw rate and the pose fixes; the filter's final radius error over the PCRB for constant radii since "
+            "the last radius change, of the wheel whose ratio is the larger. Medians over draws with their "
+            "distribution-free 95 % intervals.", "",
             *bounds_table(rows, methods), "", "## Runs that did not succeed", "",
             *failures(rows, bp), ""]
     out += [f"![{p.stem}](figures/{p.name})" for p in figures]

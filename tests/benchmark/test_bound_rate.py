@@ -63,3 +63,18 @@ def test_null_model_is_the_method_setting_never_the_plant() -> None:
             cfg = RunConfig.model_validate({"plant": {"kind": plant}, "estimator": {"decision": {"null_model": null}}})
             assert physical_null_model(cfg) is physical
             assert (build_change_detectors(cfg).null_model is not None) is physical
+
+
+def test_the_bounds_table_gives_medians_with_intervals_and_counts_zero_bounds_apart() -> None:
+    """Eleven draws of one method with ratios 1…11 (delay k·0.1 s over a bound of 0.1 s), one more with a zero
+    bound: the median is 6 and its distribution-free 95 % interval for n = 11 the 2nd and 10th order statistics
+    (P(B(11, ½) ≤ 1) = 0.6 % per tail); the zero bound is counted apart, not divided by. The radius column takes each
+    draw's worse wheel (here the left wheel's 2·k)."""
+    from ftc_mj.benchmark.report import bounds_table
+
+    rows = [{"method": "m", "detection_delay": 0.1 * k, "tyre_alarm_delay": None, "lorden_delay_bound": 0.1,
+             "radius_error_R": 1.0 * k, "radius_pcrb_R": 1.0, "radius_error_L": 2.0 * k, "radius_pcrb_L": 1.0}
+            for k in range(1, 12)]
+    rows.append({"method": "m", "detection_delay": 0.3, "tyre_alarm_delay": None, "lorden_delay_bound": 0.0})
+    cells = [c.strip() for c in bounds_table(rows, ["m"])[-1].strip("|").split("|")]
+    assert cells == ["m", "11 (+1 with a zero bound)", "6 [2, 10]", "0", "—", "12 [4, 20]"]

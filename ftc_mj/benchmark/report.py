@@ -227,10 +227,11 @@ def bounds_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
     change's information crossed the threshold at its first row: no delay is a finite multiple of it) cannot be
     divided by; such draws are counted apart, in brackets beside the count."""
 
-    def ratios(mine: list[dict[str, Any]], delay: str) -> tuple[list[float], int]:
-        timed = [r for r in mine if r.get(delay) is not None and r.get("lorden_delay_bound") is not None]
-        return [r[delay] / r["lorden_delay_bound"] for r in timed if r["lorden_delay_bound"] > 0.0], \
-            sum(1 for r in timed if r["lorden_delay_bound"] == 0.0)
+    def ratios(mine: list[dict[str, Any]], delay: str, bound: str) -> tuple[list[float], int]:
+        def b(r: dict[str, Any]) -> Any:  # rows scored before the tyre alarms had their own bound: the rule's
+            return r.get(bound) if bound in r else r.get("lorden_delay_bound")
+        timed = [r for r in mine if r.get(delay) is not None and b(r) is not None]
+        return [r[delay] / b(r) for r in timed if b(r) > 0.0], sum(1 for r in timed if b(r) == 0.0)
 
     def count(n: int, zero: int) -> str:
         return f"{n} (+{zero} with a zero bound)" if zero else str(n)
@@ -243,7 +244,8 @@ def bounds_table(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
     body = []
     for m in methods:
         mine = [r for r in rows if r["method"] == m]
-        (lo, lz), (al, az) = ratios(mine, "detection_delay"), ratios(mine, "tyre_alarm_delay")
+        (lo, lz) = ratios(mine, "detection_delay", "lorden_delay_bound")
+        (al, az) = ratios(mine, "tyre_alarm_delay", "tyre_alarm_bound")
         pc = [max(r[f"radius_error_{w}"] / r[f"radius_pcrb_{w}"] for w in "RL") for r in mine
               if all(r.get(f"radius_pcrb_{w}") and r.get(f"radius_error_{w}") is not None for w in "RL")]
         body.append([m, count(len(lo), lz), cell(lo), count(len(al), az), cell(al), cell(pc)])

@@ -49,6 +49,8 @@ Bounds
     ``detection_delay``, the first *declaration* (after the rule's dwell and confirmation): Lorden's bound
     bounds the delay of an alarm of a detector at a false-alarm rate, which is the alarm's, not the
     declaration's (:func:`tyre_alarm_delay`); ``None`` without a fault, a diagnoser or such an alarm.
+    ``tyre_alarm_bound`` (s): the same bound at the tyre alarms' own measured no-fault rate
+    (:func:`tyre_alarm_arl0`: the fast detector's CUSUM when it runs), which ``tyre_alarm_delay`` is judged against.
     ``radius_pcrb_R/L`` (m): the posterior Cramér–Rao bound at the end of the run on each radius for the
     model that generated the data (radii constant between the truth's changes,
     :func:`~ftc_mj.estimation.pcrb.data_model_bound`), as the run recorded it once (the trace's
@@ -84,7 +86,7 @@ from .judge import JUDGE_COLUMNS, judge_run
 
 SCORE_COLUMNS = ("success", "contouring_max", "contouring_rms", "tipped", "liftoff_s", "false_alarm", "detected",
                  "detection_delay", "isolation", "reconfig_delay", "lorden_delay_bound", "tyre_alarm_delay",
-                 "radius_pcrb_R",
+                 "tyre_alarm_bound", "radius_pcrb_R",
                  "radius_pcrb_L", "radius_error_R", "radius_error_L", "solver_fallbacks", "status", *JUDGE_COLUMNS,
                  *DIAGNOSIS_SCORE_COLUMNS)
 """The keys :func:`score_run` returns (``None`` where a score does not apply)."""
@@ -133,20 +135,21 @@ def fdi_scores(trace: dict[str, np.ndarray], faults: list[dict[str, Any]]) -> di
             "isolation": isolation_verdict(code, t, faults)}
 
 
-TYRE_ALARMS = ("diag_alarm_tyre_R", "diag_alarm_tyre_L")
+TYRE_ALARMS = ("diag_alarm_tyre_R", "diag_alarm_tyre_L", "diag_alarm_tyre_change")
 """The trace's alarm flags of the diagnoser's tyre detectors (1 while the channel's statistic is at or above
-its threshold)."""
+its threshold): the two rolling-ratio channels and the fast detector (absent from a trace written before it)."""
 
 
 def tyre_alarm_delay(trace: dict[str, np.ndarray], faults: list[dict[str, Any]]) -> float | None:
     """Seconds from the first fault's onset to the first row from it on with a tyre detector's alarm up
     (:data:`TYRE_ALARMS`); ``None`` without a fault, without the columns (no diagnoser) or without such an alarm."""
-    if not faults or not all(c in trace for c in TYRE_ALARMS):
+    if not faults or not all(c in trace for c in TYRE_ALARMS[:2]):
         return None
     t = np.asarray(trace["t"], float)
     up = np.zeros(t.size, bool)
     for c in TYRE_ALARMS:
-        up |= np.nan_to_num(np.asarray(trace[c], float)) > 0.5
+        if c in trace:
+            up |= np.nan_to_num(np.asarray(trace[c], float)) > 0.5
     t0 = faults[0]["onset"]
     hit = np.flatnonzero(up & (t >= t0))
     return float(t[hit[0]] - t0) if hit.size else None
@@ -182,18 +185,33 @@ def bound_arl0(cfg: RunConfig) -> float:
     return d.arl0 if measured is None else measured
 
 
+def tyre_alarm_arl0(cfg: RunConfig) -> float:
+    """The mean time between false alarms (s) of the diagnoser's tyre alarms: with its fast detector
+    (``diagnosis.tyre_change`` and a filter), the CUSUM's measured after the launch with the run's sensor set — the
+    rolling-ratio channels raised no alarm in 1200 s of healthy draws, so the CUSUM's rate dominates the union's —,
+    else the decision rule's (:func:`bound_arl0`)."""
+    if getattr(cfg.diagnosis, "tyre_change", False) and cfg.estimator.kind != "none":
+        d = cfg.estimator.decision
+        settings = {k: float(getattr(d, k)) for k in RULE_SETTINGS}
+        measured = measured_arl0("cusum", cfg.sensors.yaw_rate_sigma is not None, settings)
+        return d.arl0 if measured is None else measured
+    return bound_arl0(cfg)
+
+
 def bound_scores(cfg: RunConfig, record: RunRecord, trace: dict[str, np.ndarray],
                  faults: list[dict[str, Any]]) -> dict[str, Any]:
-    """Lorden's delay bound (s) for the first change and the radius PCRB at the end (m; module docstring)."""
-    out: dict[str, Any] = {"lorden_delay_bound": None}
+    """Lorden's delay bounds (s) for the first change at the decision rule's and at the tyre alarms' no-fault
+    rates, and the radius PCRB at the end (m; module docstring)."""
+    out: dict[str, Any] = {"lorden_delay_bound": None, "tyre_alarm_bound": None}
     dt = 1.0 / cfg.estimator.rate
     if faults:
         f = faults[0]
         K = (sensor_kl(cfg, trace, f) if issubclass(fault_class(f["fault_class"]), SensorFault)
              else np.asarray(cumulative_kl(record.setup, trace, f["onset"]), float))
         if K.size:
-            d = float(lorden_delays(K, np.array([bound_arl0(cfg)]), dt)[0])
-            out["lorden_delay_bound"] = d if math.isfinite(d) else None
+            d = lorden_delays(K, np.array([bound_arl0(cfg), tyre_alarm_arl0(cfg)]), dt)
+            out["lorden_delay_bound"] = float(d[0]) if math.isfinite(d[0]) else None
+            out["tyre_alarm_bound"] = float(d[1]) if math.isfinite(d[1]) else None
     out.update(radius_bound(record, trace))
     return out
 

@@ -208,7 +208,7 @@ def wire(cfg: RunConfig, *, with_controller: bool = True, plants: dict[str, Any]
         r0 = reference.at(0.0)
         plant.set_motion(float(r0.V), float(r0.psidot))
     return Components(plant, sensors, reference, controller, estimator, decision, policy, weighting, degraded, record,
-                      accommodation, diagnoses, build_diagnoser(cfg))
+                      accommodation, diagnoses, build_diagnoser(cfg, record.setup))
 
 
 def present(value: float | None) -> float | None:
@@ -281,6 +281,7 @@ class ClosedLoop:
         self.pose_from_sensor = cfg.sensors.pose_source == "sensor" and not cfg.oracle  # an oracle sees the truth
         self.out: FilterOutput | None = None
         self.z: Measurement | None = None  # the measurement of the latest estimator step
+        self.u_pred: np.ndarray | None = None  # the wheel rates (rad/s) the latest estimator step predicted with
         self.cmd = ControlOutput(omega=np.zeros(2))
         self.applied: np.ndarray | None = None  # the command in force on the plant (after any dither)
         self.model_radii = np.full(2, cfg.model_wheel_radius)
@@ -360,7 +361,7 @@ class ClosedLoop:
         u_pred = self.u_prev if self.u_prev is not None else u_meas
         if self.parts.accommodation is not None:  # diagnosed sensor offsets removed, excluded channels absent
             z = self.parts.accommodation.correct(self.rows * self.dt, z)
-        self.z = z
+        self.z, self.u_pred = z, u_pred
         self.out = self.parts.estimator.step(u_pred, z)
         check_estimate(self.out, self.rows * self.dt, self.cfg.estimator.kind, self.parts.estimator)
         return self.out, u_pred
@@ -409,7 +410,8 @@ class ClosedLoop:
         else:
             pose, sigma = rd.pose, self.cfg.sensors.pose_sigma
         z = DiagnosisInput(t=t, omega=u_meas, command=self.applied, speed=present(rd.speed),
-                           yaw_rate=present(rd.yaw_rate), pose=pose, pose_sigma=sigma, radii=radii)
+                           yaw_rate=present(rd.yaw_rate), pose=pose, pose_sigma=sigma, radii=radii,
+                           filter_input=None if self.out is None else (self.u_pred, self.z))
         step = self.parts.diagnoser.step(z)
         self.trace.diagnosis(k, step)
         for d in step.new:

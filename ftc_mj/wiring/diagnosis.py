@@ -18,7 +18,10 @@ from ..estimation.diagnosis import (
     ResidualDiagnoser,
     ResidualDiagnoserSettings,
 )
+from ..estimation.diagnosis.change import TyreChangeAlarm
+from ..estimation.setup import FilterSetup
 from ..registry import BUILTIN, diagnosers
+from .decision import build_change_detectors, calibrated_threshold
 
 
 def _none(settings: NoDiagnoserSettings, context: RunContext) -> None:
@@ -30,7 +33,22 @@ diagnosers.register("residual", ResidualDiagnoser, origin=BUILTIN, section=Resid
 diagnosers.register("none", _none, origin=BUILTIN, section=NoDiagnoserSettings)
 
 
-def build_diagnoser(cfg: RunConfig) -> Diagnoser | None:
+def build_diagnoser(cfg: RunConfig, setup: FilterSetup | None = None) -> Diagnoser | None:
     """The diagnoser ``cfg.diagnosis.kind`` names (``residual``: the built-in
-    :class:`~ftc_mj.estimation.diagnosis.ResidualDiagnoser`; ``none``: no diagnoser) or a plug-in's."""
+    :class:`~ftc_mj.estimation.diagnosis.ResidualDiagnoser`, with its fast tyre detector when the run has a filter
+    and ``diagnosis.tyre_change`` is on; ``none``: no diagnoser) or a plug-in's; ``setup``: the run's filter setup,
+    if the caller has it (the run record's)."""
+    entry = diagnosers.get(cfg.diagnosis.kind)
+    if entry.origin == BUILTIN and isinstance(cfg.diagnosis, ResidualDiagnoserSettings):
+        return diagnosers.create(cfg.diagnosis.kind, cfg.diagnosis, run_context(cfg), run_config=cfg,
+                                 change=tyre_change_alarm(cfg, setup))
     return diagnosers.create(cfg.diagnosis.kind, cfg.diagnosis, run_context(cfg), run_config=cfg)
+
+
+def tyre_change_alarm(cfg: RunConfig, setup: FilterSetup | None = None) -> TyreChangeAlarm | None:
+    """The built-in diagnoser's fast tyre detector (:mod:`~ftc_mj.estimation.diagnosis.change`): the run's change
+    detectors and their calibrated CUSUM threshold; ``None`` without a filter (nothing to match a model to) or
+    with ``diagnosis.tyre_change`` off."""
+    if not cfg.diagnosis.tyre_change or cfg.estimator.kind == "none":
+        return None
+    return TyreChangeAlarm(build_change_detectors(cfg, setup), calibrated_threshold(cfg, "cusum", setup))

@@ -78,3 +78,20 @@ def test_the_bounds_table_gives_medians_with_intervals_and_counts_zero_bounds_ap
     rows.append({"method": "m", "detection_delay": 0.3, "tyre_alarm_delay": None, "lorden_delay_bound": 0.0})
     cells = [c.strip() for c in bounds_table(rows, ["m"])[-1].strip("|").split("|")]
     assert cells == ["m", "11 (+1 with a zero bound)", "6 [2, 10]", "0", "—", "12 [4, 20]"]
+
+
+def test_the_tyre_alarms_are_bounded_at_the_fast_detectors_measured_rate() -> None:
+    """With the fast tyre detector (``diagnosis.tyre_change``) the tyre alarms' bound is taken at the CUSUM's
+    measured no-fault rate, with or without the gyro; without it (the default), or without a filter, at the
+    decision rule's."""
+    from ftc_mj.benchmark.score import tyre_alarm_arl0
+
+    for gyro in (None, 0.01):
+        off = _cfg(gyro)
+        on = RunConfig.model_validate({**off.model_dump(mode="json"), "diagnosis": {"tyre_change": True}})
+        settings = {k: float(getattr(on.estimator.decision, k)) for k in RULE_SETTINGS}
+        assert tyre_alarm_arl0(on) == measured_arl0("cusum", gyro is not None, settings)
+        assert tyre_alarm_arl0(off) == bound_arl0(off) != tyre_alarm_arl0(on)
+        no_filter = RunConfig.model_validate({**on.model_dump(mode="json"), "estimator": {"kind": "none"},
+                                              "reconfiguration": {"policy": "none"}})
+        assert tyre_alarm_arl0(no_filter) == bound_arl0(no_filter)

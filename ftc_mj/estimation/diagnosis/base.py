@@ -16,6 +16,7 @@ from typing import Protocol
 import numpy as np
 
 from ...model.diagnosis import COMPONENT_MODES, COMPONENT_TARGETS, Diagnosis
+from ..base import Measurement
 
 COMPONENT_CODES: dict[str, int] = {"": 0, **{c: i + 1 for i, c in enumerate(COMPONENT_MODES)}}
 """Trace code of each component (0: nothing declared)."""
@@ -27,8 +28,9 @@ MODE_CODES: dict[str, int] = {"": 0, **{m: i + 1 for i, m in enumerate(
 """Trace code of each mode (0: nothing declared)."""
 
 CHANNELS: tuple[str, ...] = ("tyre_R", "tyre_L", "servo_R", "servo_L", "lock_R", "lock_L", "speed", "gyro",
-                             "speed_dropout", "gyro_dropout", "pose", "pose_dropout")
-"""The built-in diagnoser's residual channels, one statistic and one alarm flag each in the trace."""
+                             "speed_dropout", "gyro_dropout", "pose", "pose_dropout", "tyre_change")
+"""The built-in diagnoser's residual channels, one statistic and one alarm flag each in the trace
+(``tyre_change``: the fast tyre detector of :mod:`.change`, which detects and declares nothing)."""
 
 OFFSET_COLUMNS: tuple[str, ...] = ("diag_offset_x", "diag_offset_y", "diag_offset_sigma_x", "diag_offset_sigma_y")
 """The latest declaration's :attr:`~ftc_mj.model.diagnosis.Diagnosis.offset` ``(dx, dy)`` and its σ per axis (m,
@@ -69,6 +71,9 @@ class DiagnosisInput:
         pose: a pose fix ``[x, y, ψ]`` (m, m, rad) due at this step, else ``None``.
         pose_sigma: its noise σ (m, and rad for ψ).
         radii: the filter's radius estimates ``[R_R, R_L]`` (m), ``None`` without a filter.
+        filter_input: what the filter stepped on this step, ``(u, z)``: the wheel rates it predicted with (rad/s)
+            and the measurement it was updated with (the readings with the diagnosed sensor offsets removed and
+            excluded channels absent); ``None`` without a filter.
     """
 
     t: float
@@ -79,6 +84,7 @@ class DiagnosisInput:
     pose: np.ndarray | None
     pose_sigma: float
     radii: np.ndarray | None = None
+    filter_input: tuple[np.ndarray, Measurement] | None = None
 
 
 @dataclass

@@ -37,6 +37,7 @@ import numpy as np
 from ...context import RunContext
 from ...model.diagnosis import Diagnosis
 from .base import CHANNELS, DiagnosisInput, DiagnosisStep
+from .change import TyreChangeAlarm
 from .history import History
 from .pose import PoseStep, fix_interval, step_glr
 from .servo import LagStep, LagSums, lag_step
@@ -79,10 +80,14 @@ class ResidualDiagnoser:
     Args:
         settings: its settings (:class:`~.settings.ResidualDiagnoserSettings`).
         context: the run context: the nominal radius and half track, the estimator period, the sensors' σ.
+        change: the fast tyre detector (:mod:`.change`; the ``tyre_change`` channel), ``None``: that channel
+            stays quiet.
     """
 
-    def __init__(self, settings: ResidualDiagnoserSettings, context: RunContext) -> None:
+    def __init__(self, settings: ResidualDiagnoserSettings, context: RunContext,
+                 change: TyreChangeAlarm | None = None) -> None:
         self.settings = settings
+        self.change = change
         self.R0 = float(context.nominal_radii[0])
         self.b = float(context.half_track)
         self.dt = float(context.estimator_dt)
@@ -131,6 +136,8 @@ class ResidualDiagnoser:
             self.readings["gyro"] = self._sensor("gyro") if self.sigma_g is not None else QUIET
             self.readings["pose"] = self._pose()
         self.readings["pose_dropout"] = self._pose_dropout(z.t)
+        if self.change is not None:
+            self.readings["tyre_change"] = Reading(*self.change.step(z))
         alarms = {c: r.alarm for c, r in self.readings.items()}
         since = self.since
         for c, alarm in alarms.items():
@@ -143,6 +150,8 @@ class ResidualDiagnoser:
                                  declared=list(self.declared))
         new = self._isolate(z.t)  # (a declaration may read a channel again: the alarms after it are reported)
         self.declared.extend(new)
+        if self.change is not None and new:
+            self.change.anchor(z.radii)  # matched again to "no further change" (its readings now corrected)
         return DiagnosisStep(statistics={c: r.stat for c, r in self.readings.items()},
                              alarms={c: r.alarm for c, r in self.readings.items()}, new=new,
                              declared=list(self.declared))

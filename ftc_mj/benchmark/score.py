@@ -176,13 +176,10 @@ def bound_arl0(cfg: RunConfig) -> float:
     """The mean time between false alarms (s) Lorden's bound is taken at: that measured for the run's decision
     rule (``auto``: ``mode`` for an IMM, ``sigma`` otherwise) under no fault after the launch, with or without the
     gyro as the run has (:func:`~ftc_mj.metrics.alarm_rates.measured_arl0`), else ``estimator.decision.arl0``."""
-    d = cfg.estimator.decision
-    rule = d.rule
+    rule = cfg.estimator.decision.rule
     if rule == "auto":
         rule = "mode" if str(cfg.estimator.kind).startswith("imm") else "sigma"
-    settings = {k: float(getattr(d, k)) for k in RULE_SETTINGS}
-    measured = measured_arl0(rule, cfg.sensors.yaw_rate_sigma is not None, settings)
-    return d.arl0 if measured is None else measured
+    return _measured_arl0(cfg, rule)
 
 
 def tyre_alarm_arl0(cfg: RunConfig) -> float:
@@ -191,11 +188,17 @@ def tyre_alarm_arl0(cfg: RunConfig) -> float:
     rolling-ratio channels raised no alarm in 1200 s of healthy draws, so the CUSUM's rate dominates the union's —,
     else the decision rule's (:func:`bound_arl0`)."""
     if getattr(cfg.diagnosis, "tyre_change", False) and cfg.estimator.kind != "none":
-        d = cfg.estimator.decision
-        settings = {k: float(getattr(d, k)) for k in RULE_SETTINGS}
-        measured = measured_arl0("cusum", cfg.sensors.yaw_rate_sigma is not None, settings)
-        return d.arl0 if measured is None else measured
+        return _measured_arl0(cfg, "cusum")
     return bound_arl0(cfg)
+
+
+def _measured_arl0(cfg: RunConfig, rule: str) -> float:
+    """``rule``'s no-fault mean time between alarms (s) measured with the run's sensor set and decision settings,
+    else the configured ``estimator.decision.arl0``."""
+    d = cfg.estimator.decision
+    settings = {k: float(getattr(d, k)) for k in RULE_SETTINGS}
+    measured = measured_arl0(rule, cfg.sensors.yaw_rate_sigma is not None, settings)
+    return d.arl0 if measured is None else measured
 
 
 def bound_scores(cfg: RunConfig, record: RunRecord, trace: dict[str, np.ndarray],

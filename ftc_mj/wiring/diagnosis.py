@@ -38,11 +38,10 @@ def build_diagnoser(cfg: RunConfig, setup: FilterSetup | None = None) -> Diagnos
     :class:`~ftc_mj.estimation.diagnosis.ResidualDiagnoser`, with its fast tyre detector when the run has a filter
     and ``diagnosis.tyre_change`` is on; ``none``: no diagnoser) or a plug-in's; ``setup``: the run's filter setup,
     if the caller has it (the run record's)."""
-    entry = diagnosers.get(cfg.diagnosis.kind)
-    if entry.origin == BUILTIN and isinstance(cfg.diagnosis, ResidualDiagnoserSettings):
-        return diagnosers.create(cfg.diagnosis.kind, cfg.diagnosis, run_context(cfg), run_config=cfg,
-                                 change=tyre_change_alarm(cfg, setup))
-    return diagnosers.create(cfg.diagnosis.kind, cfg.diagnosis, run_context(cfg), run_config=cfg)
+    builtin = diagnosers.get(cfg.diagnosis.kind).origin == BUILTIN
+    extra = ({"change": tyre_change_alarm(cfg, setup)}
+             if builtin and isinstance(cfg.diagnosis, ResidualDiagnoserSettings) else {})
+    return diagnosers.create(cfg.diagnosis.kind, cfg.diagnosis, run_context(cfg), run_config=cfg, **extra)
 
 
 def tyre_change_alarm(cfg: RunConfig, setup: FilterSetup | None = None) -> TyreChangeAlarm | None:

@@ -5,7 +5,8 @@
 
 Runs ``--method`` on dev draws ``--start``… of ``--benchmark`` for ``--duration`` s as a bench worker runs them,
 recording every :class:`~ftc_mj.estimation.diagnosis.DiagnosisInput` the loop hands the
-:class:`~ftc_mj.estimation.diagnosis.ResidualDiagnoser` (with its settings and run context), then steps a fresh
+:class:`~ftc_mj.estimation.diagnosis.ResidualDiagnoser` (with its settings, run context and fast tyre detector as
+built), then steps a fresh
 diagnoser through each recording ``--repeat`` times and prints the CPU seconds (``time.process_time``) per run
 and per step: median and minimum over the repeats. ``--baseline``: the same recordings replayed by another
 checkout's diagnoser in a child process (``PYTHONPATH``) in alternating rounds, and its statistics, alarms and
@@ -45,9 +46,9 @@ def record(method: str, version: str, draws: list[int], duration: float) -> list
     runs: list[dict[str, Any]] = []
     init, step = residual.ResidualDiagnoser.__init__, residual.ResidualDiagnoser.step
 
-    def recording_init(self: Any, settings: Any, context: Any) -> None:
-        runs.append({"settings": settings, "context": context, "inputs": []})
-        init(self, settings, context)
+    def recording_init(self: Any, settings: Any, context: Any, change: Any = None) -> None:
+        runs.append({"settings": settings, "context": context, "change": copy.deepcopy(change), "inputs": []})
+        init(self, settings, context, change)
 
     def recording_step(self: Any, z: Any) -> Any:
         runs[-1]["inputs"].append(copy.deepcopy(z))
@@ -71,7 +72,7 @@ def replay(runs: list[dict[str, Any]]) -> tuple[float, list[list[tuple]]]:
     outputs: list[list[tuple]] = []
     t = time.process_time()
     for run in runs:
-        d = ResidualDiagnoser(run["settings"], run["context"])
+        d = ResidualDiagnoser(run["settings"], run["context"], copy.deepcopy(run.get("change")))
         outputs.append([(tuple(o.statistics.items()), tuple(o.alarms.items()), tuple(astuple(x) for x in o.new))
                         for o in map(d.step, run["inputs"])])
     return time.process_time() - t, outputs

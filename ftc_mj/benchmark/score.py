@@ -70,7 +70,7 @@ from typing import Any
 import numpy as np
 
 from ..config import RunConfig
-from ..metrics.alarm_rates import RULE_SETTINGS, measured_arl0
+from ..metrics.alarm_rates import RULE_SETTINGS, measured_arl0, tyre_change_arl0
 from ..metrics.detection import WHEEL_OF_CODE, declared_wheel_codes
 from ..metrics.diagnosis import DIAGNOSIS_SCORE_COLUMNS, diagnosis_scores
 from ..metrics.fdi import KL_PROFILE_S, cumulative_kl, lorden_delays
@@ -184,20 +184,21 @@ def bound_arl0(cfg: RunConfig) -> float:
 
 def tyre_alarm_arl0(cfg: RunConfig) -> float:
     """The mean time between false alarms (s) of the diagnoser's tyre alarms: with its fast detector
-    (``diagnosis.tyre_change`` and a filter), the CUSUM's measured after the launch with the run's sensor set — the
-    rolling-ratio channels raised no alarm in 1200 s of healthy draws, so the CUSUM's rate dominates the union's —,
+    (``diagnosis.tyre_change`` and a filter), its CUSUM's measured after the launch with the run's sensor set under
+    the benchmark's drawn conditions (:func:`~ftc_mj.metrics.alarm_rates.tyre_change_arl0`) — the rolling-ratio
+    channels raised no alarm in 1200 s of healthy draws, so the CUSUM's rate dominates the union's —,
     else the decision rule's (:func:`bound_arl0`)."""
     if getattr(cfg.diagnosis, "tyre_change", False) and cfg.estimator.kind != "none":
-        return _measured_arl0(cfg, "cusum")
+        return _measured_arl0(cfg, "tyre_change")
     return bound_arl0(cfg)
 
 
 def _measured_arl0(cfg: RunConfig, rule: str) -> float:
-    """``rule``'s no-fault mean time between alarms (s) measured with the run's sensor set and decision settings,
-    else the configured ``estimator.decision.arl0``."""
+    """``rule``'s no-fault mean time between alarms (s) measured with the run's sensor set and decision settings
+    (``tyre_change``: the diagnoser's fast tyre detector's), else the configured ``estimator.decision.arl0``."""
     d = cfg.estimator.decision
-    settings = {k: float(getattr(d, k)) for k in RULE_SETTINGS}
-    measured = measured_arl0(rule, cfg.sensors.yaw_rate_sigma is not None, settings)
+    settings, gyro = {k: float(getattr(d, k)) for k in RULE_SETTINGS}, cfg.sensors.yaw_rate_sigma is not None
+    measured = tyre_change_arl0(gyro, settings) if rule == "tyre_change" else measured_arl0(rule, gyro, settings)
     return d.arl0 if measured is None else measured
 
 

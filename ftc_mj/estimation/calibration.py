@@ -40,6 +40,9 @@ from .setup import FilterSetup
 OFFSETS_FILE = "data/calibration/physical_offsets.json"
 """The change detectors' threshold offsets on the physical robot, relative to the package (written by
 ``benchmarks/calibration.py --calibrate``)."""
+TYRE_CHANGE_FILE = "data/calibration/tyre_change.json"
+"""The fast tyre detector's threshold offsets and no-fault rates under the benchmark's drawn conditions, relative
+to the package (written by ``benchmarks/tyre_change_calibration.py --write``)."""
 CALIBRATION_HORIZON_S = 200.0
 """Longest null run simulated (s); longer targets are extrapolated on the LLR scale."""
 NOMINAL_SETTLE_S = 20.0
@@ -197,3 +200,13 @@ def physical_offset(kind: str, gyro: bool) -> float:
     that makes the mean time a factor ``c`` of the design's at one design does so at every design, and
     ``-log c`` corrects it at each. 0 where not measured."""
     return float(package_data(OFFSETS_FILE).get("offsets", {}).get(sensor_set(gyro), {}).get(kind, 0.0))
+
+
+def tyre_change_offset(gyro: bool) -> float:
+    """Offset (log-likelihood-ratio units) the diagnoser's fast tyre detector adds to the estimator's calibrated
+    CUSUM threshold with the sensor set (``gyro``): chosen on the healthy runs of ftc-v2 development draws so that
+    its mean time to a false alarm after the launch is the design's under drawn conditions — paths, speeds,
+    friction, payloads, a closed loop that corrects and pose fixes, where scenario 1's offset (one path, feedback
+    off, no pose sensor) lets it alarm three times too often without a gyro
+    (``benchmarks/tyre_change_calibration.py``; docs/fdi.md, "The fast tyre detector"). 0 where not measured."""
+    return float(package_data(TYRE_CHANGE_FILE).get("offsets", {}).get(sensor_set(gyro), 0.0))

@@ -84,12 +84,13 @@ class ChangeDetectors:
     """
 
     def __init__(self, setup: FilterSetup, shift: float, isolation_llr: float, glr_window: int,
-                 physical: bool = False) -> None:
+                 physical: bool = False, glr: bool = True) -> None:
         """``setup``: the estimator's parameters; ``shift``: CUSUM design shift (σ); ``isolation_llr``:
         the lead (nats) a hypothesis needs to be isolated; ``glr_window``: onsets considered (steps);
         ``physical``: whiten under the physical robot's null model (:mod:`.null_model`: the one-step lag
         removed, tyre slip near the grip limit as effective-radius noise), else under the kinematic
-        model alone (exact on the kinematic plant, where the null model changes nothing but the lag)."""
+        model alone (exact on the kinematic plant, where the null model changes nothing but the lag); ``glr``:
+        run the GLR (off: ``glr_stat`` stays 0 — for a user of the CUSUM alone, the GLR being most of the cost)."""
         self.residual = ResidualGenerator(setup)
         self.setup = self.residual.setup
         self.null_model = (NullModel(self.setup.nominal_radius, self.setup.model.b, self.setup.dt) if physical
@@ -100,7 +101,7 @@ class ChangeDetectors:
         self.isolation_llr = isolation_llr
         self._window = glr_window
         self.cusum = InnovationCUSUM(shift)
-        self.glr = JumpGLR(glr_window)
+        self.glr = JumpGLR(glr_window) if glr else None
         self.white: np.ndarray | None = None
         self._x_prev: np.ndarray | None = None
         self.cusum_per_hypothesis = np.zeros(len(HYPOTHESES))
@@ -131,20 +132,26 @@ class ChangeDetectors:
             e = lin.e[None, :]
             self.cusum_per_hypothesis = self.cusum.step(e, lin.W)[0].copy()
             self.cusum_stat = float(self.cusum_per_hypothesis.max())
-            if self.setup.position_sigma is None:
-                F = _EYE5  # no channel sees the pose: its rows of F do not reach any signature
-            else:
-                x_lin = self._x_prev if self._x_prev is not None else x
-                F = numpy_step_jacobian(self.setup.model, x_lin, u, self.setup.dt)
-            self.glr_stat = float(self.glr.step(e, lin.W, F, lin.A)[0])
-            self.glr_per_hypothesis = self.glr.per_hypothesis[0].copy()
-            if self.glr_stat > 0.0:
-                hyp, nu, lag = self.glr.estimate()
-                self.glr_drop = nu * (math.sqrt(0.5) if hyp == "both" else 1.0)
-                self.glr_onset = t - lag * self.setup.dt
-            else:
-                self.glr_drop = self.glr_onset = math.nan
+            if self.glr is not None:
+                self._step_glr(t, e, lin, u, x)
         self._x_prev = x
+
+    def _step_glr(self, t: float, e: np.ndarray, lin: Linearisation, u: np.ndarray, x: np.ndarray) -> None:
+        """Advance the GLR on the whitened innovation ``e`` (1, m) of time ``t`` (s) and its estimate."""
+        assert self.glr is not None
+        if self.setup.position_sigma is None:
+            F = _EYE5  # no channel sees the pose: its rows of F do not reach any signature
+        else:
+            x_lin = self._x_prev if self._x_prev is not None else x
+            F = numpy_step_jacobian(self.setup.model, x_lin, u, self.setup.dt)
+        self.glr_stat = float(self.glr.step(e, lin.W, F, lin.A)[0])
+        self.glr_per_hypothesis = self.glr.per_hypothesis[0].copy()
+        if self.glr_stat > 0.0:
+            hyp, nu, lag = self.glr.estimate()
+            self.glr_drop = nu * (math.sqrt(0.5) if hyp == "both" else 1.0)
+            self.glr_onset = t - lag * self.setup.dt
+        else:
+            self.glr_drop = self.glr_onset = math.nan
 
     def _physical(self, t: float, u: np.ndarray, z: Measurement, radii: np.ndarray | None
                   ) -> tuple[float, Measurement, float]:
@@ -200,7 +207,7 @@ class ChangeDetectors:
         """After a declared change: move the generator by the GLR's maximum-likelihood jump (hypothesis,
         size ``ν̂ = D/C`` and onset), add its uncertainty ``1/C`` along the jump's current error direction,
         and restart both detectors (the next change is tested against the corrected model)."""
-        if self.glr_stat > 0.0:
+        if self.glr is not None and self.glr_stat > 0.0:
             phi, c = self.glr.jump()
             nu = self.glr.estimate()[1]
             self.residual.correct(nu * phi, phi / math.sqrt(c))
@@ -210,7 +217,7 @@ class ChangeDetectors:
         """Restart both detectors from zero, the residual generator untouched (a fresh start of their run
         lengths)."""
         self.cusum = InnovationCUSUM(self.cusum.shift)
-        self.glr = JumpGLR(self._window)
+        self.glr = JumpGLR(self._window) if self.glr is not None else None
         self.cusum_per_hypothesis = np.zeros(len(HYPOTHESES))
         self.glr_per_hypothesis = np.zeros(len(HYPOTHESES))
         self.cusum_stat = self.glr_stat = 0.0

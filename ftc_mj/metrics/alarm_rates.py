@@ -21,7 +21,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from ..estimation.calibration import package_data, sensor_set
+from ..estimation.calibration import TYRE_CHANGE_FILE, package_data, sensor_set
 
 RATES_FILE = "data/calibration/alarm_rates.json"
 """The measured rates, relative to the package (written by ``benchmarks/calibration.py``)."""
@@ -101,7 +101,22 @@ def measured_arl0(rule: str, gyro: bool, settings: dict[str, float]) -> float | 
     (:data:`RULE_SETTINGS`); ``None`` otherwise (a rule or setting not measured). Without an alarm: the lower
     end of its 95 % interval (exposure / 3.69), the shortest mean time the measurement allows."""
     row = _table().get("after_launch", {}).get(sensor_set(gyro), {}).get(rule)
-    if row is None or any(abs(float(settings.get(k, math.nan)) - v) > 1e-9 for k, v in row["settings"].items()):
+    return None if row is None else _arl0_of(row, row["settings"], settings)
+
+
+def tyre_change_arl0(gyro: bool, settings: dict[str, float]) -> float | None:
+    """The mean time to a false alarm (s) after the launch of the diagnoser's fast tyre detector at its calibrated
+    threshold, measured on the healthy runs of ftc-v2 development draws with the sensor set (``gyro``)
+    (``benchmarks/tyre_change_calibration.py``), when measured with the same threshold ``settings``; ``None``
+    otherwise. Without an alarm: the lower end of its 95 % interval."""
+    data = package_data(TYRE_CHANGE_FILE)
+    row = data.get("after_launch", {}).get(sensor_set(gyro))
+    return None if row is None else _arl0_of(row, data.get("settings", {}), settings)
+
+
+def _arl0_of(row: dict[str, Any], measured_with: dict[str, float], settings: dict[str, float]) -> float | None:
+    """The ARL0 (s) of a stored rate ``row`` if ``settings`` equal the ones it was ``measured_with``."""
+    if any(abs(float(settings.get(k, math.nan)) - v) > 1e-9 for k, v in measured_with.items()):
         return None
     rate = Rate(row["alarms"], row["exposure"], row["rate"], row["lo"], row["hi"])
     return rate.arl0 if rate.alarms else rate.arl0_interval[0]

@@ -140,11 +140,12 @@ def physical_null_model(cfg: RunConfig) -> bool:
     return cfg.estimator.decision.null_model == "physical"
 
 
-def build_change_detectors(cfg: RunConfig, setup: FilterSetup | None = None) -> ChangeDetectors:
-    """The run's residual generator with its CUSUM and GLR (:mod:`~ftc_mj.estimation.residual`)."""
+def build_change_detectors(cfg: RunConfig, setup: FilterSetup | None = None, *, glr: bool = True
+                           ) -> ChangeDetectors:
+    """The run's residual generator with its CUSUM and (``glr``) its GLR (:mod:`~ftc_mj.estimation.residual`)."""
     d = cfg.estimator.decision
     return ChangeDetectors(_setup(cfg, setup), d.cusum_shift, d.isolation_llr, glr_window_of(cfg),
-                           physical_null_model(cfg))
+                           physical_null_model(cfg), glr)
 
 
 def build_rule_statistics(cfg: RunConfig, setup: FilterSetup | None = None) -> RuleStatistics:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from ..config import RunConfig, run_context
 from ..context import RunContext
+from ..estimation.calibration import tyre_change_offset
 from ..estimation.diagnosis import (
     Diagnoser,
     NoDiagnoserSettings,
@@ -46,8 +47,10 @@ def build_diagnoser(cfg: RunConfig, setup: FilterSetup | None = None) -> Diagnos
 
 def tyre_change_alarm(cfg: RunConfig, setup: FilterSetup | None = None) -> TyreChangeAlarm | None:
     """The built-in diagnoser's fast tyre detector (:mod:`~ftc_mj.estimation.diagnosis.change`): the run's change
-    detectors and their calibrated CUSUM threshold; ``None`` without a filter (nothing to match a model to) or
-    with ``diagnosis.tyre_change`` off."""
+    detectors and their calibrated CUSUM threshold plus its offset under the benchmark's drawn conditions
+    (:func:`~ftc_mj.estimation.calibration.tyre_change_offset`); ``None`` without a filter (nothing to match a
+    model to) or with ``diagnosis.tyre_change`` off."""
     if not cfg.diagnosis.tyre_change or cfg.estimator.kind == "none":
         return None
-    return TyreChangeAlarm(build_change_detectors(cfg, setup), calibrated_threshold(cfg, "cusum", setup))
+    threshold = calibrated_threshold(cfg, "cusum", setup) + tyre_change_offset(cfg.sensors.yaw_rate_sigma is not None)
+    return TyreChangeAlarm(build_change_detectors(cfg, setup, glr=False), threshold)

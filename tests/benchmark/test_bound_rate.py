@@ -9,7 +9,7 @@ import pytest
 
 from ftc_mj.benchmark.score import bound_arl0, tyre_alarm_delay
 from ftc_mj.config import RunConfig
-from ftc_mj.metrics.alarm_rates import RULE_SETTINGS, _table, measured_arl0
+from ftc_mj.metrics.alarm_rates import RULE_SETTINGS, _table, measured_arl0, tyre_change_arl0
 from ftc_mj.wiring.decision import build_change_detectors, physical_null_model
 
 
@@ -81,16 +81,19 @@ def test_the_bounds_table_gives_medians_with_intervals_and_counts_zero_bounds_ap
 
 
 def test_the_tyre_alarms_are_bounded_at_the_fast_detectors_measured_rate() -> None:
-    """With the fast tyre detector (``diagnosis.tyre_change``) the tyre alarms' bound is taken at the CUSUM's
-    measured no-fault rate, with or without the gyro; without it (the default), or without a filter, at the
-    decision rule's."""
+    """With the fast tyre detector (``diagnosis.tyre_change``) the tyre alarms' bound is taken at its own no-fault
+    rate measured under drawn conditions, with or without the gyro; without it, or without a filter, at the
+    decision rule's; with other threshold settings than those measured, at the configured ARL0."""
     from ftc_mj.benchmark.score import tyre_alarm_arl0
 
     for gyro in (None, 0.01):
-        off = _cfg(gyro)
-        on = RunConfig.model_validate({**off.model_dump(mode="json"), "diagnosis": {"tyre_change": True}})
+        base = _cfg(gyro).model_dump(mode="json")
+        off = RunConfig.model_validate({**base, "diagnosis": {"tyre_change": False}})
+        on = RunConfig.model_validate({**base, "diagnosis": {"tyre_change": True}})
         settings = {k: float(getattr(on.estimator.decision, k)) for k in RULE_SETTINGS}
-        assert tyre_alarm_arl0(on) == measured_arl0("cusum", gyro is not None, settings)
+        assert tyre_alarm_arl0(on) == tyre_change_arl0(gyro is not None, settings) > 0.0
+        other = RunConfig.model_validate({**on.model_dump(mode="json"), "estimator": {"decision": {"arl0": 500.0}}})
+        assert tyre_alarm_arl0(other) == 500.0
         assert tyre_alarm_arl0(off) == bound_arl0(off) != tyre_alarm_arl0(on)
         no_filter = RunConfig.model_validate({**on.model_dump(mode="json"), "estimator": {"kind": "none"},
                                               "reconfiguration": {"policy": "none"}})

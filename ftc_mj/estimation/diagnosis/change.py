@@ -28,7 +28,8 @@ class TyreChangeAlarm:
     """The CUSUM of ``detectors`` at ``threshold`` (log-likelihood-ratio units) on each step's readings.
 
     Args:
-        detectors: the run's residual generator with its CUSUM and GLR (a fresh one: it is stepped here).
+        detectors: the run's residual generator with its CUSUM (a fresh one: it is stepped here; the GLR, if it
+            has one, is not read).
         threshold: the CUSUM's calibrated threshold for the run's sensors.
     """
 
@@ -51,7 +52,7 @@ class TyreChangeAlarm:
         """After a declaration: the generator's radii set to the filter's ``radii`` (m) with the prior's
         radius covariance, so that it learns them from the next innovations instead of carrying the error of a
         tyre still settling, and the detectors restarted; without ``radii``, moved by the GLR's estimated
-        jump."""
+        jump when the detectors run one (the diagnoser's are built without: restarted only)."""
         if radii is None:
             self.detectors.correct()
             return

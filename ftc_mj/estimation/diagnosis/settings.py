@@ -39,11 +39,12 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """GLR threshold (log-likelihood ratio): 12.5 is a 5σ shift of a Gaussian residual."""
     confirm: ranged(0.0, 10.0, unit="s") = 0.2
     """How long (s) an alarm holds before it is declared."""
-    tyre_change: Flag = False
+    tyre_change: Flag = True
     """Run the fast tyre detector (:mod:`.change`: the estimator's calibrated CUSUM on what the filter steps on,
-    the ``tyre_change`` channel), which detects a radius change at the speed and gyro rate and declares nothing.
-    Off by default until its no-fault alarm rate is measured as the other detectors' are (docs/fdi.md); it costs
-    about 15 % of a run's CPU."""
+    the ``tyre_change`` channel), which detects a radius change at the speed and gyro rate and declares nothing;
+    its threshold is calibrated for a mean time to a false alarm of ``estimator.decision.arl0`` under the
+    benchmark's drawn conditions (docs/fdi.md, "The fast tyre detector"). Off: the tyre alarms are the
+    rolling-ratio channels' alone, which read the pose fixes and come about ten times Lorden's bound with a gyro."""
     pose_rate: ranged(0.0, 1.0e4, lo_open=True, unit="Hz") | None = None
     """Use pose fixes at most at this rate (Hz); unset: every fix the loop hands over (the controller's pose,
     at the estimator rate)."""

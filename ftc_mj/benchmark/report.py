@@ -400,10 +400,12 @@ def render(bp: Any, rows: list[dict[str, Any]], figures: list[Path], compared: l
                 f"rank-biserial correlation only from {MIN_EFFECT_PAIRS} discordant pairs on. p-values here are not "
                 "adjusted (the verdicts are).", "",
                 *paired_table(rows, methods)]
-    out += ["## Bounds", "", "Detection delay (the first declaration) and the diagnoser's tyre detectors' first alarm "
-            "after the onset over Lorden's bound at the rule's no-fault alarm rate measured on MuJoCo "
-            "(`benchmarks/calibration.py` in the source repository; `estimator.decision.arl0` for a rule not "
-            "measured) "
+    out += ["## Bounds", "", "Detection delay (the first declaration) over Lorden's bound at the decision rule's "
+            "no-fault alarm rate measured on MuJoCo (`benchmarks/calibration.py` in the source repository; "
+            "`estimator.decision.arl0` for a rule not measured), and the diagnoser's tyre detectors' first alarm "
+            "after the onset over the bound at their own: with its fast tyre detector (on by default), that "
+            "detector's mean time to a false alarm measured on healthy development draws of ftc-v2 "
+            "(`benchmarks/tyre_change_calibration.py`), else the rule's. Both bounds are "
             "for the draw's first change, from the information of every measurement a method has: the speed, the "
             "yaw rate and the pose fixes; the filter's final radius error over the PCRB for constant radii since "
             "the last radius change, of the wheel whose ratio is the larger. Medians over draws with their "

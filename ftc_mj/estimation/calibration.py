@@ -45,6 +45,8 @@ TYRE_CHANGE_FILE = "data/calibration/tyre_change.json"
 to the package (written by ``benchmarks/tyre_change_calibration.py --write``)."""
 CALIBRATION_HORIZON_S = 200.0
 """Longest null run simulated (s); longer targets are extrapolated on the LLR scale."""
+NULL_BLOCK_STEPS = 1000
+"""Steps of null innovations drawn at once by :func:`null_running_max` (a block of 160 chains × 4 channels is 5 MB)."""
 NOMINAL_SETTLE_S = 20.0
 """Riccati recursion (s) from ``P0`` that sets the nominal covariance."""
 
@@ -104,11 +106,11 @@ def null_running_max(kind: str, point: NominalPoint, *, shift: float, window: in
     rng = np.random.default_rng([seed, 17, point.m])
     out = np.empty((chains, steps))
     run = np.zeros(chains)
-    if kind == "cusum":
+    if kind == "cusum":  # the innovations drawn in blocks of steps: the same numbers as one step at a time
         det_c = InnovationCUSUM(shift, chains)
-        for k in range(steps):
-            run = np.maximum(run, det_c.step(rng.standard_normal((chains, point.m)), W).max(axis=1))
-            out[:, k] = run
+        for k in range(0, steps, NULL_BLOCK_STEPS):
+            n = min(NULL_BLOCK_STEPS, steps - k)
+            det_c.running_max(rng.standard_normal((n, chains, point.m)), W, run, out[:, k:k + n])
     elif kind == "glr":
         det_g = JumpGLR(informative_lags(point, window), chains)
         for k in range(steps):

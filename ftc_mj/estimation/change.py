@@ -116,6 +116,30 @@ class InnovationCUSUM:
         return self.C
 
 
+    def running_max(self, E: np.ndarray, W: np.ndarray, run: np.ndarray, out: np.ndarray) -> None:
+        """Advance through the steps of ``E`` (steps, batch, m) — as :meth:`step` once per step, compiled in one
+        call — writing into ``out`` (batch, steps) the running maximum over hypotheses and steps, carried in
+        ``run`` (batch,): the null distribution of the first-alarm time (:mod:`.calibration`)."""
+        _cusum_running_max(self.C, np.ascontiguousarray(E, dtype=float), np.ascontiguousarray(W, dtype=float),
+                           DIRECTIONS, self.shift, run, out)
+
+
+@njit(cache=True, error_model="numpy")
+def _cusum_running_max(C: np.ndarray, E: np.ndarray, W: np.ndarray, f: np.ndarray, shift: float,
+                       run: np.ndarray, out: np.ndarray) -> None:
+    """Compiled :meth:`InnovationCUSUM.running_max`: :func:`_cusum_step` per step, then the batch's running
+    maximum (exact: maxima do not round)."""
+    for k in range(E.shape[0]):
+        _cusum_step(C, E[k], W, f, shift)
+        for b in range(C.shape[0]):
+            top = run[b]
+            for h in range(C.shape[1]):
+                if C[b, h] > top:
+                    top = C[b, h]
+            run[b] = top
+            out[b, k] = top
+
+
 @njit(cache=True, error_model="numpy")
 def _row_dot(A: np.ndarray, i: int, B: np.ndarray, j: int) -> float:
     """``Σ_k A[i, k] B[j, k]`` over the columns of ``B``, accumulated from 0.0 in column order."""

@@ -43,6 +43,7 @@ puncture look alike. The run lengths it gives are measured on the physical plant
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -70,6 +71,27 @@ generator only predicts, the detectors hold): the slip, correlated over tenths o
 what no white-noise σ describes."""
 
 
+def interp_knots(q: float, knots: tuple[tuple[float, float], ...]) -> float:
+    """The piecewise-linear function through ``knots`` (increasing abscissae) at ``q``, constant beyond the ends:
+    ``np.interp(q, *zip(*knots))`` for one scalar, in the same arithmetic (the slope of the knots' interval times
+    the offset from its left knot plus that knot's value; a knot's own value at a knot), without building arrays
+    at every filter step."""
+    if not q >= knots[0][0]:  # below the first knot (NaN falls through to np.interp's NaN below)
+        return knots[0][1] if q < knots[0][0] else math.nan
+    j = bisect.bisect_right(knots, q, key=_abscissa) - 1
+    if j >= len(knots) - 1:
+        return knots[-1][1]
+    (x0, y0), (x1, y1) = knots[j], knots[j + 1]
+    if q == x0:
+        return y0
+    res = (y1 - y0) / (x1 - x0) * (q - x0) + y0
+    return res if not math.isnan(res) else (y1 - y0) / (x1 - x0) * (q - x1) + y1
+
+
+def _abscissa(knot: tuple[float, float]) -> float:
+    return knot[0]
+
+
 @dataclass(frozen=True)
 class NullModel:
     """The healthy physical robot's departures from the no-slip model (module docstring)."""
@@ -93,8 +115,7 @@ class NullModel:
 
     def slip_sigma(self, q: float) -> float:
         """σ (m) of each wheel's effective-radius noise at a demanded acceleration of ``q`` g."""
-        qs, ss = zip(*self.knots, strict=True)
-        return float(np.interp(q, qs, ss)) * self.R0
+        return interp_knots(float(q), self.knots) * self.R0
 
     def drops(self, q: float, u: np.ndarray, sigma: float | None, channel: str) -> bool:
         """The ``speed`` or ``yaw`` channel of sensor σ ``sigma`` (m/s, rad/s; ``None``: not measured) is not used

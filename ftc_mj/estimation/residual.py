@@ -172,7 +172,7 @@ class ChangeDetectors:
         assert nm is not None
         own = np.asarray(self.residual.x, float)[3:5]
         q_now = nm.demand(u, own)
-        if radii is not None and np.max(np.abs(np.asarray(radii, float) - own)) > RADIUS_GAP * nm.R0:
+        if radii is not None and max(abs(float(radii[0]) - own[0]), abs(float(radii[1]) - own[1])) > RADIUS_GAP * nm.R0:
             q_now = min(q_now, nm.demand(u, np.asarray(radii, float)))
         self._demands.append(q_now)
         q = max(self._demands)

@@ -136,3 +136,23 @@ def test_the_offset_nearest_the_design_on_the_log_scale_is_chosen() -> None:
     assert chosen_offset({-1.0: rate(50.0), -0.5: rate(95.0), 0.0: rate(400.0)}, 100.0) == -0.5
     assert chosen_offset({-1.0: rate(50.0), 0.0: rate(200.0)}, 100.0) == 0.0
     assert chosen_offset({-1.0: Rate(0, 900.0, 0.0, 0.0, 0.1)}, 100.0) == 0.0
+
+
+@pytest.mark.parametrize("gyro", [None, 0.01])
+def test_null_running_max_equals_the_detector_stepped_one_step_at_a_time(gyro: float | None) -> None:
+    """The compiled, block-drawn null run is the reference loop kept here — the detector's own ``step`` on
+    innovations drawn one step at a time, the running maximum taken with numpy — bitwise, across a block
+    boundary (2500 steps, blocks of 1000)."""
+    from ftc_mj.estimation.calibration import null_running_max
+    from ftc_mj.estimation.change import InnovationCUSUM
+
+    point = nominal_point_of(decision_cfg("cusum", gyro))
+    steps, chains = 2500, 7
+    W = point.arrays()[0]
+    rng = np.random.default_rng([0, 17, point.m])
+    det, run, ref = InnovationCUSUM(0.8, chains), np.zeros(chains), np.empty((chains, steps))
+    for k in range(steps):
+        run = np.maximum(run, det.step(rng.standard_normal((chains, point.m)), W).max(axis=1))
+        ref[:, k] = run
+    fast = null_running_max("cusum", point, shift=0.8, window=50, steps=steps, chains=chains)
+    assert fast.tobytes() == ref.tobytes()

@@ -64,3 +64,17 @@ def test_the_physical_detectors_are_white_on_a_truth_measured_at_the_rates_of_it
     assert np.all((E.var(axis=0) > 0.85) & (E.var(axis=0) < 1.08))
     lag1 = np.mean(E[1:] * E[:-1], axis=0) / np.mean(E * E, axis=0)
     assert np.all(np.abs(lag1) < 0.06)
+
+
+def test_the_slip_knots_are_interpolated_as_numpy_interpolates() -> None:
+    """:func:`~ftc_mj.estimation.null_model.interp_knots` (the filter step's scalar path) is ``np.interp`` bitwise:
+    at the knots, one ulp either side of them, across and beyond their range, at ±inf and NaN."""
+    from ftc_mj.estimation.null_model import SLIP_FRACTION, interp_knots
+
+    qs, ss = zip(*SLIP_FRACTION, strict=True)
+    knots = np.array(qs)
+    rng = np.random.default_rng(5)
+    grid = np.concatenate([rng.uniform(-0.2, 0.8, 20000), rng.exponential(0.3, 20000), knots,
+                           np.nextafter(knots, 2.0), np.nextafter(knots, -2.0), [0.0, -0.0, np.inf, -np.inf, np.nan]])
+    fast = np.array([interp_knots(float(q), SLIP_FRACTION) for q in grid])
+    assert fast.tobytes() == np.interp(grid, qs, ss).tobytes()

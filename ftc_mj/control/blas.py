@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 from pathlib import Path
 
@@ -51,6 +52,15 @@ def limit_blas_threads(n: int = 1) -> bool:
                 break
     return ok
 
+
+
+@functools.cache
+def single_thread_blas() -> bool:
+    """:func:`limit_blas_threads` to one thread, once per process (what it returned): every run starts with it
+    (:func:`ftc_mj.sim.cache.begin_run`), the controller-less ones too — an agent's run in the Gymnasium
+    environment steps the diagnoser, whose shape fit factors a 300-sample covariance; with a BLAS thread per core
+    beside another process that took 165 ms instead of 2 ms, and threaded round-off need not repeat."""
+    return limit_blas_threads(1)
 
 
 def load_scipy_openblas() -> None:

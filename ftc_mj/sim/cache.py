@@ -32,6 +32,7 @@ from typing import Any
 
 from ..config import RunConfig
 from ..control import solver_cache
+from ..control.blas import single_thread_blas
 from ..control.pathfollow_spec import RobotLimits
 from ..identity import run_identity
 from ..plant import build_model
@@ -63,7 +64,8 @@ def begin_run() -> None:
     (``malloc_trim``, about 2 ms; no garbage collection, which costs 70 ms): a bench worker's resident set crept
     with the draws otherwise (one worker, ``pathfollow`` then ``hybrid`` on 30 test draws each: peak 628 MiB and
     ``hybrid`` at 580 MiB, against 572 and 510 MiB with it; 0.015 s of system time a run for the pages touched
-    again)."""
+    again). BLAS is limited to one thread (:func:`~ftc_mj.control.blas.single_thread_blas`, once per process)."""
+    single_thread_blas()
     _asked_at_start[0] = solver_cache.asked_count()
     if _over_budget():
         release_memory(collect=False)

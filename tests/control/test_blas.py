@@ -41,3 +41,33 @@ def test_every_openblas_runs_one_thread() -> None:
     assert not (wheel and got["early"]), "limit_blas_threads imported scipy.linalg (≈ 0.1–0.2 s of start-up)"
     assert len(threads) >= 2, threads  # numpy's and SciPy's
     assert set(threads.values()) == {1}, threads  # (fails on a machine of more than one core without the limit)
+
+
+RUN_PROBE = """
+import ctypes, json
+import numpy as np
+from ftc_mj.envs import DiffDriveEnv
+env = DiffDriveEnv()
+env.reset(seed=0)
+env.step(np.zeros(2))
+libs = {ln.split()[-1] for ln in open("/proc/self/maps") if "openblas" in ln.lower() and "numpy" in ln}
+threads = []
+for path in libs:
+    lib = ctypes.CDLL(path)
+    for name in ("scipy_openblas_get_num_threads64_", "scipy_openblas_get_num_threads",
+                 "openblas_get_num_threads64_", "openblas_get_num_threads"):
+        if getattr(lib, name, None) is not None:
+            threads.append(getattr(lib, name)())
+            break
+print(json.dumps(threads))
+"""
+
+
+def test_a_run_without_a_controller_runs_one_blas_thread() -> None:
+    """A run limits BLAS when it starts, not only when it builds an MPC: the Gymnasium environment's loop (an agent
+    commands, no controller) then has numpy's OpenBLAS at one thread. (On a one-core machine OpenBLAS starts with one
+    thread and this cannot fail.)"""
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    out = subprocess.run([sys.executable, "-c", RUN_PROBE], capture_output=True, text=True, timeout=300, check=True,
+                         env=env)
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == [1]  # numpy's OpenBLAS

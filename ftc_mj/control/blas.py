@@ -53,7 +53,6 @@ def limit_blas_threads(n: int = 1) -> bool:
     return ok
 
 
-
 @functools.cache
 def single_thread_blas() -> bool:
     """:func:`limit_blas_threads` to one thread, once per process (what it returned): every run starts with it

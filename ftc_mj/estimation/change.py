@@ -115,7 +115,6 @@ class InnovationCUSUM:
                     DIRECTIONS, self.shift)
         return self.C
 
-
     def running_max(self, E: np.ndarray, W: np.ndarray, run: np.ndarray, out: np.ndarray) -> None:
         """Advance through the steps of ``E`` (steps, batch, m) — as :meth:`step` once per step, compiled in one
         call — writing into ``out`` (batch, steps) the running maximum over hypotheses and steps, carried in

@@ -34,11 +34,13 @@ def context(gyro: float | None = 0.01, speed_sigma: float = 0.3) -> RunContext:
 
 
 def drive(fault: dict, duration: float = 20.0, gyro: float | None = 0.01, pose_sigma: float = 0.02,
-          seed: int = 3, fixes: list | None = None, **settings: float) -> list[Diagnosis]:
+          seed: int = 3, fixes: list | None = None, lock: tuple[float, int] | None = None,
+          **settings: float) -> list[Diagnosis]:
     """A unicycle on a 50 m circle at 10 m/s with first-order wheel servos (gain α per step) under a steady
     load, exact kinematics and Gaussian sensors; ``fault``: ``{"kind": ..., "t": onset, ...}`` (a puncture with
     ``"reverse"``: from that time the pose moves backwards while the wheels roll forwards, as a robot that has
-    lost the path and skids); returns the declarations, and appends ``(t, fix, true position)`` of each pose
+    lost the path and skids); ``lock``: ``(t, wheel)``, that wheel also locked from ``t`` (s); returns the
+    declarations, and appends ``(t, fix, true position)`` of each pose
     fix handed over to ``fixes``."""
     rng = np.random.default_rng(seed)
     diag = ResidualDiagnoser(ResidualDiagnoserSettings(**settings), context(gyro))
@@ -63,6 +65,8 @@ def drive(fault: dict, duration: float = 20.0, gyro: float | None = 0.01, pose_s
         omega = omega + alpha * (cmd - omega) - np.array([0.003, -0.003])  # a steady load: lags of ±0.03 rad/s
         if on and kind == "lock":
             omega[fault["wheel"]] = 0.0
+        if lock is not None and t >= lock[0]:
+            omega[lock[1]] = 0.0
         v = 0.5 * (radii[0] * omega[0] + radii[1] * omega[1])
         w = (radii[0] * omega[0] - radii[1] * omega[1]) / (2 * B)
         x, y, psi = x + v * math.cos(psi) * DT, y + v * math.sin(psi) * DT, psi + w * DT
@@ -113,6 +117,16 @@ def test_a_locked_wheel_is_a_servo_lock_not_a_puncture() -> None:
     assert found[0].key == ("servo", "right", "lock")
     assert found[0].declared <= 10.5
     assert all(d.component == "servo" for d in found)
+
+
+def test_a_wheel_that_locks_after_a_puncture_is_still_a_servo_lock() -> None:
+    """A lock is a wheel at rest under its command, whatever its tyre: declared after a declared puncture as soon as
+    on a healthy robot (the servo regression, which a puncture disturbs, stays silent after one)."""
+    found = drive({"kind": "puncture", "t": 5.0, "wheel": 1, "fraction": 0.5}, duration=14.0, lock=(10.0, 0))
+    assert found[0].key == ("tyre", "left", "puncture") and found[0].declared < 10.0
+    servo = [d for d in found if d.component == "servo"]
+    assert [d.key for d in servo] == [("servo", "right", "lock")]
+    assert 10.0 <= servo[0].declared <= 10.5
 
 
 def test_a_speed_bias_is_declared_as_such_with_its_size() -> None:

@@ -115,8 +115,28 @@ def test_a_servo_loss_is_declared_on_its_servo_with_its_gain_fraction() -> None:
 def test_a_locked_wheel_is_a_servo_lock_not_a_puncture() -> None:
     found = drive({"kind": "lock", "t": 10.0, "wheel": 0})
     assert found[0].key == ("servo", "right", "lock")
-    assert found[0].declared <= 10.5
+    s = ResidualDiagnoserSettings()  # the window's mean crosses the alarm within it, then the alarm holds lock_confirm
+    assert found[0].declared <= 10.0 + s.lock_window + s.lock_confirm + 2 * DT
     assert all(d.component == "servo" for d in found)
+
+
+@pytest.mark.parametrize("lock_confirm, declared", [(0.1, False), (0.0, True)])
+def test_a_wheel_commanded_to_reverse_is_not_a_lock(lock_confirm: float, declared: bool) -> None:
+    """A wheel commanded from +0.45 to −1.5 rad/s (dev draw 54's left wheel) passes through rest at its servo's
+    pace (5 rad/s², here 0.1 rad/s per step after 0.2 s of lag): the lock statistic, ``1 − |mean ω| / |mean
+    command|`` over 0.1 s, exceeds the alarm while it crosses zero, for less than ``lock_confirm``'s 0.1 s; at 0 s
+    that is a false lock."""
+    diag = ResidualDiagnoser(ResidualDiagnoserSettings(lock_confirm=lock_confirm), context(0.01))
+    omega, found = np.array([3.0, 0.45]), []
+    for k in range(300):
+        t = k * DT
+        cmd = np.array([3.0, 0.45 if t < 1.0 else -1.5])
+        if t >= 1.2:  # the servo's lag, then its acceleration limit
+            omega[1] = max(omega[1] - 0.05, -1.5)
+        v, w = 0.5 * R0 * (omega[0] + omega[1]), R0 * (omega[0] - omega[1]) / (2 * B)
+        found += diag.step(DiagnosisInput(t=t, omega=omega.copy(), command=cmd, speed=v, yaw_rate=w, pose=None,
+                                          pose_sigma=0.02)).new
+    assert any(d.key == ("servo", "left", "lock") for d in found) is declared
 
 
 def test_a_wheel_that_locks_after_a_puncture_is_still_a_servo_lock() -> None:

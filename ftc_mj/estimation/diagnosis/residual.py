@@ -367,9 +367,12 @@ class ResidualDiagnoser:
 
     # ---------------------------------------------------------------- isolation
     def _confirmed(self, channel: str, t: float) -> bool:
-        """The channel's alarm has held for ``confirm`` (``servo_confirm`` for a servo) seconds."""
+        """The channel's alarm has held for ``confirm`` (``servo_confirm`` for a servo, ``lock_confirm`` for a lock)
+        seconds."""
         since = self.since[channel]
-        hold = self.settings.servo_confirm if channel.startswith("servo") else self.settings.confirm
+        s = self.settings
+        hold = s.servo_confirm if channel.startswith("servo") else s.lock_confirm if channel.startswith("lock") \
+            else s.confirm
         return since is not None and t - since >= hold - 1e-9
 
     def _has(self, component: str, target: str | None = None) -> Diagnosis | None:

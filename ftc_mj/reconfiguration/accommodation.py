@@ -58,14 +58,13 @@ from ..estimation.decision import DecisionState
 from ..fields import StrictModel, ranged, ranged_int
 from ..model.diagnosis import Diagnosis
 from ..telemetry import Event
+from .policies import ISOLATED
 
 ACCOMMODATION_COLUMNS: tuple[str, ...] = ("accommodation_mode", "actuator_effectiveness_R", "actuator_effectiveness_L")
 """Trace columns of a run with the accommodation: its :class:`AccommodationMode` and the servo effectiveness per
 wheel handed to the controller's actuator model (fractions; 1 healthy)."""
 
 _SIDE = {"right": 0, "left": 1}
-_ISOLATED_WHEELS = {"right": {0}, "left": {1}, "both": {0, 1}}
-"""The wheels (0 right, 1 left) a decision's ``wheel`` isolates (``unknown``: none)."""
 _CHANNEL = {"speed sensor": "speed", "gyro": "yaw_rate", "pose sensor": "position"}
 
 
@@ -237,7 +236,7 @@ class Accommodation:
         limit over 9 s, 7.9 m off the path), which the diagnoser's declaration of the second tyre rules out."""
         if decision is None or not decision.detected or not self.tyres:
             return decision
-        isolated = _ISOLATED_WHEELS.get(decision.wheel or "", set())
+        isolated = {i for i, on in enumerate(ISOLATED.get(decision.wheel or "", ())) if on}
         if not isolated or isolated >= set(self.tyres):
             return decision
         return dataclasses.replace(decision, wheel="both")  # one wheel isolated, the other's tyre declared

@@ -54,9 +54,11 @@ from pydantic import Field
 from ..control.base import ControlOutput
 from ..control.stop import SafeStop, SafeStopSettings
 from ..estimation.base import FilterOutput, Measurement
+from ..estimation.decision import DecisionState
 from ..fields import StrictModel, ranged, ranged_int
 from ..model.diagnosis import Diagnosis
 from ..telemetry import Event
+from .policies import ISOLATED
 
 ACCOMMODATION_COLUMNS: tuple[str, ...] = ("accommodation_mode", "actuator_effectiveness_R", "actuator_effectiveness_L")
 """Trace columns of a run with the accommodation: its :class:`AccommodationMode` and the servo effectiveness per
@@ -224,6 +226,20 @@ class Accommodation:
             if self.settings.tyre == "diagnosis" or out[i] >= nominal:
                 out[i] = nominal * size
         return out
+
+    def isolation(self, decision: DecisionState | None) -> DecisionState | None:
+        """The fault decision as the reconfiguration policy is to read it: where the decision has declared a fault and
+        isolated a wheel, every wheel whose tyre is declared punctured counts as isolated too. The policy conditions
+        an isolated wheel's radius on the other being nominal (``condition_on_healthy``): after a second puncture,
+        while the decision still isolates the first wheel, that put the first wheel's radius below its tyre by the
+        second's drop (ftc-v2 dev draw 111, no gyro: handed 0.65 m for a 1.11 m tyre, regained at the growth
+        limit over 9 s, 7.9 m off the path), which the diagnoser's declaration of the second tyre rules out."""
+        if decision is None or not decision.detected or not self.tyres:
+            return decision
+        isolated = {i for i, on in enumerate(ISOLATED.get(decision.wheel or "", ())) if on}
+        if not isolated or isolated >= set(self.tyres):
+            return decision
+        return dataclasses.replace(decision, wheel="both")  # one wheel isolated, the other's tyre declared
 
     def hand_actuator(self, t: float, controller: Any) -> None:
         """Give ``controller`` the actuator model (servo effectiveness per wheel) in force at ``t`` (s), with an

@@ -148,7 +148,8 @@ class ReconfigState(IntEnum):
     REVERTED = 3
 
 
-_ISOLATED = {"right": (True, False), "left": (False, True), "both": (True, True)}
+ISOLATED = {"right": (True, False), "left": (False, True), "both": (True, True)}
+"""Per decision ``wheel``: the wheels (right, left) it isolates (``unknown`` or none: no entry)."""
 
 
 class ReconfigurationPolicy(ABC):
@@ -303,7 +304,7 @@ class SafePolicy(ReconfigurationPolicy):
         assert decision is not None
         dirs = radius_directions(out.P, omega)
         sig = np.sqrt(np.clip(np.diag(out.P)[3:5], 0.0, None))
-        iso = _ISOLATED.get(decision.wheel or "")
+        iso = ISOLATED.get(decision.wheel or "")
         identified = float(np.max(sig)) <= self.max_sigma and dirs.split_std <= self.max_sigma
         if iso is None or not identified or recent_nis > self.spike_nis_ratio:
             if iso is None:

@@ -427,17 +427,18 @@ class ClosedLoop:
         """The radii (m) the policy gives the controller at ``t`` (s); a robust NMPC weighted by the filter
         gets its scenario weights; with the degraded mode, the radii pass its no-slip hand-over and the
         controller gets the radius interval (or ``None``)."""
-        self.model_radii = self.parts.policy.radii(t, self.out, self.last_ds, self.reset_since_solve, u_meas,
-                                                   (tr.R_R, tr.R_L))
+        acc = self.parts.accommodation  # the decision with the declared tyres isolated (Accommodation.isolation)
+        ds = self.last_ds if acc is None else acc.isolation(self.last_ds)
+        self.model_radii = self.parts.policy.radii(t, self.out, ds, self.reset_since_solve, u_meas, (tr.R_R, tr.R_L))
         self.reset_since_solve = False
         if self.parts.degraded is not None:
-            self.model_radii, interval = self.parts.degraded.hand_over(t, self.model_radii, self.out, self.last_ds,
+            self.model_radii, interval = self.parts.degraded.hand_over(t, self.model_radii, self.out, ds,
                                                                        int(self.parts.policy.state))
             if self.parts.controller is not None:
                 self.parts.controller.set_radius_interval(interval)
         if self.parts.weighting is not None:
             self.parts.controller.set_scenario_weights(self.parts.weighting.weights(self.out, self.model_radii))
-        acc, source = self.parts.accommodation, self.parts.diagnoses
+        source = self.parts.diagnoses
         if acc is None:
             return self.model_radii
         if source is not None:  # an oracle run: the truth

@@ -354,3 +354,23 @@ def test_a_weakened_servo_is_tracked_with_its_actuator_model() -> None:
     err_plain = np.abs(plain.trace["v"][late] - 10.0).mean()
     print(f"\n[accom] servo 30 %: |V − 10| accommodated {err_acc:.3f} m/s, plain {err_plain:.3f} m/s")
     assert err_acc < err_plain
+
+
+def test_a_declared_tyre_counts_as_isolated_for_the_policy() -> None:
+    """Where the decision has isolated one wheel and the diagnoser has declared the other's tyre too, the policy reads
+    both as isolated (it would otherwise condition the first on the second being nominal); a decision that isolates
+    nothing, has declared nothing, or already covers the declared tyres is handed over as it is."""
+    from dataclasses import replace
+
+    from ftc_mj.estimation.decision import DecisionState
+
+    acc = _accommodation()
+    left = DecisionState(detected=True, time=8.0, wheel="left", severity_R=0.0, severity_L=0.44)
+    assert acc.isolation(left) is left and acc.isolation(None) is None  # nothing declared
+    acc.update(8.5, [_diag("tyre", "left", "puncture", 0.56, 7.0)])
+    assert acc.isolation(left) is left  # the same wheel
+    acc.update(12.3, [_diag("tyre", "left", "puncture", 0.56, 7.0),
+                      _diag("tyre", "right", "puncture", 0.9, 11.8)])
+    assert acc.isolation(left).wheel == "both" and left.wheel == "left"
+    for ds in (replace(left, wheel="unknown"), replace(left, detected=False), replace(left, wheel="both")):
+        assert acc.isolation(ds) is ds

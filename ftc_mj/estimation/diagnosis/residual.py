@@ -367,9 +367,12 @@ class ResidualDiagnoser:
 
     # ---------------------------------------------------------------- isolation
     def _confirmed(self, channel: str, t: float) -> bool:
-        """The channel's alarm has held for ``confirm`` (``servo_confirm`` for a servo) seconds."""
+        """The channel's alarm has held for ``confirm`` (``servo_confirm`` for a servo, ``lock_confirm`` for a lock)
+        seconds."""
         since = self.since[channel]
-        hold = self.settings.servo_confirm if channel.startswith("servo") else self.settings.confirm
+        s = self.settings
+        hold = s.servo_confirm if channel.startswith("servo") else s.lock_confirm if channel.startswith("lock") \
+            else s.confirm
         return since is not None and t - since >= hold - 1e-9
 
     def _has(self, component: str, target: str | None = None) -> Diagnosis | None:
@@ -462,16 +465,20 @@ class ResidualDiagnoser:
     def _declare_servo(self, t: float) -> Diagnosis | None:
         """A lock, else a servo loss or an unresponsive servo (re-declared as such if a loss's wheel stops
         following its command); one servo fault per run (a lock or a dead servo drags the robot so that the
-        other servo's regression moves too), none after a puncture."""
+        other servo's regression moves too). After a puncture a lock still (a wheel at rest under its command is
+        a lock whatever its tyre), but no servo loss: the puncture changes the wheel-chassis coupling the servo
+        regression identifies."""
         last = self._has("servo")
         if last is not None and last.mode == "loss" and self._dead(last.target[0].upper()):
             return self._make("servo", last.target, "unresponsive",
                               Reading(last.statistic, last.threshold, 0.0, last.sigma, last.onset), t)
-        if last is not None or self._has("tyre") is not None:
-            return None  # a puncture changes the wheel-chassis coupling the servo regression identifies
+        if last is not None:
+            return None
         for side in "RL":
             if self._confirmed(f"lock_{side}", t):
                 return self._make("servo", WHEEL_SIDES[side], "lock", self.readings[f"lock_{side}"], t)
+        if self._has("tyre") is not None:
+            return None
         for side in "RL":
             r = self.readings[f"servo_{side}"]
             if self._confirmed(f"servo_{side}", t) and not self.readings[f"tyre_{side}"].alarm:

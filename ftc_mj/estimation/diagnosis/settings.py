@@ -110,6 +110,13 @@ class ResidualDiagnoserSettings(DiagnosisSettings):
     """Alarm when a wheel turns at less than this fraction of its command."""
     lock_min_command: ranged(0.0, 1.0) = 0.05
     """The lock test needs a command of at least this fraction of ``robot.omega_max``."""
+    lock_confirm: ranged(0.0, 10.0, unit="s") = 0.1
+    """How long (s) a lock's alarm holds before it is declared (beyond the ``lock_window`` its statistic already
+    averages): each 0.1 s of it lets a locked wheel drag the robot on before the safe stop starts, and costs the stop
+    about 0.5 m of the corridor at 7–10 m/s (ftc-v2 dev lock draws 0–205, ``pathfollow``: 11/15 stopped inside it at
+    ``confirm``'s 0.2 s, 13/15 at 0.1 s, 14/15 at 0, the 15th off the path before its lock). Not 0: a wheel
+    commanded to reverse passes through rest, and its statistic stays above the alarm for about 0.05 s (dev draw 54:
+    a false lock at 0)."""
     dropout_min: ranged(0.0, 10.0, unit="s") = 0.05
     """A sensor that delivers nothing for this long (s) is declared dropped out."""
     pose_window: Seconds = 3.0

@@ -10,6 +10,8 @@ with the actuator model scaled (acceptance 4) — each against the loop without 
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -18,6 +20,7 @@ from ftc_mj.control.reference import CircleReference
 from ftc_mj.control.stop import SafeStop, SafeStopSettings, StopLimits
 from ftc_mj.errors import BadInput
 from ftc_mj.estimation.base import FilterOutput, Measurement
+from ftc_mj.estimation.decision import DecisionState
 from ftc_mj.model.diagnosis import Diagnosis
 from ftc_mj.plant.faults import FaultSettings
 from ftc_mj.reconfiguration.accommodation import Accommodation, AccommodationMode, AccommodationSettings
@@ -360,10 +363,6 @@ def test_a_declared_tyre_counts_as_isolated_for_the_policy() -> None:
     """Where the decision has isolated one wheel and the diagnoser has declared the other's tyre too, the policy reads
     both as isolated (it would otherwise condition the first on the second being nominal); a decision that isolates
     nothing, has declared nothing, or already covers the declared tyres is handed over as it is."""
-    from dataclasses import replace
-
-    from ftc_mj.estimation.decision import DecisionState
-
     acc = _accommodation()
     left = DecisionState(detected=True, time=8.0, wheel="left", severity_R=0.0, severity_L=0.44)
     assert acc.isolation(left) is left and acc.isolation(None) is None  # nothing declared

@@ -284,8 +284,26 @@ def test_sync_cancel_race_drops_that_record_only() -> None:
     assert race.filter(logging.LogRecord("tornado.application", logging.ERROR, __file__, 1, "plain", (), None))
 
 
+def test_a_gather_of_forgotten_keys_only_is_dropped() -> None:
+    """The scheduler's "Couldn't gather keys" record is dropped when every key is ``forgotten`` (the runs an
+    interrupted study just cancelled, which failed the Ctrl-C test's one-line check on a clean clone) and kept when
+    any key is still known, or for any other message."""
+    from ftc_mj.study.cluster import ForgottenGather
+
+    def record(msg: str, states: object) -> logging.LogRecord:
+        return logging.LogRecord("distributed.scheduler", logging.ERROR, __file__, 1, msg, (states,), None)
+
+    gather, drop = "Couldn't gather keys: %s", ForgottenGather()
+    assert not drop.filter(record(gather, {"ftc-run-a": "forgotten", "ftc-run-b": "forgotten"}))
+    assert drop.filter(record(gather, {"ftc-run-a": "forgotten", "ftc-run-b": "memory"}))
+    assert drop.filter(record(gather, {}))
+    assert drop.filter(record("Other %s", {"ftc-run-a": "forgotten"}))
+
+
 def test_the_client_drops_the_sync_cancel_race_while_open(dask_client: Any) -> None:
-    """The session's client (``open_client``) has the filter on tornado's callback-error logger."""
-    from ftc_mj.study.cluster import SyncCancelRace
+    """The session's client (``open_client``) has the filters on tornado's callback-error logger and the
+    scheduler's."""
+    from ftc_mj.study.cluster import ForgottenGather, SyncCancelRace
 
     assert any(isinstance(f, SyncCancelRace) for f in logging.getLogger("tornado.application").filters)
+    assert any(isinstance(f, ForgottenGather) for f in logging.getLogger("distributed.scheduler").filters)

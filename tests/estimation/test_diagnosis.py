@@ -35,15 +35,16 @@ def context(gyro: float | None = 0.01, speed_sigma: float = 0.3) -> RunContext:
 
 def drive(fault: dict, duration: float = 20.0, gyro: float | None = 0.01, pose_sigma: float = 0.02,
           seed: int = 3, fixes: list | None = None, lock: tuple[float, int] | None = None,
-          **settings: float) -> list[Diagnosis]:
+          change: object = None, **settings: float) -> list[Diagnosis]:
     """A unicycle on a 50 m circle at 10 m/s with first-order wheel servos (gain α per step) under a steady
     load, exact kinematics and Gaussian sensors; ``fault``: ``{"kind": ..., "t": onset, ...}`` (a puncture with
     ``"reverse"``: from that time the pose moves backwards while the wheels roll forwards, as a robot that has
-    lost the path and skids); ``lock``: ``(t, wheel)``, that wheel also locked from ``t`` (s); returns the
+    lost the path and skids); ``lock``: ``(t, wheel)``, that wheel also locked from ``t`` (s); ``change``: the fast
+    tyre detector handed to the diagnoser (none by default); returns the
     declarations, and appends ``(t, fix, true position)`` of each pose
     fix handed over to ``fixes``."""
     rng = np.random.default_rng(seed)
-    diag = ResidualDiagnoser(ResidualDiagnoserSettings(**settings), context(gyro))
+    diag = ResidualDiagnoser(ResidualDiagnoserSettings(**settings), context(gyro), change)
     x = y = psi = 0.0
     radii = np.array([R0, R0])
     alpha = np.array([0.1, 0.1])
@@ -110,6 +111,31 @@ def test_a_servo_loss_is_declared_on_its_servo_with_its_gain_fraction() -> None:
     found = drive({"kind": "loss", "t": 10.0, "wheel": 1, "effectiveness": 0.3}, servo_size_exponent=1.0)
     assert [d.key for d in found] == [("servo", "left", "loss")]
     assert found[0].size == pytest.approx(0.3, abs=0.1)  # without the closed loop's bias: the gain ratio itself
+
+
+class AlarmBetween:
+    """A fast tyre detector (:class:`~ftc_mj.estimation.diagnosis.change.TyreChangeAlarm`'s interface) in alarm
+    from ``start`` to ``end`` (s) and quiet otherwise."""
+
+    def __init__(self, start: float, end: float) -> None:
+        self.start, self.end = start, end
+
+    def step(self, z: DiagnosisInput) -> tuple[float, float]:
+        return (10.0 if self.start <= z.t < self.end else 0.0), 5.0
+
+    def anchor(self, radii: object) -> None:
+        pass
+
+
+def test_no_servo_loss_is_declared_while_the_fast_tyre_detector_is_in_alarm() -> None:
+    """A radius changing explains a lag change as well as a servo does: the loss declared at 11.15 s without the
+    detector waits for it to fall quiet at 13 s, and is then declared at once (its alarm confirmed meanwhile)."""
+    fault = {"kind": "loss", "t": 10.0, "wheel": 1, "effectiveness": 0.3}
+    alone = drive(fault, duration=16.0, servo_size_exponent=1.0)
+    assert [d.key for d in alone] == [("servo", "left", "loss")] and alone[0].declared < 12.0
+    found = drive(fault, duration=16.0, servo_size_exponent=1.0, change=AlarmBetween(9.5, 13.0))
+    assert [d.key for d in found] == [("servo", "left", "loss")]
+    assert 13.0 <= found[0].declared <= 13.0 + 2 * DT and found[0].size == pytest.approx(alone[0].size, abs=0.1)
 
 
 def test_a_locked_wheel_is_a_servo_lock_not_a_puncture() -> None:

@@ -467,7 +467,11 @@ class ResidualDiagnoser:
         following its command); one servo fault per run (a lock or a dead servo drags the robot so that the
         other servo's regression moves too). After a puncture a lock still (a wheel at rest under its command is
         a lock whatever its tyre), but no servo loss: the puncture changes the wheel-chassis coupling the servo
-        regression identifies."""
+        regression identifies. Nor while the fast tyre detector (``tyre_change``) is in alarm: its residual takes
+        the measured wheel rates as inputs, so a servo's gain does not move it, while a tyre shrinking under the
+        wheel changes the wheel's lag and its response to the command as a weaker servo would (a puncture ramp
+        read as an unresponsive servo 0.75 s after its onset, dev draw 239 of ftc-v2, before the rolling-ratio
+        channel could confirm the tyre)."""
         last = self._has("servo")
         if last is not None and last.mode == "loss" and self._dead(last.target[0].upper()):
             return self._make("servo", last.target, "unresponsive",
@@ -477,8 +481,8 @@ class ResidualDiagnoser:
         for side in "RL":
             if self._confirmed(f"lock_{side}", t):
                 return self._make("servo", WHEEL_SIDES[side], "lock", self.readings[f"lock_{side}"], t)
-        if self._has("tyre") is not None:
-            return None
+        if self._has("tyre") is not None or self.readings["tyre_change"].alarm:
+            return None  # a radius changing now explains a lag change as well as a servo does (docstring)
         for side in "RL":
             r = self.readings[f"servo_{side}"]
             if self._confirmed(f"servo_{side}", t) and not self.readings[f"tyre_{side}"].alarm:

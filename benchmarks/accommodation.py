@@ -1,8 +1,8 @@
 """The accommodation per mode: the accommodated loop against the radii-only loop and the oracle — the table of
 docs/findings.md ("Accommodation of every fault, and a safe stop").
 
-Plain script: ``.venv/bin/python benchmarks/accommodation.py --seeds 0-4 [--out rows.jsonl]``. For each fault (left
-wheel, at 10 s) and each seed, three loops (the settings of :mod:`ftc_mj.benchmark.methods`):
+Plain script: ``.venv/bin/python benchmarks/accommodation.py --seeds 0-4 [--sensors pose] [--out rows.jsonl]``.
+For each fault (left wheel, at 10 s) and each seed, three loops (the settings of :mod:`ftc_mj.benchmark.methods`):
 
 - ``accommodated``: the built-in ``pathfollow`` method — UKF, pf-nmpc, the ``safe`` policy, the run's diagnoser
   (``[diagnosis]``) and ``reconfiguration.accommodation.mode = "all"``;
@@ -15,7 +15,7 @@ Seed ``i`` runs condition ``i mod 8``: circle radius 40/50/80/120 m × ccw/cw at
 ftc-v1 speed cap). Seeds 0–999 are development seeds; held-out seeds (≥ 1000) are for the acceptance after the
 design is frozen. Success of a stop-only fault (lock, unresponsive): at rest (|v| < 0.1 m/s) from 15 s on, never more
 than 2 m from the path, not tipped; of a trackable one: within 0.5 m from 15 s on, lift-off after the transients
-≤ 0.2 s, not tipped. Intervals: Wilson 95 %. About 6 s of CPU per run (24 runs per seed).
+≤ 0.2 s, not tipped. Intervals: Wilson 95 %. A few seconds of CPU per run (24 runs per seed).
 """
 
 from __future__ import annotations
@@ -56,6 +56,17 @@ CASES: dict[str, tuple[dict[str, Any], float, str]] = {
     "gyro bias +0.02 rad/s": ({**_sensor("yaw_rate", 0.02), "sensors.yaw_rate_sigma": 0.01}, 22.0, "track"),
 }
 """Fault name: (overrides, duration (s), ``stop`` or ``track``)."""
+SENSORS: dict[str, dict[str, Any]] = {
+    "speed": {},
+    "pose": {"sensors.position_sigma": 0.05, "sensors.position_rate": 10.0, "sensors.pose_source": "sensor"},
+    "gyro": {"sensors.yaw_rate_sigma": 0.01},
+    "pose+gyro": {"sensors.position_sigma": 0.05, "sensors.position_rate": 10.0, "sensors.pose_source": "sensor",
+                  "sensors.yaw_rate_sigma": 0.01},
+}
+"""Sensor sets (``--sensors``): ``speed`` (the scenarios' default: the speed sensor, σ 0.5 m/s, and the controller
+told the true pose), ``pose`` (the benchmark's information: with 10 Hz pose fixes, σ 0.05 m and 0.05 rad, the
+controller's pose the filter's), ``gyro`` (with a yaw-rate gyro, σ 0.01 rad/s, the pose told) and ``pose+gyro``.
+A case's own sensor settings (the gyro bias's gyro) are kept."""
 CONDITIONS = [(R, d) for R in (40.0, 50.0, 80.0, 120.0) for d in ("ccw", "cw")]
 LOOPS = {"accommodated": BUILTIN["pathfollow"][1],
          "radii only": {**BUILTIN["pathfollow"][1], "reconfiguration.accommodation.mode": "radii"},
@@ -66,12 +77,13 @@ with the declared tyre size as the radius — not run unless named in ``--loops`
 DEFAULT_LOOPS = ("accommodated", "radii only", "oracle")
 
 
-def one_run(over: dict[str, Any], duration: float, kind: str, loop: str, seed: int) -> dict[str, Any]:
-    """One run of ``seed`` (condition ``seed mod 8``) with the ``loop``'s settings; its row."""
+def one_run(over: dict[str, Any], duration: float, kind: str, loop: str, seed: int,
+            sensors: str = "speed") -> dict[str, Any]:
+    """One run of ``seed`` (condition ``seed mod 8``) with the ``loop``'s settings and the ``sensors`` set; its row."""
     R, d = CONDITIONS[seed % len(CONDITIONS)]
     o = {"controller.kind": "pf-nmpc", "seed": seed, "duration": duration, "reference.radius": R,
-         "reference.direction": d, "reference.speed": round(min(10.0, math.sqrt(1.5 * R)), 3), **over,
-         **LOOPS[loop]}
+         "reference.direction": d, "reference.speed": round(min(10.0, math.sqrt(1.5 * R)), 3),
+         **SENSORS[sensors], **over, **LOOPS[loop]}
     oc = execute(load_config("scenario1", o), None, rrd=False)
     tr, m = oc.result.trace, oc.metrics
     t, v, e = tr["t"], tr["v"], np.abs(tr["cross_track_error"])
@@ -132,6 +144,8 @@ def main() -> None:
     ap.add_argument("--seeds", default="0-4", help="seeds, e.g. 0-4 or 1000-1009 or 3,5 (default 0-4)")
     ap.add_argument("--cases", default=None, help="comma-separated fault names (default: all)")
     ap.add_argument("--loops", default=",".join(DEFAULT_LOOPS), help=f"comma-separated loops of {list(LOOPS)}")
+    ap.add_argument("--sensors", default="speed", choices=list(SENSORS),
+                    help="sensor set (default speed: the scenarios' speed sensor, the pose told)")
     ap.add_argument("--out", default=None, help="also write the rows (JSON lines) here")
     ap.add_argument("--rows", default=None, help="print the table of rows written by --out, run nothing")
     args = ap.parse_args()
@@ -144,12 +158,14 @@ def main() -> None:
     for case, (over, duration, kind) in cases.items():
         for loop in args.loops.split(","):
             for seed in seed_range(args.seeds):
-                row = {"case": case, "kind": kind, **one_run(over, duration, kind, loop, seed)}
+                row = {"case": case, "kind": kind, "sensors": args.sensors,
+                       **one_run(over, duration, kind, loop, seed, args.sensors)}
                 rows.append(row)
                 print(json.dumps(row), flush=True)
     if args.out:
         with open(args.out, "w") as f:
             f.writelines(json.dumps(r) + "\n" for r in rows)
+    print(f"sensors: {args.sensors}")
     print(table(rows))
 
 

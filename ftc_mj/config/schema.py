@@ -7,7 +7,7 @@ A run is a pure function of the resolved config (including ``seed``).
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, SerializerFunctionWrapHandler, Strict, model_serializer, model_validator
 
@@ -64,14 +64,22 @@ class RunConfig(StrictModel):
     diagnoses (:mod:`ftc_mj.reconfiguration.oracle`). Set only by the benchmark's ``oracle`` row and by studies
     that compare against an oracle; without it nothing a method's components receive depends on the drawn
     plant (docs/benchmark.md, "Information rule")."""
+    oracle_pose: Literal["truth", "sensors"] = "truth"
+    """Where an oracle run's controller takes its pose from: ``truth`` (default: the true pose, the benchmark's
+    ``oracle`` row) or ``sensors`` (as a method's does, by ``sensors.pose_source``: with the pose sensor, the
+    filter's estimate). With ``sensors`` the oracle knows the faults and the radii but estimates its pose like
+    the method, so the gap between a method and it is the diagnosis's alone."""
 
     @model_serializer(mode="wrap")
     def _omit_no_oracle(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
-        """The fields, without ``oracle`` when it is off: a run that is not an oracle keeps the identity (run
-        id, study key) it had before the flag existed."""
+        """The fields, without ``oracle`` when it is off and ``oracle_pose`` at its default: a run that is not an
+        oracle, or the benchmark's oracle row, keeps the identity (run id, study key) it had before the flags
+        existed."""
         data = handler(self)
         if not data.get("oracle"):
             data.pop("oracle", None)
+        if data.get("oracle_pose") == "truth":
+            data.pop("oracle_pose", None)
         return data
 
     @model_validator(mode="before")
@@ -136,9 +144,12 @@ class RunConfig(StrictModel):
 
     @model_validator(mode="after")
     def _oracle(self) -> RunConfig:
-        """Only an oracle run (``oracle = true``) is told the true radii (policy ``truth``)."""
+        """Only an oracle run (``oracle = true``) is told the true radii (policy ``truth``) and chooses its pose's
+        source (``oracle_pose``)."""
         if self.reconfiguration.policy == "truth" and not self.oracle:
             raise ValueError("oracle: reconfiguration.policy = 'truth' tells the run the true radii; set oracle = true")
+        if self.oracle_pose != "truth" and not self.oracle:
+            raise ValueError("oracle_pose: where an oracle takes its pose from; set oracle = true")
         return self
 
     @model_validator(mode="after")

@@ -278,7 +278,8 @@ class ClosedLoop:
         self.u_prev: np.ndarray | None = None
         self.u_now: np.ndarray | None = None  # the wheel rates (rad/s) measured at the current step
         self.last_fix = np.array(cfg.plant.initial_pose, dtype=float)  # the pose sensor's latest fix (m, m, rad)
-        self.pose_from_sensor = cfg.sensors.pose_source == "sensor" and not cfg.oracle  # an oracle sees the truth
+        # an oracle sees the true pose unless told to estimate it as a method does (oracle_pose = "sensors")
+        self.pose_from_sensor = cfg.sensors.pose_source == "sensor" and (not cfg.oracle or cfg.oracle_pose == "sensors")
         self.out: FilterOutput | None = None
         self.z: Measurement | None = None  # the measurement of the latest estimator step
         self.u_pred: np.ndarray | None = None  # the wheel rates (rad/s) the latest estimator step predicted with
@@ -472,10 +473,10 @@ class ClosedLoop:
 
     def controller_pose(self, rd: SensorReading) -> np.ndarray:
         """The pose ``[x, y, psi]`` (m, m, rad) the controller is given: ``pose_source = "truth"`` or an oracle run
-        (``oracle = true``, told everything): the reading's (true pose + ``pose_sigma`` noise); ``"sensor"``: the
-        filter's pose estimate, which has just taken in this step's fix if one came and carries the last ones
-        forward with the measured wheel rates between fixes and through a dropout (the information a real robot
-        has, fused once) — without a filter, the last fix held."""
+        (``oracle = true`` with ``oracle_pose = "truth"``): the reading's (true pose + ``pose_sigma`` noise);
+        ``"sensor"``: the filter's pose estimate, which has just taken in this step's fix if one came and carries the
+        last ones forward with the measured wheel rates between fixes and through a dropout (the information a real
+        robot has, fused once) — without a filter, the last fix held."""
         if not self.pose_from_sensor:
             return rd.pose
         if self.out is not None:

@@ -75,6 +75,32 @@ def test_truth_policy_needs_the_oracle_flag() -> None:
     assert load_config("scenario2", {"oracle": True}).model_dump()["oracle"] is True
 
 
+def test_oracle_pose_is_an_oracle_setting() -> None:
+    """``oracle_pose`` chooses an oracle's pose source only: without ``oracle = true`` a one-line error naming the
+    field; at its default it stays out of the identity (the benchmark's oracle row keeps its run ids)."""
+    with pytest.raises(BadInput, match=r"^oracle_pose: "):
+        load_config("scenario2", {"oracle_pose": "sensors"})
+    assert "oracle_pose" not in load_config("scenario2", {"oracle": True}).model_dump()
+    assert load_config("scenario2", {"oracle": True, "oracle_pose": "sensors"}).model_dump()["oracle_pose"] == "sensors"
+
+
+@pytest.mark.parametrize("source", ["truth", "sensors"])
+def test_an_oracle_takes_its_pose_from_where_oracle_pose_says(source: str) -> None:
+    """With the pose sensor feeding the controller (``sensors.pose_source = "sensor"``), an oracle's controller gets
+    the true pose (``oracle_pose = "truth"``) or the filter's estimate, as a method's does (``"sensors"``); the
+    two differ after the first fix (σ 0.05 m), so the test tells them apart."""
+    from ftc_mj.sim.loop import ClosedLoop
+
+    cfg = load_config("scenario1", {"duration": 0.2, "plant.kind": "kinematic", "controller.kind": "open-loop",
+                                    "sensors.position_sigma": 0.05, "sensors.position_rate": 10.0,
+                                    "sensors.pose_source": "sensor", "oracle": True, "oracle_pose": source})
+    loop = ClosedLoop(cfg)
+    sample = loop.measure(0)
+    assert loop.out is not None and not np.array_equal(loop.out.x[:3], sample.reading.pose)
+    expected = sample.reading.pose if source == "truth" else loop.out.x[:3]
+    np.testing.assert_array_equal(loop.controller_pose(sample.reading), expected)
+
+
 def test_none_direct_truth() -> None:
     o = _out(2.1, 1.0, 0.01)
     np.testing.assert_array_equal(_fb("none").radii(0.0, o, _dec("left"), False, OMEGA, TRUTH), [2.0, 2.0])

@@ -17,6 +17,7 @@ import json
 import statistics as st
 from typing import Any
 
+from accommodation import seed_range  # the sibling script's range parser (this folder is on sys.path)
 from scipy.stats import binomtest
 
 from ftc_mj.benchmark.draws import draw
@@ -70,15 +71,6 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def draw_list(text: str) -> list[int]:
-    """``"0-99"`` → 0 … 99; ``"165,179"`` → [165, 179]."""
-    out: list[int] = []
-    for part in text.split(","):
-        lo, _, hi = part.partition("-")
-        out += list(range(int(lo), int(hi or lo) + 1))
-    return out
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--draws", default="0-99",
@@ -91,7 +83,7 @@ def main() -> None:
             print(table([json.loads(line) for line in f]))
         return
     rows = []
-    for index in draw_list(args.draws):
+    for index in seed_range(args.draws):
         rows.append(one_draw(index))
         print(json.dumps(rows[-1]), flush=True)
     if args.out:

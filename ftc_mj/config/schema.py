@@ -67,8 +67,8 @@ class RunConfig(StrictModel):
     oracle_pose: Literal["truth", "sensors"] = "truth"
     """Where an oracle run's controller takes its pose from: ``truth`` (default: the true pose, the benchmark's
     ``oracle`` row) or ``sensors`` (as a method's does, by ``sensors.pose_source``: with the pose sensor, the
-    filter's estimate). With ``sensors`` the oracle knows the faults and the radii but estimates its pose like
-    the method, so the gap between a method and it is the diagnosis's alone."""
+    filter's estimate). With ``sensors`` the oracle is still told the faults, the radii and the drawn plant's
+    limits but estimates its pose like the method: the gap between a method and it leaves the pose estimate out."""
 
     @model_serializer(mode="wrap")
     def _omit_no_oracle(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:

@@ -15,30 +15,30 @@ from __future__ import annotations
 import argparse
 import json
 import statistics as st
+from dataclasses import replace
 from typing import Any
 
 from accommodation import seed_range  # the sibling script's range parser (this folder is on sys.path)
 from scipy.stats import binomtest
 
 from ftc_mj.benchmark.draws import draw
-from ftc_mj.benchmark.methods import REFERENCE_ROWS, load_methods
+from ftc_mj.benchmark.methods import load_methods
 from ftc_mj.benchmark.run import bench_run, plan_bench
-from ftc_mj.config import set_dotted, validate_config
 
 ROWS = ("pathfollow", "oracle, pose estimated", "oracle")
 """The rows: the built-in method, the oracle told everything but the pose, the benchmark's oracle."""
-ORACLE_POSE = {**REFERENCE_ROWS["oracle"][1], "estimator.kind": "ukf", "oracle_pose": "sensors"}
-"""The oracle row's settings with a filter and its controller's pose from the sensors."""
+ORACLE_POSE = {"estimator.kind": "ukf", "oracle_pose": "sensors"}
+"""What the pose-estimating oracle sets on top of the oracle row's settings: a filter, and its controller's pose
+from the sensors."""
 
 
 def one_draw(index: int) -> dict[str, Any]:
     """The three rows on development draw ``index``: per row (success, largest contouring error (m), label)."""
     plan = plan_bench(load_methods(["pathfollow", "oracle"]), "dev", 1, start=index)
     scenario = plan.draws[0].scenario()
-    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in scenario.items()}
-    for key, value in ORACLE_POSE.items():
-        set_dotted(data, key, value)
-    configs = [plan.methods[0].apply(scenario), validate_config(data), plan.methods[1].apply(scenario)]
+    pathfollow, oracle = plan.methods
+    estimating = replace(oracle, name="oracle-pose", settings={**oracle.settings, **ORACLE_POSE})
+    configs = [m.apply(scenario) for m in (pathfollow, estimating, oracle)]
     row: dict[str, Any] = {"draw": index, "gyro": draw("dev", index).gyro_sigma is not None}
     for name, cfg in zip(ROWS, configs, strict=True):
         m = bench_run(cfg, None, False, plan.rule).metrics

@@ -43,9 +43,10 @@ def test_new_draws_reuse_one_retargeted_controller_bitwise() -> None:
 PF_DRAWS = ({"reference.kind": "circle", "reference.radius": 3.0, "reference.speed": 0.5, "plant.tyre_friction": 0.9},
             {"reference.kind": "circle", "reference.radius": 4.0, "reference.speed": 0.4, "reference.direction": "cw",
              "plant.tyre_friction": 0.7},
-            {"reference.kind": "figure8", "reference.radius": 2.5, "plant.tyre_friction": 0.8})
+            {"reference.kind": "figure8", "reference.radius": 2.5, "reference.speed": 0.4, "plant.tyre_friction": 0.8})
 """Three 'draws' of the path-following NMPC: two circles (other radius, speed, direction and robot limits), then
-another path kind."""
+another path kind (at 0.4 m/s: at scenario 2's 10 m/s, infeasible on 2.5 m lobes, every IPOPT solve stopped at
+its iteration limit, 0.3 s each, and the run was the fallback's throughout)."""
 
 
 def test_path_following_draws_share_one_controller_and_one_solver_per_path_kind() -> None:

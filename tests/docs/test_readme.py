@@ -115,11 +115,13 @@ def test_the_first_command_runs_and_writes_what_the_readme_says(tmp_path: Path) 
 
 def test_the_python_block_runs(tmp_path: Path) -> None:
     """The README's Python block as written, with a 0.5 s run, the example plug-in estimator as ``MyFilter`` and
-    the study shortened (two 0.3 s runs, in process)."""
+    the study shortened (two 0.3 s runs, in process, results without the summary: the observability study's
+    summary and figures are drawn in ``tests/study/test_cluster.py::test_shipped_study_reduced``)."""
     code = README.read_text().split("```python\n", 1)[1].split("```", 1)[0]
     shorten = {'"duration": 20.0': '"duration": 0.5',
                'ftc_mj.run_study("observability", workers=2)':
-                   'ftc_mj.run_study("observability", serial=True, overrides={"duration": 0.3}, limit=2)'}
+                   'ftc_mj.run_study("observability", serial=True, overrides={"duration": 0.3}, limit=2, '
+                   'analyse=False)'}
     for old, new in shorten.items():
         assert old in code, old
         code = code.replace(old, new)

@@ -270,29 +270,46 @@ def test_an_entry_over_the_size_bound_is_not_read(cache: Path, capsys: pytest.Ca
     assert solver_cache.stats == {"built": 2, "loaded": 0} and "larger than" in capsys.readouterr().err
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("poison", ["empty function", "named pipe"])
-def test_a_poisoned_cache_does_not_spoil_or_hang_a_run(tmp_path: Path, poison: str) -> None:
-    """``ftc-mj run`` end to end in a fresh process: the cache is filled by a first run, every entry is
-    then replaced (by ``zlib.compress(b"")``: an empty CasADi function; by a named pipe nothing writes
-    to); the second run rebuilds, says so in one line per entry, solves as the first did and does not
-    hang."""
+POISON_RUN = ["run", "scenario2", "--duration", "2", "--set", "controller.solver='ipopt'", "--set",
+              "plant.kind='kinematic'", "--no-rrd", "-q"]
+
+
+def _cli_run(cache_dir: Path, out: Path) -> tuple[dict, str]:
+    """``ftc-mj run`` of :data:`POISON_RUN` in a fresh process on the solver cache ``cache_dir``: the run's metrics
+    and the process's stderr."""
     import subprocess
     import sys
 
     root = Path(__file__).resolve().parents[2]
-    env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1", CACHE_ENV: str(tmp_path / "cache")}
+    env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1", CACHE_ENV: str(cache_dir)}
     env.pop(SWITCH_ENV, None)
-    args = [sys.executable, "-m", "ftc_mj.cli", "run", "scenario2", "--duration", "2", "--set",
-            "controller.solver='ipopt'", "--set", "plant.kind='kinematic'", "--no-rrd", "-q"]
+    proc = subprocess.run([sys.executable, "-m", "ftc_mj.cli", *POISON_RUN, "--out", str(out)], env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads((Path(proc.stdout.strip()) / "metrics.json").read_text()), proc.stderr
 
-    def run(out: str) -> tuple[dict, str]:
-        proc = subprocess.run([*args, "--out", str(tmp_path / out)], env=env, capture_output=True, text=True,
-                              timeout=300)
-        assert proc.returncode == 0, proc.stderr
-        return json.loads((Path(proc.stdout.strip()) / "metrics.json").read_text()), proc.stderr
 
-    good, _ = run("first")
+@pytest.fixture(scope="module")
+def filled_cache(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
+    """A solver cache filled by a first ``ftc-mj run`` in a fresh process (an empty cache: it builds and stores
+    every solver), and that run's metrics; each test poisons a copy of it."""
+    root = tmp_path_factory.mktemp("filled-cache")
+    good, _ = _cli_run(root / "cache", root / "first")
+    return root / "cache", good
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("poison", ["empty function", "named pipe"])
+def test_a_poisoned_cache_does_not_spoil_or_hang_a_run(tmp_path: Path, poison: str,
+                                                       filled_cache: tuple[Path, dict]) -> None:
+    """``ftc-mj run`` end to end in a fresh process: the cache is filled by a first run (``filled_cache``,
+    shared by both poisons), every entry is then replaced (by ``zlib.compress(b"")``: an empty CasADi function;
+    by a named pipe nothing writes to); the second run rebuilds, says so in one line per entry, solves as the
+    first did and does not hang."""
+    import shutil
+
+    shutil.copytree(filled_cache[0], tmp_path / "cache")
+    good = filled_cache[1]
     entries = sorted((tmp_path / "cache" / "solvers").glob("*.casadi.z"))
     assert entries and good["status"] == "ok" and good["solver_failures"] == 0
     for path in entries:
@@ -301,7 +318,7 @@ def test_a_poisoned_cache_does_not_spoil_or_hang_a_run(tmp_path: Path, poison: s
             os.mkfifo(path)
         else:
             path.write_bytes(zlib.compress(b""))
-    again, err = run("second")
+    again, err = _cli_run(tmp_path / "cache", tmp_path / "second")
     assert err.count("ftc-mj: warning: solver cache entry") == len(entries), err
     assert again["solver_failures"] == 0 and again["cross_track_rms"] == good["cross_track_rms"]
     assert all(p.is_file() for p in entries)  # replaced by good entries

@@ -53,6 +53,7 @@ def page_process(monkeypatch: pytest.MonkeyPatch) -> Iterator[pytest.MonkeyPatch
     try:
         yield monkeypatch
     finally:
+        sys.modules.pop(PLUGIN, None)  # imported again, and so registered again, by the next user
         if POLICY in registry.policies.names():
             registry.policies.unregister(POLICY)
         registry._loaded_plugins.discard(PLUGIN)

@@ -138,6 +138,7 @@ def test_the_python_block_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) 
     try:
         exec(compile(prelude + code, "README.md", "exec"), scope)  # noqa: S102 - the README's own code
     finally:
+        sys.modules.pop("my_components", None)  # imported again, and so registered again, by the next user
         for r in registries:
             for name in set(r.names()) - before[id(r)]:
                 r.unregister(name)

@@ -6,11 +6,12 @@ contradict its page."""
 from __future__ import annotations
 
 import json
+import os
 import re
+import subprocess
 import sys
 from pathlib import Path
 
-import pytest
 from typer.testing import CliRunner
 
 from ftc_mj.cli import app
@@ -112,14 +113,10 @@ def test_the_first_command_runs_and_writes_what_the_readme_says(tmp_path: Path) 
     assert json.loads((run_dir / "metrics.json").read_text())["status"] == "ok"
 
 
-def test_the_python_block_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_the_python_block_runs(tmp_path: Path) -> None:
     """The README's Python block as written, with a 0.5 s run, the example plug-in estimator as ``MyFilter`` and
     the study shortened (two 0.3 s runs, in process, results without the summary: the observability study's
-    summary and figures are drawn in ``tests/study/test_cluster.py::test_shipped_study_reduced``). It runs in this
-    process, from an empty folder (``runs/out`` is written there); what it registers (``my-filter`` and the
-    example module's components) is taken back after."""
-    from ftc_mj import registry
-
+    summary and figures are drawn in ``tests/study/test_cluster.py::test_shipped_study_reduced``)."""
     code = README.read_text().split("```python\n", 1)[1].split("```", 1)[0]
     shorten = {'"duration": 20.0': '"duration": 0.5',
                'ftc_mj.run_study("observability", workers=2)':
@@ -129,21 +126,12 @@ def test_the_python_block_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) 
         assert old in code, old
         code = code.replace(old, new)
     prelude = "from my_components import TextbookEKF as MyFilter\n"
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(sys, "path", [*sys.path, str(ROOT / "examples")])
-    monkeypatch.delitem(sys.modules, "my_components", raising=False)
-    registries = [r for r in vars(registry).values() if isinstance(r, registry.Registry)]
-    before = {id(r): set(r.names()) for r in registries}
-    scope: dict[str, object] = {"__name__": "readme_block"}
-    try:
-        exec(compile(prelude + code, "README.md", "exec"), scope)  # noqa: S102 - the README's own code
-    finally:
-        sys.modules.pop("my_components", None)  # imported again, and so registered again, by the next user
-        for r in registries:
-            for name in set(r.names()) - before[id(r)]:
-                r.unregister(name)
-    assert "my-filter" not in registry.estimators.names()
-    rows, results = len(scope["same"].trace), len(scope["study"].results)
+    env = {**os.environ, "OMP_NUM_THREADS": "1",
+           "PYTHONPATH": os.pathsep.join([str(ROOT), str(ROOT / "examples"), os.environ.get("PYTHONPATH", "")])}
+    proc = subprocess.run([sys.executable, "-c", prelude + code + "\nprint(len(same.trace), len(study.results))"],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows, results = map(int, proc.stdout.split()[-2:])
     assert rows == 50 and results == 2  # 0.5 s at 100 Hz; the two study runs
 
 

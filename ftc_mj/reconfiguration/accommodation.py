@@ -29,7 +29,9 @@ pose ``bias``, ``jump``     the fixes' position corrected by the diagnosed displ
                             without an offset, or whose σ (larger axis) exceeds ``pose_correct_sigma`` of its
                             length: excluded, as a dropout
 sensor ``dropout``          the channel excluded from the filter (and a pose sensor's from the controller's
-                            pose, which then is the filter's estimate)
+                            pose, which then is the filter's estimate) until it delivers again: its first
+                            reading after the declaration ends the dropout, and the readings are taken as
+                            they come from then on (a later dropout is declared, and excluded, anew)
 ==========================  =================================================================================
 
 *Safe stop* (:class:`~ftc_mj.control.stop.SafeStop`): entered at the first sample after a declaration that
@@ -131,6 +133,8 @@ class Accommodation:
         self.stop_reason: str | None = None
         self.corrections: dict[str, Diagnosis] = {}
         self.excluded: frozenset[str] = frozenset()
+        self._dropouts: dict[str, Diagnosis] = {}  # excluded channel → the dropout declaration that excludes it
+        self._returned: dict[str, float] = {}  # channel → declaration time (s) of the dropout it came back from
         self._pose_declared: set[float] = set()  # the declaration times (s) of the pose displacements seen
         self._pose_action = "none"
         self._pose_last: float | None = None
@@ -155,6 +159,7 @@ class Accommodation:
         eff = np.ones(2)
         corrections: dict[str, Diagnosis] = {}
         excluded: set[str] = set()
+        dropouts: dict[str, Diagnosis] = {}
         for d in diagnoses:
             if d.component == "servo":
                 eff[_SIDE[d.target]] *= d.size if d.mode == "loss" else 0.0
@@ -164,9 +169,11 @@ class Accommodation:
                     corrections[_CHANNEL[d.component]] = d
                 elif action == "exclude":
                     excluded.add(_CHANNEL[d.component])
+                    if d.mode == "dropout":
+                        dropouts[_CHANNEL[d.component]] = d
             if self.stop_reason is None:
                 self._check_stop(t, d)
-        self.corrections, self.excluded = corrections, frozenset(excluded)
+        self.corrections, self.excluded, self._dropouts = corrections, frozenset(excluded), dropouts
         self.tyres = {_SIDE[d.target]: float(d.size) for d in diagnoses
                       if (d.component, d.mode) == ("tyre", "puncture")}
         free = [_SIDE[d.target] for d in diagnoses if (d.component, d.mode) == ("servo", "unresponsive")]
@@ -187,12 +194,15 @@ class Accommodation:
         """What a sensor declaration ``d`` does to its channel at ``t`` (s): a speed or gyro bias or drift is
         corrected; a pose bias or jump with a non-zero offset known to ``pose_correct_sigma`` of its length is
         corrected once declared ``pose_settle`` ago, excluded before; a pose offset of ``(0, 0)`` (a jump seen to
-        return) does nothing; a dropout, a pose offset unknown or too uncertain to subtract, or a pose sensor
-        declared displaced more than ``pose_max_declarations`` times excludes the channel."""
+        return) does nothing; a dropout excludes the channel until the channel delivers again (:meth:`correct`),
+        then does nothing; a pose offset unknown or too uncertain to subtract, or a pose sensor declared displaced
+        more than ``pose_max_declarations`` times excludes the channel."""
         s = self.settings
+        if d.mode == "dropout":
+            return "none" if self._returned.get(_CHANNEL[d.component]) == d.declared else "exclude"
         if d.component != "pose sensor":
             return "correct" if d.mode in ("bias", "drift") else "exclude"
-        if d.mode == "dropout" or d.offset is None or len(self._pose_declared) > s.pose_max_declarations:
+        if d.offset is None or len(self._pose_declared) > s.pose_max_declarations:
             return "exclude"
         length = float(np.hypot(*d.offset))
         if length == 0.0:
@@ -208,7 +218,8 @@ class Accommodation:
         self._pose_declared.update(d.declared for d in pose if d.mode != "dropout")
         action = self._sensor_action(pose[0], t) if pose else "none"
         same = bool(pose) and pose[0].declared == self._pose_last  # (a new declaration has its own events)
-        if action != self._pose_action and same and not self.stopping:
+        back = bool(pose) and pose[0].mode == "dropout"  # a dropout's end has its own event (:meth:`correct`)
+        if action != self._pose_action and same and not back and not self.stopping:
             self.events.append(Event(t, "warn", "accommodation: " + _describe(pose[0], action)))
         self._pose_action, self._pose_last = action, pose[0].declared if pose else None
 
@@ -278,7 +289,16 @@ class Accommodation:
 
     def correct(self, t: float, z: Measurement) -> Measurement:
         """The readings at ``t`` (s) with the diagnosed offsets removed (a pose fix's position less the declared
-        displacement ``(dx, dy)``, m) and the excluded channels absent."""
+        displacement ``(dx, dy)``, m) and the excluded channels absent. A channel excluded for a dropout that
+        delivers a reading has come back: the dropout has ended (an event), and the reading is taken, as every
+        later one (the truth withdraws a dropout at its end in the same way: :mod:`.oracle`)."""
+        for channel, d in list(self._dropouts.items()):
+            if getattr(z, channel) is not None:
+                self._returned[channel] = d.declared
+                del self._dropouts[channel]
+                self.excluded = self.excluded - {channel}
+                if not self.stopping:
+                    self.events.append(Event(t, "warn", f"accommodation: {_describe(d, 'none')}"))
         if not self.corrections and not self.excluded:
             return z
         values: dict[str, Any] = {}
@@ -328,6 +348,8 @@ def _describe(d: Diagnosis, sensor: str) -> str:
     elif sensor == "correct":
         action = ("reading corrected" if d.offset is None else
                   f"fixes corrected by ({d.offset[0]:.3g}, {d.offset[1]:.3g}) m")
+    elif sensor == "none" and d.mode == "dropout":
+        action = "delivers again: " + ("fixes" if d.component == "pose sensor" else "readings") + " taken as they come"
     elif sensor == "none":
         action = "returned: fixes taken as they come"
     else:

@@ -140,7 +140,7 @@ def test_sensor_offsets_are_removed_and_dropped_channels_excluded() -> None:
     acc = _accommodation()
     acc.update(3.0, (_diag("speed sensor", "speed", "drift", 0.2, 1.0), _diag("gyro", "yaw_rate", "dropout", 2.0),
                      _diag("pose sensor", "pose", "jump", 1.5)))
-    z = acc.correct(3.0, Measurement(speed=10.4, yaw_rate=0.2, position=np.array([1.0, 2.0])))
+    z = acc.correct(3.0, Measurement(speed=10.4, yaw_rate=None, position=np.array([1.0, 2.0])))
     assert z.speed == pytest.approx(10.0) and z.yaw_rate is None and z.position is None
     assert acc.events[-1].text == ("accommodation: speed speed sensor drift (0.2): reading corrected, yaw_rate gyro "
                                    "dropout (2): excluded from the filter, pose pose sensor jump (1.5): excluded from "
@@ -150,6 +150,38 @@ def test_sensor_offsets_are_removed_and_dropped_channels_excluded() -> None:
     assert np.array_equal(acc.controller_pose(np.array([1.0, 2.0, 0.2]), out), [1.1, 2.1, 0.3])
     acc.update(3.1, (_diag("speed sensor", "speed", "bias", 0.5),))
     assert acc.correct(3.1, Measurement(speed=10.5)).speed == pytest.approx(10.0)
+
+
+def test_a_dropped_channel_is_taken_again_once_it_delivers() -> None:
+    """A declared dropout excludes its channel while it delivers nothing; its first reading after the declaration
+    ends the dropout (one event) and is taken, as are the later ones, although the declaration stays in force; a
+    new dropout of the same channel (a later declaration) excludes it again. The pose sensor's return gives the
+    controller the sensors' pose again. (The truth withdraws a dropout at its end: the oracle's semantics.)"""
+    acc = _accommodation()
+    gyro = _diag("gyro", "yaw_rate", "dropout", 0.3, 2.0)
+    pose = Diagnosis("pose sensor", "pose", "dropout", 0.3, 0.0, 2.0, 2.3, 0.3, 0.3)
+    acc.update(2.4, (gyro, pose))
+    assert acc.excluded == {"yaw_rate", "position"}
+    out = FilterOutput(x=np.array([1.1, 2.1, 0.3, 2.0, 2.0]), P=np.eye(5), innovation=np.zeros(1), S=np.eye(1),
+                       nis=1.0, speed_innovation=0.0, speed_innovation_std=1.0)
+    assert np.array_equal(acc.controller_pose(np.array([1.0, 2.0, 0.2]), out), [1.1, 2.1, 0.3])
+    assert acc.correct(2.5, Measurement(speed=10.0)).speed == 10.0  # nothing from either: still out
+    assert acc.excluded == {"yaw_rate", "position"}
+    z = acc.correct(2.6, Measurement(speed=10.0, yaw_rate=0.2))
+    assert z.yaw_rate == 0.2 and acc.excluded == {"position"}
+    assert acc.events[-1].text == "accommodation: yaw_rate gyro dropout (0.3): delivers again: readings taken as they come"
+    n = len(acc.events)
+    acc.update(2.7, (gyro, pose))  # the declarations stay in force; the gyro is not excluded again
+    assert acc.excluded == {"position"} and len(acc.events) == n
+    z = acc.correct(2.8, Measurement(speed=10.0, yaw_rate=0.1, position=np.array([1.0, 2.0]), heading=0.2))
+    assert z.yaw_rate == 0.1 and np.array_equal(z.position, [1.0, 2.0]) and acc.excluded == frozenset()
+    assert acc.events[-1].text.endswith("pose sensor dropout (0.3): delivers again: fixes taken as they come")
+    assert np.array_equal(acc.controller_pose(np.array([1.0, 2.0, 0.2]), out), [1.0, 2.0, 0.2])
+    acc.update(2.9, (gyro, pose))
+    assert acc.excluded == frozenset() and len(acc.events) == n + 1
+    acc.update(5.0, (_diag("gyro", "yaw_rate", "dropout", 0.3, 4.7), pose))  # a second dropout: out again
+    assert acc.excluded == {"yaw_rate"}
+    assert acc.correct(5.1, Measurement(speed=10.0, yaw_rate=0.1)).yaw_rate == 0.1 and acc.excluded == frozenset()
 
 
 def _pose(mode: str, offset: tuple[float, float], sigma: tuple[float, float] = (0.01, 0.01)) -> Diagnosis:

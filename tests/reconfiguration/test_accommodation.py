@@ -169,7 +169,8 @@ def test_a_dropped_channel_is_taken_again_once_it_delivers() -> None:
     assert acc.excluded == {"yaw_rate", "position"}
     z = acc.correct(2.6, Measurement(speed=10.0, yaw_rate=0.2))
     assert z.yaw_rate == 0.2 and acc.excluded == {"position"}
-    assert acc.events[-1].text == "accommodation: yaw_rate gyro dropout (0.3): delivers again: readings taken as they come"
+    assert acc.events[-1].text == ("accommodation: yaw_rate gyro dropout (0.3): delivers again: readings taken as "
+                                   "they come")
     n = len(acc.events)
     acc.update(2.7, (gyro, pose))  # the declarations stay in force; the gyro is not excluded again
     assert acc.excluded == {"position"} and len(acc.events) == n

@@ -40,7 +40,7 @@ from .base import CHANNELS, DiagnosisInput, DiagnosisStep
 from .change import TyreChangeAlarm
 from .history import History
 from .pose import PoseStep, fix_interval, step_glr
-from .servo import LagStep, LagSums, lag_step
+from .servo import LagStep, LagSums, comparable, lag_step
 from .settings import ResidualDiagnoserSettings
 from .shape import ShapeFit, shape_fit
 
@@ -255,10 +255,20 @@ class ResidualDiagnoser:
         elif before[1] >= s.servo_min_excitation and before[0] > 0.0:
             ratio = after[0] / before[0]
             size = float(np.clip(ratio, 0.0, 1.0)) ** s.servo_size_exponent
+        elif not self._comparable(side, i, j, k):  # one load at one motion, and a load to carry
+            ratio, size = 1.0, 1.0
         else:
             ratio = size = lag_before / lag_after
         onset = h.t[j] if self.since[f"servo_{side}"] is None else self.since[f"servo_{side}"] - 0.5 * s.servo_window
         return Reading(1.0 - ratio, 1.0 - s.servo_ratio, size, float("nan"), onset)
+
+    def _comparable(self, side: str, i: int, j: int, k: int) -> bool:
+        """Wheel ``side``'s mean lags over the steps ``(i, j]`` and ``(j, k]`` compare as its servo's gain
+        (:func:`.servo.comparable`, the load test's gates): on a steady command after a cruise that loaded the
+        wheel with nothing, a correction of the path grows the lag many times over (ftc-v2 dev draw 76: 0.0001 →
+        0.005 rad/s at 4.4 rad/s, read as a servo left with 2 % of its gain)."""
+        before, after = self.lags.window(i, j), self.lags.window(j, k)
+        return before is not None and after is not None and comparable(self.settings, side, before, after)
 
     def _dead(self, side: str) -> bool:
         """The wheel lags its command by more than ``unresponsive_lag`` of it over the last ``servo_window``:

@@ -82,18 +82,30 @@ class LagStep:
     onset: float
 
 
-def _candidate(settings: ResidualDiagnoserSettings, side: str, before: dict[str, float], after: dict[str, float],
-               spans: tuple[float, float]) -> tuple[float, float, float] | None:
-    """``(glr, ratio, σ_ratio)`` of wheel ``side``'s lag step between the windows ``before`` and ``after`` of
-    ``spans`` (s) seconds, or ``None`` when a gate fails: the motion changed (a wheel's mean rate moved by more
-    than ``servo_motion_tol`` of the mean rate), the lag changed sign or shrank, or the other wheel's lag
-    changed by as much (a load change, not a servo)."""
+def comparable(settings: ResidualDiagnoserSettings, side: str, before: dict[str, float], after: dict[str, float]
+               ) -> bool:
+    """Whether wheel ``side``'s lags in the windows ``before`` and ``after`` (:meth:`LagSums.window`) compare as its
+    servo's gain: the same motion — each wheel's mean rate moved by at most ``servo_motion_tol`` of the mean wheel
+    rate before, so the lags carry the same load — and a load to carry: the lag before at least ``servo_min_lag``
+    of that rate (a wheel that carries no load says nothing of its servo's gain)."""
     s = settings
     scale = 0.5 * (abs(before["w_R"]) + abs(before["w_L"]))
     if scale <= 0.0 or any(abs(after[f"w_{w}"] - before[f"w_{w}"]) > s.servo_motion_tol * scale for w in "RL"):
+        return False
+    return abs(before[f"l_{side}"]) >= s.servo_min_lag * scale
+
+
+def _candidate(settings: ResidualDiagnoserSettings, side: str, before: dict[str, float], after: dict[str, float],
+               spans: tuple[float, float]) -> tuple[float, float, float] | None:
+    """``(glr, ratio, σ_ratio)`` of wheel ``side``'s lag step between the windows ``before`` and ``after`` of
+    ``spans`` (s) seconds, or ``None`` when a gate fails: the windows do not compare (:func:`comparable`: the motion
+    changed, or the wheel carried no load), the lag changed sign or shrank, or the other wheel's lag changed by as
+    much (a load change, not a servo)."""
+    s = settings
+    if not comparable(s, side, before, after):
         return None
     l0, l1 = before[f"l_{side}"], after[f"l_{side}"]
-    if l0 * l1 <= 0.0 or abs(l1) <= abs(l0) or abs(l0) < s.servo_min_lag * scale:
+    if l0 * l1 <= 0.0 or abs(l1) <= abs(l0):
         return None
     other = "L" if side == "R" else "R"
     o0, o1 = before[f"l_{other}"], after[f"l_{other}"]

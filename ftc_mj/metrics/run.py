@@ -26,13 +26,13 @@ Consistency (:mod:`ftc_mj.estimation.consistency`, Bar-Shalom §5.4), averaged o
 Fault decision (:func:`~ftc_mj.metrics.detection.detection_metrics`, runs with an estimator)
     ``onsets`` and the detection and isolation keys; without an estimator only ``onsets``.
 Path following (:func:`~ftc_mj.metrics.path.path_following_metrics`, every run)
-    ``contouring_rms_recovered``, ``contouring_max_recovered`` (m, from 5 s after the *last* onset),
+    ``contouring_rms_recovered``, ``contouring_max_recovered`` (m, from 5 s after the *last* onset of any fault),
     ``speed_mean_after_fault``, ``speed_mean_final``, ``feasible_speed_final``, ``speed_ratio_final``,
     ``lateral_accel_max``, ``lateral_bound_time_s`` (see that module).
 Tracking (m, the cross-track error is positive left of the path)
     ``cross_track_rms``, ``cross_track_max`` (of |error|), ``cross_track_final`` over the whole run;
     ``*_settled`` from ``settle_time`` (5 s) on; ``cross_track_rms_after_fault``,
-    ``cross_track_max_after_fault`` from the first onset in the run, ``cross_track_max_recovered``
+    ``cross_track_max_after_fault`` from the first onset of any fault in the run, ``cross_track_max_recovered``
     from :data:`RECOVERY_S` after it (NaN if the run ends before; all three absent without a fault).
 Actuation
     ``omega_at_limit_fraction`` (fraction of steps with a wheel-rate command within
@@ -72,6 +72,7 @@ Run
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -269,13 +270,18 @@ def compute_metrics(
     counters: dict[str, float],
     *,
     settle_time: float = 5.0,
+    other_onsets: Sequence[float] = (),
 ) -> dict[str, Any]:
     """Metrics of one run (keys in the module docstring) from its resolved ``record`` (the scheduled fault
     onset times per wheel, s, None = healthy; the rates and limits) and its ``trace``; ``counters`` are the
-    loop's counts (filter resets, solver failures, …).
+    loop's counts (filter resets, solver failures, …); ``other_onsets``: the onsets (s) of the run's servo and
+    sensor faults.
 
     Tracking statistics ``cross_track_*`` are over the whole run; ``*_settled`` ones exclude the
-    first ``settle_time`` seconds (initial transients).
+    first ``settle_time`` seconds (initial transients). What is measured *after the fault* — the tracking after
+    it and its recovery, the lift-off outside each onset's transient, the path-following recovery — counts from
+    every fault's onset, tyre, servo or sensor (as the benchmark's scorer does); the fault decision's detection
+    and the policy's hand-over delay from the tyres' (the radii are what they watch).
     """
     t = trace["t"]
     m: dict[str, Any] = {}
@@ -284,6 +290,9 @@ def compute_metrics(
     t_end = float(t[-1] + dt) if t.size else 0.0
     onsets_in_run = {w: (o if o is not None and t.size and o <= t[-1] else None) for w, o in onsets.items()}
     t_on_any = min((o for o in onsets_in_run.values() if o is not None), default=None)
+    every = {**onsets, **{f"other_{i}": o for i, o in enumerate(other_onsets)}}
+    every_in_run = {k: (o if o is not None and t.size and o <= t[-1] else None) for k, o in every.items()}
+    t_first = min((o for o in every_in_run.values() if o is not None), default=None)
     if bool(np.any(np.isfinite(trace["R_R_hat"]))):  # a run with a filter (none: NaN estimates)
         m.update(estimation_metrics(trace, counters))
         m.update(detection_metrics(trace, onsets))
@@ -292,13 +301,13 @@ def compute_metrics(
     else:
         m["onsets"] = onset_entries(t, onsets, None)
     m["exceptions"] = int(counters.get("exceptions", 0))
-    m.update(tracking_metrics(t, trace["cross_track_error"], settle_time, t_on_any))
+    m.update(tracking_metrics(t, trace["cross_track_error"], settle_time, t_first))
     m.update(actuation_metrics(record, trace, dt))
     m.update(solver_metrics(trace, counters, record.context.controller_rate))
-    m.update(plant_metrics(trace, counters, onsets_in_run, dt))
+    m.update(plant_metrics(trace, counters, every_in_run, dt))
     m.update(reconfiguration_metrics(trace, t_on_any))
     m["max_abs_roll_deg"] = float(np.degrees(nanstat(np.abs(trace["roll"]), np.max)))
     m["max_abs_slip"] = nanstat(np.abs(np.concatenate([trace["slip_R"], trace["slip_L"]])), np.max)
     m["sim_time_s"] = t_end
-    m.update(path_following_metrics(record, trace, onsets))
+    m.update(path_following_metrics(record, trace, every))
     return m

@@ -80,6 +80,9 @@ def schema_markdown() -> str:
             "`ftc-mj metrics --markdown`; each run also writes it as `metrics.schema.json` beside its",
             "`metrics.json`). Units are SI; `1` dimensionless, `fraction` a share in [0, 1], `count` an integer",
             "count; no unit: text, flags and nested records. `null` marks a value that does not apply to the run.",
+            "An *onset* is a fault's first moment: the tracking, lift-off and path-following keys count from every",
+            "fault's (tyre, servo or sensor), the detection, isolation and hand-over keys from the tyres' (the",
+            "decision rule watches the radii).",
             ""]
     rows = ([f"`{k}`", u, cell(d)] for k, (u, d) in METRICS.items())
     return "\n".join(head + table(["key", "unit", "meaning"], rows)) + "\n"

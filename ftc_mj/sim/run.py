@@ -40,7 +40,7 @@ from ..metrics.record import RunRecord
 from ..metrics.run import compute_metrics
 from ..metrics.schema import schema as metrics_schema
 from ..plant import NAN, UNSTABLE
-from ..plant.faults import fault_list
+from ..plant.faults import fault_class, fault_list
 from ..telemetry.columns import INTEGER_COLUMNS, trace_schema_metadata
 from .loop import SimResult, simulate
 from .output import check_output_root, output_bytes
@@ -86,9 +86,11 @@ def run_metrics(cfg: RunConfig, res: SimResult) -> dict[str, Any]:
         "error_where": res.error_where,
     }
     record = record_of(cfg, res)
-    m.update(compute_metrics(record, res.trace, res.counters))
+    faults = fault_list(cfg.faults, cfg.plant_wheel_radius)
+    others = [f.onset for f in faults if not fault_class(f.fault_class).radius_fault]  # the tyres' are the record's
+    m.update(compute_metrics(record, res.trace, res.counters, other_onsets=others))
     m.update(fdi_sweep_metrics(record, res.trace))
-    m.update(diagnosis_metrics(res.trace, fault_list(cfg.faults, cfg.plant_wheel_radius), cfg.sensors,
+    m.update(diagnosis_metrics(res.trace, faults, cfg.sensors,
                                cfg.model_wheel_radius, res.events))
     # the radii the controller used departed from nominal at some sample (not just: a feeding policy)
     m["feedback"] = bool((m.get("reconfig_handed_fraction") or 0.0) > 0.0)

@@ -7,7 +7,10 @@ import pytest
 
 from ftc_mj.config import load_config
 from ftc_mj.metrics.run import compute_metrics
+from ftc_mj.plant import LIFTOFF
+from ftc_mj.sim.loop import simulate
 from ftc_mj.sim.record import build_record, fault_onsets
+from ftc_mj.sim.run import run_metrics
 from ftc_mj.telemetry.columns import BASE_COLUMNS, WHEEL_CODES
 
 
@@ -202,3 +205,42 @@ def test_missed_detection() -> None:
     cfg = load_config("scenario2", {"duration": 20.0})
     m = compute_metrics(build_record(cfg), _trace(2000), {})
     assert m["missed_detection"] is True and m["detection_delay"] is None
+
+
+def test_after_the_fault_counts_from_a_servo_or_sensor_onset() -> None:
+    """``servo_loss30`` has no tyre fault: its servo's onset (10 s) starts the recovery window (15 s on), the
+    tracking after the fault and the lift-off transient (10-11 s), exactly as a tyre's onset would. A 0.4 m error
+    before 15 s and 0.1 m after, a lift-off from 10.0 to 10.5 s: the recovered maximum is 0.1 m and the lift-off
+    after the transient 0 s; without the servo's onset the run's metrics read 0.4 m from 5 s, and 0.5 s."""
+    cfg = load_config("servo_loss30")
+    tr = _trace(2000)
+    t = tr["t"]
+    tr["cross_track_error"][:] = np.where(t < 15.0, 0.4, 0.1)
+    tr["plant_flags"] = np.where((t >= 10.0) & (t < 10.5), LIFTOFF, 0).astype(np.int64)
+    m = compute_metrics(build_record(cfg), tr, {}, other_onsets=[10.0])
+    assert m["contouring_max_recovered"] == pytest.approx(0.1)
+    assert m["cross_track_max_recovered"] == pytest.approx(0.1)
+    assert m["cross_track_max_after_fault"] == pytest.approx(0.4)
+    assert m["liftoff_time_s"] == pytest.approx(0.5)
+    assert m["liftoff_time_post_transient_s"] == 0.0
+    assert m["reconfig_handover_delay"] is None  # the hand-over delay is the tyres' (none here)
+    bare = compute_metrics(build_record(cfg), tr, {})
+    assert bare["contouring_max_recovered"] == pytest.approx(0.4)
+    assert bare["liftoff_time_post_transient_s"] == pytest.approx(0.5)
+    assert "cross_track_max_recovered" not in bare
+
+
+def test_a_run_of_servo_loss30_measures_its_recovery_from_the_servo_onset() -> None:
+    """The run's own metrics (:func:`~ftc_mj.sim.run.run_metrics`) hand the servo's onset over: the recovered
+    maximum is the largest error of the trace from 15 s (10 s + 5 s), not from 5 s."""
+    cfg = load_config("servo_loss30", {"duration": 16.0, "controller.kind": "open-loop",
+                                       "controller.open_loop_omega": [4.0, 4.2], "estimator.kind": "none"})
+    res = simulate(cfg)
+    t, ct = res.trace["t"], np.abs(res.trace["cross_track_error"])
+    m = run_metrics(cfg, res)
+    def rms(sel: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(ct[sel] ** 2)))
+
+    assert m["contouring_max_recovered"] == float(np.nanmax(ct[t >= 15.0]))
+    assert m["contouring_rms_recovered"] == pytest.approx(rms(t >= 15.0), rel=1e-12)
+    assert rms(t >= 5.0) < 0.9 * rms(t >= 15.0)  # the open loop drifts off the path: the windows differ

@@ -288,10 +288,9 @@ def compute_metrics(
     onsets = record.onsets
     dt = record.context.estimator_dt
     t_end = float(t[-1] + dt) if t.size else 0.0
-    onsets_in_run = {w: (o if o is not None and t.size and o <= t[-1] else None) for w, o in onsets.items()}
-    t_on_any = min((o for o in onsets_in_run.values() if o is not None), default=None)
     every = {**onsets, **{f"other_{i}": o for i, o in enumerate(other_onsets)}}
     every_in_run = {k: (o if o is not None and t.size and o <= t[-1] else None) for k, o in every.items()}
+    t_on_any = min((every_in_run[w] for w in onsets if every_in_run[w] is not None), default=None)  # the tyres'
     t_first = min((o for o in every_in_run.values() if o is not None), default=None)
     if bool(np.any(np.isfinite(trace["R_R_hat"]))):  # a run with a filter (none: NaN estimates)
         m.update(estimation_metrics(trace, counters))

@@ -348,14 +348,13 @@ class SafePolicy(ReconfigurationPolicy):
         """``target`` (m) and the largest rise (m per sample) ``grow``, where the previous controller sample took a
         fall beyond the noise band (``fell``: those wheels and their radii before it; ``None`` if that sample did
         not hand over), the wheel is still isolated (``iso``) and this sample's estimate lies above the radius in
-        use: the fall was one sample's dip, not
-        the tyre, and is undone at ``max_rate`` as far as the estimate, never above the radius before the fall (a
-        first hand-over, a fall from nominal, is the declaration's evidence and is never undone this way). A
-        filter converging after a step overshoots for a sample (scenario 3 with the gyro, dev seed 0: 1.13, 0.95,
-        1.01 m for a 1.00 m tyre, the dip 6 σ beyond the 1.13 m in use); kept, the dip climbed back at
-        ``max_growth_rate`` only, a 4–5 % yaw-rate error of the controller's model while it recovered 1.1 m of
-        cross-track error at 10 m/s (a wheel lifted 0.24 s). A fall the next sample confirms (a step, a ramp) is
-        untouched."""
+        use: the fall was one sample's dip, not the tyre, and is undone at ``max_rate`` as far as the estimate,
+        never above the radius before the fall (a first hand-over, a fall from nominal, is the declaration's
+        evidence and is never undone this way). A filter converging after a step overshoots for a sample
+        (scenario 3 with the gyro, dev seed 0: 1.13, 0.95, 1.01 m for a 1.00 m tyre, the dip 6 σ below the 1.13 m
+        in use); kept, the dip climbed back at ``max_growth_rate`` only and the radius in use stayed 3–4 % low for
+        1.5 s while the robot recovered 1.1 m of cross-track error at 10 m/s (a wheel lifted 0.24 s). A fall the
+        next sample confirms (a step, a ramp) is untouched."""
         if fell is None:
             return target, grow
         wheels, before = fell

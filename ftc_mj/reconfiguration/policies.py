@@ -331,12 +331,13 @@ class SafePolicy(ReconfigurationPolicy):
         # does not fall steadily (a ramp: _steady_fall); a wheel the decision no longer isolates returns to
         # nominal at the full rate; a fall beyond the band that this sample's estimate does not confirm is undone
         # at the full rate (_rebound)
-        noise = np.asarray(iso) & (target >= self._current - self.noise_band * sd)
+        isolated = np.asarray(iso)
+        noise = isolated & (target >= self._current - self.noise_band * sd)
         in_band_fall = np.where(self._steady_fall(t), self.max_step, self.max_grow)
-        target, grow = self._rebound(target, np.where(iso, self.max_grow, self.max_step), fell, np.asarray(iso))
+        target, grow = self._rebound(target, np.where(isolated, self.max_grow, self.max_step), fell, isolated)
         before = self._current
         in_use = self._move(target, grow, np.where(noise, in_band_fall, self.max_step))
-        self._fell = (np.asarray(iso) & ~noise & (in_use < before) & (before < self.nominal), before)
+        self._fell = (isolated & ~noise & (in_use < before) & (before < self.nominal), before)
         # what is trusted is what the controller was given, not the target the rate limits held back:
         # a revert must not jump to an estimate the growth limit refused
         self._trusted.append((t, in_use.copy()))

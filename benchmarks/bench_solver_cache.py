@@ -17,7 +17,7 @@ import tempfile
 import time
 
 from ftc_mj.config import load_config
-from ftc_mj.control.solver_cache import CACHE_ENV, SWITCH_ENV
+from ftc_mj.disk_cache import CACHE_ENV, SWITCH_ENV
 from ftc_mj.sim.cache import robot_limits
 from ftc_mj.sim.loop import build_reference
 from ftc_mj.wiring.control import build_controller

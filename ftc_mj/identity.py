@@ -23,7 +23,7 @@ from typing import Any
 
 from .config import RunConfig, config_to_toml_dict
 from .estimation.imm import IMMSettings
-from .resources import model_digest
+from .resources import model_digest, sources_digest
 
 
 def canonical_hash(obj: Any, n: int = 16) -> str:
@@ -78,24 +78,12 @@ def source_revision() -> str | None:
     return head.stdout.strip() + ("+modified" if dirty.stdout.strip() else "")
 
 
-def sources_digest() -> str:
-    """16 hex digits of the SHA-256 of every ``ftc_mj`` Python source (relative path and bytes, in path
-    order): the package's code when no clean git revision names it."""
-    from pathlib import Path
-
-    root = Path(__file__).resolve().parent
-    h = hashlib.sha256()
-    for f in sorted(root.rglob("*.py")):
-        h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes() + b"\0")
-    return h.hexdigest()[:16]
-
-
 _SOURCE: list[str] = []
 
 
 def source_identity() -> str:
     """What names the ftc_mj code a built-in component runs: ``git <revision>`` for a clean checkout, else
-    ``<package version>+sources <digest>`` (:func:`sources_digest`; an install, or a checkout with
+    ``<package version>+sources <digest>`` (:func:`~ftc_mj.resources.sources_digest`; an install, or a checkout with
     uncommitted changes, which a revision alone would not name). Computed once per process."""
     if not _SOURCE:
         from . import __version__

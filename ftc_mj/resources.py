@@ -112,3 +112,15 @@ def model_digest(value: str) -> str:
     p = model_path(value)
     st = p.stat()
     return _digest(str(p.resolve()), st.st_mtime_ns, st.st_size)
+
+
+@functools.cache
+def sources_digest() -> str:
+    """16 hex digits of the SHA-256 of every ``ftc_mj`` Python source (relative path and bytes, in path
+    order): the package's code when no clean git revision names it, and the code part of a disk-cache key
+    (computed once per process, about 10 ms)."""
+    root = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for f in sorted(root.rglob("*.py")):
+        h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:16]

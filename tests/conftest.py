@@ -41,7 +41,9 @@ import pytest
 from hypothesis import settings as hypothesis_settings
 
 from ftc_mj.control.blas import limit_blas_threads
-from ftc_mj.control.solver_cache import CACHE_ENV, prune
+from ftc_mj.control.solver_cache import prune
+from ftc_mj.disk_cache import CACHE_ENV, prune_values
+from ftc_mj.estimation.calibration import THRESHOLD_FOLDER
 from ftc_mj.sim.loop import STRICT_ENV
 from tests.support.shared_runs import SharedRuns
 
@@ -51,7 +53,7 @@ hypothesis_settings.load_profile("ftc-mj")
 os.environ[STRICT_ENV] = "1"
 _OWN_CACHE: list[str] = []
 SOLVER_CACHE_MAX_AGE_S = 14 * 86400.0
-"""Cached solvers unused this long (s) are deleted when a session starts."""
+"""Cached solvers and thresholds unused this long (s) are deleted when a session starts."""
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -63,6 +65,7 @@ def pytest_configure(config: pytest.Config) -> None:
     if getattr(config, "cache", None) is not None:
         root = config.cache.mkdir("ftc-mj-solvers")
         prune(root / "solvers", SOLVER_CACHE_MAX_AGE_S)
+        prune_values(root / THRESHOLD_FOLDER, SOLVER_CACHE_MAX_AGE_S)
     else:
         root = Path(tempfile.mkdtemp(prefix="ftc-mj-test-cache-"))
         _OWN_CACHE.append(str(root))

@@ -24,11 +24,11 @@ ROOT = Path(ftc_mj.__file__).parent
 COMPONENT_PACKAGES = ("estimation", "control", "plant", "reconfiguration")
 LAYERS: tuple[tuple[str, ...], ...] = (
     # the base modules: errors, the typed settings fields and their validation, the registry, file
-    # helpers, the run context a component may know, the Markdown table helper, the lazy-import helper;
+    # helpers, the run context a component may know, the Markdown table helper, the lazy-import helper, the disk cache;
     # ``ftc_mj`` is the lazy facade ``ftc_mj/__init__.py`` (its static imports are base ones, the rest are
     # importlib strings)
     ("ftc_mj", "errors", "validation", "suggest", "resources", "registry", "io", "context", "fields", "markdown",
-     "lazy"),
+     "lazy", "disk_cache"),
     ("model",),                                     # the kinematics and the sensor model, one definition
     ("plant", "estimation", "control"),             # the components, built from their own settings
     ("telemetry",),                                 # the trace columns and events the components write

@@ -28,9 +28,9 @@ state between calls (warm starts are its inputs), so sharing it does not change 
 the same structure under a new key (other constants) replaces the kept one, so the memory a process holds
 does not grow with the problems it has seen.
 
-Where: ``$FTC_MJ_CACHE_DIR/solvers`` if set, else ``$XDG_CACHE_HOME/ftc-mj/solvers`` (default
-``~/.cache/ftc-mj/solvers``). ``FTC_MJ_SOLVER_CACHE=off`` builds every solver afresh. Deleting the
-folder is always safe.
+Where: ``solvers/`` of the cache root (:mod:`ftc_mj.disk_cache`: ``$FTC_MJ_CACHE_DIR`` if set, else
+``~/.cache/ftc-mj``). ``FTC_MJ_SOLVER_CACHE=off`` builds every solver afresh. Deleting the folder is always
+safe.
 """
 
 from __future__ import annotations
@@ -45,14 +45,11 @@ import time
 import zlib
 from pathlib import Path
 
+from ..disk_cache import cache_root, mark_used
 from ..lazy import lazy_module
 
 ca = lazy_module("casadi")
 
-CACHE_ENV = "FTC_MJ_CACHE_DIR"
-"""Environment variable naming the cache root (the solvers go to its ``solvers/`` folder)."""
-SWITCH_ENV = "FTC_MJ_SOLVER_CACHE"
-"""Environment variable: ``off``/``0``/``no`` disables the solver cache."""
 MAGIC = b"ftc-mj solver cache 3\n"
 """First line of an entry (format 3: then one JSON header line, then the compressed file of ``Function.save``;
 format 2 held ``Function.serialize``'s text, which loads only from a string: three copies of it in memory)."""
@@ -74,14 +71,10 @@ class EntryRejected(Exception):
 
 
 def cache_dir() -> Path | None:
-    """The folder of cached solvers, or ``None`` when the cache is switched off."""
-    if os.environ.get(SWITCH_ENV, "").strip().lower() in ("off", "0", "no", "false"):
-        return None
-    root = os.environ.get(CACHE_ENV)
-    if root:
-        return Path(root) / "solvers"
-    xdg = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(xdg) / "ftc-mj" / "solvers"
+    """The folder of cached solvers (``solvers/`` of :func:`~ftc_mj.disk_cache.cache_root`), or ``None`` when the
+    cache is switched off."""
+    root = cache_root()
+    return None if root is None else root / "solvers"
 
 
 def problem_key(name: str, nlp: dict, opts: dict) -> str:
@@ -206,10 +199,7 @@ def _load(path: Path, key: str, name: str, nlp: dict) -> ca.Function | None:
         print(f"ftc-mj: warning: solver cache entry {path} cannot be used ({why}); rebuilding it",
               file=sys.stderr)
         return None
-    try:
-        os.utime(path)  # the modification time is the last use: old entries can be pruned by age
-    except OSError:
-        pass
+    mark_used(path)
     return solver
 
 

@@ -23,6 +23,7 @@ long side for a GLR.
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
 import math
 from dataclasses import dataclass
@@ -31,7 +32,9 @@ from typing import Any
 
 import numpy as np
 
+from ..disk_cache import cache_root, machine_tag, read_value, write_value
 from ..model.kinematics import inverse_rates
+from ..resources import sources_digest
 from .change import DIRECTIONS, HYPOTHESES, InnovationCUSUM, JumpGLR, channel_kinds, noise_variances
 from .measurements import measure_jacobian
 from .pcrb import information_bound
@@ -49,6 +52,10 @@ NULL_BLOCK_STEPS = 1000
 """Steps of null innovations drawn at once by :func:`null_running_max` (a block of 160 chains × 4 channels is 5 MB)."""
 NOMINAL_SETTLE_S = 20.0
 """Riccati recursion (s) from ``P0`` that sets the nominal covariance."""
+THRESHOLD_FOLDER = "thresholds"
+"""The folder of calibrated thresholds in the disk cache (:func:`~ftc_mj.disk_cache.cache_root`)."""
+THRESHOLD_FORMAT = "ftc-mj threshold 1"
+"""Part of every threshold's key (:func:`threshold_key`): a new format is a new key."""
 
 
 @dataclass(frozen=True)
@@ -149,7 +156,31 @@ def first_alarm_rate(running_max: np.ndarray, h: float) -> float:
 @functools.lru_cache(maxsize=32)
 def null_threshold(kind: str, point: NominalPoint, shift: float, window: int, arl0_steps: int) -> float:
     """Threshold whose censored first-alarm rate on i.i.d. ``N(0, I)`` innovations is ``1/arl0_steps``
-    (bisection on 160 chains of ``arl0_steps`` steps; cached)."""
+    (bisection on 160 chains of ``arl0_steps`` steps): kept in this process and on the machine's disk cache
+    (:data:`THRESHOLD_FOLDER`), so the methods of a bench that meet the same draw calibrate its detector once."""
+    folder = cache_root()
+    if folder is None:
+        return _null_threshold(kind, point, shift, window, arl0_steps)
+    key = threshold_key(kind, point, shift, window, arl0_steps)
+    path = folder / THRESHOLD_FOLDER / f"{key}.json"
+    h = read_value(path, key)
+    if h is None:
+        h = _null_threshold(kind, point, shift, window, arl0_steps)
+        write_value(path, key, h)
+    return h
+
+
+def threshold_key(kind: str, point: NominalPoint, shift: float, window: int, arl0_steps: int) -> str:
+    """32 hex digits naming one calibration: its arguments (the nominal point's numbers by their exact ``repr``),
+    the ftc-mj sources (:func:`~ftc_mj.resources.sources_digest`: a changed calibration is a new key) and the
+    machine (:func:`~ftc_mj.disk_cache.machine_tag`: the Monte Carlo's last bits depend on numpy's kernels)."""
+    text = "|".join((THRESHOLD_FORMAT, sources_digest(), machine_tag(), kind, repr(point), repr(float(shift)),
+                     str(int(window)), str(int(arl0_steps))))
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def _null_threshold(kind: str, point: NominalPoint, shift: float, window: int, arl0_steps: int) -> float:
+    """:func:`null_threshold` computed: the bisection on the Monte Carlo's running maxima."""
     chains = 160  # ≈ 100 first alarms at the target: the rate to ±10 %, the threshold to ±0.1 nats
     M = null_running_max(kind, point, shift=shift, window=window, steps=arl0_steps, chains=chains)
     lo, hi = 0.0, float(M.max()) + 1.0

@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from ftc_mj.control import solver_cache
-from ftc_mj.control.solver_cache import CACHE_ENV, SWITCH_ENV, disk_cached_solver, ipopt_solver, problem_key, prune
+from ftc_mj.control.solver_cache import disk_cached_solver, ipopt_solver, problem_key, prune
 from ftc_mj.control.solvers import ipopt_options
+from ftc_mj.disk_cache import CACHE_ENV, SWITCH_ENV
 
 OPTS = ipopt_options(30, None, None)
 

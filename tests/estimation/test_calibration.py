@@ -8,8 +8,18 @@ import math
 import numpy as np
 import pytest
 
-from ftc_mj.estimation import Measurement
-from ftc_mj.estimation.calibration import OFFSETS_FILE, null_threshold, package_data, physical_offset, siegmund_arl0
+from ftc_mj.disk_cache import CACHE_ENV, SWITCH_ENV
+from ftc_mj.estimation import Measurement, calibration
+from ftc_mj.estimation.calibration import (
+    OFFSETS_FILE,
+    THRESHOLD_FOLDER,
+    _null_threshold,
+    null_threshold,
+    package_data,
+    physical_offset,
+    siegmund_arl0,
+    threshold_key,
+)
 from ftc_mj.estimation.decision import ChangeRule
 from ftc_mj.estimation.rule_statistics import DecisionSettings
 from ftc_mj.metrics.alarm_rates import Rate, chosen_offset
@@ -156,3 +166,65 @@ def test_null_running_max_equals_the_detector_stepped_one_step_at_a_time(gyro: f
         ref[:, k] = run
     fast = null_running_max("cusum", point, shift=0.8, window=50, steps=steps, chains=chains)
     assert fast.tobytes() == ref.tobytes()
+
+
+@pytest.fixture
+def threshold_cache(tmp_path, monkeypatch):
+    """A fresh disk cache root for the thresholds, and the process's own cache of them emptied."""
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    monkeypatch.delenv(SWITCH_ENV, raising=False)
+    null_threshold.cache_clear()
+    yield tmp_path / THRESHOLD_FOLDER
+    null_threshold.cache_clear()
+
+
+def test_a_threshold_from_the_disk_cache_is_the_computed_one_to_the_bit(threshold_cache, monkeypatch) -> None:
+    """The first calibration writes one entry; a process that asks again (the in-memory cache emptied) reads it
+    back bitwise, without running the Monte Carlo; another shift or horizon is another entry."""
+    point = nominal_point_of(decision_cfg("cusum", 0.01))
+    h = null_threshold("cusum", point, 1.0, 50, 3000)
+    assert h == _null_threshold("cusum", point, 1.0, 50, 3000)
+    assert len(list(threshold_cache.glob("*.json"))) == 1
+    null_threshold.cache_clear()
+    calls = []
+    monkeypatch.setattr(calibration, "_null_threshold", lambda *a: calls.append(a) or _null_threshold(*a))
+    assert null_threshold("cusum", point, 1.0, 50, 3000) == h  # from the disk: no computation
+    assert calls == []
+    null_threshold("cusum", point, 1.0, 50, 2000)
+    null_threshold("cusum", point, 0.5, 50, 3000)
+    assert len(calls) == 2 and len(list(threshold_cache.glob("*.json"))) == 3
+
+
+def test_a_damaged_threshold_entry_is_computed_again_and_rewritten(threshold_cache, capsys) -> None:
+    """An entry that does not parse, names another key or is not a regular file is not used: one warning line,
+    the threshold computed, the entry replaced by a good one."""
+    point = nominal_point_of(decision_cfg("cusum", 0.01))
+    h = null_threshold("cusum", point, 1.0, 50, 3000)
+    (entry,) = threshold_cache.glob("*.json")
+    good = entry.read_text()
+    for bad in ("{not json", good.replace(entry.stem, "0" * 32)):
+        entry.write_text(bad)
+        null_threshold.cache_clear()
+        assert null_threshold("cusum", point, 1.0, 50, 3000) == h
+        assert "cannot be used" in capsys.readouterr().err
+        assert entry.read_text() == good
+    entry.unlink()
+    entry.mkdir()
+    null_threshold.cache_clear()
+    assert null_threshold("cusum", point, 1.0, 50, 3000) == h
+    assert "cannot be used" in capsys.readouterr().err
+
+
+def test_the_threshold_key_names_the_code_and_the_machine(threshold_cache, monkeypatch) -> None:
+    """A changed source tree or another machine (CPU, numpy, numba) is another key, so a stale or foreign
+    threshold is never read; with the cache switched off nothing is written."""
+    point = nominal_point_of(decision_cfg("cusum", 0.01))
+    key = threshold_key("cusum", point, 1.0, 50, 3000)
+    monkeypatch.setattr(calibration, "sources_digest", lambda: "0" * 16)
+    assert threshold_key("cusum", point, 1.0, 50, 3000) != key
+    monkeypatch.undo()
+    monkeypatch.setattr(calibration, "machine_tag", lambda: "another machine")
+    assert threshold_key("cusum", point, 1.0, 50, 3000) != key
+    monkeypatch.setenv(SWITCH_ENV, "off")
+    null_threshold("cusum", point, 1.0, 50, 3000)
+    assert not threshold_cache.exists()

@@ -1,7 +1,8 @@
 """The accommodation per mode: the accommodated loop against the radii-only loop and the oracle — the table of
 docs/findings.md ("Accommodation of every fault, and a safe stop").
 
-Plain script: ``.venv/bin/python benchmarks/accommodation.py --seeds 0-4 [--sensors pose] [--out rows.jsonl]``.
+Plain script: ``.venv/bin/python benchmarks/accommodation.py --seeds 0-4 [--sensors pose] [--out rows.jsonl]``;
+``--rows a.jsonl,b.jsonl,c.jsonl`` prints the rows of several sensor sets as one table, a column per set.
 For each fault (left wheel, at 10 s) and each seed, three loops (the settings of :mod:`ftc_mj.benchmark.methods`):
 
 - ``accommodated``: the built-in ``pathfollow`` method — UKF, pf-nmpc, the ``safe`` policy, the run's diagnoser
@@ -130,6 +131,35 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def sets_table(rows: list[dict[str, Any]]) -> str:
+    """The Markdown table of rows of several sensor sets, a column each (docs/findings.md's per-mode table): per
+    fault and loop, successes (Wilson 95 %); the largest |e| (m; a stop: over the run, a tracked fault: from 15 s
+    on), median [range]; lift-off after the transients (s), median."""
+    sets = list(dict.fromkeys(r["sensors"] for r in rows))
+    lines = ["| fault | loop | " + " | ".join(SET_NAMES.get(s, s) for s in sets) + " |",
+             "|---|---|" + "---|" * len(sets)]
+    for case in dict.fromkeys(r["case"] for r in rows):
+        for loop in LOOPS:
+            cells = []
+            for s in sets:
+                g = [r for r in rows if r["case"] == case and r["loop"] == loop and r["sensors"] == s]
+                if not g:
+                    cells.append("—")
+                    continue
+                e = [r["max_e"] if r["kind"] == "stop" else r["max_e_from_15"] for r in g]
+                cells.append(f"{_share(sum(r['ok'] for r in g), len(g))}; {st.median(e):.2f} [{min(e):.2f}, "
+                             f"{max(e):.2f}]; {st.median(r['liftoff_post'] for r in g):.2f}")
+            if any(c != "—" for c in cells):
+                kind = next(r["kind"] for r in rows if r["case"] == case)
+                lines.append(f"| {case} ({kind}) | {loop} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+SET_NAMES = {"speed": "speed sensor, pose told", "pose": "pose sensor (the benchmark's)",
+             "gyro": "speed sensor + gyro, pose told", "pose+gyro": "pose sensor + gyro"}
+"""Column headings of :func:`sets_table`."""
+
+
 def seed_range(text: str) -> list[int]:
     """``"0-4"`` → [0, 1, 2, 3, 4]; ``"1000,1003"`` → [1000, 1003]."""
     out: list[int] = []
@@ -147,11 +177,15 @@ def main() -> None:
     ap.add_argument("--sensors", default="speed", choices=list(SENSORS),
                     help="sensor set (default speed: the scenarios' speed sensor, the pose told)")
     ap.add_argument("--out", default=None, help="also write the rows (JSON lines) here")
-    ap.add_argument("--rows", default=None, help="print the table of rows written by --out, run nothing")
+    ap.add_argument("--rows", default=None, help="print the table of rows written by --out, run nothing; several "
+                                                 "files (comma-separated): one column per sensor set")
     args = ap.parse_args()
     if args.rows:
-        with open(args.rows) as f:
-            print(table([json.loads(line) for line in f]))
+        rows = []
+        for name in args.rows.split(","):
+            with open(name) as f:
+                rows += [json.loads(line) for line in f]
+        print(table(rows) if "," not in args.rows else sets_table(rows))
         return
     cases = CASES if args.cases is None else {c: CASES[c] for c in args.cases.split(",")}
     rows = []

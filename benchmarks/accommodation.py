@@ -111,6 +111,11 @@ def _share(k: int, n: int) -> str:
     return f"{k}/{n} ({lo:.0%}–{hi:.0%})"
 
 
+def _distances(g: list[dict[str, Any]]) -> list[float]:
+    """The largest |e| (m) of each row: over the run for a stop, from 15 s on for a tracked fault."""
+    return [r["max_e"] if r["kind"] == "stop" else r["max_e_from_15"] for r in g]
+
+
 def table(rows: list[dict[str, Any]]) -> str:
     """The Markdown table of the rows: per fault and loop, successes and at-rest with intervals, the largest
     distance from the path (a stop: over the run; a tracked fault: from 15 s on), speed at 15 s, lift-off."""
@@ -122,13 +127,18 @@ def table(rows: list[dict[str, Any]]) -> str:
             g = [r for r in rows if r["case"] == case and r["loop"] == loop]  # loops not run have no rows
             if not g:
                 continue
-            e = [r["max_e"] if r["kind"] == "stop" else r["max_e_from_15"] for r in g]
+            e = _distances(g)
             lines.append(f"| {case} ({g[0]['kind']}) | {loop} | {_share(sum(r['ok'] for r in g), len(g))} | "
                          f"{_share(sum(r['at_rest'] for r in g), len(g)) if g[0]['kind'] == 'stop' else '—'} | "
                          f"{st.median(e):.2f} [{min(e):.2f}, {max(e):.2f}] | "
                          f"{st.median(abs(r['v_at_15']) for r in g):.2f} | "
                          f"{st.median(r['liftoff_post'] for r in g):.2f} |")
     return "\n".join(lines)
+
+
+SET_NAMES = {"speed": "speed sensor, pose told", "pose": "pose sensor (the benchmark's)",
+             "gyro": "speed sensor + gyro, pose told", "pose+gyro": "pose sensor + gyro"}
+"""Column headings of :func:`sets_table`."""
 
 
 def sets_table(rows: list[dict[str, Any]]) -> str:
@@ -146,18 +156,13 @@ def sets_table(rows: list[dict[str, Any]]) -> str:
                 if not g:
                     cells.append("—")
                     continue
-                e = [r["max_e"] if r["kind"] == "stop" else r["max_e_from_15"] for r in g]
+                e = _distances(g)
                 cells.append(f"{_share(sum(r['ok'] for r in g), len(g))}; {st.median(e):.2f} [{min(e):.2f}, "
                              f"{max(e):.2f}]; {st.median(r['liftoff_post'] for r in g):.2f}")
             if any(c != "—" for c in cells):
                 kind = next(r["kind"] for r in rows if r["case"] == case)
                 lines.append(f"| {case} ({kind}) | {loop} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
-
-
-SET_NAMES = {"speed": "speed sensor, pose told", "pose": "pose sensor (the benchmark's)",
-             "gyro": "speed sensor + gyro, pose told", "pose+gyro": "pose sensor + gyro"}
-"""Column headings of :func:`sets_table`."""
 
 
 def seed_range(text: str) -> list[int]:

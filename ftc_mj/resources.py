@@ -118,7 +118,7 @@ def model_digest(value: str) -> str:
 def sources_digest() -> str:
     """16 hex digits of the SHA-256 of every ``ftc_mj`` Python source (relative path and bytes, in path
     order): the package's code when no clean git revision names it, and the code part of a disk-cache key
-    (computed once per process, about 10 ms)."""
+    (computed once per process, 13 ms here)."""
     root = Path(__file__).resolve().parent
     h = hashlib.sha256()
     for f in sorted(root.rglob("*.py")):
